@@ -1,0 +1,10 @@
+# Runs GENERATOR OUTPUT and fails unless OUTPUT is byte-identical to COMMITTED.
+execute_process(COMMAND ${GENERATOR} ${OUTPUT} RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "${GENERATOR} failed with ${rc}")
+endif()
+execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${OUTPUT} ${COMMITTED} RESULT_VARIABLE diff)
+if(NOT diff EQUAL 0)
+  message(FATAL_ERROR "${COMMITTED} differs from the generator's output ${OUTPUT}: regenerate it")
+endif()
+message(STATUS "${COMMITTED} matches the generator's output")
