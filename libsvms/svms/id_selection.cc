@@ -11,6 +11,37 @@ uint64_t RotateWord(uint64_t word, int quarter_turns) {
   return ((word >> shift) | (word << (Bch44::kN - shift))) & Bch44::kWordMask;
 }
 
+int LongestRun(uint64_t word) {
+  const uint64_t w = word & Bch44::kWordMask;
+  if (w == 0 || w == Bch44::kWordMask) return Bch44::kN;
+  // Rotate so that bit 0 starts a run, then scan once.
+  int start = 0;
+  while (((w >> start) & 1) == ((w >> ((start + Bch44::kN - 1) % Bch44::kN)) & 1)) ++start;
+  int best = 0, run = 0;
+  uint64_t prev = 2;
+  for (int k = 0; k < Bch44::kN; ++k) {
+    const uint64_t b = (w >> ((start + k) % Bch44::kN)) & 1;
+    run = (b == prev) ? run + 1 : 1;
+    prev = b;
+    if (run > best) best = run;
+  }
+  return best;
+}
+
+namespace {
+
+bool LooksLikeAPlainFrame(uint64_t c, const IdSelectionOptions& o) {
+  const int w = Weight(c);
+  if (w < o.min_weight || w > o.max_weight) return true;
+  for (int side = 0; side < 4; ++side) {
+    const int ones = Weight((c >> (11 * side)) & 0x7ff);
+    if (ones < o.min_side_each || 11 - ones < o.min_side_each) return true;
+  }
+  return LongestRun(c) > o.max_run;
+}
+
+}  // namespace
+
 IdSelection SelectSvms44Ids(const IdSelectionOptions& options,
                             const std::function<void(int, int)>& progress) {
   const Bch44& bch = Bch44::Get();
@@ -28,8 +59,7 @@ IdSelection SelectSvms44Ids(const IdSelectionOptions& options,
       if (static_cast<int>(out.infos.size()) >= options.count) break;
       if (taken[info]) continue;
       const uint64_t c = bch.Encode(info);
-      const int w = Weight(c);
-      if (w < options.min_weight || w > options.max_weight) continue;
+      if (LooksLikeAPlainFrame(c, options)) continue;
       bool ok = true;
       for (int r = 1; r < 4 && ok; ++r) ok = Weight(RotateWord(c, r) ^ c) >= D;
       for (size_t i = 0; i < rotations.size() && ok; ++i) ok = Weight(rotations[i] ^ c) >= D;

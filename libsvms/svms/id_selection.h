@@ -7,9 +7,10 @@
 //
 // The selection is greedy in order of information word, in phases of decreasing D
 // (11, then 10, then 9) until the requested count is reached: the lowest IDs are the ones
-// farthest apart, so a user who needs few markers gets the strongest ones. Candidates whose
-// weight is below 11 or above 33 are skipped: they lie close to the all-black and all-white
-// rings that plain squares in clutter produce.
+// farthest apart, so a user who needs few markers gets the strongest ones. Candidates are
+// skipped when they look too much like a plain frame: weight below 11 or above 33 (close to
+// the all-black and all-white rings of plain squares in clutter), a side with fewer than 2
+// white or 2 black cells, or a run of more than 8 equal cells around the ring.
 #pragma once
 
 #include <cstdint>
@@ -23,7 +24,12 @@ struct IdSelectionOptions {
   std::vector<int> phase_distances{11, 10, 9};  // D of each greedy phase, decreasing
   int min_weight = 11;                     // skip codewords lighter than this
   int max_weight = 33;                     // or heavier than this
+  int min_side_each = 2;                   // white and black cells each side must have
+  int max_run = 8;                         // longest cyclic run of equal cells
 };
+
+// Longest run of equal bits around the 44-bit ring (cyclic).
+int LongestRun(uint64_t word);
 
 struct IdSelection {
   std::vector<uint32_t> infos;       // information word of ID i, i in [0, count)

@@ -28,7 +28,9 @@ int Svms44::IdOfInfo(uint32_t info) {
   return info < Bch44::kInfoCount ? InfoToId()[info] : -1;
 }
 
-CodeMatch Svms44::Decode(uint64_t word, int max_corrections) {
+int Svms44::StrongIdCount() { return kSvms44PhaseFirstId[1]; }
+
+CodeMatch Svms44::Decode(uint64_t word, int max_corrections, int id_count) {
   const Bch44& bch = Bch44::Get();
   const auto& info_to_id = InfoToId();
   CodeMatch best;
@@ -38,7 +40,7 @@ CodeMatch Svms44::Decode(uint64_t word, int max_corrections) {
     const int errors = bch.Decode(RotateWord(word, 4 - r), &codeword);
     if (errors < 0) continue;
     const int id = info_to_id[Bch44::Info(codeword)];
-    if (id < 0) continue;
+    if (id < 0 || id >= id_count) continue;
     if (errors < best_errors) {
       second_errors = best_errors;
       best_errors = errors;

@@ -6,6 +6,7 @@
 
 #include "svms/bch.h"
 #include "svms/codec_stats.h"
+#include "svms/id_selection.h"
 
 namespace svms {
 namespace {
@@ -159,6 +160,37 @@ TEST(Svms44, FiveFlipsWrongAnswerRate) {
   EXPECT_GT(strong_trials, 0);
 }
 
+// Within the strong subset, decoding over the subset only: every 5-flip pattern (all
+// C(44,5) = 1,086,008 of them) of three IDs, in a rotation each, resolves right.
+TEST(Svms44, StrongSubsetCorrectsEveryFiveFlipPattern) {
+  const int strong = Svms44::StrongIdCount();
+  ASSERT_GT(strong, 7000);
+  int64_t checked = 0;
+  for (int k = 0; k < 3; ++k) {
+    const int id = (k * 3001 + 5) % strong, r = k + 1;
+    const uint64_t read = Svms44::Rotate(Svms44::Codeword(id), r);
+    for (int a = 0; a < 44; ++a)
+      for (int b = a + 1; b < 44; ++b)
+        for (int c = b + 1; c < 44; ++c)
+          for (int d = c + 1; d < 44; ++d)
+            for (int e = d + 1; e < 44; ++e) {
+              const uint64_t err = (uint64_t{1} << a) | (uint64_t{1} << b) | (uint64_t{1} << c) |
+                                   (uint64_t{1} << d) | (uint64_t{1} << e);
+              const CodeMatch m = Svms44::Decode(read ^ err, 5, strong);
+              ASSERT_TRUE(m.accepted() && m.id == id && m.rotation == r && m.bit_errors == 5)
+                  << "id " << id << " flips " << Svms44::ToBitString(err);
+              ++checked;
+            }
+  }
+  EXPECT_EQ(checked, 3 * 1086008);
+}
+
+TEST(Svms44, IdCountLimitsTheFamily) {
+  const int strong = Svms44::StrongIdCount();
+  EXPECT_TRUE(Svms44::Decode(Svms44::Codeword(strong - 1), 0, strong).accepted());
+  EXPECT_FALSE(Svms44::Decode(Svms44::Codeword(strong), 0, strong).accepted());
+}
+
 TEST(Svms44, StrongSubsetHasDistance11AndTheTableDistanceIs9) {
   // Exhaustive over the first phase (IDs chosen at D >= 11), all rotations.
   const int n = kSvms44PhaseFirstId[1];
@@ -188,6 +220,35 @@ TEST(CodecStats, MeasuresTheFamily) {
   EXPECT_NEAR(s.false_accept[4], s.false_accept_exact[4], 0.2 * s.false_accept_exact[4]);
   EXPECT_NEAR(s.false_accept[5], 0.009, 0.002);
   EXPECT_LT(s.false_accept_exact[2], 1e-5);
+}
+
+}  // namespace
+}  // namespace svms
+
+namespace svms {
+namespace {
+
+TEST(IdSelection, LongestRunIsCyclic) {
+  EXPECT_EQ(LongestRun(0), 44);
+  EXPECT_EQ(LongestRun(0b1), 43);                               // 43 zeros wrap around
+  EXPECT_EQ(LongestRun(0x55555555555ULL), 1);                   // alternating
+  EXPECT_EQ(LongestRun((uint64_t{1} << 43) | 0b111), 40);        // the zeros in between
+  uint64_t w = (uint64_t{7} << 41) | 7;                          // 6 ones across the wrap
+  for (int k = 4; k <= 38; k += 2) w |= uint64_t{1} << k;        // alternating elsewhere
+  EXPECT_EQ(LongestRun(w), 6);
+}
+
+TEST(Svms44, NoIdLooksLikeAPlainFrame) {
+  for (int id = 0; id < Svms44::kNumIds; ++id) {
+    const uint64_t c = Svms44::Codeword(id);
+    ASSERT_GE(Weight(c), 11) << id;
+    ASSERT_LE(Weight(c), 33) << id;
+    for (int side = 0; side < 4; ++side) {
+      const int ones = Weight((c >> (11 * side)) & 0x7ff);
+      ASSERT_TRUE(ones >= 2 && ones <= 9) << "id " << id << " side " << side;
+    }
+    ASSERT_LE(LongestRun(c), 8) << id;
+  }
 }
 
 }  // namespace

@@ -1,0 +1,16 @@
+// The `svms` command table: each group of subcommands registers itself on the app and sets
+// *exit_code when it runs. Exit codes: 0 success, 1 a failure of the work (e.g. a word that
+// does not decode), 2 bad input (usage, unreadable or invalid files).
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace svms::cli {
+
+constexpr int kExitOk = 0, kExitFailed = 1, kExitBadInput = 2;
+
+void AddCodecCommands(CLI::App& app, int* exit_code);
+void AddModelCommands(CLI::App& app, int* exit_code);
+void AddGenerateCommands(CLI::App& app, int* exit_code);
+
+}  // namespace svms::cli

@@ -1,0 +1,31 @@
+// svms: the command-line front end of the Space Vision Marker System.
+#include <iostream>
+
+#include "commands.h"
+
+#ifndef SVMS_VERSION
+#define SVMS_VERSION "unknown"
+#endif
+
+int main(int argc, char** argv) {
+  CLI::App app{"svms: Space Vision Marker System -- markers, detection, calibration, survey, pose"};
+  app.set_version_flag("--version", std::string("svms ") + SVMS_VERSION);
+  app.require_subcommand(1);
+  app.footer(
+      "Examples:\n"
+      "  svms generate marker --id 17 --size 0.2 --out m17\n"
+      "  svms model check m17.json\n"
+      "  svms codec stats --json\n"
+      "Run 'svms COMMAND --help' for each command's options and examples.");
+  int exit_code = svms::cli::kExitOk;
+  svms::cli::AddCodecCommands(app, &exit_code);
+  svms::cli::AddModelCommands(app, &exit_code);
+  svms::cli::AddGenerateCommands(app, &exit_code);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);  // prints help, version or the usage error
+    return rc == 0 ? 0 : svms::cli::kExitBadInput;
+  }
+  return exit_code;
+}

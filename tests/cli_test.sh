@@ -1,0 +1,89 @@
+#!/usr/bin/env bash
+# End-to-end tests of the `svms` binary: outputs, exit codes and one-line errors.
+# Usage: tests/cli_test.sh path/to/svms
+set -uo pipefail
+svms=${1:?usage: cli_test.sh SVMS}
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fails=0 passes=0
+pass() { passes=$((passes + 1)); }
+fail() { echo "FAIL: $*" >&2; fails=$((fails + 1)); }
+# expect CODE "substring of stdout+stderr" -- command...
+expect() {
+  local code=$1 want=$2; shift 2
+  local out rc
+  out=$("$@" 2>&1); rc=$?
+  if [ "$rc" -ne "$code" ]; then fail "$* -> exit $rc, expected $code; output: $out"; return; fi
+  if [ -n "$want" ] && ! grep -qF -- "$want" <<<"$out"; then fail "$* -> output lacks '$want': $out"; return; fi
+  pass
+}
+# expect_stderr_lines N -- command: stderr has exactly N lines
+expect_err_lines() {
+  local n=$1; shift
+  local lines
+  lines=$("$@" 2>&1 >/dev/null | wc -l)
+  [ "$lines" -eq "$n" ] && pass || fail "$* -> $lines stderr lines, expected $n"
+}
+
+expect 0 "svms 0.1.0" "$svms" --version
+expect 0 "codec" "$svms" --help
+for sub in "codec stats" "codec encode" "codec decode" "codec read" "model check" "generate marker" "generate sheet"; do
+  # shellcheck disable=SC2086
+  expect 0 "Examples:" "$svms" $sub --help
+done
+expect 2 "" "$svms"
+expect 2 "" "$svms" frobnicate
+
+# codec
+bits=$("$svms" codec encode 17)
+[ ${#bits} -eq 44 ] && pass || fail "encode printed '$bits'"
+expect 0 "id 17 rotation 0 bit_errors 0" "$svms" codec decode "$bits"
+flipped=$(python3 -c "import sys; b=list(sys.argv[1]); b[3]='1' if b[3]=='0' else '0'; b[40]='1' if b[40]=='0' else '0'; print(''.join(b))" "$bits")
+expect 0 "id 17 rotation 0 bit_errors 2" "$svms" codec decode "$flipped"
+expect 1 "no codeword" "$svms" codec decode "$flipped" --max-corrections 1
+expect 2 "expected 44 characters of 0/1" "$svms" codec decode 0101
+expect 2 "" "$svms" codec encode 32768
+expect 0 '"verdict":"accepted"' "$svms" codec decode "$bits" --json
+"$svms" codec stats --json --samples 20000 > "$tmp/stats.json" 2>/dev/null
+python3 - "$tmp/stats.json" <<'PY' && pass || fail "codec stats --json fields"
+import json, sys
+s = json.load(open(sys.argv[1]))
+for k in ["family", "bits", "ids", "min_distance", "rotation_min_distance", "false_accept"]:
+    assert k in s, k
+assert s["family"] == "svms44" and s["bits"] == 44 and s["ids"] >= 32768
+assert s["min_distance"] >= 11 and s["rotation_min_distance"] >= 9
+assert len(s["false_accept"]) == 6
+PY
+
+# generate + read back
+expect 0 "wrote $tmp/m17.svg" "$svms" generate marker --id 17 --size 0.1 --out "$tmp/m17"
+for ext in svg pdf png json; do [ -s "$tmp/m17.$ext" ] && pass || fail "missing m17.$ext"; done
+expect 0 "read ID 17" "$svms" codec read "$tmp/m17.png" --model "$tmp/m17.json"
+expect 0 "dual marker 3/4" "$svms" generate marker --id 3 --size 0.432 --inner-id 4 --inner-size 0.108 --dpi 60 --out "$tmp/dual"
+expect 0 "read ID 4" "$svms" codec read "$tmp/dual.png" --model "$tmp/dual.json" --dpi 60
+expect 0 "concave well" "$svms" generate marker --id 9 --size 0.1 --concave --out "$tmp/well"
+# Reading a PNG with the wrong model fails, and says so.
+expect 1 "MISMATCH" "$svms" codec read "$tmp/m17.png" --model "$tmp/well.json"
+expect 2 "" "$svms" generate marker --id 1 --size -1 --out "$tmp/x"
+expect 2 "inner.size" "$svms" generate marker --id 1 --size 0.1 --inner-id 2 --inner-size 0.09 --out "$tmp/x"
+expect 2 "--inner-id and --inner-size go together" "$svms" generate marker --id 1 --size 0.1 --inner-id 2 --out "$tmp/x"
+expect 1 "/nonexistent/dir/x: cannot write: directory /nonexistent/dir does not exist" "$svms" generate marker --id 1 --size 0.1 --out /nonexistent/dir/x
+expect 0 "6 markers on page A4" "$svms" generate sheet --ids 20-25 --size 0.05 --dpi 50 --out "$tmp/sheet"
+expect 2 "expected a list like 1,2,5-8" "$svms" generate sheet --ids 5-2 --size 0.05 --out "$tmp/sheet"
+expect 2 "appears twice" "$svms" generate sheet --ids 1,1 --size 0.05 --out "$tmp/sheet"
+expect 2 "--page: expected A4" "$svms" generate sheet --ids 1 --size 0.05 --page B7 --out "$tmp/sheet"
+expect 1 "more than the printable" "$svms" generate sheet --ids 1 --size 0.3 --out "$tmp/sheet"
+expect 0 "6 markers on page 300x200" "$svms" generate sheet --markers "$tmp/sheet.json" --page 300x200 --dpi 50 --out "$tmp/sheet2"
+
+# model check: good files, and a batch with a bad file in the middle goes on
+expect 0 "marker set: 6 markers" "$svms" model check "$tmp/sheet.json"
+python3 -c "import json; m=json.load(open('$tmp/m17.json')); m['size']=-0.1; json.dump(m, open('$tmp/bad.json','w'))"
+expect 2 "$tmp/bad.json: size: expected a positive number of metres, got -0.1" "$svms" model check "$tmp/bad.json"
+expect 2 "$tmp/dual.json: dual marker" "$svms" model check "$tmp/m17.json" "$tmp/bad.json" "$tmp/dual.json"
+expect_err_lines 2 "$svms" model check "$tmp/m17.json" "$tmp/bad.json" "$tmp/dual.json"
+printf '{"type": "svms.marker", "id": 3,,}' > "$tmp/syntax.json"
+expect 2 "$tmp/syntax.json: line 1, column" "$svms" model check "$tmp/syntax.json"
+expect 2 "/nonexistent.json: cannot open for reading" "$svms" model check /nonexistent.json
+
+echo "$passes passed, $fails failed"
+[ "$fails" -eq 0 ]
