@@ -1,0 +1,61 @@
+// Internal: strict reading of JSON fields with paths in the messages, shared by the parsers
+// of model, layout and scene files. Not installed. Errors are thrown as FieldError inside the
+// parsers and turned into a Status at their boundary.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <string>
+
+#include "svms/marker_model.h"
+#include "svms/pose.h"
+
+namespace svms::json_fields {
+
+using nlohmann::json;
+
+struct FieldError {
+  std::string message;
+};
+
+std::string TypeName(const json& j);
+[[noreturn]] void Fail(const std::string& path, const std::string& expected, const json& got);
+void CheckKeys(const json& obj, const std::string& path, const std::set<std::string>& allowed);
+std::string Join(const std::string& path, const std::string& key);
+const json& Required(const json& obj, const std::string& path, const std::string& key);
+double Number(const json& obj, const std::string& path, const std::string& key);
+// A number in [lo, hi], named in the message.
+double NumberIn(const json& obj, const std::string& path, const std::string& key, double lo,
+                double hi);
+int Integer(const json& obj, const std::string& path, const std::string& key);
+bool Boolean(const json& obj, const std::string& path, const std::string& key);
+std::string String(const json& obj, const std::string& path, const std::string& key);
+
+template <int N>
+Eigen::Matrix<double, N, 1> Vector(const json& obj, const std::string& path,
+                                   const std::string& key) {
+  const json& v = Required(obj, path, key);
+  if (!v.is_array() || v.size() != N)
+    Fail(Join(path, key), "an array of " + std::to_string(N) + " numbers", v);
+  Eigen::Matrix<double, N, 1> out;
+  for (int i = 0; i < N; ++i) {
+    if (!v[i].is_number()) Fail(Join(path, key) + "[" + std::to_string(i) + "]", "a number", v[i]);
+    out(i) = v[i].get<double>();
+  }
+  return out;
+}
+
+// {"rvec": [3], "tvec": [3]}
+Pose ParsePose(const json& obj, const std::string& path, const std::string& key);
+json PoseJson(const Pose& p);
+
+// A marker model object (with "type" allowed only at the top level of a file).
+MarkerModel ParseMarker(const json& j, const std::string& path, bool top_level);
+json MarkerJson(const MarkerModel& m);
+
+// Parses `text`; a syntax error becomes "<source>: line L, column C: not valid JSON: ...".
+bool ParseText(const std::string& text, const std::string& source, json* out, std::string* error);
+
+}  // namespace svms::json_fields
