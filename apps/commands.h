@@ -12,5 +12,6 @@ constexpr int kExitOk = 0, kExitFailed = 1, kExitBadInput = 2;
 void AddCodecCommands(CLI::App& app, int* exit_code);
 void AddModelCommands(CLI::App& app, int* exit_code);
 void AddGenerateCommands(CLI::App& app, int* exit_code);
+void AddRenderCommands(CLI::App& app, int* exit_code);
 
 }  // namespace svms::cli

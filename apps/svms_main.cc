@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   svms::cli::AddCodecCommands(app, &exit_code);
   svms::cli::AddModelCommands(app, &exit_code);
   svms::cli::AddGenerateCommands(app, &exit_code);
+  svms::cli::AddRenderCommands(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

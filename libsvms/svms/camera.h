@@ -1,0 +1,114 @@
+// A calibrated camera: an mrcal lens model with its intrinsics, the image size, and the
+// extrinsics of an mrcal .cameramodel file. Projection and unprojection are mrcal's own
+// (mrcal 2.2's C library), so every lens model mrcal reads is supported: LENSMODEL_PINHOLE,
+// _STEREOGRAPHIC, _LONLAT, _LATLON, _OPENCV4/5/8/12, _CAHVOR, _CAHVORE_linearity=...,
+// _SPLINED_STEREOGRAPHIC_order=..._Nx=..._Ny=..._fov_x_deg=...
+//
+// Frames and units as in docs/conventions.md: the camera frame has x right, y down, z forward
+// (metres); pixel (0, 0) is the centre of the top-left pixel, u right, v down. The intrinsics
+// are mrcal's: fx, fy, cx, cy (pixels) followed by the model's distortion parameters.
+//
+// mrcal's headers are not included here (svms_core links mrcal privately).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "svms/pose.h"
+#include "svms/status.h"
+
+namespace svms {
+
+class CameraModel {
+ public:
+  // An empty model (no lens model): Project and Unproject return false, Write fails.
+  CameraModel() = default;
+
+  // Reads an mrcal .cameramodel file (any lens model mrcal 2.2 reads; files written by mrcal's
+  // Python tools included). Errors are one line, start with the path, and say what was expected
+  // (a missing file, a file mrcal cannot parse, an unknown lens model, a wrong number of
+  // intrinsics, non-finite values, a zero or negative image size). mrcal's parser also prints
+  // its own diagnostics to stderr. On error *out is unchanged.
+  static Status Read(const std::string& path, CameraModel* out);
+
+  // Writes an mrcal .cameramodel (the layout mrcal's Python writes: a Python-literal dict with
+  // 'lensmodel', 'intrinsics', 'extrinsics' = rt_cam_ref, 'imagersize'), every number with the
+  // shortest decimal form that reads back to the same double, so Write then Read is exact.
+  // Read by mrcal 2.2's C and Python readers (mrcal.cameramodel(path)).
+  Status Write(const std::string& path) const;
+
+  // Builds a model from a lens model name in mrcal's canonical form ("LENSMODEL_PINHOLE",
+  // "LENSMODEL_OPENCV8", "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=12_fov_x_deg=100",
+  // ...) and its intrinsics. Checks the name (and for splined models a configuration mrcal can
+  // evaluate: order 2 or 3, Nx and Ny >= order + 1, 0 < fov_x_deg < 360), the number of
+  // intrinsics (mrcal_lensmodel_num_params), that they are finite, and width, height > 0
+  // (pixels). Errors start with "lensmodel", "intrinsics" or "imagersize". cam_from_ref is the
+  // identity. On error *out is unchanged.
+  static Status Create(const std::string& lensmodel, const std::vector<double>& intrinsics,
+                       int width, int height, CameraModel* out);
+
+  // A pinhole camera with focal length f (pixels, fx = fy = f) and the principal point at the
+  // image centre ((width - 1) / 2, (height - 1) / 2). Requires f > 0 and a positive, finite
+  // size (asserted; an invalid request gives an empty model when assertions are off).
+  static CameraModel Pinhole(double f, int width, int height);
+
+  bool empty() const { return lensmodel_.empty(); }
+  const std::string& lensmodel() const { return lensmodel_; }  // mrcal's canonical name
+  const std::vector<double>& intrinsics() const { return intrinsics_; }
+  int width() const { return width_; }    // pixels
+  int height() const { return height_; }  // pixels
+
+  // The extrinsics stored in the .cameramodel (mrcal's rt_cam_ref: maps points of mrcal's
+  // reference frame into the camera frame). Identity unless read or set. Not used by Project.
+  const Pose& cam_from_ref() const { return cam_from_ref_; }
+  void set_cam_from_ref(const Pose& cam_from_ref) { cam_from_ref_ = cam_from_ref; }
+
+  // Projects a point in the camera frame (metres) to pixels with mrcal_project. Returns false
+  // (outputs untouched) for an empty model, a non-finite point, a point at or behind the image
+  // plane (z <= 0) of a model that cannot project behind the camera (pinhole, OpenCV, CAHVOR(E)),
+  // or a non-finite result. Optional Jacobians, mrcal_project's own analytic gradients:
+  //   dpx_dp          d(pixel)/d(p_cam), 2x3, pixels per metre;
+  //   dpx_dintrinsics d(pixel)/d(intrinsics), 2xN, N = intrinsics().size() (resized); dense,
+  //                   also for splined models (mostly zeros there: only the control points
+  //                   near the point and the core are non-zero).
+  // CAHVORE has no gradients in mrcal 2.2: asking for either Jacobian then returns false.
+  bool Project(const Eigen::Vector3d& p_cam, Eigen::Vector2d* px,
+               Eigen::Matrix<double, 2, 3>* dpx_dp = nullptr,
+               Eigen::Matrix<double, 2, Eigen::Dynamic>* dpx_dintrinsics = nullptr) const;
+
+  // Unprojects a pixel to a unit-length direction in the camera frame (mrcal_unproject, an
+  // iterative solve; no gradients). Returns false (output untouched) for an empty model, a
+  // non-finite pixel, CAHVORE (mrcal 2.2 cannot unproject it), or when mrcal's solve fails:
+  // mrcal 2.2 reports that by returning NaN rather than false, and we also require the
+  // direction to project back to within kUnprojectTolerancePx of the pixel.
+  bool Unproject(const Eigen::Vector2d& px, Eigen::Vector3d* direction) const;
+
+  // Unprojects many pixels in one mrcal call (directions normalized, as Unproject). Returns
+  // false if any pixel fails; *directions always gets px.size() entries, NaN where one failed.
+  bool UnprojectMany(const std::vector<Eigen::Vector2d>& px,
+                     std::vector<Eigen::Vector3d>* directions) const;
+
+  // One line, e.g. "LENSMODEL_OPENCV8 1024x768, fx 900.0 fy 900.0" ("(empty camera model)").
+  std::string Summary() const;
+
+  // Largest accepted distance (pixels) between a pixel and the projection of its unprojection.
+  static constexpr double kUnprojectTolerancePx = 1e-4;
+
+ private:
+  // Room for mrcal's parsed lens model (mrcal_lensmodel_t: the type and the configuration),
+  // kept as bytes so that this header does not need mrcal's; camera.cc checks that it fits.
+  static constexpr std::size_t kMrcalLensModelBytes = 16;
+
+  std::string lensmodel_;
+  std::vector<double> intrinsics_;
+  int width_ = 0;
+  int height_ = 0;
+  Pose cam_from_ref_;
+  alignas(8) std::array<unsigned char, kMrcalLensModelBytes> mrcal_lensmodel_{};
+};
+
+}  // namespace svms

@@ -1,0 +1,69 @@
+// The scene simulator's renderer: ray casting through exact geometry with stratified
+// supersampling, then a sensor model. Everything a later claim is measured on comes from here,
+// so the geometry is exact (planes, cylinders, spheres, boxes; the printed pattern looked up
+// analytically) and the camera rays come from mrcal's unprojection of the scene's lens model.
+//
+// Camera rays: mrcal unprojects every pixel corner once per renderer; a ray through a point
+// inside a pixel is the bilinear blend of its four corner rays (the lens is smooth at that
+// scale: the blend, stored as floats, is within 1e-4 px of mrcal's own unprojection; measured
+// 4.4e-5 px for an OPENCV8 lens, tested).
+//
+// Thread-safe: one Renderer may render several views at once from several threads.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "svms/scene.h"
+#include "svms/status.h"
+
+namespace svms {
+
+// What a ray hits first.
+struct RayHit {
+  double t = 0;           // distance along the (unit) ray, metres
+  Eigen::Vector3d point;  // world frame
+  int primitive = -1;     // internal index; -1 = background
+};
+
+class Renderer {
+ public:
+  // Prepares the geometry and unprojects the camera's pixel-corner grid (about 1 s for a
+  // 1024x1024 OPENCV8 camera). Fails if the camera cannot unproject its own image.
+  static Status Create(const Scene& scene, std::unique_ptr<Renderer>* out);
+  ~Renderer();
+
+  // Noise-free radiance of view `view` (CV_32FC1, the camera's size): the mean of
+  // rays_per_pixel stratified samples per pixel, each shaded with sun (finite disc, shadows),
+  // ambient, earthshine, ring light and specular glare.
+  cv::Mat RenderRadiance(int view) const;
+
+  // The sensor: vignetting, defocus blur, shot and read noise, quantisation to 8 or 16 bits
+  // (CV_8UC1 or CV_16UC1). Deterministic for a given scene seed and view.
+  cv::Mat Expose(const cv::Mat& radiance, int view) const;
+
+  // First surface along a world ray (direction need not be unit length) in view `view`
+  // (occluders can change per view).
+  std::optional<RayHit> Cast(int view, const Eigen::Vector3d& origin,
+                             const Eigen::Vector3d& direction) const;
+  // True if the centre of the sun is hidden from `point` (world) in view `view`; false when
+  // there is no sun.
+  bool InSunShadow(int view, const Eigen::Vector3d& point) const;
+
+  // The camera-frame ray (unit) through pixel position (u, v) as the renderer casts it: the
+  // bilinear blend of the four surrounding pixel-corner rays. False outside the image.
+  bool CameraRay(double u, double v, Eigen::Vector3d* direction) const;
+
+  const Scene& scene() const;
+
+ private:
+  Renderer();
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace svms

@@ -1,0 +1,313 @@
+#include "svms/render.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "svms/bit_sampler.h"
+#include "svms/scene.h"
+#include "svms/svms44.h"
+#include "svms/truth.h"
+
+namespace svms {
+namespace {
+
+// A camera looking straight at the world origin from z = `distance` (camera z = -world z).
+Pose LookDown(double distance, double x = 0, double y = 0) {
+  // cam_from_world: rotate 180 degrees about x (camera y down = world -y, z forward = world -z).
+  Pose p;
+  p.rvec = Eigen::Vector3d(M_PI, 0, 0);
+  p.tvec = -(p.Rotation() * Eigen::Vector3d(x, y, distance));
+  return p;
+}
+
+Scene BaseScene(const CameraModel& cam) {
+  Scene s;
+  s.seed = 11;
+  s.camera = cam;
+  s.sensor.read_noise = 0;
+  s.sensor.shot_noise = false;
+  s.light.ambient = 1.0;  // uniform light: radiance = reflectance
+  return s;
+}
+
+SceneObject PlateWithMarker(const MarkerModel& m, const Pose& object_from_marker, double plate = 2) {
+  SceneObject o;
+  o.name = "plate";
+  o.shape = SceneObject::Shape::kPlane;
+  o.size = Eigen::Vector3d(plate, plate, 0);
+  o.material.reflectance = 0.3;
+  SceneMarker sm;
+  sm.model = m;
+  sm.object_from_marker = object_from_marker;
+  o.markers.push_back(sm);
+  return o;
+}
+
+std::unique_ptr<Renderer> Make(const Scene& s) {
+  std::unique_ptr<Renderer> r;
+  const Status st = Renderer::Create(s, &r);
+  EXPECT_TRUE(st.ok()) << st.message();
+  return r;
+}
+
+CameraModel Opencv8(int w, int h) {
+  CameraModel cam;
+  const Status s = CameraModel::Create(
+      "LENSMODEL_OPENCV8", {700, 705, (w - 1) / 2.0 + 3, (h - 1) / 2.0 - 2, -0.28, 0.09, 0.001, -0.0007, -0.01, 0.02, 0.003, 0.001},
+      w, h, &cam);
+  EXPECT_TRUE(s.ok()) << s.message();
+  return cam;
+}
+
+TEST(Render, TruthCornersEqualAnIndependentProjection) {
+  Scene s = BaseScene(Opencv8(640, 480));
+  Pose fm;  // on the plate, turned in its plane
+  fm.rvec = Eigen::Vector3d(0, 0, 0.4);
+  fm.tvec = Eigen::Vector3d(0.05, -0.03, 0);
+  s.objects.push_back(PlateWithMarker(MarkerModel::Standard(5, 0.1, 0.02), fm));
+  Pose tilted = LookDown(0.9, 0.02, 0.01);
+  tilted = Pose{Eigen::Vector3d(0.25, -0.15, 0), Eigen::Vector3d::Zero()} * tilted;
+  s.views.push_back(View{"v", tilted});
+  auto r = Make(s);
+  const ViewTruth t = ComputeTruth(*r, 0);
+  ASSERT_EQ(t.markers.size(), 1u);
+  // OpenCV's own projection with the same 8 distortion coefficients.
+  const auto& in = s.camera.intrinsics();
+  const cv::Matx33d K(in[0], 0, in[2], 0, in[1], in[3], 0, 0, 1);
+  const std::vector<double> dist(in.begin() + 4, in.end());
+  std::vector<cv::Point3d> pts;
+  for (const auto& c : MarkerModel::Standard(5, 0.1, 0.02).Corners()) {
+    const Eigen::Vector3d p = t.markers[0].cam_from_marker * c;
+    pts.emplace_back(p.x(), p.y(), p.z());
+  }
+  std::vector<cv::Point2d> px;
+  cv::projectPoints(pts, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), K, dist, px);
+  for (int c = 0; c < 4; ++c) {
+    EXPECT_NEAR(t.markers[0].corners[c].pixel.x(), px[c].x, 1e-6);
+    EXPECT_NEAR(t.markers[0].corners[c].pixel.y(), px[c].y, 1e-6);
+    EXPECT_TRUE(t.markers[0].corners[c].in_image);
+    EXPECT_FALSE(t.markers[0].corners[c].occluded);
+  }
+  EXPECT_TRUE(t.markers[0].fully_visible());
+}
+
+TEST(Render, CameraRaysMatchMrcalWithinATenThousandthOfAPixel) {
+  Scene s = BaseScene(Opencv8(320, 240));
+  s.views.push_back(View{"v", LookDown(1)});
+  auto r = Make(s);
+  double worst = 0;
+  for (double v = 0.13; v < 239; v += 7.77) {
+    for (double u = -0.41; u < 319; u += 5.31) {
+      Eigen::Vector3d d;
+      ASSERT_TRUE(r->CameraRay(u, v, &d));
+      Eigen::Vector2d back;
+      ASSERT_TRUE(s.camera.Project(d, &back));
+      worst = std::max(worst, (back - Eigen::Vector2d(u, v)).norm());
+    }
+  }
+  RecordProperty("worst_px", std::to_string(worst));
+  EXPECT_LT(worst, 1e-4) << "interpolated rays within a ten-thousandth of a pixel";
+}
+
+TEST(Render, RenderedMarkerDecodesAtItsTruthCorners) {
+  Scene s = BaseScene(Opencv8(640, 480));
+  s.light.ambient = 0.1;
+  s.light.sun = Sun{Eigen::Vector3d(0.3, -0.4, 1).normalized(), 1.0, 0.53};
+  s.sensor.read_noise = 3;
+  s.sensor.shot_noise = true;
+  for (int id : {17, 4242}) {
+    s.objects.clear();
+    Pose fm;
+    fm.rvec = Eigen::Vector3d(0, 0, 2.0);
+    MarkerModel m = MarkerModel::Standard(id, 0.12, 0.03);
+    s.objects.push_back(PlateWithMarker(m, fm));
+    s.views = {View{"v", Pose{Eigen::Vector3d(0.12, -0.08, 0), Eigen::Vector3d::Zero()} * LookDown(0.8)}};
+    auto r = Make(s);
+    const cv::Mat img = r->Expose(r->RenderRadiance(0), 0);
+    const ViewTruth t = ComputeTruth(*r, 0);
+    ASSERT_TRUE(t.markers[0].fully_visible());
+    std::vector<cv::Point2d> src, dst;
+    const auto corners = m.Corners();
+    for (int c = 0; c < 4; ++c) {
+      src.emplace_back(corners[c].x(), corners[c].y());
+      dst.emplace_back(t.markers[0].corners[c].pixel.x(), t.markers[0].corners[c].pixel.y());
+    }
+    // The lens bends lines, so a homography from the corners is only near the truth: fine for
+    // reading bits at 60+ px.
+    const cv::Mat Hcv = cv::findHomography(src, dst);
+    Eigen::Matrix3d H;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) H(i, j) = Hcv.at<double>(i, j);
+    const BitReading br = SampleBits(img, H, m);
+    const CodeMatch match = Svms44::Decode(br.word, 0);
+    if (!match.accepted()) cv::imwrite("/tmp/decode_fail_" + std::to_string(id) + ".png", img);
+    ASSERT_TRUE(match.accepted()) << id << " read " << Svms44::ToBitString(br.word) << " want "
+                                  << Svms44::ToBitString(Svms44::Codeword(id)) << " black " << br.black
+                                  << " white " << br.white << " outside " << br.samples_outside;
+    EXPECT_EQ(match.id, id);
+    EXPECT_EQ(match.rotation, 0);
+  }
+}
+
+TEST(Render, FrontoParallelSquareCoversTheExpectedArea) {
+  // Pinhole f = 1000 px; a flat 0.1 m marker at 2 m: the black square is 50 px wide.
+  Scene s = BaseScene(CameraModel::Pinhole(1000, 400, 400));
+  MarkerModel m = MarkerModel::Standard(7, 0.1, 0);
+  s.objects.push_back(PlateWithMarker(m, Pose{}));
+  s.objects[0].markers[0].black = 0.0;
+  s.objects[0].markers[0].white = 1.0;
+  s.views.push_back(View{"v", LookDown(2.0, 0.0003, -0.0007)});
+  auto r = Make(s);
+  const cv::Mat L = r->RenderRadiance(0);
+  // Inside the stripe's outer boundary (5 cells = 83.3 mm -> 83.3 px across), darkness is the
+  // black square only.
+  const double c = 199.5 - 1000 * 0.0003 / 2.0, half = 0.5 * 1000 * (5 * m.cell_size * 2) / 2.0 - 2;
+  double dark = 0;
+  for (int y = 0; y < 400; ++y)
+    for (int x = 0; x < 400; ++x)
+      if (std::abs(x - c) < half && std::abs(y - (199.5 - 1000 * 0.0007 / 2.0)) < half) dark += 1 - L.at<float>(y, x);
+  const double expected = 50.0 * 50.0;
+  EXPECT_NEAR(dark, expected, 0.005 * expected);
+}
+
+TEST(Render, PostLitAt45DegreesCastsAShadowAsLongAsItIsTall) {
+  Scene s = BaseScene(CameraModel::Pinhole(2000, 400, 400));
+  s.light.ambient = 0.05;
+  s.light.sun = Sun{Eigen::Vector3d(1, 0, 1).normalized(), 1.0, 0.0};  // point sun, 45 degrees, from +x
+  const double h = 0.07, radius = 0.002;
+  MarkerModel m = MarkerModel::Standard(8, 0.1, h);
+  m.post->radius = m.post->tip_radius = radius;
+  s.objects.push_back(PlateWithMarker(m, Pose{}));
+  s.views.push_back(View{"v", LookDown(1.0)});
+  auto r = Make(s);
+  // Geometry: along -x from the post, shadowed up to h + r (the top disc's far edge).
+  for (double x = -0.005; x > -0.09; x -= 0.001) {
+    const bool shadow = r->InSunShadow(0, Eigen::Vector3d(x, 0, 0));
+    if (x > -(h + radius) + 0.0005) EXPECT_TRUE(shadow) << x;
+    if (x < -(h + radius) - 0.0005) EXPECT_FALSE(shadow) << x;
+  }
+  // Pixels: along the image row through the post, the shadow edge in the white stripe is at
+  // h + r from the centre (2000 px/m at 1 m: 144 px). The camera looks down with its x along
+  // world x, so world x maps to column 199.5 + 2000 x; world y = 0 is between rows 199 and 200.
+  const cv::Mat L = r->RenderRadiance(0);
+  auto at = [&](int col) { return 0.5 * (L.at<float>(199, col) + L.at<float>(200, col)); };
+  double edge = -1;
+  for (int col = 150; col > 20; --col) {
+    if (at(col) > 0.4) {  // first lit pixel beyond the shadow (lit white: 0.85 * 0.707 + ambient)
+      const double prev = at(col + 1);
+      edge = col + 1 - (0.4 - prev) / (at(col) - prev);  // sub-pixel crossing
+      break;
+    }
+  }
+  ASSERT_GT(edge, 0);
+  EXPECT_NEAR((199.5 - edge) / 2000.0, h + radius, 1.0 / 2000);
+}
+
+TEST(Render, NoiseMatchesItsModel) {
+  Scene s = BaseScene(CameraModel::Pinhole(300, 200, 200));
+  s.sensor.shot_noise = true;
+  s.sensor.read_noise = 6;
+  s.sensor.exposure = 10000;
+  s.sensor.full_well = 20000;
+  s.sensor.bits = 16;
+  SceneObject wall;
+  wall.name = "wall";
+  wall.size = Eigen::Vector3d(20, 20, 0);
+  wall.material.reflectance = 0.5;
+  s.objects.push_back(wall);
+  s.views.push_back(View{"v", LookDown(1)});
+  auto r = Make(s);
+  const cv::Mat img = r->Expose(r->RenderRadiance(0), 0);
+  cv::Scalar mean, sd;
+  cv::meanStdDev(img, mean, sd);
+  const double g = 65535.0 / 20000, electrons = 10000 * 0.5;
+  EXPECT_NEAR(mean[0], g * electrons, 0.005 * g * electrons);
+  const double var = g * g * (electrons + 36) + 1.0 / 12;
+  EXPECT_NEAR(sd[0] * sd[0], var, 0.03 * var);  // 40,000 pixels: 1 % standard error
+}
+
+TEST(Render, AFixedSeedRendersTheSameBytes) {
+  Scene s = BaseScene(CameraModel::Pinhole(400, 160, 120));
+  s.sensor.read_noise = 5;
+  s.sensor.shot_noise = true;
+  s.light.sun = Sun{Eigen::Vector3d(0.2, 0.1, 1).normalized(), 1.0, 0.53};
+  s.background.kind = Background::Kind::kEarth;
+  s.objects.push_back(PlateWithMarker(MarkerModel::Standard(1, 0.1, 0.02), Pose{}, 0.3));
+  s.views.push_back(View{"v", LookDown(1)});
+  auto a = Make(s), b = Make(s);
+  const cv::Mat ia = a->Expose(a->RenderRadiance(0), 0), ib = b->Expose(b->RenderRadiance(0), 0);
+  EXPECT_EQ(cv::norm(ia, ib, cv::NORM_INF), 0);
+  s.seed = 12;
+  auto c = Make(s);
+  EXPECT_GT(cv::norm(ia, c->Expose(c->RenderRadiance(0), 0), cv::NORM_L1), 0);
+}
+
+TEST(Render, OccluderIsFlaggedInTruth) {
+  Scene s = BaseScene(CameraModel::Pinhole(800, 400, 400));
+  const MarkerModel m = MarkerModel::Standard(2, 0.1, 0.02);
+  s.objects.push_back(PlateWithMarker(m, Pose{}));
+  Occluder bar;
+  // Seen from (0, 0, 1), a bar over x in [-0.045, -0.025] at height 0.3 hides the ground at
+  // x in [-0.064, -0.036]: the left corners (x = -0.05) and cells k = 2, 3 of the top and bottom
+  // rows (x = -0.0583, -0.0417).
+  bar.world_from_occluder.tvec = Eigen::Vector3d(-0.035, 0, 0.3);
+  bar.size = Eigen::Vector3d(0.02, 0.5, 0.01);
+  s.occluders.push_back(bar);
+  s.views.push_back(View{"v", LookDown(1)});
+  auto r = Make(s);
+  const ViewTruth t = ComputeTruth(*r, 0);
+  EXPECT_TRUE(t.markers[0].corners[0].occluded);   // top-left
+  EXPECT_FALSE(t.markers[0].corners[1].occluded);  // top-right
+  EXPECT_FALSE(t.markers[0].corners[2].occluded);  // bottom-right
+  EXPECT_TRUE(t.markers[0].corners[3].occluded);   // bottom-left
+  EXPECT_FALSE(t.markers[0].fully_visible());
+  EXPECT_EQ(t.markers[0].bits_occluded, 4);
+}
+
+TEST(SceneFile, ErrorsNameTheField) {
+  const std::string good = R"({"type": "svms.scene", "seed": 1,
+    "camera": {"lensmodel": "LENSMODEL_PINHOLE", "intrinsics": [500, 500, 99.5, 99.5], "width": 200, "height": 200},
+    "objects": [], "views": [{"name": "a", "cam_from_world": {"rvec": [0,0,0], "tvec": [0,0,1]}}]})";
+  Scene s;
+  ASSERT_TRUE(ParseSceneJson(good, "s.json", "", &s).ok());
+  auto expect = [&](const std::string& from, const std::string& to, const std::string& want) {
+    std::string text = good;
+    const size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+    Scene sc;
+    const Status st = ParseSceneJson(text, "s.json", "", &sc);
+    ASSERT_FALSE(st.ok()) << to;
+    EXPECT_NE(st.message().find(want), std::string::npos) << st.message();
+    EXPECT_EQ(st.message().rfind("s.json: ", 0), 0u) << st.message();
+  };
+  expect("\"seed\": 1", "\"seed\": -1", "seed: expected a non-negative integer");
+  expect("\"width\": 200", "\"width\": 0", "camera: ");
+  expect("[500, 500, 99.5, 99.5]", "[500, 500, 99.5]", "camera: ");
+  expect("\"objects\": []", "\"objects\": [{\"name\": \"b\", \"shape\": \"cone\"}]", "objects[0].shape: expected \"plane\" or \"box\"");
+  expect("\"views\": [", "\"sensor\": {\"rays_per_pixel\": 10}, \"views\": [", "sensor.rays_per_pixel: expected a square number");
+  expect("\"views\": [", "\"sensor\": {\"bits\": 12}, \"views\": [", "sensor.bits: expected 8 or 16");
+  expect("\"views\": [", "\"light\": {\"sun\": {\"to_sun\": [0,0,0], \"irradiance\": 1}}, \"views\": [", "light.sun.to_sun: expected a nonzero direction");
+  expect("\"views\": [", "\"background\": {\"kind\": \"image\", \"image\": \"nope.png\"}, \"views\": [", "background.image: nope.png: no such file");
+  expect("\"name\": \"a\"", "\"name\": \"a/b\"", "views[0].name: expected a non-empty file name without slashes");
+  expect("\"tvec\": [0,0,1]", "\"tvec\": [0,0]", "views[0].cam_from_world.tvec: expected an array of 3 numbers");
+  expect("\"seed\": 1,", "\"seed\": 1, \"colour\": 3,", "colour: unknown field");
+  expect("\"objects\": [], \"views\": [{\"name\": \"a\", \"cam_from_world\": {\"rvec\": [0,0,0], \"tvec\": [0,0,1]}}]", "\"objects\": [], \"views\": []", "views: expected a non-empty array");
+}
+
+TEST(SceneFile, RoundTripsThroughJson) {
+  Scene s = BaseScene(Opencv8(64, 48));
+  s.light.sun = Sun{Eigen::Vector3d(0, 0.6, 0.8), 2.0, 0.53};
+  s.objects.push_back(PlateWithMarker(MarkerModel::Standard(9, 0.1, -0.02), Pose{}));
+  s.views.push_back(View{"v0", LookDown(1)});
+  Scene back;
+  const Status st = ParseSceneJson(SceneToJson(s), "x.json", "", &back);
+  ASSERT_TRUE(st.ok()) << st.message();
+  EXPECT_EQ(SceneToJson(back), SceneToJson(s));
+}
+
+}  // namespace
+}  // namespace svms

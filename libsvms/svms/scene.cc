@@ -1,0 +1,338 @@
+#include "svms/scene.h"
+
+#include <cmath>
+#include <filesystem>
+#include <set>
+
+#include "svms/json_fields.h"
+#include "svms/model_io.h"
+
+namespace svms {
+namespace {
+
+using namespace json_fields;  // NOLINT: the field readers
+
+Eigen::Vector3d UnitDirection(const json& j, const std::string& path, const std::string& key) {
+  const Eigen::Vector3d d = Vector<3>(j, path, key);
+  if (!d.allFinite() || d.norm() < 1e-12)
+    throw FieldError{Join(path, key) + ": expected a nonzero direction"};
+  return d.normalized();
+}
+
+Sun ParseSun(const json& j, const std::string& path) {
+  CheckKeys(j, path, {"to_sun", "irradiance", "angular_diameter_deg"});
+  Sun s;
+  s.to_sun_world = UnitDirection(j, path, "to_sun");
+  s.irradiance = NumberIn(j, path, "irradiance", 0, 1e6);
+  if (j.contains("angular_diameter_deg"))
+    s.angular_diameter_deg = NumberIn(j, path, "angular_diameter_deg", 0, 20);
+  return s;
+}
+
+json SunJson(const Sun& s) {
+  return {{"to_sun", {s.to_sun_world(0), s.to_sun_world(1), s.to_sun_world(2)}},
+          {"irradiance", s.irradiance},
+          {"angular_diameter_deg", s.angular_diameter_deg}};
+}
+
+Occluder ParseOccluder(const json& j, const std::string& path) {
+  CheckKeys(j, path, {"shape", "world_from_occluder", "size", "reflectance"});
+  Occluder o;
+  const std::string shape = String(j, path, "shape");
+  if (shape == "bar") {
+    o.shape = Occluder::Shape::kBar;
+  } else if (shape == "blob") {
+    o.shape = Occluder::Shape::kBlob;
+  } else {
+    throw FieldError{Join(path, "shape") + ": expected \"bar\" or \"blob\", got \"" + shape + "\""};
+  }
+  o.world_from_occluder = ParsePose(j, path, "world_from_occluder");
+  o.size = Vector<3>(j, path, "size");
+  if (!(o.size.minCoeff() > 0) || !o.size.allFinite())
+    throw FieldError{Join(path, "size") + ": expected three positive numbers of metres"};
+  o.reflectance = NumberIn(j, path, "reflectance", 0, 1);
+  return o;
+}
+
+json OccluderJson(const Occluder& o) {
+  return {{"shape", o.shape == Occluder::Shape::kBar ? "bar" : "blob"},
+          {"world_from_occluder", PoseJson(o.world_from_occluder)},
+          {"size", {o.size(0), o.size(1), o.size(2)}},
+          {"reflectance", o.reflectance}};
+}
+
+std::vector<Occluder> ParseOccluders(const json& j, const std::string& path) {
+  if (!j.is_array()) Fail(path, "an array of occluders", j);
+  std::vector<Occluder> out;
+  for (size_t i = 0; i < j.size(); ++i)
+    out.push_back(ParseOccluder(j[i], path + "[" + std::to_string(i) + "]"));
+  return out;
+}
+
+std::string Resolve(const std::string& base_dir, const std::string& file) {
+  const std::filesystem::path p(file);
+  if (p.is_absolute() || base_dir.empty()) return file;
+  return (std::filesystem::path(base_dir) / p).string();
+}
+
+CameraModel ParseCamera(const json& j, const std::string& path, const std::string& base_dir) {
+  CameraModel cam;
+  if (j.is_string()) {
+    const std::string file = Resolve(base_dir, j.get<std::string>());
+    if (Status s = CameraModel::Read(file, &cam); !s) throw FieldError{path + ": " + s.message()};
+    return cam;
+  }
+  CheckKeys(j, path, {"lensmodel", "intrinsics", "width", "height"});
+  const json& in = Required(j, path, "intrinsics");
+  if (!in.is_array()) Fail(Join(path, "intrinsics"), "an array of numbers", in);
+  std::vector<double> intrinsics;
+  for (size_t i = 0; i < in.size(); ++i) {
+    if (!in[i].is_number())
+      Fail(Join(path, "intrinsics") + "[" + std::to_string(i) + "]", "a number", in[i]);
+    intrinsics.push_back(in[i].get<double>());
+  }
+  const Status s = CameraModel::Create(String(j, path, "lensmodel"), intrinsics,
+                                       Integer(j, path, "width"), Integer(j, path, "height"), &cam);
+  if (!s) throw FieldError{path + ": " + s.message()};
+  return cam;
+}
+
+void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
+  CheckKeys(root, "", {"type", "seed", "camera", "sensor", "light", "background", "objects",
+                       "occluders", "views"});
+  const std::string type = String(root, "", "type");
+  if (type != "svms.scene") throw FieldError{"type: expected \"svms.scene\", got \"" + type + "\""};
+  const json& seed = Required(root, "", "seed");
+  if (!seed.is_number_unsigned()) Fail("seed", "a non-negative integer", seed);
+  scene->seed = seed.get<uint64_t>();
+  scene->camera = ParseCamera(Required(root, "", "camera"), "camera", base_dir);
+
+  if (root.contains("sensor")) {
+    const json& j = root["sensor"];
+    const std::string p = "sensor";
+    CheckKeys(j, p, {"bits", "exposure", "full_well", "read_noise", "shot_noise", "defocus_sigma_px",
+                     "vignetting", "rays_per_pixel", "motion_blur"});
+    Sensor& s = scene->sensor;
+    if (j.contains("bits")) {
+      s.bits = Integer(j, p, "bits");
+      if (s.bits != 8 && s.bits != 16) Fail(Join(p, "bits"), "8 or 16", j["bits"]);
+    }
+    if (j.contains("exposure")) s.exposure = NumberIn(j, p, "exposure", 0, 1e12);
+    if (j.contains("full_well")) s.full_well = NumberIn(j, p, "full_well", 1, 1e12);
+    if (j.contains("read_noise")) s.read_noise = NumberIn(j, p, "read_noise", 0, 1e6);
+    if (j.contains("shot_noise")) s.shot_noise = Boolean(j, p, "shot_noise");
+    if (j.contains("defocus_sigma_px")) s.defocus_sigma_px = NumberIn(j, p, "defocus_sigma_px", 0, 100);
+    if (j.contains("vignetting")) s.vignetting = NumberIn(j, p, "vignetting", 0, 1);
+    if (j.contains("motion_blur")) s.motion_blur = NumberIn(j, p, "motion_blur", 0, 1);
+    if (j.contains("rays_per_pixel")) {
+      s.rays_per_pixel = Integer(j, p, "rays_per_pixel");
+      const int r = static_cast<int>(std::lround(std::sqrt(std::max(0, s.rays_per_pixel))));
+      if (s.rays_per_pixel < 1 || s.rays_per_pixel > 1024 || r * r != s.rays_per_pixel)
+        Fail(Join(p, "rays_per_pixel"), "a square number from 1 to 1024", j["rays_per_pixel"]);
+    }
+  }
+  if (root.contains("light")) {
+    const json& j = root["light"];
+    const std::string p = "light";
+    CheckKeys(j, p, {"sun", "ambient", "earthshine", "ring_light", "narrow_band_filter",
+                     "filter_transmission"});
+    Lighting& l = scene->light;
+    if (j.contains("sun")) l.sun = ParseSun(j["sun"], "light.sun");
+    if (j.contains("earthshine")) l.earthshine = ParseSun(j["earthshine"], "light.earthshine");
+    if (j.contains("ambient")) l.ambient = NumberIn(j, p, "ambient", 0, 1e6);
+    if (j.contains("ring_light")) l.ring_light = NumberIn(j, p, "ring_light", 0, 1e9);
+    if (j.contains("narrow_band_filter")) l.narrow_band_filter = Boolean(j, p, "narrow_band_filter");
+    if (j.contains("filter_transmission"))
+      l.filter_transmission = NumberIn(j, p, "filter_transmission", 0, 1);
+  }
+  if (root.contains("background")) {
+    const json& j = root["background"];
+    const std::string p = "background";
+    CheckKeys(j, p, {"kind", "brightness", "image"});
+    Background& b = scene->background;
+    const std::string kind = String(j, p, "kind");
+    if (kind == "black") {
+      b.kind = Background::Kind::kBlack;
+    } else if (kind == "earth") {
+      b.kind = Background::Kind::kEarth;
+    } else if (kind == "image") {
+      b.kind = Background::Kind::kImage;
+      b.image_path = Resolve(base_dir, String(j, p, "image"));
+      if (!std::filesystem::is_regular_file(b.image_path))
+        throw FieldError{"background.image: " + b.image_path + ": no such file"};
+    } else {
+      throw FieldError{"background.kind: expected \"black\", \"earth\" or \"image\", got \"" + kind + "\""};
+    }
+    if (j.contains("brightness")) b.brightness = NumberIn(j, p, "brightness", 0, 1e6);
+  }
+
+  const json& objects = Required(root, "", "objects");
+  if (!objects.is_array()) Fail("objects", "an array of objects", objects);
+  std::set<int> ids;
+  for (size_t i = 0; i < objects.size(); ++i) {
+    const std::string p = "objects[" + std::to_string(i) + "]";
+    const json& j = objects[i];
+    CheckKeys(j, p, {"name", "shape", "size", "world_from_object", "reflectance", "specular",
+                     "shininess", "markers"});
+    SceneObject o;
+    o.name = String(j, p, "name");
+    const std::string shape = String(j, p, "shape");
+    if (shape == "plane") {
+      o.shape = SceneObject::Shape::kPlane;
+    } else if (shape == "box") {
+      o.shape = SceneObject::Shape::kBox;
+    } else {
+      throw FieldError{Join(p, "shape") + ": expected \"plane\" or \"box\", got \"" + shape + "\""};
+    }
+    o.size = Vector<3>(j, p, "size");
+    const bool size_ok = o.shape == SceneObject::Shape::kBox ? o.size.minCoeff() > 0
+                                                              : o.size.head<2>().minCoeff() > 0;
+    if (!size_ok || !o.size.allFinite())
+      throw FieldError{Join(p, "size") + ": expected positive extents in metres"};
+    o.world_from_object = ParsePose(j, p, "world_from_object");
+    o.material.reflectance = NumberIn(j, p, "reflectance", 0, 1);
+    if (j.contains("specular")) o.material.specular = NumberIn(j, p, "specular", 0, 100);
+    if (j.contains("shininess")) o.material.shininess = NumberIn(j, p, "shininess", 1, 10000);
+    if (j.contains("markers")) {
+      const json& ms = j["markers"];
+      if (!ms.is_array()) Fail(Join(p, "markers"), "an array of markers", ms);
+      for (size_t k = 0; k < ms.size(); ++k) {
+        const std::string mp = p + ".markers[" + std::to_string(k) + "]";
+        const json& mj = ms[k];
+        CheckKeys(mj, mp, {"marker", "object_from_marker", "black", "white", "retro", "retro_gain"});
+        SceneMarker m;
+        m.model = ParseMarker(Required(mj, mp, "marker"), mp + ".marker", false);
+        m.object_from_marker = ParsePose(mj, mp, "object_from_marker");
+        if (mj.contains("black")) m.black = NumberIn(mj, mp, "black", 0, 1);
+        if (mj.contains("white")) m.white = NumberIn(mj, mp, "white", 0, 1);
+        if (m.white <= m.black)
+          throw FieldError{mp + ".white: expected a reflectance above black (" +
+                           json(m.black).dump() + ")"};
+        if (mj.contains("retro")) m.retro = Boolean(mj, mp, "retro");
+        if (mj.contains("retro_gain")) m.retro_gain = NumberIn(mj, mp, "retro_gain", 0, 1e6);
+        for (int id : {m.model.id, m.model.inner ? m.model.inner->id : -1}) {
+          if (id >= 0 && !ids.insert(id).second)
+            throw FieldError{mp + ".marker.id: ID " + std::to_string(id) +
+                             " appears twice in the scene; expected unique IDs"};
+        }
+        o.markers.push_back(m);
+      }
+    }
+    scene->objects.push_back(o);
+  }
+  if (root.contains("occluders")) scene->occluders = ParseOccluders(root["occluders"], "occluders");
+
+  const json& views = Required(root, "", "views");
+  if (!views.is_array() || views.empty()) Fail("views", "a non-empty array of views", views);
+  std::set<std::string> names;
+  for (size_t i = 0; i < views.size(); ++i) {
+    const std::string p = "views[" + std::to_string(i) + "]";
+    const json& j = views[i];
+    CheckKeys(j, p, {"name", "cam_from_world", "sun", "occluders"});
+    View v;
+    v.name = String(j, p, "name");
+    if (v.name.empty() || v.name.find_first_of("/\\") != std::string::npos)
+      throw FieldError{Join(p, "name") + ": expected a non-empty file name without slashes"};
+    if (!names.insert(v.name).second)
+      throw FieldError{Join(p, "name") + ": \"" + v.name + "\" appears twice; expected unique names"};
+    v.cam_from_world = ParsePose(j, p, "cam_from_world");
+    if (j.contains("sun")) v.sun = ParseSun(j["sun"], Join(p, "sun"));
+    if (j.contains("occluders")) v.occluders = ParseOccluders(j["occluders"], Join(p, "occluders"));
+    scene->views.push_back(v);
+  }
+}
+
+}  // namespace
+
+Status Scene::Validate() const {
+  if (views.empty()) return Status::Error("views: expected at least one view");
+  if (camera.width() <= 0) return Status::Error("camera: expected a camera model");
+  return Status::Ok();
+}
+
+Status ParseSceneJson(const std::string& text, const std::string& source,
+                      const std::string& base_dir, Scene* out) {
+  json root;
+  std::string error;
+  if (!ParseText(text, source, &root, &error)) return Status::Error(error);
+  Scene scene;
+  try {
+    ParseRoot(root, base_dir, &scene);
+  } catch (const FieldError& e) {
+    return Status::Error(source + ": " + e.message);
+  }
+  if (Status s = scene.Validate(); !s) return Status::Error(source + ": " + s.message());
+  *out = std::move(scene);
+  return Status::Ok();
+}
+
+Status ReadSceneFile(const std::string& path, Scene* out) {
+  std::string text;
+  if (Status s = ReadTextFile(path, &text); !s) return s;
+  return ParseSceneJson(text, path, std::filesystem::path(path).parent_path().string(), out);
+}
+
+std::string SceneToJson(const Scene& s) {
+  json root;
+  root["type"] = "svms.scene";
+  root["seed"] = s.seed;
+  root["camera"] = {{"lensmodel", s.camera.lensmodel()},
+                    {"intrinsics", s.camera.intrinsics()},
+                    {"width", s.camera.width()},
+                    {"height", s.camera.height()}};
+  const Sensor& se = s.sensor;
+  root["sensor"] = {{"bits", se.bits}, {"exposure", se.exposure}, {"full_well", se.full_well},
+                    {"read_noise", se.read_noise}, {"shot_noise", se.shot_noise},
+                    {"defocus_sigma_px", se.defocus_sigma_px}, {"vignetting", se.vignetting},
+                    {"rays_per_pixel", se.rays_per_pixel}, {"motion_blur", se.motion_blur}};
+  json light = {{"ambient", s.light.ambient}, {"ring_light", s.light.ring_light},
+                {"narrow_band_filter", s.light.narrow_band_filter},
+                {"filter_transmission", s.light.filter_transmission}};
+  if (s.light.sun) light["sun"] = SunJson(*s.light.sun);
+  if (s.light.earthshine) light["earthshine"] = SunJson(*s.light.earthshine);
+  root["light"] = light;
+  const char* kinds[] = {"black", "earth", "image"};
+  json bg = {{"kind", kinds[static_cast<int>(s.background.kind)]}, {"brightness", s.background.brightness}};
+  if (s.background.kind == Background::Kind::kImage) bg["image"] = s.background.image_path;
+  root["background"] = bg;
+  json objects = json::array();
+  for (const SceneObject& o : s.objects) {
+    json jo = {{"name", o.name},
+               {"shape", o.shape == SceneObject::Shape::kBox ? "box" : "plane"},
+               {"size", {o.size(0), o.size(1), o.size(2)}},
+               {"world_from_object", PoseJson(o.world_from_object)},
+               {"reflectance", o.material.reflectance},
+               {"specular", o.material.specular},
+               {"shininess", o.material.shininess}};
+    json ms = json::array();
+    for (const SceneMarker& m : o.markers) {
+      ms.push_back({{"marker", MarkerJson(m.model)},
+                    {"object_from_marker", PoseJson(m.object_from_marker)},
+                    {"black", m.black},
+                    {"white", m.white},
+                    {"retro", m.retro},
+                    {"retro_gain", m.retro_gain}});
+    }
+    jo["markers"] = ms;
+    objects.push_back(jo);
+  }
+  root["objects"] = objects;
+  json occ = json::array();
+  for (const Occluder& o : s.occluders) occ.push_back(OccluderJson(o));
+  root["occluders"] = occ;
+  json views = json::array();
+  for (const View& v : s.views) {
+    json jv = {{"name", v.name}, {"cam_from_world", PoseJson(v.cam_from_world)}};
+    if (v.sun) jv["sun"] = SunJson(*v.sun);
+    if (v.occluders) {
+      json vo = json::array();
+      for (const Occluder& o : *v.occluders) vo.push_back(OccluderJson(o));
+      jv["occluders"] = vo;
+    }
+    views.push_back(jv);
+  }
+  root["views"] = views;
+  return root.dump(1) + "\n";
+}
+
+}  // namespace svms

@@ -1,0 +1,119 @@
+// A scene for the simulator: a camera, light, objects carrying markers, occluders, a
+// background, and the views (camera poses) to render. Read from JSON ("type": "svms.scene",
+// documented in docs/simulator.md) with the same strictness as the model files: every field
+// named in errors, unknown fields rejected.
+//
+// World frame: any right-handed frame the scene chooses; metres. Radiance is in relative
+// units: a white Lambertian surface (reflectance 1) facing a sun of irradiance 1 has radiance 1.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "svms/camera.h"
+#include "svms/marker_model.h"
+#include "svms/pose.h"
+#include "svms/status.h"
+
+namespace svms {
+
+struct Material {
+  double reflectance = 0.3;  // diffuse albedo in [0, 1]
+  double specular = 0;       // strength of a glossy highlight (Blinn-Phong), >= 0
+  double shininess = 50;     // its exponent
+};
+
+struct SceneMarker {
+  MarkerModel model;
+  Pose object_from_marker;
+  double black = 0.04;   // reflectance of the black print (black paint is not zero)
+  double white = 0.85;   // reflectance of the white print
+  bool retro = false;    // white parts retro-reflective (bright under the ring light)
+  double retro_gain = 50;  // their brightness under the ring light, relative to diffuse white
+};
+
+struct SceneObject {
+  enum class Shape { kPlane, kBox };
+  std::string name;
+  Shape shape = Shape::kPlane;
+  // Box: full extents along x, y, z, centred on the object origin. Plane: extents along x and
+  // y (z ignored) in the object's z = 0 plane, facing +z.
+  Eigen::Vector3d size = Eigen::Vector3d::Ones();
+  Pose world_from_object;
+  Material material;
+  std::vector<SceneMarker> markers;
+};
+
+struct Occluder {
+  enum class Shape { kBar, kBlob };  // a box, or a sphere
+  Shape shape = Shape::kBar;
+  Pose world_from_occluder;
+  Eigen::Vector3d size = Eigen::Vector3d::Ones();  // bar: full extents; blob: radius = size.x()
+  double reflectance = 0.2;
+};
+
+struct Sun {
+  Eigen::Vector3d to_sun_world = Eigen::Vector3d::UnitZ();  // unit direction toward the sun
+  double irradiance = 1;
+  double angular_diameter_deg = 0.53;
+};
+
+struct Lighting {
+  std::optional<Sun> sun;
+  double ambient = 0;                    // uniform irradiance, no shadows
+  std::optional<Sun> earthshine;         // a broad directional fill, no shadows
+  double ring_light = 0;                 // irradiance at 1 m from a light at the camera centre
+  bool narrow_band_filter = false;       // a filter passing only the ring light's band
+  double filter_transmission = 0.03;     // what the filter lets through of sun, ambient, earth
+};
+
+struct Sensor {
+  int bits = 8;                 // 8 or 16
+  double exposure = 12000;      // electrons collected at radiance 1
+  double full_well = 15000;     // electrons at the largest pixel value
+  double read_noise = 4;        // electrons RMS
+  bool shot_noise = true;       // Poisson photon noise
+  double defocus_sigma_px = 0;  // Gaussian blur of the optics, pixels
+  double vignetting = 0;        // brightness falls by this fraction at the image corners
+  int rays_per_pixel = 16;      // stratified supersampling: a square number >= 1
+  double motion_blur = 0;       // exposure as a fraction of the way to the next view, [0, 1]
+};
+
+struct Background {
+  enum class Kind { kBlack, kEarth, kImage };
+  Kind kind = Kind::kBlack;
+  double brightness = 0.5;     // radiance scale of earth or image
+  std::string image_path;      // kImage: an image stretched over the frame (behind everything)
+};
+
+struct View {
+  std::string name;
+  Pose cam_from_world;
+  std::optional<Sun> sun;                         // overrides the scene's sun
+  std::optional<std::vector<Occluder>> occluders;  // replaces the scene's occluders
+};
+
+struct Scene {
+  uint64_t seed = 1;
+  CameraModel camera;
+  Sensor sensor;
+  Lighting light;
+  Background background;
+  std::vector<SceneObject> objects;
+  std::vector<Occluder> occluders;
+  std::vector<View> views;
+
+  Status Validate() const;
+};
+
+// Parses and validates a scene. Relative file names (camera model, background image) are
+// resolved against `base_dir`. Errors read "<source>: <field path>: expected ..., got ...".
+Status ParseSceneJson(const std::string& text, const std::string& source,
+                      const std::string& base_dir, Scene* out);
+Status ReadSceneFile(const std::string& path, Scene* out);
+// The scene as JSON (camera inline), such that ParseSceneJson gives it back.
+std::string SceneToJson(const Scene& scene);
+
+}  // namespace svms

@@ -1,0 +1,54 @@
+// Ground truth of a rendered scene, computed from geometry (never from pixels): camera and
+// marker poses, the projected corners and post tip with visibility flags, and how many of the
+// 44 data bits are occluded or in shadow. Written as DIR/truth.json (docs/simulator.md).
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "svms/pose.h"
+#include "svms/render.h"
+
+namespace svms {
+
+struct PointTruth {
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  // mrcal projection; NaN if it cannot project
+  bool projects = false;   // mrcal could project it (in front of the camera)
+  bool in_image = false;   // within the image: [-0.5, W - 0.5] x [-0.5, H - 0.5]
+  bool occluded = false;   // something lies between the camera and the point
+  bool in_shadow = false;  // the centre of the sun is hidden from the point
+};
+
+struct MarkerTruth {
+  int id = -1;
+  int nested_in = -1;   // the outer marker's ID for an inner marker, else -1
+  std::string object;   // the object carrying it
+  Pose cam_from_marker;
+  std::array<PointTruth, 4> corners;  // black-square corners, order of docs/conventions.md
+  bool has_tip = false;
+  PointTruth tip;                     // the post tip (white top or well bottom)
+  int bits_occluded = 0;              // of the 44 cell centres
+  int bits_in_shadow = 0;
+  double side_px = 0;                 // mean side of the projected square, pixels
+  bool facing = false;                // the marker's front faces the camera
+  bool fully_visible() const;         // all corners in the image and unoccluded, facing
+};
+
+struct ViewTruth {
+  std::string name;   // image file is name + ".png"
+  Pose cam_from_world;
+  std::vector<std::pair<std::string, Pose>> cam_from_object;
+  std::vector<MarkerTruth> markers;
+};
+
+// Truth of view `view` of the renderer's scene.
+ViewTruth ComputeTruth(const Renderer& renderer, int view);
+
+// The whole truth.json document: the scene's camera model (inline), the scene's settings, and
+// every view.
+std::string TruthToJson(const Scene& scene, const std::vector<ViewTruth>& views);
+
+}  // namespace svms
