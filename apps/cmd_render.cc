@@ -30,6 +30,19 @@ int RunRender(const RenderOptions& o) {
     std::cerr << "svms render: " << s.message() << "\n";
     return kExitBadInput;
   }
+  return RenderScene(scene, o.scene, o.out, o.threads, o.radiance, o.quiet);
+}
+
+}  // namespace
+
+int RenderScene(const Scene& scene, const std::string& source, const std::string& out_dir, int threads,
+                bool radiance, bool quiet) {
+  RenderOptions o;
+  o.scene = source;
+  o.out = out_dir;
+  o.threads = threads;
+  o.radiance = radiance;
+  o.quiet = quiet;
   std::error_code ec;
   std::filesystem::create_directories(o.out, ec);
   if (!std::filesystem::is_directory(o.out)) {
@@ -60,7 +73,7 @@ int RunRender(const RenderOptions& o) {
       std::lock_guard<std::mutex> lock(io);
       if (!ok) failures.push_back(file + ": cannot write");
       const int d = ++done;
-      if (!o.quiet) std::cerr << "\rsvms render: " << d << "/" << n << " views" << std::flush;
+      if (!o.quiet) std::cerr << "\rsvms render: " << d << "/" << n << " views of " << o.scene << std::flush;
     }
   };
   std::vector<std::thread> pool;
@@ -76,8 +89,6 @@ int RunRender(const RenderOptions& o) {
             << " (truth: " << truth_file << ")\n";
   return failures.empty() ? kExitOk : kExitFailed;
 }
-
-}  // namespace
 
 void AddRenderCommands(CLI::App& app, int* exit_code) {
   auto o = std::make_shared<RenderOptions>();

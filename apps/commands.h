@@ -4,6 +4,9 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <string>
+
+#include "svms/scene.h"
 
 namespace svms::cli {
 
@@ -13,5 +16,11 @@ void AddCodecCommands(CLI::App& app, int* exit_code);
 void AddModelCommands(CLI::App& app, int* exit_code);
 void AddGenerateCommands(CLI::App& app, int* exit_code);
 void AddRenderCommands(CLI::App& app, int* exit_code);
+void AddDatasetCommands(CLI::App& app, int* exit_code);
+
+// Renders every view of `scene` into `out_dir` (VIEW.png, truth.json) on `threads` threads,
+// progress on stderr; `source` names the scene in messages. Returns an exit code.
+int RenderScene(const Scene& scene, const std::string& source, const std::string& out_dir, int threads,
+                bool radiance, bool quiet);
 
 }  // namespace svms::cli

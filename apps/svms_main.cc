@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   svms::cli::AddModelCommands(app, &exit_code);
   svms::cli::AddGenerateCommands(app, &exit_code);
   svms::cli::AddRenderCommands(app, &exit_code);
+  svms::cli::AddDatasetCommands(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -85,5 +85,25 @@ printf '{"type": "svms.marker", "id": 3,,}' > "$tmp/syntax.json"
 expect 2 "$tmp/syntax.json: line 1, column" "$svms" model check "$tmp/syntax.json"
 expect 2 "/nonexistent.json: cannot open for reading" "$svms" model check /nonexistent.json
 
+# render and dataset
+expect 0 "angle" "$svms" dataset --list
+expect 2 "expected one of range" "$svms" dataset moon --out "$tmp/moon"
+expect 0 "rendered 6 views of 1024x1024" "$svms" dataset range --quick --quiet --out "$tmp/range"
+python3 - "$tmp/range/truth.json" <<'PY' && pass || fail "range truth: outer square 30 px at 16 m"
+import json, sys
+t = json.load(open(sys.argv[1]))
+far = t["views"][-1]["markers"][0]
+assert far["id"] == 1 and abs(far["side_px"] - 30.0) < 0.5, far["side_px"]
+assert t["views"][-1]["markers"][1]["nested_in"] == 1
+assert all(len(m["corners"]) == 4 for v in t["views"] for m in v["markers"])
+PY
+[ -s "$tmp/range/range_0000.png" ] && pass || fail "range_0000.png missing"
+expect 0 "views of" "$svms" render "$tmp/range/scene.json" --out "$tmp/range2" --quiet
+cmp -s "$tmp/range/range_0003.png" "$tmp/range2/range_0003.png" && pass || fail "same scene, same seed: different bytes"
+python3 -c "import json; s=json.load(open('$tmp/range/scene.json')); s['sensor']['bits']=12; json.dump(s, open('$tmp/bad_scene.json','w'))"
+expect 2 "$tmp/bad_scene.json: sensor.bits: expected 8 or 16" "$svms" render "$tmp/bad_scene.json" --out "$tmp/x"
+expect_err_lines 1 "$svms" render "$tmp/bad_scene.json" --out "$tmp/x"
+expect 2 "/nonexistent.json: cannot open for reading" "$svms" render /nonexistent.json --out "$tmp/x"
+
 echo "$passes passed, $fails failed"
 [ "$fails" -eq 0 ]

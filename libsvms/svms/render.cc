@@ -75,6 +75,46 @@ struct LocalHit {
   Surface surf;
 };
 
+// Reflectance of a surface pattern at surface coordinates (u, v), metres.
+double PatternAt(const Material& m, double u, double v) {
+  const Pattern& p = m.pattern;
+  auto cell = [&](double w) { return static_cast<int64_t>(std::floor(w / p.period)); };
+  switch (p.kind) {
+    case Pattern::Kind::kUniform:
+      return m.reflectance;
+    case Pattern::Kind::kChecker: {
+      if (p.cols > 0) {
+        const double hu = 0.5 * p.cols * p.period, hv = 0.5 * p.rows * p.period;
+        if (std::abs(u) >= hu || std::abs(v) >= hv) return p.high;
+        return ((cell(u + hu) + cell(v + hv)) & 1) ? p.high : p.low;
+      }
+      return ((cell(u) + cell(v)) & 1) ? p.high : p.low;
+    }
+    case Pattern::Kind::kStripes:
+      return (cell(u) & 1) ? p.high : p.low;
+    case Pattern::Kind::kGrid: {
+      const double fu = u - p.period * std::floor(u / p.period), fv = v - p.period * std::floor(v / p.period);
+      return (fu < p.line || fv < p.line) ? p.low : p.high;
+    }
+    case Pattern::Kind::kText: {
+      // Lines of blocky 5 x 7 glyphs in cells of `period` (wide) x 1.6 period (tall).
+      const double gw = p.period, gh = 1.6 * p.period;
+      const int64_t gx = static_cast<int64_t>(std::floor(u / gw)), gy = static_cast<int64_t>(std::floor(v / gh));
+      const uint64_t g = Mix(p.seed ^ Mix(static_cast<uint64_t>(gx) * 0x9e37ULL ^ Mix(static_cast<uint64_t>(gy))));
+      if ((g & 7) == 0) return p.high;  // a space
+      const int px = static_cast<int>(std::floor((u - gx * gw) / gw * 6));  // 5 columns + gap
+      const int py = static_cast<int>(std::floor((v - gy * gh) / gh * 9));  // 7 rows + gaps
+      if (px >= 5 || py < 1 || py > 7) return p.high;
+      return ((Mix(g + py) >> px) & 1) ? p.low : p.high;
+    }
+    case Pattern::Kind::kNoise: {
+      const uint64_t h = Mix(p.seed ^ Mix(static_cast<uint64_t>(cell(u)) * 0x51ULL ^ Mix(static_cast<uint64_t>(cell(v)))));
+      return p.low + (p.high - p.low) * ((h >> 11) * 0x1.0p-53);
+    }
+  }
+  return m.reflectance;
+}
+
 bool InsideSquare(double x, double y, double half) { return std::abs(x) <= half && std::abs(y) <= half; }
 
 // Bit index of the ring cell containing (x, y) (inside the ring), for cell size b.
@@ -160,7 +200,13 @@ struct Renderer::Impl {
         h->t = h->sort = tn;
         h->n_local = Vec3::Zero();
         h->n_local[axis] = sign;
-        h->surf.reflectance = p.material.reflectance;
+        if (p.material.pattern.kind == Pattern::Kind::kUniform) {
+          h->surf.reflectance = p.material.reflectance;
+        } else {
+          const Vec3 q = o + tn * d;
+          const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+          h->surf.reflectance = PatternAt(p.material, q[std::min(a1, a2)], q[std::max(a1, a2)]);
+        }
         h->surf.specular = p.material.specular;
         h->surf.shininess = p.material.shininess;
         return true;
@@ -173,7 +219,7 @@ struct Renderer::Impl {
         if (!InsideSquare(q.x() * p.half.y() / p.half.x(), q.y(), p.half.y())) return false;
         h->t = h->sort = t;
         h->n_local = Vec3(0, 0, d.z() < 0 ? 1 : -1);
-        h->surf.reflectance = p.material.reflectance;
+        h->surf.reflectance = PatternAt(p.material, q.x(), q.y());
         h->surf.specular = p.material.specular;
         h->surf.shininess = p.material.shininess;
         return true;

@@ -35,6 +35,49 @@ json SunJson(const Sun& s) {
           {"angular_diameter_deg", s.angular_diameter_deg}};
 }
 
+Pattern ParsePattern(const json& j, const std::string& path) {
+  CheckKeys(j, path, {"kind", "period", "low", "high", "line", "squares", "seed"});
+  Pattern p;
+  const std::string kind = String(j, path, "kind");
+  static const std::pair<const char*, Pattern::Kind> kKinds[] = {
+      {"uniform", Pattern::Kind::kUniform}, {"checker", Pattern::Kind::kChecker},
+      {"stripes", Pattern::Kind::kStripes}, {"grid", Pattern::Kind::kGrid},
+      {"text", Pattern::Kind::kText},       {"noise", Pattern::Kind::kNoise}};
+  bool found = false;
+  for (const auto& [name, k] : kKinds) {
+    if (kind == name) {
+      p.kind = k;
+      found = true;
+    }
+  }
+  if (!found)
+    throw FieldError{Join(path, "kind") + ": expected uniform, checker, stripes, grid, text or noise, got \"" + kind + "\""};
+  if (j.contains("period")) p.period = NumberIn(j, path, "period", 1e-6, 1e6);
+  if (j.contains("low")) p.low = NumberIn(j, path, "low", 0, 1);
+  if (j.contains("high")) p.high = NumberIn(j, path, "high", 0, 1);
+  if (j.contains("line")) p.line = NumberIn(j, path, "line", 0, 1e6);
+  if (j.contains("squares")) {
+    const Eigen::Vector2d sq = Vector<2>(j, path, "squares");
+    if (sq.minCoeff() < 2 || sq.maxCoeff() > 1000 || sq != sq.array().round().matrix())
+      throw FieldError{Join(path, "squares") + ": expected two whole numbers from 2 to 1000"};
+    p.cols = static_cast<int>(sq.x());
+    p.rows = static_cast<int>(sq.y());
+  }
+  if (j.contains("seed")) {
+    if (!j["seed"].is_number_unsigned()) Fail(Join(path, "seed"), "a non-negative integer", j["seed"]);
+    p.seed = j["seed"].get<uint64_t>();
+  }
+  return p;
+}
+
+json PatternJson(const Pattern& p) {
+  static const char* kNames[] = {"uniform", "checker", "stripes", "grid", "text", "noise"};
+  json j = {{"kind", kNames[static_cast<int>(p.kind)]}, {"period", p.period}, {"low", p.low},
+            {"high", p.high}, {"line", p.line}, {"seed", p.seed}};
+  if (p.cols > 0) j["squares"] = {p.cols, p.rows};
+  return j;
+}
+
 Occluder ParseOccluder(const json& j, const std::string& path) {
   CheckKeys(j, path, {"shape", "world_from_occluder", "size", "reflectance"});
   Occluder o;
@@ -173,7 +216,7 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
     const std::string p = "objects[" + std::to_string(i) + "]";
     const json& j = objects[i];
     CheckKeys(j, p, {"name", "shape", "size", "world_from_object", "reflectance", "specular",
-                     "shininess", "markers"});
+                     "shininess", "pattern", "markers"});
     SceneObject o;
     o.name = String(j, p, "name");
     const std::string shape = String(j, p, "shape");
@@ -193,6 +236,7 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
     o.material.reflectance = NumberIn(j, p, "reflectance", 0, 1);
     if (j.contains("specular")) o.material.specular = NumberIn(j, p, "specular", 0, 100);
     if (j.contains("shininess")) o.material.shininess = NumberIn(j, p, "shininess", 1, 10000);
+    if (j.contains("pattern")) o.material.pattern = ParsePattern(j["pattern"], Join(p, "pattern"));
     if (j.contains("markers")) {
       const json& ms = j["markers"];
       if (!ms.is_array()) Fail(Join(p, "markers"), "an array of markers", ms);
@@ -304,6 +348,7 @@ std::string SceneToJson(const Scene& s) {
                {"reflectance", o.material.reflectance},
                {"specular", o.material.specular},
                {"shininess", o.material.shininess}};
+    if (o.material.pattern.kind != Pattern::Kind::kUniform) jo["pattern"] = PatternJson(o.material.pattern);
     json ms = json::array();
     for (const SceneMarker& m : o.markers) {
       ms.push_back({{"marker", MarkerJson(m.model)},

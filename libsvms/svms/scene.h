@@ -19,7 +19,21 @@
 
 namespace svms {
 
+// A printed or painted pattern on an object's surface, in the surface's own coordinates
+// (a plane's x, y; on a box face, the face's two in-plane object axes), metres.
+struct Pattern {
+  enum class Kind { kUniform, kChecker, kStripes, kGrid, kText, kNoise };
+  Kind kind = Kind::kUniform;
+  double period = 0.05;      // square / stripe / grid / glyph / noise cell size
+  double low = 0.05, high = 0.85;  // the two reflectances (noise: the range)
+  double line = 0.005;       // grid line width
+  int cols = 0, rows = 0;    // checker: a board of cols x rows squares centred on the origin
+                             // with a `high` border around it (0: unbounded)
+  uint64_t seed = 0;         // text and noise layouts
+};
+
 struct Material {
+  Pattern pattern;           // overrides `reflectance` where it is not kUniform
   double reflectance = 0.3;  // diffuse albedo in [0, 1]
   double specular = 0;       // strength of a glossy highlight (Blinn-Phong), >= 0
   double shininess = 50;     // its exponent

@@ -1,0 +1,459 @@
+#include "svms/datasets.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "svms/model_io.h"
+#include "svms/svms44.h"
+
+namespace svms {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+
+constexpr double kDeg = M_PI / 180;
+
+Sensor StandardSensor() {
+  Sensor s;
+  s.bits = 8;
+  s.exposure = 15000;  // white in full sun: about 180 of 255
+  s.full_well = 18000;
+  s.read_noise = 4;
+  s.shot_noise = true;
+  s.rays_per_pixel = 16;
+  return s;
+}
+
+Lighting Sunlight(double elevation_deg, double azimuth_deg) {
+  Lighting l;
+  l.sun = Sun{Vec3(std::cos(elevation_deg * kDeg) * std::cos(azimuth_deg * kDeg),
+                   std::cos(elevation_deg * kDeg) * std::sin(azimuth_deg * kDeg),
+                   std::sin(elevation_deg * kDeg)),
+              1.0, 0.53};
+  l.ambient = 0.04;
+  return l;
+}
+
+SceneMarker Printed(const MarkerModel& m, const Pose& object_from_marker) {
+  SceneMarker sm;
+  sm.model = m;
+  sm.object_from_marker = object_from_marker;
+  return sm;
+}
+
+// A dark plate (spacecraft skin) of side `side`, 2 cm thick, front face at z = 0.
+SceneObject Plate(double side, double reflectance = 0.15) {
+  SceneObject o;
+  o.name = "plate";
+  o.shape = SceneObject::Shape::kBox;
+  o.size = Vec3(side, side, 0.02);
+  o.world_from_object.tvec = Vec3(0, 0, -0.01);
+  o.material.reflectance = reflectance;
+  return o;
+}
+
+// A marker centred on the plate's front face (world z = 0), turned by `spin`.
+Pose OnPlate(double x, double y, double spin) {
+  Pose p;
+  p.rvec = Vec3(0, 0, spin);
+  p.tvec = Vec3(x, y, 0.01);  // object frame: the box is centred 1 cm behind the face
+  return p;
+}
+
+std::string Name(const char* prefix, int index) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%s%04d", prefix, index);
+  return buf;
+}
+
+Dataset Range(const DatasetOptions& o) {
+  Dataset d;
+  d.name = "range";
+  Scene s;
+  s.seed = o.seed;
+  s.camera = RangeCamera();
+  s.sensor = StandardSensor();
+  s.light = Sunlight(50, 30);
+  SceneObject plate = Plate(1.2);
+  MarkerModel dual = MarkerModel::Standard(1, 0.432, 0.027);
+  dual.AddInner(2, 0.108);
+  plate.markers.push_back(Printed(dual, OnPlate(0, 0, 0)));
+  s.objects.push_back(plate);
+  std::mt19937_64 rng(o.seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const int distances = o.quick ? 6 : 24, per = o.quick ? 1 : 4;
+  int k = 0;
+  for (int i = 0; i < distances; ++i) {
+    const double D = 0.8 * std::pow(16.0 / 0.8, static_cast<double>(i) / (distances - 1));
+    for (int j = 0; j < per; ++j) {
+      // Nearly head-on (tilt up to 5 degrees), the marker near the image centre.
+      const double tilt = 5 * kDeg * std::abs(u(rng)), az = M_PI * u(rng);
+      const Vec3 eye = D * Vec3(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az), std::cos(tilt));
+      const Vec3 target = Vec3(u(rng), u(rng), 0) * 0.05 * std::min(D, 4.0);
+      const Vec3 up(std::sin(0.3 * u(rng)), std::cos(0.3 * u(rng)), 0);
+      s.views.push_back(View{Name("range_", k++), LookAt(eye, target, up)});
+    }
+  }
+  d.scenes.emplace_back("", s);
+  return d;
+}
+
+Dataset Angle(const DatasetOptions& o) {
+  Dataset d;
+  d.name = "angle";
+  Scene s;
+  s.seed = o.seed;
+  s.camera = RangeCamera();
+  s.sensor = StandardSensor();
+  s.light = Sunlight(60, 200);
+  s.light.ambient = 0.15;
+  SceneObject plate = Plate(1.5);
+  plate.markers.push_back(Printed(MarkerModel::Standard(3, 0.2, 0.05), OnPlate(0, 0, 0.2)));
+  s.objects.push_back(plate);
+  const std::vector<double> angles = o.quick ? std::vector<double>{0, 45, 70}
+                                             : std::vector<double>{0, 10, 20, 30, 40, 50, 60, 65, 70, 75};
+  const std::vector<double> dists = o.quick ? std::vector<double>{1.5} : std::vector<double>{1.5, 4, 8};
+  const std::vector<double> azimuths = o.quick ? std::vector<double>{0} : std::vector<double>{0, 135};
+  int k = 0;
+  for (double D : dists)
+    for (double az : azimuths)
+      for (double a : angles) {
+        const Vec3 eye = D * Vec3(std::sin(a * kDeg) * std::cos(az * kDeg), std::sin(a * kDeg) * std::sin(az * kDeg),
+                                  std::cos(a * kDeg));
+        s.views.push_back(View{Name("angle_", k++), LookAt(eye, Vec3::Zero(), Vec3(0, 1, 0.3))});
+      }
+  d.scenes.emplace_back("", s);
+  return d;
+}
+
+Dataset SunSweep(const DatasetOptions& o) {
+  Dataset d;
+  d.name = "sun";
+  Scene s;
+  s.seed = o.seed;
+  s.camera = RangeCamera();
+  s.sensor = StandardSensor();
+  s.light = Sunlight(45, 45);
+  SceneObject plate = Plate(1.5);
+  plate.markers.push_back(Printed(MarkerModel::Standard(4, 0.2, 0.05), OnPlate(0, 0, 0)));
+  s.objects.push_back(plate);
+  const Pose cam = LookAt(Vec3(0.25, -0.2, 2.0), Vec3::Zero(), Vec3(0, 1, 0));
+  int k = 0;
+  auto add = [&](double elev, double az, std::optional<std::vector<Occluder>> occ) {
+    View v{Name("sun_", k++), cam};
+    v.sun = Sunlight(elev, az).sun;
+    v.occluders = std::move(occ);
+    s.views.push_back(v);
+  };
+  for (int e = 5; e <= 90; e += o.quick ? 40 : 5) add(e, 45, std::vector<Occluder>{});
+  for (int a = 0; a < 360; a += o.quick ? 180 : 30) add(30, a, std::vector<Occluder>{});
+  // A shadow edge across the marker: a long bar 0.6 m above the plate, between sun and marker.
+  const Lighting sl = Sunlight(40, 200);
+  const Vec3 sdir = sl.sun->to_sun_world;
+  for (int i = 0; i < (o.quick ? 1 : 8); ++i) {
+    const double x = -0.18 + 0.36 * i / 7.0;  // where the shadow edge crosses the marker
+    Occluder bar;
+    bar.size = Vec3(0.3, 3.0, 0.02);
+    bar.reflectance = 0.3;
+    // The bar's edge at x casts its shadow edge onto the plate at x (bar centred 0.15 beyond).
+    const Vec3 on_plate(x - 0.15, 0, 0);
+    bar.world_from_occluder.tvec = on_plate + (0.6 / sdir.z()) * sdir;
+    View v{Name("sun_", k++), cam};
+    v.sun = sl.sun;
+    v.occluders = std::vector<Occluder>{bar};
+    s.views.push_back(v);
+  }
+  d.scenes.emplace_back("", s);
+  return d;
+}
+
+Dataset Occlusion(const DatasetOptions& o) {
+  Dataset d;
+  d.name = "occlusion";
+  Scene s;
+  s.seed = o.seed;
+  s.camera = RangeCamera();
+  s.sensor = StandardSensor();
+  s.light = Sunlight(55, 120);
+  s.light.ambient = 0.1;
+  const MarkerModel m = MarkerModel::Standard(5, 0.2, 0.05);
+  SceneObject plate = Plate(1.0);
+  plate.markers.push_back(Printed(m, OnPlate(0, 0, 0)));
+  s.objects.push_back(plate);
+  const uint64_t word = Svms44::Codeword(m.id);
+  std::mt19937_64 rng(o.seed * 7919 + 3);
+  int k = 0;
+  const std::vector<int> counts = o.quick ? std::vector<int>{0, 3, 5, 10} : std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10};
+  for (int covered : counts) {
+    for (int trial = 0; trial < (o.quick ? 1 : 10); ++trial) {
+      // `covered` cells, each under a patch of the opposite colour 3 mm above it: every one a
+      // flipped bit.
+      std::vector<int> cells(44);
+      for (int i = 0; i < 44; ++i) cells[i] = i;
+      std::shuffle(cells.begin(), cells.end(), rng);
+      std::vector<Occluder> patches;
+      for (int c = 0; c < covered; ++c) {
+        const Eigen::Vector2d cc = m.BitCellCentre(cells[c]);
+        Occluder p;
+        p.size = Vec3(1.04 * m.cell_size, 1.04 * m.cell_size, 0.001);
+        p.world_from_occluder.tvec = Vec3(cc.x(), cc.y(), 0.003);
+        p.reflectance = ((word >> cells[c]) & 1) ? 0.04 : 0.85;
+        patches.push_back(p);
+      }
+      std::uniform_real_distribution<double> u(-1, 1);
+      const Vec3 eye(0.3 * u(rng), 0.3 * u(rng), 1.6 + 0.4 * u(rng));
+      View v{Name("occl_", k++), LookAt(eye, Vec3::Zero(), Vec3(u(rng), 1, 0))};
+      v.occluders = patches;
+      s.views.push_back(v);
+    }
+  }
+  d.scenes.emplace_back("", s);
+  return d;
+}
+
+Dataset Mockup(const DatasetOptions& o) {
+  Dataset d;
+  d.name = "mockup";
+  Scene s;
+  s.seed = o.seed;
+  s.camera = DistortedCamera();
+  s.sensor = StandardSensor();
+  s.light = Sunlight(40, 20);
+  s.light.earthshine = Sun{Vec3(0, 0, -1), 0.08, 0};
+  s.background.kind = Background::Kind::kEarth;
+  s.background.brightness = 0.7;
+  SceneObject box;
+  box.name = "module";
+  box.shape = SceneObject::Shape::kBox;
+  box.size = Vec3(1, 1, 2);  // the front (docking) face is z = +1
+  box.material.reflectance = 0.35;
+  box.material.specular = 0.3;
+  box.material.shininess = 80;
+  const Vec3 half = 0.5 * box.size;
+  MarkerModel dual = MarkerModel::Standard(10, 0.432, 0.027);
+  dual.AddInner(11, 0.108);
+  struct Place {
+    MarkerModel m;
+    int axis, sign;
+    double u, v, spin;
+  };
+  const std::vector<Place> places = {
+      {dual, 2, +1, 0, 0, 0},
+      {MarkerModel::Standard(12, 0.2, 0.05), 0, +1, 0.0, 0.55, 0},
+      {MarkerModel::Standard(13, 0.1, 0.025), 0, +1, 0.25, 0.0, 0.3},
+      {MarkerModel::Standard(14, 0.2, -0.04), 0, +1, -0.1, -0.45, 0},  // concave
+      {MarkerModel::Standard(15, 0.2, 0.05), 1, +1, 0.0, 0.55, 0.1},
+      {MarkerModel::Standard(16, 0.1, 0.025), 1, +1, -0.25, 0.05, 0},
+      {MarkerModel::Standard(17, 0.2, 0.05), 0, -1, 0.0, 0.5, 0},
+      {MarkerModel::Standard(18, 0.1, 0.025), 1, -1, 0.2, 0.5, 0},
+  };
+  Layout truth_layout;
+  truth_layout.name = "mockup (true)";
+  for (const Place& p : places) {
+    const Pose pose = OnBoxFace(half, p.axis, p.sign, p.u, p.v, p.spin);
+    box.markers.push_back(Printed(p.m, pose));
+    truth_layout.markers.push_back(LayoutEntry{p.m, pose, std::nullopt, std::nullopt});
+  }
+  s.objects.push_back(box);
+  std::mt19937_64 rng(o.seed * 31 + 1);
+  std::normal_distribution<double> g(0, 1);
+  const int n = o.quick ? 6 : 200;
+  for (int i = 0; i < n; ++i) {
+    const double f = static_cast<double>(i) / (n - 1);
+    const double D = 10.0 * std::pow(0.5 / 10.0, f);  // 10 m to 0.5 m from the front face
+    // Off-axis far away (the side faces show), nearly on-axis at docking.
+    const Vec3 dir = Vec3(0.45 * (1 - f) + 0.05, 0.35 * (1 - f) + 0.03, 1).normalized();
+    const Vec3 front(0, 0, half.z());
+    const Vec3 eye = front + D * dir + 0.01 * D * Vec3(g(rng), g(rng), g(rng));
+    const Vec3 target = front + Vec3(-0.1 * (1 - f), -0.1 * (1 - f), -0.3 * (1 - f)) + 0.005 * D * Vec3(g(rng), g(rng), 0);
+    const double roll = 0.2 * std::sin(6 * f);
+    View v{Name("mockup_", i), LookAt(eye, target, Vec3(std::sin(roll), std::cos(roll), 0))};
+    v.sun = Sunlight(40 - 15 * f, 20 + 70 * f).sun;  // the sun moves during the approach
+    s.views.push_back(v);
+  }
+  d.scenes.emplace_back("", s);
+  d.files.emplace_back("true.cameramodel", "");  // written by the caller from the scene camera
+  d.files.emplace_back("true_layout.json", LayoutToJson(truth_layout));
+  return d;
+}
+
+Dataset Calibration(const DatasetOptions& o) {
+  Dataset d;
+  d.name = "calibration";
+  const CameraModel cam = DistortedCamera();
+  // The marker board: 6 x 5 flat markers of 0.06 m on white, pitch 0.135 m.
+  const int cols = 6, rows = 5;
+  const double size = 0.06, pitch = 2 * size + 0.015;
+  SceneObject board;
+  board.name = "board";
+  board.shape = SceneObject::Shape::kPlane;
+  board.size = Vec3(cols * pitch + 0.06, rows * pitch + 0.06, 0);
+  board.material.reflectance = 0.85;
+  Layout layout;
+  layout.name = "calibration board 6x5, 0.06 m";
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) {
+      Pose p;
+      p.tvec = Vec3((c - 0.5 * (cols - 1)) * pitch, (0.5 * (rows - 1) - r) * pitch, 0);
+      const MarkerModel m = MarkerModel::Standard(100 + r * cols + c, size, 0);
+      board.markers.push_back(Printed(m, p));
+      layout.markers.push_back(LayoutEntry{m, p, std::nullopt, std::nullopt});
+    }
+  // The chessboard of the comparison: 10 x 8 squares of 0.075 m with a white border.
+  SceneObject chess;
+  chess.name = "chessboard";
+  chess.shape = SceneObject::Shape::kPlane;
+  chess.size = Vec3(10 * 0.075 + 0.1, 8 * 0.075 + 0.1, 0);
+  chess.material.pattern.kind = Pattern::Kind::kChecker;
+  chess.material.pattern.period = 0.075;
+  chess.material.pattern.cols = 10;
+  chess.material.pattern.rows = 8;
+  chess.material.pattern.low = 0.04;
+  chess.material.pattern.high = 0.85;
+
+  Scene base;
+  base.seed = o.seed;
+  base.camera = cam;
+  base.sensor = StandardSensor();
+  base.light.ambient = 0.9;  // an evenly lit lab
+  std::mt19937_64 rng(o.seed * 101 + 7);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const int n = o.quick ? 4 : 40;
+  for (int i = 0; i < n; ++i) {
+    // Cover the image: aim the board's centre at points spread over the field of view, tilted
+    // up to 45 degrees, 1.3 to 2.4 m away.
+    const double D = 1.3 + 1.1 * (0.5 + 0.5 * u(rng));
+    const double tilt = 45 * kDeg * std::sqrt(0.5 + 0.5 * u(rng)), az = M_PI * u(rng);
+    const Vec3 eye = D * Vec3(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az), std::cos(tilt));
+    const Pose look = LookAt(eye, Vec3::Zero(), Vec3(u(rng), 1, 0));
+    // Then turn the camera so the board lands off-centre (toward the image corners).
+    const Pose turn{Vec3(0.16 * u(rng), 0.16 * u(rng), 0), Vec3::Zero()};
+    base.views.push_back(View{Name("calib_", i), turn * look});
+  }
+  Scene with_board = base, with_chess = base;
+  with_board.objects = {board};
+  with_chess.objects = {chess};
+  d.scenes.emplace_back("board", with_board);
+  d.scenes.emplace_back("chessboard", with_chess);
+  d.files.emplace_back("true.cameramodel", "");
+  d.files.emplace_back("board_layout.json", LayoutToJson(layout));
+  return d;
+}
+
+Dataset Clutter(const DatasetOptions& o) {
+  Dataset d;
+  d.name = "clutter";
+  Scene s;
+  s.seed = o.seed;
+  s.camera = DistortedCamera();
+  s.sensor = StandardSensor();
+  s.light = Sunlight(50, 70);
+  s.light.ambient = 0.1;
+  s.background.kind = Background::Kind::kEarth;
+  std::mt19937_64 rng(o.seed * 977 + 5);
+  std::uniform_real_distribution<double> u(-1, 1), u01(0, 1);
+  const Pattern::Kind kinds[] = {Pattern::Kind::kUniform, Pattern::Kind::kChecker, Pattern::Kind::kStripes,
+                                 Pattern::Kind::kGrid, Pattern::Kind::kText, Pattern::Kind::kNoise};
+  for (int i = 0; i < 60; ++i) {
+    SceneObject ob;
+    ob.name = Name("clutter_", i);
+    ob.shape = u01(rng) < 0.5 ? SceneObject::Shape::kBox : SceneObject::Shape::kPlane;
+    ob.size = Vec3(0.1 + 0.7 * u01(rng), 0.1 + 0.7 * u01(rng), 0.05 + 0.5 * u01(rng));
+    ob.world_from_object.tvec = Vec3(2.5 * u(rng), 2.5 * u(rng), 0.8 * u(rng));
+    ob.world_from_object.rvec = Vec3(0.6 * u(rng), 0.6 * u(rng), M_PI * u(rng));
+    ob.material.reflectance = 0.05 + 0.8 * u01(rng);
+    Pattern& p = ob.material.pattern;
+    p.kind = kinds[i % 6];
+    p.period = 0.01 + 0.08 * u01(rng);
+    p.low = 0.03 + 0.1 * u01(rng);
+    p.high = 0.6 + 0.3 * u01(rng);
+    p.line = 0.2 * p.period;
+    p.seed = rng();
+    ob.material.specular = u01(rng) < 0.3 ? 0.5 : 0;
+    s.objects.push_back(ob);
+  }
+  const int n = o.quick ? 5 : 50;
+  for (int i = 0; i < n; ++i) {
+    const Vec3 target(2 * u(rng), 2 * u(rng), 0.3 * u(rng));
+    const double D = 1.5 + 3 * u01(rng);
+    const Vec3 eye = target + D * Vec3(0.5 * u(rng), 0.5 * u(rng), 1).normalized();
+    s.views.push_back(View{Name("clutter_", i), LookAt(eye, target, Vec3(u(rng), 1, 0))});
+  }
+  d.scenes.emplace_back("", s);
+  return d;
+}
+
+}  // namespace
+
+Pose LookAt(const Vec3& eye, const Vec3& target, const Vec3& up) {
+  const Vec3 z = (target - eye).normalized();
+  Vec3 y = -(up - up.dot(z) * z);
+  if (y.norm() < 1e-9) y = z.unitOrthogonal();
+  y.normalize();
+  const Vec3 x = y.cross(z);
+  Eigen::Matrix3d R_world_from_cam;
+  R_world_from_cam << x, y, z;
+  return Pose::FromRotation(R_world_from_cam.transpose(), -(R_world_from_cam.transpose() * eye));
+}
+
+Pose OnBoxFace(const Vec3& half, int axis, int sign, double u, double v, double spin) {
+  const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+  const int lo = std::min(a1, a2), hi = std::max(a1, a2);
+  Vec3 n = Vec3::Zero(), e1 = Vec3::Zero(), e2 = Vec3::Zero();
+  n[axis] = sign;
+  e1[lo] = 1;
+  e2[hi] = 1;
+  const Vec3 x0 = e1, y0 = n.cross(e1);
+  const Vec3 x = std::cos(spin) * x0 + std::sin(spin) * y0, y = n.cross(x);
+  Eigen::Matrix3d R;
+  R << x, y, n;
+  return Pose::FromRotation(R, half[axis] * n + u * e1 + v * e2);
+}
+
+CameraModel RangeCamera() { return CameraModel::Pinhole(30.0 * 16.0 / 0.432, 1024, 1024); }
+
+CameraModel DistortedCamera() {
+  CameraModel cam;
+  const Status s = CameraModel::Create(
+      "LENSMODEL_OPENCV8",
+      {1111.0, 1109.0, 515.3, 508.7, -0.32, 0.12, 0.0006, -0.0004, -0.02, 0.01, 0.005, 0.001}, 1024, 1024, &cam);
+  if (!s) __builtin_trap();  // fixed, valid parameters
+  return cam;
+}
+
+std::vector<std::string> DatasetNames() {
+  return {"range", "angle", "sun", "occlusion", "mockup", "calibration", "clutter"};
+}
+
+std::string DatasetDescription(const std::string& name) {
+  if (name == "range") return "dual marker 0.432/0.108 m, 0.8 to 16 m, 1024x1024 pinhole (0.432 m = 30 px at 16 m)";
+  if (name == "angle") return "0.2 m marker, 0 to 75 degrees off-axis at 1.5, 4 and 8 m";
+  if (name == "sun") return "sun elevation and azimuth sweeps, post shadow, a bar's shadow edge across the marker";
+  if (name == "occlusion") return "0 to 10 data bits covered by patches of the opposite colour (each a flipped bit)";
+  if (name == "mockup") return "1 x 1 x 2 m module, 8 markers (3 sizes, a dual, a concave), 200 views from 10 m to 0.5 m, moving sun";
+  if (name == "calibration") return "a 6x5 marker board and a 10x8 chessboard, same 40 views, OPENCV8 camera";
+  if (name == "clutter") return "60 patterned boxes and planes (checker, stripes, grid, text, noise), no markers";
+  return "";
+}
+
+Status MakeDataset(const std::string& name, const DatasetOptions& o, Dataset* out) {
+  Dataset d;
+  if (name == "range") d = Range(o);
+  else if (name == "angle") d = Angle(o);
+  else if (name == "sun") d = SunSweep(o);
+  else if (name == "occlusion") d = Occlusion(o);
+  else if (name == "mockup") d = Mockup(o);
+  else if (name == "calibration") d = Calibration(o);
+  else if (name == "clutter") d = Clutter(o);
+  else {
+    std::string list;
+    for (const auto& n : DatasetNames()) list += (list.empty() ? "" : ", ") + n;
+    return Status::Error("dataset \"" + name + "\": expected one of " + list);
+  }
+  d.description = DatasetDescription(name);
+  *out = std::move(d);
+  return Status::Ok();
+}
+
+}  // namespace svms

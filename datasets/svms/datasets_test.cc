@@ -1,0 +1,99 @@
+#include "svms/datasets.h"
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "svms/model_io.h"
+
+namespace svms {
+namespace {
+
+TEST(Datasets, EveryDatasetBuildsValidScenesThatRoundTrip) {
+  for (const std::string& name : DatasetNames()) {
+    for (bool quick : {true, false}) {
+      Dataset d;
+      ASSERT_TRUE(MakeDataset(name, DatasetOptions{3, quick}, &d).ok()) << name;
+      ASSERT_FALSE(d.scenes.empty()) << name;
+      EXPECT_FALSE(d.description.empty());
+      for (const auto& [sub, scene] : d.scenes) {
+        EXPECT_TRUE(scene.Validate().ok()) << name;
+        Scene back;
+        const Status s = ParseSceneJson(SceneToJson(scene), name, "", &back);
+        ASSERT_TRUE(s.ok()) << s.message();
+        EXPECT_EQ(back.views.size(), scene.views.size());
+      }
+    }
+  }
+  Dataset d;
+  EXPECT_FALSE(MakeDataset("moon", DatasetOptions{}, &d).ok());
+}
+
+TEST(Datasets, AreDeterministicFromTheSeed) {
+  Dataset a, b, c;
+  ASSERT_TRUE(MakeDataset("mockup", DatasetOptions{5, false}, &a).ok());
+  ASSERT_TRUE(MakeDataset("mockup", DatasetOptions{5, false}, &b).ok());
+  ASSERT_TRUE(MakeDataset("mockup", DatasetOptions{6, false}, &c).ok());
+  EXPECT_EQ(SceneToJson(a.scenes[0].second), SceneToJson(b.scenes[0].second));
+  EXPECT_NE(SceneToJson(a.scenes[0].second), SceneToJson(c.scenes[0].second));
+  EXPECT_EQ(a.scenes[0].second.views.size(), 200u);
+}
+
+TEST(Datasets, MockupHasEightMarkersOfThreeSizesWithADualAndAConcave) {
+  Dataset d;
+  ASSERT_TRUE(MakeDataset("mockup", DatasetOptions{}, &d).ok());
+  const SceneObject& box = d.scenes[0].second.objects.at(0);
+  ASSERT_EQ(box.markers.size(), 8u);
+  std::set<double> sizes;
+  int duals = 0, concave = 0;
+  for (const SceneMarker& m : box.markers) {
+    sizes.insert(m.model.size);
+    duals += m.model.inner.has_value();
+    concave += m.model.post && m.model.post->concave();
+    // Each marker lies on a face of the box: its centre on the surface, its z along the
+    // face's outward normal.
+    const Eigen::Vector3d c = m.object_from_marker.tvec, n = m.object_from_marker.Rotation().col(2);
+    const Eigen::Vector3d half = 0.5 * box.size;
+    int axis;
+    n.cwiseAbs().maxCoeff(&axis);
+    EXPECT_NEAR(std::abs(n[axis]), 1, 1e-12);
+    EXPECT_NEAR(c[axis], n[axis] * half[axis], 1e-12);
+    for (int k = 0; k < 3; ++k)
+      if (k != axis) EXPECT_LE(std::abs(c[k]) + m.model.half_extent(), half[k] + 1e-9) << m.model.id;
+  }
+  EXPECT_EQ(sizes.size(), 3u);
+  EXPECT_EQ(duals, 1);
+  EXPECT_EQ(concave, 1);
+  // The true layout companion file parses and matches.
+  bool found = false;
+  for (const auto& [rel, text] : d.files) {
+    if (rel != "true_layout.json") continue;
+    ModelFile f;
+    ASSERT_TRUE(ParseModelJson(text, rel, &f).ok());
+    EXPECT_EQ(f.layout.markers.size(), 8u);
+    found = true;
+  }
+  EXPECT_TRUE(found);
+}
+
+TEST(Datasets, LookAtPutsTheTargetOnTheOpticalAxis) {
+  const Eigen::Vector3d eye(1, -2, 3), target(0.2, 0.1, -0.3);
+  const Pose cam_from_world = LookAt(eye, target, Eigen::Vector3d(0, 0, 1));
+  const Eigen::Vector3d t = cam_from_world * target;
+  EXPECT_NEAR(t.x(), 0, 1e-12);
+  EXPECT_NEAR(t.y(), 0, 1e-12);
+  EXPECT_NEAR(t.z(), (target - eye).norm(), 1e-12);
+  // World up appears up in the image (negative camera y).
+  EXPECT_LT((cam_from_world.Rotation() * Eigen::Vector3d(0, 0, 1)).y(), 0);
+}
+
+TEST(Datasets, RangeCameraMakesTheOuterSquare30PixelsAt16Metres) {
+  const CameraModel cam = RangeCamera();
+  Eigen::Vector2d a, b;
+  ASSERT_TRUE(cam.Project(Eigen::Vector3d(-0.216, 0, 16), &a));
+  ASSERT_TRUE(cam.Project(Eigen::Vector3d(0.216, 0, 16), &b));
+  EXPECT_NEAR((b - a).norm(), 30.0, 1e-9);
+}
+
+}  // namespace
+}  // namespace svms
