@@ -35,6 +35,14 @@ Lighting Sunlight(double elevation_deg, double azimuth_deg) {
   return l;
 }
 
+// A dual marker whose post (height inner / 4, radius inner / 20) suits its inner marker.
+MarkerModel Dual(int id, double size, int inner_id, double inner_size) {
+  MarkerModel m = MarkerModel::Standard(id, size, 0.25 * inner_size);
+  m.AddInner(inner_id, inner_size);
+  m.post->radius = m.post->tip_radius = inner_size / 20;
+  return m;
+}
+
 SceneMarker Printed(const MarkerModel& m, const Pose& object_from_marker) {
   SceneMarker sm;
   sm.model = m;
@@ -76,8 +84,7 @@ Dataset Range(const DatasetOptions& o) {
   s.sensor = StandardSensor();
   s.light = Sunlight(50, 30);
   SceneObject plate = Plate(1.2);
-  MarkerModel dual = MarkerModel::Standard(1, 0.432, 0.027);
-  dual.AddInner(2, 0.108);
+  const MarkerModel dual = Dual(1, 0.432, 2, 0.108);
   plate.markers.push_back(Printed(dual, OnPlate(0, 0, 0)));
   s.objects.push_back(plate);
   std::mt19937_64 rng(o.seed);
@@ -231,8 +238,7 @@ Dataset Mockup(const DatasetOptions& o) {
   box.material.specular = 0.3;
   box.material.shininess = 80;
   const Vec3 half = 0.5 * box.size;
-  MarkerModel dual = MarkerModel::Standard(10, 0.432, 0.027);
-  dual.AddInner(11, 0.108);
+  const MarkerModel dual = Dual(10, 0.432, 11, 0.108);
   struct Place {
     MarkerModel m;
     int axis, sign;
@@ -384,6 +390,64 @@ Dataset Clutter(const DatasetOptions& o) {
   return d;
 }
 
+// The pictures of docs/simulator.md: one marker in sun, in shadow, with a shadow edge and
+// under a low sun; under the ring light with retro-reflective white; and the dual marker at
+// 0.8, 7 and 16 m through a 256 x 256 window of the range camera (same focal length).
+Dataset Gallery(const DatasetOptions& o) {
+  Dataset d;
+  d.name = "gallery";
+  Scene s;
+  s.seed = o.seed;
+  s.camera = CameraModel::Pinhole(900, 512, 512);
+  s.sensor = StandardSensor();
+  s.light = Sunlight(50, 210);
+  s.background.kind = Background::Kind::kEarth;
+  SceneObject plate = Plate(1.0);
+  plate.markers.push_back(Printed(MarkerModel::Standard(21, 0.2, 0.06), OnPlate(0, 0, 0)));
+  s.objects.push_back(plate);
+  const Pose cam = LookAt(Vec3(0.15, -0.25, 1.0), Vec3::Zero(), Vec3(0, 1, 0));
+  const Vec3 to_sun = s.light.sun->to_sun_world;
+  View sun{"sun", cam};
+  View shadow{"shadow", cam};
+  Occluder roof;  // a panel high up between sun and marker, out of the camera's view
+  roof.size = Vec3(1.2, 1.2, 0.02);
+  roof.world_from_occluder.tvec = (1.5 / to_sun.z()) * to_sun;
+  shadow.occluders = std::vector<Occluder>{roof};
+  View edge{"shadow_edge", cam};
+  Occluder bar;
+  bar.size = Vec3(0.6, 3.0, 0.02);
+  bar.world_from_occluder.tvec = Vec3(-0.27, 0, 0) + (0.8 / to_sun.z()) * to_sun;
+  edge.occluders = std::vector<Occluder>{bar};
+  View low{"low_sun", cam};
+  low.sun = Sunlight(12, 150).sun;
+  s.views = {sun, shadow, edge, low};
+  d.scenes.emplace_back("lighting", s);
+
+  Scene ring = s;
+  ring.objects[0].markers[0].retro = true;
+  ring.light.ring_light = 0.02;  // retro white: 0.85 * 50 * 0.02 / 1.1 m^2 = 0.7
+  ring.light.narrow_band_filter = true;
+  ring.views = {View{"ring_light", cam}};
+  d.scenes.emplace_back("ring", ring);
+
+  Scene dual;
+  dual.seed = o.seed;
+  dual.camera = CameraModel::Pinhole(30.0 * 16.0 / 0.432, 256, 256);
+  dual.sensor = StandardSensor();
+  dual.light = Sunlight(50, 30);
+  SceneObject p2 = Plate(1.2);
+  const MarkerModel m = Dual(1, 0.432, 2, 0.108);
+  p2.markers.push_back(Printed(m, OnPlate(0, 0, 0)));
+  dual.objects.push_back(p2);
+  for (double D : {0.8, 7.0, 16.0}) {
+    char name[32];
+    std::snprintf(name, sizeof name, "dual_%04.1fm", D);
+    dual.views.push_back(View{name, LookAt(Vec3(0.02 * D, 0.03 * D, D), Vec3::Zero(), Vec3(0.1, 1, 0))});
+  }
+  d.scenes.emplace_back("dual", dual);
+  return d;
+}
+
 }  // namespace
 
 Pose LookAt(const Vec3& eye, const Vec3& target, const Vec3& up) {
@@ -423,7 +487,7 @@ CameraModel DistortedCamera() {
 }
 
 std::vector<std::string> DatasetNames() {
-  return {"range", "angle", "sun", "occlusion", "mockup", "calibration", "clutter"};
+  return {"range", "angle", "sun", "occlusion", "mockup", "calibration", "clutter", "gallery"};
 }
 
 std::string DatasetDescription(const std::string& name) {
@@ -434,6 +498,7 @@ std::string DatasetDescription(const std::string& name) {
   if (name == "mockup") return "1 x 1 x 2 m module, 8 markers (3 sizes, a dual, a concave), 200 views from 10 m to 0.5 m, moving sun";
   if (name == "calibration") return "a 6x5 marker board and a 10x8 chessboard, same 40 views, OPENCV8 camera";
   if (name == "clutter") return "60 patterned boxes and planes (checker, stripes, grid, text, noise), no markers";
+  if (name == "gallery") return "the pictures of docs/simulator.md: sun, shadow, shadow edge, ring light, dual at 0.8/7/16 m";
   return "";
 }
 
@@ -446,6 +511,7 @@ Status MakeDataset(const std::string& name, const DatasetOptions& o, Dataset* ou
   else if (name == "mockup") d = Mockup(o);
   else if (name == "calibration") d = Calibration(o);
   else if (name == "clutter") d = Clutter(o);
+  else if (name == "gallery") d = Gallery(o);
   else {
     std::string list;
     for (const auto& n : DatasetNames()) list += (list.empty() ? "" : ", ") + n;

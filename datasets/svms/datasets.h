@@ -27,7 +27,7 @@ struct Dataset {
 };
 
 // The names of the standard datasets, in order: range, angle, sun, occlusion, mockup,
-// calibration, clutter.
+// calibration, clutter; and gallery (the documentation's pictures).
 std::vector<std::string> DatasetNames();
 std::string DatasetDescription(const std::string& name);
 
