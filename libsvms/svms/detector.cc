@@ -1,0 +1,202 @@
+#include "svms/detector.h"
+
+#include <chrono>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "svms/bit_sampler.h"
+#include "svms/svms44.h"
+
+namespace svms {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Ms(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+// The homography from the marker plane of a unit marker (black square of side 1) to pixels.
+Eigen::Matrix3d UnitHomography(const std::array<Eigen::Vector2d, 4>& q) {
+  std::vector<cv::Point2f> src{{-0.5f, 0.5f}, {0.5f, 0.5f}, {0.5f, -0.5f}, {-0.5f, -0.5f}}, dst;
+  for (const auto& p : q) dst.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
+  const cv::Mat H = cv::getPerspectiveTransform(src, dst);
+  Eigen::Matrix3d h;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) h(i, j) = H.at<double>(i, j);
+  return h;
+}
+
+bool Inside(const Eigen::Vector2d& p, const std::array<Eigen::Vector2d, 4>& q) {
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d e = q[(k + 1) % 4] - q[k], d = p - q[k];
+    if (e.x() * d.y() - e.y() * d.x() < 0) return false;  // clockwise on screen: inside is right
+  }
+  return true;
+}
+
+}  // namespace
+
+double Detection::side_px() const {
+  double s = 0;
+  for (int k = 0; k < 4; ++k) s += (corners[(k + 1) % 4] - corners[k]).norm();
+  return s / 4;
+}
+
+Detector::Detector(const DetectorOptions& options, const CameraModel& camera,
+                   const std::vector<MarkerModel>& models)
+    : options_(options), camera_(camera) {
+  for (const MarkerModel& m : models) {
+    models_[m.id] = m;
+    if (auto inner = m.InnerModel()) {
+      models_[inner->id] = *inner;
+      outer_of_[inner->id] = m.id;
+    }
+  }
+}
+
+std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* stats_out) const {
+  DetectionStats stats;
+  const DetectorOptions& o = options_;
+  std::vector<Detection> out;
+  if (input.empty()) return out;
+  // 0. One 8-bit grey image (16-bit scaled to its used range, colour converted).
+  cv::Mat gray;
+  if (input.channels() == 3) {
+    cv::cvtColor(input, gray, cv::COLOR_BGR2GRAY);
+  } else if (input.channels() == 4) {
+    cv::cvtColor(input, gray, cv::COLOR_BGRA2GRAY);
+  } else {
+    gray = input;
+  }
+  if (gray.depth() == CV_16U) {
+    double mx;
+    cv::minMaxLoc(gray, nullptr, &mx);
+    gray.convertTo(gray, CV_8U, mx > 0 ? 255.0 / mx : 1.0);
+  } else if (gray.depth() != CV_8U) {
+    gray.convertTo(gray, CV_8U);
+  }
+  if (gray.cols < 8 || gray.rows < 8) return out;
+
+  // 1-3. Edges, chains, segments.
+  auto t0 = Clock::now();
+  cv::Mat gx, gy;
+  const std::vector<Segment> segs = FindSegments(gray, o.segments, &gx, &gy);
+  stats.segments = static_cast<int>(segs.size());
+  auto t1 = Clock::now();
+  stats.ms[0] = Ms(t0, t1);
+
+  // 4. Quads.
+  const std::vector<Quad> quads = FindQuads(segs, o.quads, gray.cols, gray.rows);
+  stats.quads = static_cast<int>(quads.size());
+  auto t2 = Clock::now();
+  stats.ms[1] = Ms(t1, t2);
+
+  // 5-7. Homography, bits, decoding.
+  const MarkerModel unit = MarkerModel::Standard(0, 1.0, 0);
+  for (const Quad& q : quads) {
+    const Eigen::Matrix3d H = UnitHomography(q.corners);
+    const BitReading bits = SampleBits(gray, H, unit);
+    if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) continue;
+    const CodeMatch m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
+    if (!m.accepted()) continue;
+    const bool known = models_.count(m.id) > 0;
+    if (!models_.empty() && o.known_ids_only && !known) continue;
+    Detection d;
+    d.id = m.id;
+    d.rotation = m.rotation;
+    d.bit_errors = m.bit_errors;
+    for (int k = 0; k < 4; ++k) d.corners[k] = q.corners[(k - m.rotation + 4) % 4];
+    d.black = bits.black;
+    d.white = bits.white;
+    out.push_back(d);
+  }
+  auto t3 = Clock::now();
+  stats.ms[2] = Ms(t2, t3);
+
+  // 8. Sub-pixel corners (in the rotated order: clockwise on screen either way).
+  const CameraModel* cam = camera_.empty() ? nullptr : &camera_;
+  if (o.refine_corners) {
+    for (Detection& d : out) {
+      const RefinedCorners r = RefineCorners(gray, d.corners, cam, o.refine);
+      if (r.ok) d.corners = r.corners;
+    }
+  }
+  auto t4 = Clock::now();
+  stats.ms[3] = Ms(t3, t4);
+
+  // 9-10. Tip and pose; graded acceptance of large corrections.
+  std::vector<Detection> accepted;
+  for (Detection& d : out) {
+    auto it = models_.find(d.id);
+    if (cam && it != models_.end()) {
+      MarkerPose mp;
+      if (EstimateMarkerPose(gray, d.corners, it->second, camera_, d.black, d.white, o.pose, &mp)) {
+        d.cam_from_marker = mp.cam_from_marker;
+        d.covariance = mp.covariance;
+        d.tip = mp.tip;
+        d.pose_ambiguous = mp.ambiguous;
+        d.pose_rms_px = mp.rms_px;
+      }
+    }
+    if (d.bit_errors > o.max_unsupported_corrections) {
+      // Independent evidence: the post tip found where the pose puts it (and, for 3
+      // corrections, membership of the known set is enough).
+      const bool known = models_.count(d.id) > 0;
+      const bool evidence = d.tip.has_value() || (d.bit_errors <= 3 && known);
+      if (!evidence) {
+        ++stats.rejected_for_evidence;
+        continue;
+      }
+    }
+    accepted.push_back(d);
+  }
+  auto t5 = Clock::now();
+  stats.ms[4] = Ms(t4, t5);
+
+  // 11. Duplicates (the same marker from two quads) and nesting.
+  std::vector<Detection> result;
+  for (const Detection& d : accepted) {
+    bool dup = false;
+    for (Detection& r : result) {
+      if (r.id == d.id && (r.corners[0] - d.corners[0]).norm() < 0.2 * r.side_px()) {
+        if (d.bit_errors < r.bit_errors) r = d;
+        dup = true;
+      }
+    }
+    if (!dup) result.push_back(d);
+  }
+  for (Detection& d : result) {
+    auto it = outer_of_.find(d.id);
+    for (const Detection& r : result) {
+      if (&r == &d) continue;
+      const Eigen::Vector2d c = 0.25 * (d.corners[0] + d.corners[1] + d.corners[2] + d.corners[3]);
+      const bool model_says = it != outer_of_.end() && it->second == r.id;
+      if ((model_says || outer_of_.empty()) && r.side_px() > 1.5 * d.side_px() && Inside(c, r.corners)) {
+        d.nested_in = r.id;
+      }
+    }
+  }
+  stats.decoded = static_cast<int>(result.size());
+  stats.ms[5] = Ms(t5, Clock::now());
+
+  if (!o.debug_dir.empty()) {
+    std::filesystem::create_directories(o.debug_dir);
+    cv::Mat dbg;
+    cv::cvtColor(gray, dbg, cv::COLOR_GRAY2BGR);
+    for (const Segment& s : segs)
+      cv::line(dbg, cv::Point2d(s.a.x(), s.a.y()), cv::Point2d(s.b.x(), s.b.y()), cv::Scalar(0, 200, 255), 1);
+    cv::imwrite(o.debug_dir + "/1_segments.png", dbg);
+    cv::cvtColor(gray, dbg, cv::COLOR_GRAY2BGR);
+    for (const Quad& q : quads)
+      for (int k = 0; k < 4; ++k)
+        cv::line(dbg, cv::Point2d(q.corners[k].x(), q.corners[k].y()),
+                 cv::Point2d(q.corners[(k + 1) % 4].x(), q.corners[(k + 1) % 4].y()), cv::Scalar(255, 100, 0), 1);
+    cv::imwrite(o.debug_dir + "/2_quads.png", dbg);
+  }
+  if (stats_out) *stats_out = stats;
+  return result;
+}
+
+}  // namespace svms

@@ -1,0 +1,91 @@
+// The SVMS detector: every marker in one image, on its own (no state between frames).
+//
+// Steps, each a free function over plain structs, each timed (DetectionStats):
+//   1-3  edges -> chains -> straight segments          (segments.h)
+//   4    quadrilaterals and their corners              (quads.h)
+//   5    homography from the corners
+//   6    data bits, thresholds from the marker's own square and stripe   (bit_sampler.h)
+//   7    svms44 decoding with graded acceptance        (svms44.h)
+//   8    sub-pixel corners                             (corner_refine.h)
+//   9-10 post tip and pose                             (marker_pose.h)
+//   11   nesting of dual markers, duplicates removed
+// Safe to use one Detector per thread; Detect() is const and allocates only its own results.
+#pragma once
+
+#include <array>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "svms/camera.h"
+#include "svms/corner_refine.h"
+#include "svms/marker_model.h"
+#include "svms/marker_pose.h"
+#include "svms/pose.h"
+#include "svms/quads.h"
+#include "svms/segments.h"
+
+namespace svms {
+
+// One marker found in an image.
+struct Detection {
+  int id = -1;
+  int rotation = 0;     // which marker corner the quad's first corner was (svms44.h)
+  int bit_errors = 0;   // corrected bits
+  std::array<Eigen::Vector2d, 4> corners;  // TL, TR, BR, BL as printed; pixels
+  std::optional<TipObservation> tip;       // the post tip, when found
+  std::optional<Pose> cam_from_marker;     // with a camera and the marker's model
+  PoseCovariance covariance = PoseCovariance::Zero();  // [rotation, translation], camera axes
+  bool pose_ambiguous = false;  // two planar poses and no tip to choose
+  double pose_rms_px = 0;
+  int nested_in = -1;           // the outer marker's ID for the inner marker of a dual
+  double black = 0, white = 0;  // grey levels of the square and the stripe
+  double side_px() const;
+};
+
+struct DetectorOptions {
+  SegmentOptions segments;
+  QuadOptions quads;
+  CornerRefineOptions refine;
+  MarkerPoseOptions pose;
+  int max_corrections = 5;               // never more than this many corrected bits
+  int max_unsupported_corrections = 2;   // beyond this, a decode needs independent evidence
+  int id_count = 32768;                  // decode among IDs [0, id_count)
+  bool known_ids_only = true;            // with marker models: report only their IDs
+  double min_contrast = 12;              // white - black, grey levels
+  bool refine_corners = true;
+  std::string debug_dir;                 // if set, each step writes a picture there
+};
+
+struct DetectionStats {
+  static constexpr int kSteps = 6;
+  static constexpr const char* kStepNames[kSteps] = {"segments", "quads", "decode",
+                                                     "refine", "pose", "nesting"};
+  std::array<double, kSteps> ms{};
+  int segments = 0, quads = 0, decoded = 0, rejected_for_evidence = 0;
+};
+
+class Detector {
+ public:
+  // `camera` (may be empty) enables undistorted corner fits and poses; `models` (may be
+  // empty) give each ID's geometry, its post and its nesting.
+  Detector(const DetectorOptions& options, const CameraModel& camera,
+           const std::vector<MarkerModel>& models);
+
+  // All markers in `image` (CV_8UC1, CV_16UC1 or 3-channel 8-bit; any size >= 1x1).
+  std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats = nullptr) const;
+
+  const DetectorOptions& options() const { return options_; }
+
+ private:
+  DetectorOptions options_;
+  CameraModel camera_;
+  std::map<int, MarkerModel> models_;  // by ID, inner markers included
+  std::map<int, int> outer_of_;        // inner ID -> outer ID
+};
+
+}  // namespace svms

@@ -1,0 +1,242 @@
+#include "svms/detector.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "svms/render.h"
+#include "svms/truth.h"
+
+namespace svms {
+namespace {
+
+Pose Look(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
+  const Eigen::Vector3d z = (target - eye).normalized();
+  Eigen::Vector3d y = -(Eigen::Vector3d(0, 1, 0.2) - Eigen::Vector3d(0, 1, 0.2).dot(z) * z);
+  y.normalize();
+  const Eigen::Vector3d x = y.cross(z);
+  Eigen::Matrix3d R;
+  R << x, y, z;
+  return Pose::FromRotation(R.transpose(), -(R.transpose() * eye));
+}
+
+struct Rendered {
+  Scene scene;
+  cv::Mat image;
+  ViewTruth truth;
+};
+
+Rendered Render(Scene s) {
+  std::unique_ptr<Renderer> r;
+  EXPECT_TRUE(Renderer::Create(s, &r).ok());
+  Rendered out;
+  out.image = r->Expose(r->RenderRadiance(0), 0);
+  if (const char* dir = std::getenv("SVMS_TEST_IMAGES")) {
+    static int n = 0;
+    cv::imwrite(std::string(dir) + "/" + ::testing::UnitTest::GetInstance()->current_test_info()->name() +
+                    std::to_string(n++) + ".png", out.image);
+  }
+  out.truth = ComputeTruth(*r, 0);
+  out.scene = s;
+  return out;
+}
+
+Scene Base(const CameraModel& cam, const std::vector<std::pair<MarkerModel, Pose>>& markers, const Pose& view) {
+  Scene s;
+  s.seed = 3;
+  s.camera = cam;
+  s.light.sun = Sun{Eigen::Vector3d(0.3, -0.2, 1).normalized(), 1.0, 0.53};
+  s.light.ambient = 0.08;
+  s.background.kind = Background::Kind::kEarth;
+  SceneObject plate;
+  plate.name = "plate";
+  plate.shape = SceneObject::Shape::kBox;
+  plate.size = Eigen::Vector3d(2, 2, 0.02);
+  plate.world_from_object.tvec = Eigen::Vector3d(0, 0, -0.01);
+  plate.material.reflectance = 0.15;
+  for (const auto& [m, p] : markers) {
+    SceneMarker sm;
+    sm.model = m;
+    sm.object_from_marker = p;
+    sm.object_from_marker.tvec.z() += 0.01;
+    plate.markers.push_back(sm);
+  }
+  s.objects.push_back(plate);
+  s.views.push_back(View{"v", view});
+  return s;
+}
+
+double AngleDeg(const Pose& a, const Pose& b) {
+  return Eigen::AngleAxisd(a.Rotation() * b.Rotation().transpose()).angle() * 180 / M_PI;
+}
+
+CameraModel Distorted() {
+  CameraModel cam;
+  EXPECT_TRUE(CameraModel::Create("LENSMODEL_OPENCV8",
+                                  {800, 800, 321, 238, -0.3, 0.1, 0.0005, -0.0003, -0.01, 0.01, 0.004, 0.001},
+                                  640, 480, &cam).ok());
+  return cam;
+}
+
+TEST(Detector, FindsEveryMarkerWithAccurateCornersAndPose) {
+  MarkerModel a = MarkerModel::Standard(17, 0.1, 0.025);
+  MarkerModel b = MarkerModel::Standard(4242, 0.12, -0.02);  // concave
+  Pose pa, pb;
+  pa.tvec = Eigen::Vector3d(-0.13, 0.02, 0);
+  pa.rvec = Eigen::Vector3d(0, 0, 0.4);
+  pb.tvec = Eigen::Vector3d(0.12, -0.03, 0);
+  pb.rvec = Eigen::Vector3d(0, 0, -2.0);
+  const Rendered r = Render(Base(Distorted(), {{a, pa}, {b, pb}}, Look({0.1, -0.25, 0.75}, {0, 0, 0})));
+  DetectorOptions dopt;
+  dopt.debug_dir = "/tmp/svms_detector_debug";
+  cv::imwrite("/tmp/svms_detector_debug_input.png", r.image);
+  const Detector det(dopt, r.scene.camera, {a, b});
+  DetectionStats stats;
+  const std::vector<Detection> found = det.Detect(r.image, &stats);
+  ASSERT_EQ(found.size(), 2u) << "segments " << stats.segments << " quads " << stats.quads;
+  for (const Detection& d : found) {
+    const MarkerTruth* t = nullptr;
+    for (const auto& mt : r.truth.markers)
+      if (mt.id == d.id) t = &mt;
+    ASSERT_NE(t, nullptr) << d.id;
+    double worst = 0;
+    for (int k = 0; k < 4; ++k) worst = std::max(worst, (d.corners[k] - t->corners[k].pixel).norm());
+    EXPECT_LT(worst, 0.15) << "ID " << d.id << ": corner error in pixels";
+    ASSERT_TRUE(d.cam_from_marker.has_value());
+    EXPECT_LT((d.cam_from_marker->tvec - t->cam_from_marker.tvec).norm(), 0.002) << d.id;
+    EXPECT_LT(AngleDeg(*d.cam_from_marker, t->cam_from_marker), 0.5) << d.id;
+    EXPECT_TRUE(d.tip.has_value()) << d.id;
+    // A post's white top is seen whole; a well's bottom only partly (and partly shadowed).
+    if (d.tip && d.id == 17) EXPECT_LT((d.tip->pixel - t->tip.pixel).norm(), 0.5) << d.id;
+    EXPECT_FALSE(d.pose_ambiguous);
+    EXPECT_EQ(d.nested_in, -1);
+    // The covariance is a covariance.
+    EXPECT_TRUE((d.covariance - d.covariance.transpose()).cwiseAbs().maxCoeff() < 1e-12);
+    EXPECT_GT(d.covariance.diagonal().minCoeff(), 0);
+  }
+}
+
+TEST(Detector, DualMarkerReportsBothWithTheirNesting) {
+  MarkerModel dual = MarkerModel::Standard(1, 0.3, 0.02);
+  dual.AddInner(2, 0.075);
+  dual.post->radius = dual.post->tip_radius = 0.004;
+  const Rendered r = Render(Base(Distorted(), {{dual, Pose{}}}, Look({0.05, -0.15, 1.6}, {0, 0, 0})));
+  const Detector det(DetectorOptions{}, r.scene.camera, {dual});
+  const std::vector<Detection> found = det.Detect(r.image);
+  ASSERT_EQ(found.size(), 2u);
+  for (const Detection& d : found) {
+    if (d.id == 2) EXPECT_EQ(d.nested_in, 1);
+    if (d.id == 1) EXPECT_EQ(d.nested_in, -1);
+  }
+}
+
+TEST(Detector, TheTipPicksTheRightPoseWhereThePlanarPoseIsAmbiguous) {
+  // A small marker (about 55 x 30 px) seen 55 degrees off-axis: the two planar solutions are
+  // close in corner error; the post tip tells them apart.
+  MarkerModel m = MarkerModel::Standard(99, 0.08, 0.02);
+  const CameraModel cam = CameraModel::Pinhole(700, 320, 240);
+  const double a = 55 * M_PI / 180;
+  const Rendered r = Render(Base(cam, {{m, Pose{}}}, Look({std::sin(a), 0.1, std::cos(a)}, {0, 0, 0})));
+  const Detector det(DetectorOptions{}, cam, {m});
+  const std::vector<Detection> found = det.Detect(r.image);
+  ASSERT_EQ(found.size(), 1u);
+  ASSERT_TRUE(found[0].cam_from_marker && found[0].tip);
+  EXPECT_LT(AngleDeg(*found[0].cam_from_marker, r.truth.markers[0].cam_from_marker), 3.0);
+  // Without the post, the same corners leave the choice to the corner fit, flagged ambiguous.
+  MarkerModel flat = m;
+  flat.post.reset();
+  const Detector det_flat(DetectorOptions{}, cam, {flat});
+  const std::vector<Detection> f2 = det_flat.Detect(r.image);
+  ASSERT_EQ(f2.size(), 1u);
+  EXPECT_TRUE(f2[0].pose_ambiguous);
+}
+
+TEST(Detector, WithoutCameraOrModelsGivesIdsAndCornersOnly) {
+  MarkerModel a = MarkerModel::Standard(321, 0.1, 0.025);
+  const Rendered r = Render(Base(CameraModel::Pinhole(600, 320, 240), {{a, Pose{}}}, Look({0, -0.1, 0.6}, {0, 0, 0})));
+  const Detector det(DetectorOptions{}, CameraModel{}, {});
+  const std::vector<Detection> found = det.Detect(r.image);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].id, 321);
+  EXPECT_FALSE(found[0].cam_from_marker.has_value());
+  for (int k = 0; k < 4; ++k)
+    EXPECT_LT((found[0].corners[k] - r.truth.markers[0].corners[k].pixel).norm(), 0.15)
+        << k << " found " << found[0].corners[k].transpose() << " truth " << r.truth.markers[0].corners[k].pixel.transpose();
+}
+
+TEST(Detector, OddImagesGiveNoDetectionsAndNoCrash) {
+  const Detector det(DetectorOptions{}, CameraModel{}, {});
+  EXPECT_TRUE(det.Detect(cv::Mat()).empty());
+  EXPECT_TRUE(det.Detect(cv::Mat(1, 1, CV_8U, cv::Scalar(7))).empty());
+  EXPECT_TRUE(det.Detect(cv::Mat(3, 1000, CV_8U, cv::Scalar(7))).empty());
+  EXPECT_TRUE(det.Detect(cv::Mat(100, 100, CV_16U, cv::Scalar(0))).empty());
+  cv::Mat noise(240, 320, CV_8UC3);
+  cv::randu(noise, 0, 255);
+  EXPECT_TRUE(det.Detect(noise).empty());
+}
+
+TEST(Detector, SixteenBitAndColourImagesWork) {
+  MarkerModel a = MarkerModel::Standard(55, 0.1, 0.025);
+  Scene s = Base(CameraModel::Pinhole(600, 320, 240), {{a, Pose{}}}, Look({0, -0.1, 0.6}, {0, 0, 0}));
+  s.sensor.bits = 16;
+  const Rendered r = Render(s);
+  const Detector det(DetectorOptions{}, CameraModel{}, {});
+  ASSERT_EQ(det.Detect(r.image).size(), 1u);
+  cv::Mat colour;
+  cv::Mat eight;
+  r.image.convertTo(eight, CV_8U, 1.0 / 256);
+  cv::cvtColor(eight, colour, cv::COLOR_GRAY2BGR);
+  ASSERT_EQ(det.Detect(colour).size(), 1u);
+}
+
+TEST(RefinePose, JacobianMatchesFiniteDifferencesAndRecoversThePose) {
+  const CameraModel cam = Distorted();
+  Pose truth;
+  truth.rvec = Eigen::Vector3d(0.3, -0.5, 0.2);
+  truth.tvec = Eigen::Vector3d(0.05, -0.02, 0.8);
+  const MarkerModel m = MarkerModel::Standard(1, 0.1, 0.03);
+  const auto corners = m.Corners();
+  std::vector<Eigen::Vector3d> X(corners.begin(), corners.end());
+  X.push_back(*m.PostTip());
+  std::vector<Eigen::Vector2d> px;
+  for (const auto& x : X) {
+    Eigen::Vector2d q;
+    ASSERT_TRUE(cam.Project(truth * x, &q));
+    px.push_back(q);
+  }
+  Pose start = truth;
+  start.rvec += Eigen::Vector3d(0.05, -0.03, 0.02);
+  start.tvec += Eigen::Vector3d(0.01, 0.01, -0.05);
+  PoseCovariance cov;
+  double rms;
+  ASSERT_TRUE(RefinePose(cam, X, px, std::vector<double>(5, 0.1), &start, &cov, &rms));
+  EXPECT_LT((start.tvec - truth.tvec).norm(), 1e-9);
+  EXPECT_LT(AngleDeg(start, truth), 1e-7);
+  EXPECT_LT(rms, 1e-6);
+  // The covariance is (J^T W J)^-1: compare with a finite-difference Jacobian.
+  Eigen::Matrix<double, 10, 6> J;
+  const double h = 1e-7;
+  for (int k = 0; k < 6; ++k) {
+    Eigen::Matrix<double, 6, 1> dlt = Eigen::Matrix<double, 6, 1>::Zero();
+    dlt(k) = h;
+    auto residuals = [&](double sgn) {
+      const Eigen::Vector3d w = sgn * dlt.head<3>();
+      const Eigen::Matrix3d R = (w.norm() > 0 ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix()
+                                              : Eigen::Matrix3d::Identity()) * truth.Rotation();
+      Eigen::Matrix<double, 10, 1> r;
+      for (int i = 0; i < 5; ++i) {
+        Eigen::Vector2d q;
+        cam.Project(R * X[i] + truth.tvec + sgn * dlt.tail<3>(), &q);
+        r.segment<2>(2 * i) = q / 0.1;
+      }
+      return r;
+    };
+    J.col(k) = (residuals(1) - residuals(-1)) / (2 * h);
+  }
+  const PoseCovariance numeric = (J.transpose() * J).inverse();
+  EXPECT_LT((numeric - cov).norm() / cov.norm(), 1e-4);
+}
+
+}  // namespace
+}  // namespace svms

@@ -1,0 +1,264 @@
+#include "svms/marker_pose.h"
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <opencv2/calib3d.hpp>
+
+#include "svms/corner_refine.h"
+
+namespace svms {
+namespace {
+
+Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
+}  // namespace
+
+std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d& pred, double radius,
+                                      double black, double white, double min_contrast) {
+  const double thr = black + 0.5 * (white - black);
+  const int x0 = std::max(0, static_cast<int>(std::floor(pred.x() - radius)));
+  const int x1 = std::min(img.cols - 1, static_cast<int>(std::ceil(pred.x() + radius)));
+  const int y0 = std::max(0, static_cast<int>(std::floor(pred.y() - radius)));
+  const int y1 = std::min(img.rows - 1, static_cast<int>(std::ceil(pred.y() + radius)));
+  if (x0 > x1 || y0 > y1) return std::nullopt;
+  auto at = [&](int y, int x) -> double {
+    return img.depth() == CV_16U ? img.at<uint16_t>(y, x) : img.at<uint8_t>(y, x);
+  };
+  // The brightest pixel nearest the prediction seeds the blob.
+  double best = -1;
+  int bx = -1, by = -1;
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) {
+      const double d2 = (x - pred.x()) * (x - pred.x()) + (y - pred.y()) * (y - pred.y());
+      if (d2 > radius * radius) continue;
+      const double v = at(y, x) - 0.02 * (white - black) * std::sqrt(d2);  // prefer near
+      if (v > best) {
+        best = v;
+        bx = x;
+        by = y;
+      }
+    }
+  if (bx < 0 || at(by, bx) - black < min_contrast * (white - black)) return std::nullopt;
+  // Flood the connected bright region from the seed (bounded by the window).
+  std::vector<std::pair<int, int>> stack{{bx, by}}, blob;
+  std::vector<uint8_t> seen((x1 - x0 + 1) * (y1 - y0 + 1), 0);
+  const double local_thr = std::min(thr, black + 0.5 * (at(by, bx) - black));
+  while (!stack.empty()) {
+    auto [x, y] = stack.back();
+    stack.pop_back();
+    if (x < x0 || x > x1 || y < y0 || y > y1) continue;
+    uint8_t& s = seen[(y - y0) * (x1 - x0 + 1) + (x - x0)];
+    if (s || at(y, x) < local_thr) continue;
+    s = 1;
+    blob.emplace_back(x, y);
+    stack.push_back({x + 1, y});
+    stack.push_back({x - 1, y});
+    stack.push_back({x, y + 1});
+    stack.push_back({x, y - 1});
+  }
+  // Touching the window's edge means it is not a small blob (e.g. the white stripe).
+  for (auto [x, y] : blob)
+    if ((x == x0 && x0 > 0) || (x == x1 && x1 < img.cols - 1) || (y == y0 && y0 > 0) || (y == y1 && y1 < img.rows - 1))
+      return std::nullopt;
+  double w = 0, w2 = 0;
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  for (auto [x, y] : blob) {
+    const double wi = at(y, x) - black;
+    c += wi * Eigen::Vector2d(x, y);
+    w += wi;
+  }
+  if (w <= 0) return std::nullopt;
+  c /= w;
+  for (auto [x, y] : blob) w2 += std::pow(at(y, x) - black, 2);
+  TipObservation t;
+  t.pixel = c;
+  // Centroid standard error for ~1 grey level of noise, plus a floor for the disc's
+  // perspective and the sampling of the blob's edge.
+  t.sigma_px = std::sqrt(0.05 * 0.05 + 1.0 / std::max(1.0, w2) * blob.size() * 0.25);
+  return t;
+}
+
+Eigen::Vector3d VisibleTipPoint(const MarkerModel& model, const Eigen::Vector3d& cam, double* fraction) {
+  const PostModel& post = *model.post;
+  const Eigen::Vector3d tip(0, 0, post.height);
+  *fraction = 1;
+  if (!post.concave()) return tip;
+  // A bottom point p is seen if the ray from it to the camera leaves through the opening
+  // (radius `radius` at z = 0): |p_xy + s| <= radius with s = |h| (c - p)_xy / (c - p)_z,
+  // taken with the ray to the bottom's centre (the well is small against the distance).
+  const Eigen::Vector3d v = cam - tip;
+  if (v.z() <= 0) {
+    *fraction = 0;
+    return tip;
+  }
+  const Eigen::Vector2d shift = -post.height * v.head<2>() / v.z();
+  const int n = 24;
+  const double r = post.tip_radius;
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  int inside = 0, visible = 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const Eigen::Vector2d p(r * (2 * (i + 0.5) / n - 1), r * (2 * (j + 0.5) / n - 1));
+      if (p.squaredNorm() > r * r) continue;
+      ++inside;
+      if ((p + shift).squaredNorm() > post.radius * post.radius) continue;
+      ++visible;
+      sum += p;
+    }
+  *fraction = inside ? static_cast<double>(visible) / inside : 0;
+  if (!visible) return tip;
+  const Eigen::Vector2d c = sum / visible;
+  return Eigen::Vector3d(c.x(), c.y(), post.height);
+}
+
+bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X,
+                const std::vector<Eigen::Vector2d>& px, const std::vector<double>& sigma, Pose* pose,
+                PoseCovariance* cov, double* rms) {
+  Eigen::Matrix3d R = pose->Rotation();
+  Eigen::Vector3d t = pose->tvec;
+  Eigen::Matrix<double, 6, 6> JtWJ;
+  for (int iter = 0; iter < 10; ++iter) {
+    JtWJ.setZero();
+    Eigen::Matrix<double, 6, 1> JtWr = Eigen::Matrix<double, 6, 1>::Zero();
+    double ss = 0;
+    for (size_t i = 0; i < X.size(); ++i) {
+      const Eigen::Vector3d p = R * X[i] + t;
+      Eigen::Vector2d q;
+      Eigen::Matrix<double, 2, 3> dq_dp;
+      if (!camera.Project(p, &q, &dq_dp)) return false;
+      const Eigen::Vector2d r = q - px[i];
+      ss += r.squaredNorm();
+      // Left perturbation in camera axes: p = exp([d]) R X + t  ->  dp/dd = -[R X]x, dp/dt = I.
+      Eigen::Matrix<double, 2, 6> J;
+      J.leftCols<3>() = -dq_dp * Skew(R * X[i]);
+      J.rightCols<3>() = dq_dp;
+      const double w = 1.0 / (sigma[i] * sigma[i]);
+      JtWJ += w * J.transpose() * J;
+      JtWr += w * J.transpose() * r;
+    }
+    const Eigen::Matrix<double, 6, 1> step = -JtWJ.ldlt().solve(JtWr);
+    if (!step.allFinite()) return false;
+    const double angle = step.head<3>().norm();
+    if (angle > 1e-15) R = Eigen::AngleAxisd(angle, step.head<3>() / angle).toRotationMatrix() * R;
+    t += step.tail<3>();
+    *rms = std::sqrt(ss / X.size());
+    if (step.head<3>().norm() < 1e-12 && step.tail<3>().norm() < 1e-12 * (1 + t.norm())) break;
+  }
+  *pose = Pose::FromRotation(R, t);
+  Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(JtWJ);
+  if (lu.rank() < 6) return false;
+  *cov = lu.inverse();
+  return cov->allFinite();
+}
+
+bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 4>& corners,
+                        const MarkerModel& model, const CameraModel& camera, double black, double white,
+                        const MarkerPoseOptions& o, MarkerPose* out) {
+  // Both planar solutions, from the undistorted corners (identity intrinsics).
+  std::vector<cv::Point2d> normalized;
+  for (const auto& c : corners) {
+    Eigen::Vector3d d;
+    if (!camera.Unproject(c, &d) || d.z() <= 0) return false;
+    normalized.emplace_back(d.x() / d.z(), d.y() / d.z());
+  }
+  std::vector<cv::Point3d> object;
+  for (const auto& c : model.Corners()) object.emplace_back(c.x(), c.y(), c.z());
+  std::vector<cv::Mat> rvecs, tvecs;
+  try {
+    cv::solvePnPGeneric(object, normalized, cv::Matx33d::eye(), cv::noArray(), rvecs, tvecs, false,
+                        cv::SOLVEPNP_IPPE_SQUARE);
+  } catch (const cv::Exception&) {
+    return false;
+  }
+  if (rvecs.empty()) return false;
+  const double side_px = 0.25 * ((corners[1] - corners[0]).norm() + (corners[2] - corners[1]).norm() +
+                                 (corners[3] - corners[2]).norm() + (corners[0] - corners[3]).norm());
+  struct Candidate {
+    Pose pose;
+    std::optional<TipObservation> tip;
+    double tip_error = 1e300;
+  };
+  std::vector<Candidate> cands;
+  for (size_t s = 0; s < rvecs.size(); ++s) {
+    Candidate c;
+    c.pose.rvec = Eigen::Vector3d(rvecs[s].at<double>(0), rvecs[s].at<double>(1), rvecs[s].at<double>(2));
+    c.pose.tvec = Eigen::Vector3d(tvecs[s].at<double>(0), tvecs[s].at<double>(1), tvecs[s].at<double>(2));
+    if (c.pose.tvec.z() <= 0) continue;
+    if (model.post) {
+      double fraction;
+      const Eigen::Vector3d tip3 = VisibleTipPoint(model, c.pose.Inverse().tvec, &fraction);
+      Eigen::Vector2d pred;
+      if (fraction >= 0.25 && camera.Project(c.pose * tip3, &pred)) {
+        c.tip = FindTip(image, pred, std::max(3.0, o.tip_search_fraction * side_px), black, white, o.tip_min_contrast);
+        if (c.tip) c.tip_error = (c.tip->pixel - pred).norm();
+      }
+    }
+    cands.push_back(c);
+  }
+  if (cands.empty()) return false;
+  out->solutions = static_cast<int>(cands.size());
+  // With a tip: the solution that predicts it best. Without: IPPE's first (lowest error),
+  // flagged ambiguous when there were two.
+  size_t pick = 0;
+  for (size_t s = 1; s < cands.size(); ++s)
+    if (cands[s].tip_error < cands[pick].tip_error) pick = s;
+  const bool have_tip = cands[pick].tip.has_value();
+  out->ambiguous = !have_tip && cands.size() > 1;
+  std::vector<Eigen::Vector3d> X;
+  std::vector<Eigen::Vector2d> px;
+  std::vector<double> sig;
+  for (int k = 0; k < 4; ++k) {
+    X.push_back(model.Corners()[k]);
+    px.push_back(corners[k]);
+    sig.push_back(o.corner_sigma_px);
+  }
+  double fraction = 1;
+  if (have_tip) {
+    X.push_back(VisibleTipPoint(model, cands[pick].pose.Inverse().tvec, &fraction));
+    px.push_back(cands[pick].tip->pixel);
+    double sigma = cands[pick].tip->sigma_px;
+    if (model.post->concave()) {
+      // What is bright at the bottom of a well is what is both seen and lit; the detector does
+      // not know where the light comes from, so the observation is only good to about half the
+      // bore's image: enough to choose the planar solution, little weight in the refinement.
+      Eigen::Vector2d c0, c1;
+      const Pose& p = cands[pick].pose;
+      if (camera.Project(p * Eigen::Vector3d(0, 0, 0), &c0) &&
+          camera.Project(p * Eigen::Vector3d(model.post->radius, 0, 0), &c1))
+        sigma = std::max(sigma, 0.5 * (c1 - c0).norm());
+    }
+    sig.push_back(sigma);
+  }
+  Pose pose = cands[pick].pose;
+  if (!RefinePose(camera, X, px, sig, &pose, &out->covariance, &out->rms_px)) return false;
+  if (have_tip && model.post->concave()) {
+    // The visible part of the well's bottom depends on the pose: once more with the refined one.
+    X.back() = VisibleTipPoint(model, pose.Inverse().tvec, &fraction);
+    if (!RefinePose(camera, X, px, sig, &pose, &out->covariance, &out->rms_px)) return false;
+  }
+  // A tip that the refined pose cannot explain is dropped (a reflection, a bright speck).
+  if (have_tip) {
+    Eigen::Vector2d pred;
+    camera.Project(pose * X.back(), &pred);
+    if ((pred - cands[pick].tip->pixel).norm() > 4 * sig.back() + 1.0) {
+      X.pop_back();
+      px.pop_back();
+      sig.pop_back();
+      pose = cands[pick].pose;
+      if (!RefinePose(camera, X, px, sig, &pose, &out->covariance, &out->rms_px)) return false;
+      out->ambiguous = cands.size() > 1;
+      out->cam_from_marker = pose;
+      out->tip.reset();
+      return true;
+    }
+  }
+  out->cam_from_marker = pose;
+  out->tip = have_tip ? cands[pick].tip : std::nullopt;
+  return true;
+}
+
+}  // namespace svms

@@ -1,0 +1,73 @@
+// Detector steps 9-10: the post tip and the pose of one marker.
+//
+// The four corners of a planar square leave a two-fold ambiguity at small sizes and oblique
+// views (IPPE gives both solutions). The post tip, off the plane, settles it: each solution
+// predicts where the tip should be; the white tip (or the well's white bottom) is searched
+// there, and the solution whose prediction it matches is kept. The pose is then refined by
+// Gauss-Newton over the corners and the tip together, through the camera's mrcal lens model,
+// each weighted by its own uncertainty, and its 6x6 covariance is (J^T W J)^-1.
+//
+// Why not Ceres here: six parameters and at most five points per marker, solved for every
+// marker in every frame; a dense Gauss-Newton on Eigen costs microseconds and allocates
+// nothing, while Ceres' problem setup alone costs more than the whole solve.
+#pragma once
+
+#include <array>
+#include <optional>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "svms/camera.h"
+#include "svms/marker_model.h"
+#include "svms/pose.h"
+
+namespace svms {
+
+struct TipObservation {
+  Eigen::Vector2d pixel;
+  double sigma_px = 0.5;  // standard deviation of the centroid, each axis
+};
+
+struct MarkerPoseOptions {
+  double corner_sigma_px = 0.1;   // standard deviation of a refined corner, each axis
+  double tip_search_fraction = 0.25;  // search radius, as a fraction of the square's side
+  double tip_min_contrast = 0.35;     // tip brighter than black by this fraction of white - black
+};
+
+struct MarkerPose {
+  Pose cam_from_marker;
+  PoseCovariance covariance = PoseCovariance::Zero();  // [rotation, translation], camera axes
+  std::optional<TipObservation> tip;
+  bool ambiguous = false;   // two planar solutions and no tip to tell them apart
+  double rms_px = 0;        // RMS of the corner (and tip) residuals after the fit
+  int solutions = 0;        // planar solutions considered
+};
+
+// The white blob nearest `predicted` within `radius` pixels: centroid of the pixels brighter
+// than the midpoint of `black` and `white`, weighted by how much brighter. nullopt if none is
+// clearly there.
+std::optional<TipObservation> FindTip(const cv::Mat& image, const Eigen::Vector2d& predicted,
+                                      double radius, double black, double white,
+                                      double min_contrast);
+
+// Pose of a marker from its corners (marker order: TL, TR, BR, BL as printed, pixels).
+// False if the camera cannot unproject the corners or no solution is valid.
+bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 4>& corners,
+                        const MarkerModel& model, const CameraModel& camera, double black,
+                        double white, const MarkerPoseOptions& options, MarkerPose* out);
+
+// The marker-frame point whose image is the centroid of what the camera at `cam_in_marker`
+// sees of the white tip. For a post, the centre of its top. For a concave well, the part of
+// the white bottom visible through the opening, which slides off-centre as the view tilts;
+// `visible_fraction` says how much of the bottom is seen (0 when none).
+Eigen::Vector3d VisibleTipPoint(const MarkerModel& model, const Eigen::Vector3d& cam_in_marker,
+                                double* visible_fraction);
+
+// Gauss-Newton refinement of cam_from_marker over `points_in_marker` observed at `pixels`
+// with per-point sigmas; fills the covariance. Exposed for tests.
+bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& points_in_marker,
+                const std::vector<Eigen::Vector2d>& pixels, const std::vector<double>& sigmas,
+                Pose* cam_from_marker, PoseCovariance* covariance, double* rms_px);
+
+}  // namespace svms

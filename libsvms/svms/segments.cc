@@ -1,0 +1,189 @@
+#include "svms/segments.h"
+
+#include <algorithm>
+#include <cmath>
+#include <Eigen/Eigenvalues>
+#include <opencv2/imgproc.hpp>
+
+namespace svms {
+namespace {
+
+// 8-connected chains of edge pixels: each pixel belongs to one chain; chains start at end
+// points (pixels with one neighbour) and then at whatever is left (closed loops).
+std::vector<std::vector<cv::Point>> LinkChains(const cv::Mat& edges) {
+  cv::Mat visited = cv::Mat::zeros(edges.size(), CV_8U);
+  std::vector<std::vector<cv::Point>> chains;
+  static const int dx[8] = {1, 0, -1, 0, 1, -1, -1, 1}, dy[8] = {0, 1, 0, -1, 1, 1, -1, -1};
+  auto is_edge = [&](int x, int y) {
+    return x >= 0 && y >= 0 && x < edges.cols && y < edges.rows && edges.at<uint8_t>(y, x) &&
+           !visited.at<uint8_t>(y, x);
+  };
+  auto neighbours = [&](int x, int y) {
+    int n = 0;
+    for (int k = 0; k < 8; ++k) n += is_edge(x + dx[k], y + dy[k]);
+    return n;
+  };
+  auto follow = [&](int x, int y) {
+    std::vector<cv::Point> chain;
+    for (;;) {
+      visited.at<uint8_t>(y, x) = 1;
+      chain.emplace_back(x, y);
+      int k = 0;
+      for (; k < 8; ++k)
+        if (is_edge(x + dx[k], y + dy[k])) break;
+      if (k == 8) break;
+      x += dx[k];
+      y += dy[k];
+    }
+    if (chain.size() >= 4) chains.push_back(std::move(chain));
+  };
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int y = 0; y < edges.rows; ++y) {
+      const uint8_t* row = edges.ptr<uint8_t>(y);
+      for (int x = 0; x < edges.cols; ++x) {
+        if (!row[x] || visited.at<uint8_t>(y, x)) continue;
+        if (pass == 0 && neighbours(x, y) > 1) continue;  // first the open chains' ends
+        follow(x, y);
+      }
+    }
+  }
+  return chains;
+}
+
+// Douglas-Peucker split of chain[lo..hi] into pieces within `tol` of their chords.
+void Split(const std::vector<cv::Point>& c, int lo, int hi, double tol, double rel,
+           std::vector<std::pair<int, int>>* out) {
+  const Eigen::Vector2d a(c[lo].x, c[lo].y), b(c[hi].x, c[hi].y);
+  const Eigen::Vector2d d = b - a;
+  const double len = d.norm();
+  int worst = -1;
+  double worst_dist = std::max(tol, rel * len);
+  for (int i = lo + 1; i < hi; ++i) {
+    const Eigen::Vector2d p(c[i].x, c[i].y);
+    const double dist = len > 0 ? std::abs(d.x() * (p.y() - a.y()) - d.y() * (p.x() - a.x())) / len
+                                 : (p - a).norm();
+    if (dist > worst_dist) {
+      worst_dist = dist;
+      worst = i;
+    }
+  }
+  if (worst < 0) {
+    out->emplace_back(lo, hi);
+    return;
+  }
+  Split(c, lo, worst, tol, rel, out);
+  Split(c, worst, hi, tol, rel, out);
+}
+
+}  // namespace
+
+std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx,
+                                  cv::Mat* gy) {
+  cv::Sobel(gray8, *gx, CV_16S, 1, 0, 3);
+  cv::Sobel(gray8, *gy, CV_16S, 0, 1, 3);
+  cv::Mat edges;
+  cv::Canny(*gx, *gy, edges, o.canny_low * 8, o.canny_high * 8, true);  // Sobel is 8x the slope
+  std::vector<Segment> out;
+  for (const auto& chain : LinkChains(edges)) {
+    std::vector<std::pair<int, int>> pieces;
+    Split(chain, 0, static_cast<int>(chain.size()) - 1, o.max_deviation, o.relative_deviation, &pieces);
+    for (const auto& [lo, hi] : pieces) {
+      if (hi - lo + 1 < o.min_length) continue;
+      // Total least squares line through the piece's pixels, and its mean gradient.
+      Eigen::Vector2d mean = Eigen::Vector2d::Zero(), g = Eigen::Vector2d::Zero();
+      for (int i = lo; i <= hi; ++i) {
+        mean += Eigen::Vector2d(chain[i].x, chain[i].y);
+        g += Eigen::Vector2d(gx->at<int16_t>(chain[i]), gy->at<int16_t>(chain[i]));
+      }
+      const int n = hi - lo + 1;
+      mean /= n;
+      g /= n;
+      Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+      for (int i = lo; i <= hi; ++i) {
+        const Eigen::Vector2d q = Eigen::Vector2d(chain[i].x, chain[i].y) - mean;
+        cov += q * q.transpose();
+      }
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(cov);
+      const Eigen::Vector2d dir = es.eigenvectors().col(1);
+      auto project = [&](const cv::Point& p) {
+        return Eigen::Vector2d(mean + dir * dir.dot(Eigen::Vector2d(p.x, p.y) - mean));
+      };
+      Segment s;
+      s.a = project(chain[lo]);
+      s.b = project(chain[hi]);
+      if (s.length() < o.min_length) continue;
+      // Dark on the screen-right of a -> b: the gradient (dark to bright) points screen-left.
+      const Eigen::Vector2d d = s.b - s.a, right(-d.y(), d.x());
+      if (g.dot(right) > 0) std::swap(s.a, s.b);
+      const Eigen::Vector2d u = (s.b - s.a).normalized();
+      const Eigen::Vector2d nrm(-u.y(), u.x());
+      s.line = Eigen::Vector3d(nrm.x(), nrm.y(), -nrm.dot(mean));
+      s.contrast = g.norm() / 8;
+      out.push_back(s);
+    }
+  }
+  MergeCollinear(o, &out);
+  return out;
+}
+
+void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
+  const double cos_max = std::cos(o.merge_angle_deg * M_PI / 180);
+  auto dist_to_line = [](const Segment& s, const Eigen::Vector2d& p) {
+    return std::abs(s.line.head<2>().dot(p) + s.line.z());
+  };
+  bool merged = true;
+  // Few segments take part; a simple sweep until nothing joins, with a sort on start x to
+  // keep the pair search local.
+  while (merged) {
+    merged = false;
+    std::vector<Segment>& v = *segs;
+    std::vector<int> order(v.size());
+    for (size_t i = 0; i < v.size(); ++i) order[i] = static_cast<int>(i);
+    std::sort(order.begin(), order.end(), [&](int a, int b) { return v[a].a.x() < v[b].a.x(); });
+    std::vector<char> gone(v.size(), 0);
+    for (size_t i = 0; i < v.size(); ++i) {
+      if (gone[i]) continue;
+      const Segment& s = v[i];
+      const Eigen::Vector2d di = (s.b - s.a) / s.length();
+      const double reach = std::max(o.merge_gap_px, o.merge_gap_fraction * s.length()) + 1;
+      // Starts with x in [b.x - reach, b.x + reach].
+      auto lo = std::lower_bound(order.begin(), order.end(), s.b.x() - reach,
+                                 [&](int k, double x) { return v[k].a.x() < x; });
+      for (auto it = lo; it != order.end() && v[*it].a.x() <= s.b.x() + reach; ++it) {
+        const int j = *it;
+        if (j == static_cast<int>(i) || gone[j]) continue;
+        const Segment& t = v[j];
+        const Eigen::Vector2d dj = (t.b - t.a) / t.length();
+        if (di.dot(dj) < cos_max) continue;
+        const double gap = (t.a - s.b).dot(di);
+        if (gap > std::max(o.merge_gap_px, o.merge_gap_fraction * std::min(s.length(), t.length())) ||
+            gap < -o.merge_gap_px)
+          continue;
+        if (dist_to_line(s, t.a) > o.merge_offset_px || dist_to_line(s, t.b) > o.merge_offset_px ||
+            dist_to_line(t, s.a) > o.merge_offset_px || dist_to_line(t, s.b) > o.merge_offset_px)
+          continue;
+        // Join: the line through the length-weighted end points.
+        Segment m;
+        m.a = s.a;
+        m.b = t.b;
+        const Eigen::Vector2d mid = (s.length() * 0.5 * (s.a + s.b) + t.length() * 0.5 * (t.a + t.b)) /
+                                    (s.length() + t.length());
+        const Eigen::Vector2d u = (m.b - m.a).normalized(), n(-u.y(), u.x());
+        m.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(mid));
+        m.contrast = (s.contrast * s.length() + t.contrast * t.length()) / (s.length() + t.length());
+        v[i] = m;
+        gone[j] = 1;
+        merged = true;
+        break;
+      }
+    }
+    if (merged) {
+      std::vector<Segment> kept;
+      for (size_t i = 0; i < v.size(); ++i)
+        if (!gone[i]) kept.push_back(v[i]);
+      *segs = std::move(kept);
+    }
+  }
+}
+
+}  // namespace svms

@@ -1,0 +1,53 @@
+// Detector steps 1-3: edge points from the image gradient, edge chains, and straight
+// segments split and fitted from the chains.
+//
+// Edges come from OpenCV's Canny (hysteresis on the Sobel gradient, non-maximum suppressed);
+// chains are its 8-connected edge curves (cv::findContours on the edge map); each chain is
+// split where it stops being straight (Douglas-Peucker, cv::approxPolyDP) and every piece
+// gets a least-squares line. A segment knows its polarity: the side its dark region is on.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+namespace svms {
+
+struct Segment {
+  // End points in pixels, ordered so that the darker side is on the right as seen on screen
+  // when walking from `a` to `b` (image x right, y down): the border of a dark square is then
+  // walked clockwise on screen, each segment's `b` next to the following segment's `a`.
+  Eigen::Vector2d a, b;
+  Eigen::Vector3d line;  // normalised line (nx, ny, c): nx x + ny y + c = 0, (nx, ny) unit
+  double contrast = 0;   // mean gradient magnitude along the segment, grey levels per pixel
+  double length() const { return (b - a).norm(); }
+};
+
+struct SegmentOptions {
+  double canny_low = 20, canny_high = 50;  // hysteresis thresholds on the Sobel gradient
+  double min_length = 6;                   // pixels
+  // A chain is split where it leaves its chord by more than max(max_deviation,
+  // relative_deviation * chord length): lens distortion bows a marker's side by about 1 % of
+  // its length, a corner by far more.
+  double max_deviation = 1.0;       // pixels
+  double relative_deviation = 0.02;
+  // Pieces of one straight edge (split by a junction, a shadow or a small occlusion) are
+  // joined when they point the same way within merge_angle_deg, each end lies within
+  // merge_offset_px of the other's line, and the gap is at most merge_gap_fraction of the
+  // shorter piece (or merge_gap_px).
+  double merge_angle_deg = 4;
+  double merge_offset_px = 1.5;
+  double merge_gap_fraction = 0.5;
+  double merge_gap_px = 3;
+};
+
+// Step 3b: joins collinear pieces (see SegmentOptions); the result replaces `segments`.
+void MergeCollinear(const SegmentOptions& options, std::vector<Segment>* segments);
+
+// Finds straight edge segments in an 8-bit image. `gradient_x`, `gradient_y` (CV_16S Sobel,
+// computed here) are returned for later steps.
+std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& options,
+                                  cv::Mat* gradient_x, cv::Mat* gradient_y);
+
+}  // namespace svms
