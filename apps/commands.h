@@ -17,6 +17,7 @@ void AddModelCommands(CLI::App& app, int* exit_code);
 void AddGenerateCommands(CLI::App& app, int* exit_code);
 void AddRenderCommands(CLI::App& app, int* exit_code);
 void AddDatasetCommands(CLI::App& app, int* exit_code);
+void AddDetectCommands(CLI::App& app, int* exit_code);
 
 // Renders every view of `scene` into `out_dir` (VIEW.png, truth.json) on `threads` threads,
 // progress on stderr; `source` names the scene in messages. Returns an exit code.

@@ -105,5 +105,28 @@ expect 2 "$tmp/bad_scene.json: sensor.bits: expected 8 or 16" "$svms" render "$t
 expect_err_lines 1 "$svms" render "$tmp/bad_scene.json" --out "$tmp/x"
 expect 2 "/nonexistent.json: cannot open for reading" "$svms" render /nonexistent.json --out "$tmp/x"
 
+# detect: artwork PNGs (no camera: IDs and corners), and bad images in a batch that goes on
+mkdir -p "$tmp/det"
+"$svms" generate marker --id 1234 --size 0.05 --dpi 100 --out "$tmp/det/a" >/dev/null
+"$svms" generate marker --id 3 --size 0.1 --inner-id 4 --inner-size 0.025 --dpi 60 --out "$tmp/det/b" >/dev/null
+expect 0 '"id":1234' "$svms" detect "$tmp/det/a.png" --quiet
+"$svms" detect "$tmp/det/b.png" --quiet > "$tmp/det/b.jsonl"
+python3 - "$tmp/det/b.jsonl" <<'PY' && pass || fail "dual artwork: both IDs, inner nested in outer"
+import json, sys
+j = json.loads(open(sys.argv[1]).readline())
+ids = {d["id"]: d for d in j["detections"]}
+assert set(ids) == {3, 4}, ids.keys()
+assert ids[4].get("nested_in") == 3 and "nested_in" not in ids[3]
+assert len(ids[3]["corners"]) == 4 and "cam_from_marker" not in ids[3]
+PY
+printf 'not an image' > "$tmp/det/junk.png"
+python3 -c "open('$tmp/det/tiny.pgm','wb').write(b'P5 1 1 255 ' + bytes([7]))"
+expect 1 "junk.png: cannot read as an image" "$svms" detect "$tmp/det" --quiet
+expect 1 "tiny.pgm: 1x1 pixels is too small" "$svms" detect "$tmp/det" --quiet
+expect 1 "2 of 4 images failed" "$svms" detect "$tmp/det" --quiet
+[ "$("$svms" detect "$tmp/det" --quiet 2>/dev/null | wc -l)" -eq 4 ] && pass || fail "detect: one JSON line per image, bad ones included"
+expect 1 "/nonexistent.png: cannot read as an image" "$svms" detect /nonexistent.png --quiet
+expect 2 "/nonexistent.cameramodel" "$svms" detect "$tmp/det/a.png" --camera /nonexistent.cameramodel
+
 echo "$passes passed, $fails failed"
 [ "$fails" -eq 0 ]

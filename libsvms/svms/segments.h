@@ -25,7 +25,9 @@ struct Segment {
 };
 
 struct SegmentOptions {
-  double canny_low = 20, canny_high = 50;  // hysteresis thresholds on the Sobel gradient
+  // Hysteresis thresholds on the gradient, grey levels per pixel: low, because a marker in
+  // shadow or seen at a grazing angle may show a step of only 10-20 grey levels.
+  double canny_low = 3, canny_high = 8;
   double min_length = 6;                   // pixels
   // A chain is split where it leaves its chord by more than max(max_deviation,
   // relative_deviation * chord length): lens distortion bows a marker's side by about 1 % of

@@ -40,7 +40,7 @@ json PointJ(const PointTruth& t) {
 }  // namespace
 
 bool MarkerTruth::fully_visible() const {
-  if (!facing) return false;
+  if (!facing || bits_outside > 0 || bits_occluded > 0) return false;
   for (const PointTruth& c : corners)
     if (!c.in_image || c.occluded) return false;
   return true;
@@ -76,6 +76,7 @@ ViewTruth ComputeTruth(const Renderer& r, int view) {
           const PointTruth pt = Point(r, view, vt.cam_from_world, world_from_marker * Eigen::Vector3d(c.x(), c.y(), 0));
           mt.bits_occluded += pt.occluded;
           mt.bits_in_shadow += pt.in_shadow;
+          mt.bits_outside += !pt.in_image;
         }
         double side = 0;
         for (int c = 0; c < 4; ++c) side += (mt.corners[c].pixel - mt.corners[(c + 1) % 4].pixel).norm();
@@ -115,6 +116,7 @@ std::string TruthToJson(const Scene& s, const std::vector<ViewTruth>& views) {
                  {"tip", m.has_tip ? PointJ(m.tip) : json()},
                  {"bits_occluded", m.bits_occluded},
                  {"bits_in_shadow", m.bits_in_shadow},
+                 {"bits_outside", m.bits_outside},
                  {"side_px", m.side_px},
                  {"facing", m.facing},
                  {"fully_visible", m.fully_visible()}};

@@ -32,9 +32,12 @@ struct MarkerTruth {
   PointTruth tip;                     // the post tip (white top or well bottom)
   int bits_occluded = 0;              // of the 44 cell centres
   int bits_in_shadow = 0;
+  int bits_outside = 0;               // cell centres outside the image (or behind the camera)
   double side_px = 0;                 // mean side of the projected square, pixels
   bool facing = false;                // the marker's front faces the camera
-  bool fully_visible() const;         // all corners in the image and unoccluded, facing
+  // Facing the camera, with all four corners and all 44 cell centres in the image and
+  // unoccluded: everything the detector needs to identify it.
+  bool fully_visible() const;
 };
 
 struct ViewTruth {
