@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <set>
 
 #include "svms/model_io.h"
 #include "svms/svms44.h"
@@ -518,6 +519,18 @@ Status MakeDataset(const std::string& name, const DatasetOptions& o, Dataset* ou
     return Status::Error("dataset \"" + name + "\": expected one of " + list);
   }
   d.description = DatasetDescription(name);
+  // Every set comes with its true camera (the first scene's), for the detector and the tests.
+  bool has_camera = false;
+  for (const auto& f : d.files) has_camera = has_camera || f.first == "true.cameramodel";
+  if (!has_camera) d.files.emplace_back("true.cameramodel", "");
+  // ... and the models of every marker in it (for --markers).
+  std::vector<MarkerModel> models;
+  std::set<int> seen;
+  for (const auto& [sub, scene] : d.scenes)
+    for (const SceneObject& o : scene.objects)
+      for (const SceneMarker& m : o.markers)
+        if (seen.insert(m.model.id).second) models.push_back(m.model);
+  if (!models.empty()) d.files.emplace_back("markers.json", MarkerSetToJson(models));
   *out = std::move(d);
   return Status::Ok();
 }

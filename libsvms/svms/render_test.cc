@@ -91,7 +91,9 @@ TEST(Render, TruthCornersEqualAnIndependentProjection) {
     EXPECT_TRUE(t.markers[0].corners[c].in_image);
     EXPECT_FALSE(t.markers[0].corners[c].occluded);
   }
-  EXPECT_TRUE(t.markers[0].fully_visible());
+  EXPECT_EQ(t.markers[0].bits_occluded, 0);
+  // Fully visible exactly when no cell leaves the frame (corners are in, nothing occludes).
+  EXPECT_EQ(t.markers[0].fully_visible(), t.markers[0].bits_outside == 0) << t.markers[0].bits_outside;
 }
 
 TEST(Render, CameraRaysMatchMrcalWithinATenThousandthOfAPixel) {

@@ -1,5 +1,6 @@
 #include "svms/truth.h"
 
+#include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -78,9 +79,14 @@ ViewTruth ComputeTruth(const Renderer& r, int view) {
           mt.bits_in_shadow += pt.in_shadow;
           mt.bits_outside += !pt.in_image;
         }
-        double side = 0;
-        for (int c = 0; c < 4; ++c) side += (mt.corners[c].pixel - mt.corners[(c + 1) % 4].pixel).norm();
+        double side = 0, shortest = 1e300;
+        for (int c = 0; c < 4; ++c) {
+          const double l = (mt.corners[c].pixel - mt.corners[(c + 1) % 4].pixel).norm();
+          side += l;
+          shortest = std::min(shortest, l);
+        }
         mt.side_px = std::isfinite(side) ? side / 4 : 0;
+        mt.min_side_px = std::isfinite(shortest) ? shortest : 0;
         // Facing: the camera centre is on the front (+z) side of the marker plane.
         const Eigen::Vector3d cam_in_marker = mt.cam_from_marker.Inverse().tvec;
         mt.facing = cam_in_marker.z() > 0;
@@ -118,6 +124,7 @@ std::string TruthToJson(const Scene& s, const std::vector<ViewTruth>& views) {
                  {"bits_in_shadow", m.bits_in_shadow},
                  {"bits_outside", m.bits_outside},
                  {"side_px", m.side_px},
+                 {"min_side_px", m.min_side_px},
                  {"facing", m.facing},
                  {"fully_visible", m.fully_visible()}};
       if (m.nested_in >= 0) jm["nested_in"] = m.nested_in;

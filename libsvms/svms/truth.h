@@ -34,6 +34,7 @@ struct MarkerTruth {
   int bits_in_shadow = 0;
   int bits_outside = 0;               // cell centres outside the image (or behind the camera)
   double side_px = 0;                 // mean side of the projected square, pixels
+  double min_side_px = 0;             // its shortest side (what "a 30 x 30 px marker" means)
   bool facing = false;                // the marker's front faces the camera
   // Facing the camera, with all four corners and all 44 cell centres in the image and
   // unoccluded: everything the detector needs to identify it.
