@@ -44,6 +44,16 @@ MarkerModel Dual(int id, double size, int inner_id, double inner_size) {
   return m;
 }
 
+// A scene with the standard sensor.
+Scene NewScene(uint64_t seed, const CameraModel& camera, const Lighting& light) {
+  Scene s;
+  s.seed = seed;
+  s.camera = camera;
+  s.sensor = StandardSensor();
+  s.light = light;
+  return s;
+}
+
 SceneMarker Printed(const MarkerModel& m, const Pose& object_from_marker) {
   SceneMarker sm;
   sm.model = m;
@@ -79,11 +89,7 @@ std::string Name(const char* prefix, int index) {
 Dataset Range(const DatasetOptions& o) {
   Dataset d;
   d.name = "range";
-  Scene s;
-  s.seed = o.seed;
-  s.camera = RangeCamera();
-  s.sensor = StandardSensor();
-  s.light = Sunlight(50, 30);
+  Scene s = NewScene(o.seed, RangeCamera(), Sunlight(50, 30));
   SceneObject plate = Plate(1.2);
   const MarkerModel dual = Dual(1, 0.432, 2, 0.108);
   plate.markers.push_back(Printed(dual, OnPlate(0, 0, 0)));
@@ -110,11 +116,7 @@ Dataset Range(const DatasetOptions& o) {
 Dataset Angle(const DatasetOptions& o) {
   Dataset d;
   d.name = "angle";
-  Scene s;
-  s.seed = o.seed;
-  s.camera = RangeCamera();
-  s.sensor = StandardSensor();
-  s.light = Sunlight(60, 200);
+  Scene s = NewScene(o.seed, RangeCamera(), Sunlight(60, 200));
   s.light.ambient = 0.15;
   SceneObject plate = Plate(1.5);
   plate.markers.push_back(Printed(MarkerModel::Standard(3, 0.2, 0.05), OnPlate(0, 0, 0.2)));
@@ -138,11 +140,7 @@ Dataset Angle(const DatasetOptions& o) {
 Dataset SunSweep(const DatasetOptions& o) {
   Dataset d;
   d.name = "sun";
-  Scene s;
-  s.seed = o.seed;
-  s.camera = RangeCamera();
-  s.sensor = StandardSensor();
-  s.light = Sunlight(45, 45);
+  Scene s = NewScene(o.seed, RangeCamera(), Sunlight(45, 45));
   SceneObject plate = Plate(1.5);
   plate.markers.push_back(Printed(MarkerModel::Standard(4, 0.2, 0.05), OnPlate(0, 0, 0)));
   s.objects.push_back(plate);
@@ -179,11 +177,7 @@ Dataset SunSweep(const DatasetOptions& o) {
 Dataset Occlusion(const DatasetOptions& o) {
   Dataset d;
   d.name = "occlusion";
-  Scene s;
-  s.seed = o.seed;
-  s.camera = RangeCamera();
-  s.sensor = StandardSensor();
-  s.light = Sunlight(55, 120);
+  Scene s = NewScene(o.seed, RangeCamera(), Sunlight(55, 120));
   s.light.ambient = 0.1;
   const MarkerModel m = MarkerModel::Standard(5, 0.2, 0.05);
   SceneObject plate = Plate(1.0);
@@ -223,11 +217,7 @@ Dataset Occlusion(const DatasetOptions& o) {
 Dataset Mockup(const DatasetOptions& o) {
   Dataset d;
   d.name = "mockup";
-  Scene s;
-  s.seed = o.seed;
-  s.camera = DistortedCamera();
-  s.sensor = StandardSensor();
-  s.light = Sunlight(40, 20);
+  Scene s = NewScene(o.seed, DistortedCamera(), Sunlight(40, 20));
   s.light.earthshine = Sun{Vec3(0, 0, -1), 0.08, 0};
   s.background.kind = Background::Kind::kEarth;
   s.background.brightness = 0.7;
@@ -351,11 +341,7 @@ Dataset Calibration(const DatasetOptions& o) {
 Dataset Clutter(const DatasetOptions& o) {
   Dataset d;
   d.name = "clutter";
-  Scene s;
-  s.seed = o.seed;
-  s.camera = DistortedCamera();
-  s.sensor = StandardSensor();
-  s.light = Sunlight(50, 70);
+  Scene s = NewScene(o.seed, DistortedCamera(), Sunlight(50, 70));
   s.light.ambient = 0.1;
   s.background.kind = Background::Kind::kEarth;
   std::mt19937_64 rng(o.seed * 977 + 5);
@@ -397,11 +383,7 @@ Dataset Clutter(const DatasetOptions& o) {
 Dataset Gallery(const DatasetOptions& o) {
   Dataset d;
   d.name = "gallery";
-  Scene s;
-  s.seed = o.seed;
-  s.camera = CameraModel::Pinhole(900, 512, 512);
-  s.sensor = StandardSensor();
-  s.light = Sunlight(50, 210);
+  Scene s = NewScene(o.seed, CameraModel::Pinhole(900, 512, 512), Sunlight(50, 210));
   s.background.kind = Background::Kind::kEarth;
   SceneObject plate = Plate(1.0);
   plate.markers.push_back(Printed(MarkerModel::Standard(21, 0.2, 0.06), OnPlate(0, 0, 0)));
@@ -431,11 +413,7 @@ Dataset Gallery(const DatasetOptions& o) {
   ring.views = {View{"ring_light", cam}};
   d.scenes.emplace_back("ring", ring);
 
-  Scene dual;
-  dual.seed = o.seed;
-  dual.camera = CameraModel::Pinhole(30.0 * 16.0 / 0.432, 256, 256);
-  dual.sensor = StandardSensor();
-  dual.light = Sunlight(50, 30);
+  Scene dual = NewScene(o.seed, CameraModel::Pinhole(30.0 * 16.0 / 0.432, 256, 256), Sunlight(50, 30));
   SceneObject p2 = Plate(1.2);
   const MarkerModel m = Dual(1, 0.432, 2, 0.108);
   p2.markers.push_back(Printed(m, OnPlate(0, 0, 0)));

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "svms/corner_refine.h"
 #include "svms/svms44.h"
 
 namespace svms {
@@ -11,15 +12,7 @@ namespace {
 // Bilinear sample at pixel-centre coordinates; false if outside the image.
 bool Sample(const cv::Mat& img, double u, double v, double* out) {
   if (!(u >= 0 && v >= 0 && u <= img.cols - 1 && v <= img.rows - 1)) return false;
-  const int x0 = std::min(static_cast<int>(u), img.cols - 2 < 0 ? 0 : img.cols - 2);
-  const int y0 = std::min(static_cast<int>(v), img.rows - 2 < 0 ? 0 : img.rows - 2);
-  const int x1 = std::min(x0 + 1, img.cols - 1), y1 = std::min(y0 + 1, img.rows - 1);
-  const double fx = u - x0, fy = v - y0;
-  auto at = [&](int y, int x) -> double {
-    return img.depth() == CV_16U ? img.at<uint16_t>(y, x) : img.at<uint8_t>(y, x);
-  };
-  *out = (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x1)) +
-         fy * ((1 - fx) * at(y1, x0) + fx * at(y1, x1));
+  *out = SampleImage(img, u, v);
   return true;
 }
 
