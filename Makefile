@@ -26,7 +26,7 @@ demo: build
 	scripts/demo $(BUILD)/bin/svms out/demo
 
 bench: build
-	$(BUILD)/bin/svms_bench_codec --benchmark_repetitions=9 --benchmark_report_aggregates_only=true
+	scripts/update_benchmarks $(BUILD)
 
 clean:
 	rm -rf $(BUILD) out
