@@ -979,6 +979,20 @@ Status Renderer::Create(const Scene& scene, std::unique_ptr<Renderer>* out) {
 }
 
 Status Renderer::Impl::Build() {
+  // Directions toward the sun must be unit vectors (the JSON parser normalises them; scenes
+  // built in code may not).
+  auto unit = [](std::optional<Sun>& sun) -> bool {
+    if (!sun) return true;
+    const double n = sun->to_sun_world.norm();
+    if (!(n > 1e-12) || !sun->to_sun_world.allFinite()) return false;
+    sun->to_sun_world /= n;
+    return true;
+  };
+  if (!unit(scene.light.sun)) return Status::Error("light.sun.to_sun: expected a nonzero direction");
+  if (!unit(scene.light.earthshine)) return Status::Error("light.earthshine.to_sun: expected a nonzero direction");
+  for (size_t v = 0; v < scene.views.size(); ++v)
+    if (!unit(scene.views[v].sun))
+      return Status::Error("views[" + std::to_string(v) + "].sun.to_sun: expected a nonzero direction");
   W = scene.camera.width();
   H = scene.camera.height();
   // Pixel-corner rays: corner (i, j) is the pixel coordinate (i - 0.5, j - 0.5).

@@ -300,6 +300,22 @@ TEST(SceneFile, ErrorsNameTheField) {
   expect("\"objects\": [], \"views\": [{\"name\": \"a\", \"cam_from_world\": {\"rvec\": [0,0,0], \"tvec\": [0,0,1]}}]", "\"objects\": [], \"views\": []", "views: expected a non-empty array");
 }
 
+TEST(Render, SunDirectionsFromCodeAreNormalised) {
+  Scene s = BaseScene(CameraModel::Pinhole(400, 64, 48));
+  s.light.sun = Sun{Eigen::Vector3d(0, 0, 5), 1.0, 0.53};  // not unit length
+  s.objects.push_back(PlateWithMarker(MarkerModel::Standard(1, 0.1, 0.02), Pose{}));
+  s.views.push_back(View{"v", LookDown(1)});
+  auto a = Make(s);
+  s.light.sun->to_sun_world = Eigen::Vector3d(0, 0, 1);
+  auto b = Make(s);
+  EXPECT_EQ(cv::norm(a->RenderRadiance(0), b->RenderRadiance(0), cv::NORM_INF), 0);
+  s.light.sun->to_sun_world = Eigen::Vector3d::Zero();
+  std::unique_ptr<Renderer> r;
+  const Status st = Renderer::Create(s, &r);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("light.sun.to_sun"), std::string::npos);
+}
+
 TEST(SceneFile, RoundTripsThroughJson) {
   Scene s = BaseScene(Opencv8(64, 48));
   s.light.sun = Sun{Eigen::Vector3d(0, 0.6, 0.8), 2.0, 0.53};
