@@ -1,8 +1,8 @@
 // svms codec: the svms44 code -- statistics, encode, decode, and reading artwork PNGs.
-#include <opencv2/imgcodecs.hpp>
 #include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <thread>
 
 #include "commands.h"
@@ -83,22 +83,25 @@ nlohmann::json MatchJson(const CodeMatch& m) {
     j["rotation"] = m.rotation;
     j["bit_errors"] = m.bit_errors;
   }
-  j["runner_up_errors"] = m.runner_up_errors >= 0 ? nlohmann::json(m.runner_up_errors) : nlohmann::json();
+  j["runner_up_errors"] =
+      m.runner_up_errors >= 0 ? nlohmann::json(m.runner_up_errors) : nlohmann::json();
   return j;
 }
 
 int RunDecode(const std::string& text, int limit, int id_count, bool as_json) {
   uint64_t word = 0;
   if (!ParseWord(text, &word)) {
-    std::cerr << "svms codec decode: \"" << text
-              << "\": expected 44 characters of 0/1 (bit 0 first) or 0x followed by hex below 2^44\n";
+    std::cerr
+        << "svms codec decode: \"" << text
+        << "\": expected 44 characters of 0/1 (bit 0 first) or 0x followed by hex below 2^44\n";
     return kExitBadInput;
   }
   const CodeMatch m = Svms44::Decode(word, limit, id_count);
   if (as_json) {
     std::cout << MatchJson(m).dump() << "\n";
   } else if (m.accepted()) {
-    std::cout << "id " << m.id << " rotation " << m.rotation << " bit_errors " << m.bit_errors << "\n";
+    std::cout << "id " << m.id << " rotation " << m.rotation << " bit_errors " << m.bit_errors
+              << "\n";
   } else {
     std::cout << (m.verdict == CodeMatch::Verdict::kAmbiguous ? "ambiguous" : "no codeword")
               << " within " << limit << " corrections\n";
@@ -116,7 +119,8 @@ int RunRead(const std::string& png, const std::string& model_path, double dpi, b
     return kExitBadInput;
   }
   if (file.kind != ModelFile::Kind::kMarker) {
-    std::cerr << "svms codec read: " << model_path << ": expected a single marker model (type svms.marker)\n";
+    std::cerr << "svms codec read: " << model_path
+              << ": expected a single marker model (type svms.marker)\n";
     return kExitBadInput;
   }
   const cv::Mat img = cv::imread(png, cv::IMREAD_GRAYSCALE);
@@ -185,21 +189,30 @@ void PrintGrid(int id) {
 }  // namespace
 
 void AddCodecCommands(CLI::App& app, int* exit_code) {
-  CLI::App* codec = app.add_subcommand("codec", "The svms44 code: statistics, encode, decode, read artwork");
+  CLI::App* codec =
+      app.add_subcommand("codec", "The svms44 code: statistics, encode, decode, read artwork");
   codec->require_subcommand(1);
   auto o = std::make_shared<CodecOptions>();
 
-  auto* stats = codec->add_subcommand("stats", "Measure the family: distances and false-accept rates");
+  auto* stats =
+      codec->add_subcommand("stats", "Measure the family: distances and false-accept rates");
   stats->add_flag("--json", o->json, "One JSON object on stdout");
   stats->add_option("--samples", o->samples, "Random words for the false-accept rates")
-      ->check(CLI::Range(int64_t{0}, int64_t{1} << 34))->capture_default_str();
+      ->check(CLI::Range(int64_t{0}, int64_t{1} << 34))
+      ->capture_default_str();
   stats->add_option("--seed", o->seed, "Seed of the random words")->capture_default_str();
-  stats->add_option("--threads", o->threads, "Threads")->check(CLI::Range(1, 256))->capture_default_str();
+  stats->add_option("--threads", o->threads, "Threads")
+      ->check(CLI::Range(1, 256))
+      ->capture_default_str();
   stats->footer("Examples:\n  svms codec stats\n  svms codec stats --json --samples 100000000");
-  stats->callback([o, exit_code] { *exit_code = RunStats(o->json, o->samples, o->seed, o->threads); });
+  stats->callback(
+      [o, exit_code] { *exit_code = RunStats(o->json, o->samples, o->seed, o->threads); });
 
-  auto* encode = codec->add_subcommand("encode", "Print the 44 bits of an ID (bit 0 first; white = 1)");
-  encode->add_option("ID", o->id, "svms44 ID")->required()->check(CLI::Range(0, Svms44::kNumIds - 1));
+  auto* encode =
+      codec->add_subcommand("encode", "Print the 44 bits of an ID (bit 0 first; white = 1)");
+  encode->add_option("ID", o->id, "svms44 ID")
+      ->required()
+      ->check(CLI::Range(0, Svms44::kNumIds - 1));
   encode->add_flag("--grid", o->grid, "Also draw the 12x12 marker as text (# black, . white)");
   encode->footer("Examples:\n  svms codec encode 17\n  svms codec encode 17 --grid");
   encode->callback([o, exit_code] {
@@ -211,25 +224,35 @@ void AddCodecCommands(CLI::App& app, int* exit_code) {
   auto* decode = codec->add_subcommand("decode", "Decode 44 bits: ID, rotation and corrected bits");
   decode->add_option("BITS", o->bits, "44 characters of 0/1 (bit 0 first), or 0x<hex>")->required();
   decode->add_option("--max-corrections", o->limit, "Accept at most this many flipped bits (0-5)")
-      ->check(CLI::Range(0, 5))->capture_default_str();
-  decode->add_option("--id-count", o->id_count,
-                     "Decode among IDs [0, N) only; N <= " + std::to_string(Svms44::StrongIdCount()) +
-                         " guarantees 5-bit correction")
-      ->check(CLI::Range(1, Svms44::kNumIds))->capture_default_str();
+      ->check(CLI::Range(0, 5))
+      ->capture_default_str();
+  decode
+      ->add_option("--id-count", o->id_count,
+                   "Decode among IDs [0, N) only; N <= " + std::to_string(Svms44::StrongIdCount()) +
+                       " guarantees 5-bit correction")
+      ->check(CLI::Range(1, Svms44::kNumIds))
+      ->capture_default_str();
   decode->add_flag("--json", o->json, "JSON output");
-  decode->footer("Exit code 1 when the word does not decode.\nExamples:\n"
-                 "  svms codec decode $(svms codec encode 17)\n"
-                 "  svms codec decode 0x1a2b3c4d5e6 --max-corrections 2 --json");
-  decode->callback([o, exit_code] { *exit_code = RunDecode(o->bits, o->limit, o->id_count, o->json); });
+  decode->footer(
+      "Exit code 1 when the word does not decode.\nExamples:\n"
+      "  svms codec decode $(svms codec encode 17)\n"
+      "  svms codec decode 0x1a2b3c4d5e6 --max-corrections 2 --json");
+  decode->callback(
+      [o, exit_code] { *exit_code = RunDecode(o->bits, o->limit, o->id_count, o->json); });
 
-  auto* read = codec->add_subcommand("read", "Decode the artwork PNG written by 'svms generate marker'");
+  auto* read =
+      codec->add_subcommand("read", "Decode the artwork PNG written by 'svms generate marker'");
   read->add_option("PNG", o->png, "The marker's PNG")->required();
   read->add_option("--model", o->model, "The marker's model JSON")->required();
-  read->add_option("--dpi", o->dpi, "The PNG's resolution")->check(CLI::PositiveNumber)->capture_default_str();
+  read->add_option("--dpi", o->dpi, "The PNG's resolution")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   read->add_flag("--json", o->json, "JSON output");
-  read->footer("Samples each bit cell where the model says it is (marker centre at the image centre)\n"
-               "and decodes. Exit code 1 unless every ID reads back right.\nExamples:\n"
-               "  svms generate marker --id 17 --size 0.1 --out m17 && svms codec read m17.png --model m17.json");
+  read->footer(
+      "Samples each bit cell where the model says it is (marker centre at the image centre)\n"
+      "and decodes. Exit code 1 unless every ID reads back right.\nExamples:\n"
+      "  svms generate marker --id 17 --size 0.1 --out m17 && svms codec read m17.png --model "
+      "m17.json");
   read->callback([o, exit_code] { *exit_code = RunRead(o->png, o->model, o->dpi, o->json); });
 }
 

@@ -20,7 +20,8 @@ struct DatasetCliOptions {
 
 int RunDataset(const DatasetCliOptions& o) {
   if (o.list || o.name.empty()) {
-    for (const std::string& n : DatasetNames()) std::cout << n << "\t" << DatasetDescription(n) << "\n";
+    for (const std::string& n : DatasetNames())
+      std::cout << n << "\t" << DatasetDescription(n) << "\n";
     return o.list ? kExitOk : kExitBadInput;
   }
   if (o.out.empty()) {
@@ -59,7 +60,8 @@ int RunDataset(const DatasetCliOptions& o) {
       return kExitFailed;
     }
     std::cout << "wrote " << scene_file << " (" << scene.views.size() << " views)\n";
-    if (!o.no_render) rc = std::max(rc, RenderScene(scene, scene_file, dir.string(), o.threads, false, o.quiet));
+    if (!o.no_render)
+      rc = std::max(rc, RenderScene(scene, scene_file, dir.string(), o.threads, false, o.quiet));
   }
   return rc;
 }
@@ -71,14 +73,19 @@ void AddDatasetCommands(CLI::App& app, int* exit_code) {
   CLI::App* ds = app.add_subcommand("dataset", "Write and render a standard simulated dataset");
   ds->add_option("NAME", o->name, "range, angle, sun, occlusion, mockup, calibration or clutter");
   ds->add_option("--out", o->out, "Output directory");
-  ds->add_option("--seed", o->seed, "Seed (everything is deterministic from it)")->capture_default_str();
+  ds->add_option("--seed", o->seed, "Seed (everything is deterministic from it)")
+      ->capture_default_str();
   ds->add_flag("--quick", o->quick, "A small subset of the views (smoke tests)");
   ds->add_flag("--no-render", o->no_render, "Only write the scene JSON and companion files");
   ds->add_flag("--list", o->list, "List the datasets");
   ds->add_flag("--quiet", o->quiet, "No progress on stderr");
-  ds->add_option("--threads", o->threads, "Views rendered in parallel")->check(CLI::Range(1, 256))->capture_default_str();
-  ds->footer("Examples:\n  svms dataset --list\n  svms dataset range --out out/range\n"
-             "  svms dataset mockup --out out/mockup --seed 2\n  svms dataset calibration --quick --out out/calib");
+  ds->add_option("--threads", o->threads, "Views rendered in parallel")
+      ->check(CLI::Range(1, 256))
+      ->capture_default_str();
+  ds->footer(
+      "Examples:\n  svms dataset --list\n  svms dataset range --out out/range\n"
+      "  svms dataset mockup --out out/mockup --seed 2\n  svms dataset calibration --quick --out "
+      "out/calib");
   ds->callback([o, exit_code] { *exit_code = RunDataset(*o); });
 }
 

@@ -34,8 +34,8 @@ struct DetectOptions {
 bool IsImageFile(const fs::path& p) {
   std::string e = p.extension().string();
   for (auto& c : e) c = static_cast<char>(std::tolower(c));
-  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".tif" || e == ".tiff" || e == ".bmp" || e == ".pgm" ||
-         e == ".ppm";
+  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".tif" || e == ".tiff" || e == ".bmp" ||
+         e == ".pgm" || e == ".ppm";
 }
 
 // IMAGE | DIR (its image files, sorted) | GLOB; unmatched names are kept (and fail to read).
@@ -70,7 +70,8 @@ nlohmann::json DetectionJson(const Detection& d) {
   j["tip"] = d.tip ? nlohmann::json{d.tip->pixel.x(), d.tip->pixel.y()} : nlohmann::json();
   if (d.cam_from_marker) {
     const Pose& p = *d.cam_from_marker;
-    j["cam_from_marker"] = {{"rvec", {p.rvec(0), p.rvec(1), p.rvec(2)}}, {"tvec", {p.tvec(0), p.tvec(1), p.tvec(2)}}};
+    j["cam_from_marker"] = {{"rvec", {p.rvec(0), p.rvec(1), p.rvec(2)}},
+                            {"tvec", {p.tvec(0), p.tvec(1), p.tvec(2)}}};
     std::vector<double> cov(36);
     for (int r = 0; r < 6; ++r)
       for (int k = 0; k < 6; ++k) cov[r * 6 + k] = d.covariance(r, k);
@@ -83,7 +84,8 @@ nlohmann::json DetectionJson(const Detection& d) {
 
 // The paper's Fig. 4 style: a coloured outline per marker, a star at the post tip, the ID.
 void DrawOverlay(cv::Mat& bgr, const std::vector<Detection>& found) {
-  static const cv::Scalar colours[] = {{0, 0, 255}, {0, 200, 0}, {255, 80, 0}, {0, 200, 255}, {255, 0, 255}, {255, 255, 0}};
+  static const cv::Scalar colours[] = {{0, 0, 255},   {0, 200, 0},   {255, 80, 0},
+                                       {0, 200, 255}, {255, 0, 255}, {255, 255, 0}};
   const int thick = std::max(1, bgr.cols / 600);
   for (size_t i = 0; i < found.size(); ++i) {
     const Detection& d = found[i];
@@ -91,19 +93,22 @@ void DrawOverlay(cv::Mat& bgr, const std::vector<Detection>& found) {
     std::vector<cv::Point> poly;
     for (const auto& p : d.corners) poly.emplace_back(cvRound(p.x() * 16), cvRound(p.y() * 16));
     cv::polylines(bgr, poly, true, c, thick, cv::LINE_AA, 4);
-    cv::circle(bgr, cv::Point(cvRound(d.corners[0].x() * 16), cvRound(d.corners[0].y() * 16)), 3 * thick * 16, c, thick,
-               cv::LINE_AA, 4);  // the top-left corner as printed
+    cv::circle(bgr, cv::Point(cvRound(d.corners[0].x() * 16), cvRound(d.corners[0].y() * 16)),
+               3 * thick * 16, c, thick, cv::LINE_AA, 4);  // the top-left corner as printed
     if (d.tip) {
       const cv::Point t(cvRound(d.tip->pixel.x()), cvRound(d.tip->pixel.y()));
       const int r = std::max(4, static_cast<int>(d.side_px() / 10));
       for (int k = 0; k < 4; ++k) {
         const double a = k * M_PI / 4;
         cv::line(bgr, t + cv::Point(cvRound(r * std::cos(a)), cvRound(r * std::sin(a))),
-                 t - cv::Point(cvRound(r * std::cos(a)), cvRound(r * std::sin(a))), c, thick, cv::LINE_AA);
+                 t - cv::Point(cvRound(r * std::cos(a)), cvRound(r * std::sin(a))), c, thick,
+                 cv::LINE_AA);
       }
     }
-    const std::string label = std::to_string(d.id) + (d.bit_errors ? " (" + std::to_string(d.bit_errors) + " bits)" : "");
-    cv::putText(bgr, label, cv::Point(cvRound(d.corners[0].x()), cvRound(d.corners[0].y()) - 4 * thick),
+    const std::string label =
+        std::to_string(d.id) + (d.bit_errors ? " (" + std::to_string(d.bit_errors) + " bits)" : "");
+    cv::putText(bgr, label,
+                cv::Point(cvRound(d.corners[0].x()), cvRound(d.corners[0].y()) - 4 * thick),
                 cv::FONT_HERSHEY_SIMPLEX, 0.5 * thick, c, thick, cv::LINE_AA);
   }
 }
@@ -163,7 +168,8 @@ int RunDetect(const DetectOptions& o) {
       if (errors[i].empty()) {
         const auto t0 = std::chrono::steady_clock::now();
         const std::vector<Detection> found = detector.Detect(img);
-        j["ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        j["ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                      .count();
         nlohmann::json ds = nlohmann::json::array();
         for (const Detection& d : found) ds.push_back(DetectionJson(d));
         j["detections"] = ds;
@@ -172,7 +178,8 @@ int RunDetect(const DetectOptions& o) {
           img.convertTo(eight, CV_8U, img.depth() == CV_16U ? 1.0 / 256 : 1.0);
           cv::cvtColor(eight, bgr, cv::COLOR_GRAY2BGR);
           DrawOverlay(bgr, found);
-          const std::string out = (fs::path(o.overlay) / (fs::path(f).stem().string() + ".png")).string();
+          const std::string out =
+              (fs::path(o.overlay) / (fs::path(f).stem().string() + ".png")).string();
           if (!cv::imwrite(out, bgr)) errors[i] = out + ": cannot write the overlay";
         }
       } else {
@@ -181,11 +188,13 @@ int RunDetect(const DetectOptions& o) {
       lines[i] = j.dump();
       std::lock_guard<std::mutex> lock(io);
       const size_t d = ++done;
-      if (!o.quiet && files.size() > 1) std::cerr << "\rsvms detect: " << d << "/" << files.size() << " images" << std::flush;
+      if (!o.quiet && files.size() > 1)
+        std::cerr << "\rsvms detect: " << d << "/" << files.size() << " images" << std::flush;
     }
   };
   std::vector<std::thread> pool;
-  for (int t = 0; t < std::max(1, std::min<int>(o.threads, static_cast<int>(files.size()))); ++t) pool.emplace_back(worker);
+  for (int t = 0; t < std::max(1, std::min<int>(o.threads, static_cast<int>(files.size()))); ++t)
+    pool.emplace_back(worker);
   for (auto& t : pool) t.join();
   if (!o.quiet && files.size() > 1) std::cerr << "\n";
   for (const std::string& l : lines) std::cout << l << "\n";
@@ -195,7 +204,8 @@ int RunDetect(const DetectOptions& o) {
       std::cerr << "svms detect: " << e << "\n";
       ++failed;
     }
-  if (failed) std::cerr << "svms detect: " << failed << " of " << files.size() << " images failed\n";
+  if (failed)
+    std::cerr << "svms detect: " << failed << " of " << files.size() << " images failed\n";
   return failed ? kExitFailed : kExitOk;
 }
 
@@ -205,22 +215,33 @@ void AddDetectCommands(CLI::App& app, int* exit_code) {
   auto o = std::make_shared<DetectOptions>();
   CLI::App* det = app.add_subcommand("detect", "Find, identify and measure markers in images");
   det->add_option("IMAGES", o->inputs, "Image files, directories or globs")->required();
-  det->add_option("--camera", o->camera, "mrcal .cameramodel: enables poses and undistorted corner fits");
-  det->add_option("--markers", o->markers, "Marker models (svms.marker, svms.markers or svms.layout)");
-  det->add_option("--overlay", o->overlay, "Write overlay PNGs (outline, tip star, ID) to this directory");
-  det->add_option("--threads", o->threads, "Images processed in parallel")->check(CLI::Range(1, 256))->capture_default_str();
-  det->add_option("--max-megapixels", o->max_megapixels, "Refuse larger images")->check(CLI::PositiveNumber)->capture_default_str();
-  det->add_option("--debug", o->debug, "Write each step's picture of the last image to this directory");
+  det->add_option("--camera", o->camera,
+                  "mrcal .cameramodel: enables poses and undistorted corner fits");
+  det->add_option("--markers", o->markers,
+                  "Marker models (svms.marker, svms.markers or svms.layout)");
+  det->add_option("--overlay", o->overlay,
+                  "Write overlay PNGs (outline, tip star, ID) to this directory");
+  det->add_option("--threads", o->threads, "Images processed in parallel")
+      ->check(CLI::Range(1, 256))
+      ->capture_default_str();
+  det->add_option("--max-megapixels", o->max_megapixels, "Refuse larger images")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  det->add_option("--debug", o->debug,
+                  "Write each step's picture of the last image to this directory");
   det->add_flag("--json", o->json, "JSON Lines output (the only format; accepted for clarity)");
   det->add_flag("--quiet", o->quiet, "No progress on stderr");
   det->footer(
-      "Output: one JSON line per image: image, ms, detections (id, corners TL/TR/BR/BL as printed,\n"
+      "Output: one JSON line per image: image, ms, detections (id, corners TL/TR/BR/BL as "
+      "printed,\n"
       "tip, bit_errors, cam_from_marker {rvec, tvec}, covariance (36 numbers, row-major,\n"
-      "[rotation, translation] in camera axes), nested_in). Without --camera: IDs and corners only.\n"
+      "[rotation, translation] in camera axes), nested_in). Without --camera: IDs and corners "
+      "only.\n"
       "A bad image gets an \"error\" field and a line on stderr; the batch goes on; exit code 1.\n"
       "Examples:\n"
       "  svms detect frame.png\n"
-      "  svms detect out/mockup --camera out/mockup/true.cameramodel --markers out/mockup/true_layout.json --overlay out/ov");
+      "  svms detect out/mockup --camera out/mockup/true.cameramodel --markers "
+      "out/mockup/true_layout.json --overlay out/ov");
   det->callback([o, exit_code] { *exit_code = RunDetect(*o); });
 }
 

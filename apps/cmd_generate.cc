@@ -144,15 +144,18 @@ int RunGenerateSheet(const GenerateOptions& o) {
 }
 
 void AddMarkerShapeOptions(CLI::App* cmd, GenerateOptions& o) {
-  cmd->add_option("--post-height", o.post_height,
-                  "Post height (or well depth) in metres [default: a quarter of the innermost square]")
+  cmd->add_option(
+         "--post-height", o.post_height,
+         "Post height (or well depth) in metres [default: a quarter of the innermost square]")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--post-radius", o.post_radius,
                   "Post (or well) radius in metres [default: a twentieth of the innermost square]")
       ->check(CLI::PositiveNumber);
   cmd->add_flag("--concave", o.concave, "A concave well with a white bottom instead of a post");
   cmd->add_flag("--no-post", o.no_post, "A flat marker (e.g. for calibration boards)");
-  cmd->add_option("--dpi", o.dpi, "PNG resolution")->check(CLI::Range(10.0, 2400.0))->capture_default_str();
+  cmd->add_option("--dpi", o.dpi, "PNG resolution")
+      ->check(CLI::Range(10.0, 2400.0))
+      ->capture_default_str();
   cmd->add_flag("--no-label", o.no_label, "Leave out the printed family/ID/size line");
 }
 
@@ -163,34 +166,52 @@ void AddGenerateCommands(CLI::App& app, int* exit_code) {
   gen->require_subcommand(1);
   auto o = std::make_shared<GenerateOptions>();
 
-  auto* marker = gen->add_subcommand("marker", "One marker: SVG and PDF at exact scale, PNG, model JSON");
-  marker->add_option("--id", o->id, "svms44 ID")->required()->check(CLI::Range(0, Svms44::kNumIds - 1));
-  marker->add_option("--size", o->size, "Side of the black square, metres")->required()->check(CLI::PositiveNumber);
+  auto* marker =
+      gen->add_subcommand("marker", "One marker: SVG and PDF at exact scale, PNG, model JSON");
+  marker->add_option("--id", o->id, "svms44 ID")
+      ->required()
+      ->check(CLI::Range(0, Svms44::kNumIds - 1));
+  marker->add_option("--size", o->size, "Side of the black square, metres")
+      ->required()
+      ->check(CLI::PositiveNumber);
   marker->add_option("--inner-id", o->inner_id, "ID of a nested inner marker (dual marker)")
       ->check(CLI::Range(0, Svms44::kNumIds - 1));
-  marker->add_option("--inner-size", o->inner_size, "Side of the inner marker's black square, metres")
+  marker
+      ->add_option("--inner-size", o->inner_size, "Side of the inner marker's black square, metres")
       ->check(CLI::PositiveNumber);
   AddMarkerShapeOptions(marker, *o);
-  marker->add_flag("--annotate-bits", o->annotate_bits, "Print each cell's bit index (documentation)");
-  marker->add_option("--out", o->out, "Output base name: writes OUT.svg, OUT.pdf, OUT.png, OUT.json")->required();
+  marker->add_flag("--annotate-bits", o->annotate_bits,
+                   "Print each cell's bit index (documentation)");
+  marker
+      ->add_option("--out", o->out, "Output base name: writes OUT.svg, OUT.pdf, OUT.png, OUT.json")
+      ->required();
   marker->footer(
-      "The SVG is in millimetres and the PDF in points, both at exact physical scale: print at 100 %.\n"
+      "The SVG is in millimetres and the PDF in points, both at exact physical scale: print at 100 "
+      "%.\n"
       "Examples:\n"
       "  svms generate marker --id 17 --size 0.2 --out m17\n"
       "  svms generate marker --id 3 --size 0.432 --inner-id 4 --inner-size 0.108 --out dual\n"
       "  svms generate marker --id 9 --size 0.1 --concave --post-height 0.02 --out well");
   marker->callback([o, exit_code] { *exit_code = RunGenerateMarker(*o); });
 
-  auto* sheet = gen->add_subcommand("sheet", "Several markers on pages with cut marks, labels, drill crosses");
-  sheet->add_option("--markers", o->markers_file, "Models to lay out (svms.marker, svms.markers or svms.layout)");
+  auto* sheet = gen->add_subcommand(
+      "sheet", "Several markers on pages with cut marks, labels, drill crosses");
+  sheet->add_option("--markers", o->markers_file,
+                    "Models to lay out (svms.marker, svms.markers or svms.layout)");
   sheet->add_option("--ids", o->ids, "IDs to generate, e.g. 0-5,9 (with --size)");
-  sheet->add_option("--size", o->size, "Side of the black squares for --ids, metres")->check(CLI::PositiveNumber);
+  sheet->add_option("--size", o->size, "Side of the black squares for --ids, metres")
+      ->check(CLI::PositiveNumber);
   AddMarkerShapeOptions(sheet, *o);
-  sheet->add_option("--page", o->page, "A4, A3, Letter, or WxH in millimetres")->capture_default_str();
-  sheet->add_option("--out", o->out, "Output base name: OUT.pdf (all pages), OUT[-N].svg/png, OUT.json")->required();
-  sheet->footer("Examples:\n"
-                "  svms generate sheet --ids 0-5 --size 0.05 --page A4 --out sheet\n"
-                "  svms generate sheet --markers layout.json --page 600x400 --out mockup-markers");
+  sheet->add_option("--page", o->page, "A4, A3, Letter, or WxH in millimetres")
+      ->capture_default_str();
+  sheet
+      ->add_option("--out", o->out,
+                   "Output base name: OUT.pdf (all pages), OUT[-N].svg/png, OUT.json")
+      ->required();
+  sheet->footer(
+      "Examples:\n"
+      "  svms generate sheet --ids 0-5 --size 0.05 --page A4 --out sheet\n"
+      "  svms generate sheet --markers layout.json --page 600x400 --out mockup-markers");
   sheet->callback([o, exit_code] { *exit_code = RunGenerateSheet(*o); });
 }
 

@@ -31,9 +31,10 @@ void AddModelCommands(CLI::App& app, int* exit_code) {
   auto* check = model->add_subcommand("check", "Validate model, marker-set and layout files");
   check->add_option("FILE", *files, "JSON files (svms.marker, svms.markers, svms.layout)")
       ->required();
-  check->footer("Prints one line per file (kind, IDs, sizes); bad files get one line on stderr\n"
-                "naming the file, the field and what was expected, and the exit code is 2.\n"
-                "Examples:\n  svms model check m17.json\n  svms model check board.json layout.json");
+  check->footer(
+      "Prints one line per file (kind, IDs, sizes); bad files get one line on stderr\n"
+      "naming the file, the field and what was expected, and the exit code is 2.\n"
+      "Examples:\n  svms model check m17.json\n  svms model check board.json layout.json");
   check->callback([files, exit_code] { *exit_code = RunModelCheck(*files); });
 }
 

@@ -35,8 +35,8 @@ int RunRender(const RenderOptions& o) {
 
 }  // namespace
 
-int RenderScene(const Scene& scene, const std::string& source, const std::string& out_dir, int threads,
-                bool radiance, bool quiet) {
+int RenderScene(const Scene& scene, const std::string& source, const std::string& out_dir,
+                int threads, bool radiance, bool quiet) {
   RenderOptions o;
   o.scene = source;
   o.out = out_dir;
@@ -65,15 +65,18 @@ int RenderScene(const Scene& scene, const std::string& source, const std::string
       const cv::Mat radiance = renderer->RenderRadiance(v);
       const cv::Mat image = renderer->Expose(radiance, v);
       truth[v] = ComputeTruth(*renderer, v);
-      const std::string file = (std::filesystem::path(o.out) / (scene.views[v].name + ".png")).string();
+      const std::string file =
+          (std::filesystem::path(o.out) / (scene.views[v].name + ".png")).string();
       bool ok = cv::imwrite(file, image);
       if (ok && o.radiance) {
-        ok = cv::imwrite((std::filesystem::path(o.out) / (scene.views[v].name + ".exr")).string(), radiance);
+        ok = cv::imwrite((std::filesystem::path(o.out) / (scene.views[v].name + ".exr")).string(),
+                         radiance);
       }
       std::lock_guard<std::mutex> lock(io);
       if (!ok) failures.push_back(file + ": cannot write");
       const int d = ++done;
-      if (!o.quiet) std::cerr << "\rsvms render: " << d << "/" << n << " views of " << o.scene << std::flush;
+      if (!o.quiet)
+        std::cerr << "\rsvms render: " << d << "/" << n << " views of " << o.scene << std::flush;
     }
   };
   std::vector<std::thread> pool;
@@ -81,12 +84,13 @@ int RenderScene(const Scene& scene, const std::string& source, const std::string
   for (auto& t : pool) t.join();
   if (!o.quiet) std::cerr << "\n";
   const std::string truth_file = (std::filesystem::path(o.out) / "truth.json").string();
-  if (Status s = WriteTextFile(truth_file, TruthToJson(scene, truth)); !s) failures.push_back(s.message());
+  if (Status s = WriteTextFile(truth_file, TruthToJson(scene, truth)); !s)
+    failures.push_back(s.message());
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   for (const std::string& f : failures) std::cerr << "svms render: " << f << "\n";
-  std::cout << "rendered " << n << " views of " << scene.camera.width() << "x" << scene.camera.height()
-            << " at " << scene.sensor.rays_per_pixel << " rays/pixel in " << secs << " s to " << o.out
-            << " (truth: " << truth_file << ")\n";
+  std::cout << "rendered " << n << " views of " << scene.camera.width() << "x"
+            << scene.camera.height() << " at " << scene.sensor.rays_per_pixel << " rays/pixel in "
+            << secs << " s to " << o.out << " (truth: " << truth_file << ")\n";
   return failures.empty() ? kExitOk : kExitFailed;
 }
 
@@ -94,13 +98,17 @@ void AddRenderCommands(CLI::App& app, int* exit_code) {
   auto o = std::make_shared<RenderOptions>();
   CLI::App* render = app.add_subcommand("render", "Render a scene's views with exact ground truth");
   render->add_option("SCENE", o->scene, "Scene JSON (svms.scene, docs/simulator.md)")->required();
-  render->add_option("--out", o->out, "Output directory: VIEW.png per view and truth.json")->required();
-  render->add_option("--threads", o->threads, "Views rendered in parallel")->check(CLI::Range(1, 256))->capture_default_str();
+  render->add_option("--out", o->out, "Output directory: VIEW.png per view and truth.json")
+      ->required();
+  render->add_option("--threads", o->threads, "Views rendered in parallel")
+      ->check(CLI::Range(1, 256))
+      ->capture_default_str();
   render->add_flag("--radiance", o->radiance, "Also write the noise-free radiance as VIEW.exr");
   render->add_flag("--quiet", o->quiet, "No progress on stderr");
-  render->footer("Examples:\n"
-                 "  svms render datasets/scenes/single.json --out out/single\n"
-                 "  svms dataset range --out out/range && svms render out/range/scene.json --out out/range");
+  render->footer(
+      "Examples:\n"
+      "  svms render datasets/scenes/single.json --out out/single\n"
+      "  svms dataset range --out out/range && svms render out/range/scene.json --out out/range");
   render->callback([o, exit_code] { *exit_code = RunRender(*o); });
 }
 

@@ -21,7 +21,7 @@ void AddDetectCommands(CLI::App& app, int* exit_code);
 
 // Renders every view of `scene` into `out_dir` (VIEW.png, truth.json) on `threads` threads,
 // progress on stderr; `source` names the scene in messages. Returns an exit code.
-int RenderScene(const Scene& scene, const std::string& source, const std::string& out_dir, int threads,
-                bool radiance, bool quiet);
+int RenderScene(const Scene& scene, const std::string& source, const std::string& out_dir,
+                int threads, bool radiance, bool quiet);
 
 }  // namespace svms::cli

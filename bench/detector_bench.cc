@@ -1,7 +1,8 @@
 // Detector speed (issue 4 targets: <= 2 ms per 640x480 and <= 6 ms per 1024x1024 image, median,
 // one core, three markers on a textured, noisy background, markers of 30 px still found).
 // The images are rendered once by the simulator; only Detector::Detect is timed.
-// Run: build/bin/svms_bench_detector --benchmark_repetitions=9 --benchmark_report_aggregates_only=true
+// Run: build/bin/svms_bench_detector --benchmark_repetitions=9
+// --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
 #include <memory>
@@ -81,7 +82,8 @@ void BM_Detect(benchmark::State& state) {
   }
   state.counters["markers_found"] = static_cast<double>(found);
   for (int k = 0; k < svms::DetectionStats::kSteps; ++k)
-    state.counters[std::string("ms_") + svms::DetectionStats::kStepNames[k]] = ms[k] / state.iterations();
+    state.counters[std::string("ms_") + svms::DetectionStats::kStepNames[k]] =
+        ms[k] / state.iterations();
 }
 BENCHMARK(BM_Detect)->Args({640, 480})->Args({1024, 1024})->Unit(benchmark::kMillisecond);
 

@@ -11,12 +11,11 @@
 // lens.
 #include <benchmark/benchmark.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <cstdlib>
 #include <memory>
 #include <string>
-
-#include <Eigen/Geometry>
 
 #include "svms/render.h"
 #include "svms/scene.h"
@@ -31,11 +30,11 @@ constexpr double kFocal = 1100;
 svms::CameraModel Camera(bool distorted) {
   if (!distorted) return svms::CameraModel::Pinhole(kFocal, kSize, kSize);
   svms::CameraModel cam;
-  const svms::Status s = svms::CameraModel::Create(
-      "LENSMODEL_OPENCV8",
-      {kFocal, kFocal + 4, (kSize - 1) / 2.0 + 3, (kSize - 1) / 2.0 - 2, -0.28, 0.09, 0.001, -0.0007, -0.01,
-       0.02, 0.003, 0.001},
-      kSize, kSize, &cam);
+  const svms::Status s =
+      svms::CameraModel::Create("LENSMODEL_OPENCV8",
+                                {kFocal, kFocal + 4, (kSize - 1) / 2.0 + 3, (kSize - 1) / 2.0 - 2,
+                                 -0.28, 0.09, 0.001, -0.0007, -0.01, 0.02, 0.003, 0.001},
+                                kSize, kSize, &cam);
   if (!s.ok()) std::abort();
   return cam;
 }
@@ -93,8 +92,9 @@ svms::Scene BenchScene(bool distorted) {
   s.sensor.read_noise = 4;
   s.sensor.shot_noise = true;
   const double elev = 40 * M_PI / 180, az = 25 * M_PI / 180;
-  s.light.sun = svms::Sun{Vector3d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az), std::sin(elev)),
-                          1.0, 0.53};
+  s.light.sun = svms::Sun{
+      Vector3d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az), std::sin(elev)), 1.0,
+      0.53};
   s.light.ambient = 0.05;
   s.background.kind = svms::Background::Kind::kEarth;
 
@@ -109,20 +109,27 @@ svms::Scene BenchScene(bool distorted) {
   svms::MarkerModel dual = svms::MarkerModel::Standard(101, 0.432, 0.432 / 4);
   dual.AddInner(102, 0.108);
   box.markers.push_back(Marker(dual, OnFace(half, 0, 0, 0.5)));
-  box.markers.push_back(Marker(svms::MarkerModel::Standard(103, 0.2, 0.05), OnFace(half, 0, -0.2, -0.5)));
-  box.markers.push_back(Marker(svms::MarkerModel::Standard(104, 0.1, 0.025), OnFace(half, 0, 0.25, -0.4)));
-  box.markers.push_back(Marker(svms::MarkerModel::Standard(105, 0.1, 0.025), OnFace(half, 0, 0.25, -0.75)));
+  box.markers.push_back(
+      Marker(svms::MarkerModel::Standard(103, 0.2, 0.05), OnFace(half, 0, -0.2, -0.5)));
+  box.markers.push_back(
+      Marker(svms::MarkerModel::Standard(104, 0.1, 0.025), OnFace(half, 0, 0.25, -0.4)));
+  box.markers.push_back(
+      Marker(svms::MarkerModel::Standard(105, 0.1, 0.025), OnFace(half, 0, 0.25, -0.75)));
   // +y face: a concave 0.2 m marker, a 0.432 m one, a 0.1 m one.
-  box.markers.push_back(Marker(svms::MarkerModel::Standard(106, 0.2, -0.05), OnFace(half, 1, -0.2, 0.6)));
-  box.markers.push_back(Marker(svms::MarkerModel::Standard(107, 0.432, 0.108), OnFace(half, 1, 0, -0.45)));
-  box.markers.push_back(Marker(svms::MarkerModel::Standard(108, 0.1, 0.025), OnFace(half, 1, 0.3, 0.65)));
+  box.markers.push_back(
+      Marker(svms::MarkerModel::Standard(106, 0.2, -0.05), OnFace(half, 1, -0.2, 0.6)));
+  box.markers.push_back(
+      Marker(svms::MarkerModel::Standard(107, 0.432, 0.108), OnFace(half, 1, 0, -0.45)));
+  box.markers.push_back(
+      Marker(svms::MarkerModel::Standard(108, 0.1, 0.025), OnFace(half, 1, 0.3, 0.65)));
   // Top face.
   box.markers.push_back(Marker(svms::MarkerModel::Standard(109, 0.2, 0.05), OnFace(half, 2, 0, 0)));
   s.objects.push_back(box);
 
   // 2.85 m from the box centre, 45 degrees round from its +x face, 25 degrees above it.
   const double ce = 25 * M_PI / 180, ca = 50 * M_PI / 180, dist = 2.85;
-  const Vector3d eye = dist * Vector3d(std::cos(ce) * std::cos(ca), std::cos(ce) * std::sin(ca), std::sin(ce));
+  const Vector3d eye =
+      dist * Vector3d(std::cos(ce) * std::cos(ca), std::cos(ce) * std::sin(ca), std::sin(ce));
   svms::View view;
   view.name = "v0";
   view.cam_from_world = LookAt(eye, Vector3d(0, 0, 0));

@@ -103,7 +103,8 @@ Dataset Range(const DatasetOptions& o) {
     for (int j = 0; j < per; ++j) {
       // Nearly head-on (tilt up to 5 degrees), the marker near the image centre.
       const double tilt = 5 * kDeg * std::abs(u(rng)), az = M_PI * u(rng);
-      const Vec3 eye = D * Vec3(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az), std::cos(tilt));
+      const Vec3 eye =
+          D * Vec3(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az), std::cos(tilt));
       const Vec3 target = Vec3(u(rng), u(rng), 0) * 0.05 * std::min(D, 4.0);
       const Vec3 up(std::sin(0.3 * u(rng)), std::cos(0.3 * u(rng)), 0);
       s.views.push_back(View{Name("range_", k++), LookAt(eye, target, up)});
@@ -121,16 +122,19 @@ Dataset Angle(const DatasetOptions& o) {
   SceneObject plate = Plate(1.5);
   plate.markers.push_back(Printed(MarkerModel::Standard(3, 0.2, 0.05), OnPlate(0, 0, 0.2)));
   s.objects.push_back(plate);
-  const std::vector<double> angles = o.quick ? std::vector<double>{0, 45, 70}
-                                             : std::vector<double>{0, 10, 20, 30, 40, 50, 60, 65, 70, 75};
-  const std::vector<double> dists = o.quick ? std::vector<double>{1.5} : std::vector<double>{1.5, 4, 8};
-  const std::vector<double> azimuths = o.quick ? std::vector<double>{0} : std::vector<double>{0, 135};
+  const std::vector<double> angles =
+      o.quick ? std::vector<double>{0, 45, 70}
+              : std::vector<double>{0, 10, 20, 30, 40, 50, 60, 65, 70, 75};
+  const std::vector<double> dists =
+      o.quick ? std::vector<double>{1.5} : std::vector<double>{1.5, 4, 8};
+  const std::vector<double> azimuths =
+      o.quick ? std::vector<double>{0} : std::vector<double>{0, 135};
   int k = 0;
   for (double D : dists)
     for (double az : azimuths)
       for (double a : angles) {
-        const Vec3 eye = D * Vec3(std::sin(a * kDeg) * std::cos(az * kDeg), std::sin(a * kDeg) * std::sin(az * kDeg),
-                                  std::cos(a * kDeg));
+        const Vec3 eye = D * Vec3(std::sin(a * kDeg) * std::cos(az * kDeg),
+                                  std::sin(a * kDeg) * std::sin(az * kDeg), std::cos(a * kDeg));
         s.views.push_back(View{Name("angle_", k++), LookAt(eye, Vec3::Zero(), Vec3(0, 1, 0.3))});
       }
   d.scenes.emplace_back("", s);
@@ -186,7 +190,8 @@ Dataset Occlusion(const DatasetOptions& o) {
   const uint64_t word = Svms44::Codeword(m.id);
   std::mt19937_64 rng(o.seed * 7919 + 3);
   int k = 0;
-  const std::vector<int> counts = o.quick ? std::vector<int>{0, 3, 5, 10} : std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10};
+  const std::vector<int> counts =
+      o.quick ? std::vector<int>{0, 3, 5, 10} : std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10};
   for (int covered : counts) {
     for (int trial = 0; trial < (o.quick ? 1 : 10); ++trial) {
       // `covered` cells, each under a patch of the opposite colour 3 mm above it: every one a
@@ -263,7 +268,8 @@ Dataset Mockup(const DatasetOptions& o) {
     const Vec3 dir = Vec3(0.45 * (1 - f) + 0.05, 0.35 * (1 - f) + 0.03, 1).normalized();
     const Vec3 front(0, 0, half.z());
     const Vec3 eye = front + D * dir + 0.01 * D * Vec3(g(rng), g(rng), g(rng));
-    const Vec3 target = front + Vec3(-0.1 * (1 - f), -0.1 * (1 - f), -0.3 * (1 - f)) + 0.005 * D * Vec3(g(rng), g(rng), 0);
+    const Vec3 target = front + Vec3(-0.1 * (1 - f), -0.1 * (1 - f), -0.3 * (1 - f)) +
+                        0.005 * D * Vec3(g(rng), g(rng), 0);
     const double roll = 0.2 * std::sin(6 * f);
     View v{Name("mockup_", i), LookAt(eye, target, Vec3(std::sin(roll), std::cos(roll), 0))};
     v.sun = Sunlight(40 - 15 * f, 20 + 70 * f).sun;  // the sun moves during the approach
@@ -322,7 +328,8 @@ Dataset Calibration(const DatasetOptions& o) {
     // up to 45 degrees, 1.3 to 2.4 m away.
     const double D = 1.3 + 1.1 * (0.5 + 0.5 * u(rng));
     const double tilt = 45 * kDeg * std::sqrt(0.5 + 0.5 * u(rng)), az = M_PI * u(rng);
-    const Vec3 eye = D * Vec3(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az), std::cos(tilt));
+    const Vec3 eye =
+        D * Vec3(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az), std::cos(tilt));
     const Pose look = LookAt(eye, Vec3::Zero(), Vec3(u(rng), 1, 0));
     // Then turn the camera so the board lands off-centre (toward the image corners).
     const Pose turn{Vec3(0.16 * u(rng), 0.16 * u(rng), 0), Vec3::Zero()};
@@ -346,8 +353,9 @@ Dataset Clutter(const DatasetOptions& o) {
   s.background.kind = Background::Kind::kEarth;
   std::mt19937_64 rng(o.seed * 977 + 5);
   std::uniform_real_distribution<double> u(-1, 1), u01(0, 1);
-  const Pattern::Kind kinds[] = {Pattern::Kind::kUniform, Pattern::Kind::kChecker, Pattern::Kind::kStripes,
-                                 Pattern::Kind::kGrid, Pattern::Kind::kText, Pattern::Kind::kNoise};
+  const Pattern::Kind kinds[] = {Pattern::Kind::kUniform, Pattern::Kind::kChecker,
+                                 Pattern::Kind::kStripes, Pattern::Kind::kGrid,
+                                 Pattern::Kind::kText,    Pattern::Kind::kNoise};
   for (int i = 0; i < 60; ++i) {
     SceneObject ob;
     ob.name = Name("clutter_", i);
@@ -413,7 +421,8 @@ Dataset Gallery(const DatasetOptions& o) {
   ring.views = {View{"ring_light", cam}};
   d.scenes.emplace_back("ring", ring);
 
-  Scene dual = NewScene(o.seed, CameraModel::Pinhole(30.0 * 16.0 / 0.432, 256, 256), Sunlight(50, 30));
+  Scene dual =
+      NewScene(o.seed, CameraModel::Pinhole(30.0 * 16.0 / 0.432, 256, 256), Sunlight(50, 30));
   SceneObject p2 = Plate(1.2);
   const MarkerModel m = Dual(1, 0.432, 2, 0.108);
   p2.markers.push_back(Printed(m, OnPlate(0, 0, 0)));
@@ -421,7 +430,8 @@ Dataset Gallery(const DatasetOptions& o) {
   for (double D : {0.8, 7.0, 16.0}) {
     char name[32];
     std::snprintf(name, sizeof name, "dual_%04.1fm", D);
-    dual.views.push_back(View{name, LookAt(Vec3(0.02 * D, 0.03 * D, D), Vec3::Zero(), Vec3(0.1, 1, 0))});
+    dual.views.push_back(
+        View{name, LookAt(Vec3(0.02 * D, 0.03 * D, D), Vec3::Zero(), Vec3(0.1, 1, 0))});
   }
   d.scenes.emplace_back("dual", dual);
   return d;
@@ -460,7 +470,8 @@ CameraModel DistortedCamera() {
   CameraModel cam;
   const Status s = CameraModel::Create(
       "LENSMODEL_OPENCV8",
-      {1111.0, 1109.0, 515.3, 508.7, -0.32, 0.12, 0.0006, -0.0004, -0.02, 0.01, 0.005, 0.001}, 1024, 1024, &cam);
+      {1111.0, 1109.0, 515.3, 508.7, -0.32, 0.12, 0.0006, -0.0004, -0.02, 0.01, 0.005, 0.001}, 1024,
+      1024, &cam);
   if (!s) __builtin_trap();  // fixed, valid parameters
   return cam;
 }
@@ -470,27 +481,44 @@ std::vector<std::string> DatasetNames() {
 }
 
 std::string DatasetDescription(const std::string& name) {
-  if (name == "range") return "dual marker 0.432/0.108 m, 0.8 to 16 m, 1024x1024 pinhole (0.432 m = 30 px at 16 m)";
+  if (name == "range")
+    return "dual marker 0.432/0.108 m, 0.8 to 16 m, 1024x1024 pinhole (0.432 m = 30 px at 16 m)";
   if (name == "angle") return "0.2 m marker, 0 to 75 degrees off-axis at 1.5, 4 and 8 m";
-  if (name == "sun") return "sun elevation and azimuth sweeps, post shadow, a bar's shadow edge across the marker";
-  if (name == "occlusion") return "0 to 10 data bits covered by patches of the opposite colour (each a flipped bit)";
-  if (name == "mockup") return "1 x 1 x 2 m module, 8 markers (3 sizes, a dual, a concave), 200 views from 10 m to 0.5 m, moving sun";
-  if (name == "calibration") return "a 6x5 marker board and a 10x8 chessboard, same 40 views, OPENCV8 camera";
-  if (name == "clutter") return "60 patterned boxes and planes (checker, stripes, grid, text, noise), no markers";
-  if (name == "gallery") return "the pictures of docs/simulator.md: sun, shadow, shadow edge, ring light, dual at 0.8/7/16 m";
+  if (name == "sun")
+    return "sun elevation and azimuth sweeps, post shadow, a bar's shadow edge across the marker";
+  if (name == "occlusion")
+    return "0 to 10 data bits covered by patches of the opposite colour (each a flipped bit)";
+  if (name == "mockup")
+    return "1 x 1 x 2 m module, 8 markers (3 sizes, a dual, a concave), 200 views from 10 m to 0.5 "
+           "m, moving sun";
+  if (name == "calibration")
+    return "a 6x5 marker board and a 10x8 chessboard, same 40 views, OPENCV8 camera";
+  if (name == "clutter")
+    return "60 patterned boxes and planes (checker, stripes, grid, text, noise), no markers";
+  if (name == "gallery")
+    return "the pictures of docs/simulator.md: sun, shadow, shadow edge, ring light, dual at "
+           "0.8/7/16 m";
   return "";
 }
 
 Status MakeDataset(const std::string& name, const DatasetOptions& o, Dataset* out) {
   Dataset d;
-  if (name == "range") d = Range(o);
-  else if (name == "angle") d = Angle(o);
-  else if (name == "sun") d = SunSweep(o);
-  else if (name == "occlusion") d = Occlusion(o);
-  else if (name == "mockup") d = Mockup(o);
-  else if (name == "calibration") d = Calibration(o);
-  else if (name == "clutter") d = Clutter(o);
-  else if (name == "gallery") d = Gallery(o);
+  if (name == "range")
+    d = Range(o);
+  else if (name == "angle")
+    d = Angle(o);
+  else if (name == "sun")
+    d = SunSweep(o);
+  else if (name == "occlusion")
+    d = Occlusion(o);
+  else if (name == "mockup")
+    d = Mockup(o);
+  else if (name == "calibration")
+    d = Calibration(o);
+  else if (name == "clutter")
+    d = Clutter(o);
+  else if (name == "gallery")
+    d = Gallery(o);
   else {
     std::string list;
     for (const auto& n : DatasetNames()) list += (list.empty() ? "" : ", ") + n;

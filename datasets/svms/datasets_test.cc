@@ -59,7 +59,8 @@ TEST(Datasets, MockupHasEightMarkersOfThreeSizesWithADualAndAConcave) {
     EXPECT_NEAR(std::abs(n[axis]), 1, 1e-12);
     EXPECT_NEAR(c[axis], n[axis] * half[axis], 1e-12);
     for (int k = 0; k < 3; ++k)
-      if (k != axis) EXPECT_LE(std::abs(c[k]) + m.model.half_extent(), half[k] + 1e-9) << m.model.id;
+      if (k != axis)
+        EXPECT_LE(std::abs(c[k]) + m.model.half_extent(), half[k] + 1e-9) << m.model.id;
   }
   EXPECT_EQ(sizes.size(), 3u);
   EXPECT_EQ(duals, 1);

@@ -22,8 +22,8 @@ constexpr double kCutMarkLength = 5.0, kCutMarkOffset = 1.5;  // mm
 // Everything drawn about one marker sits in a box: cut box (ring + quiet zone) plus room for
 // cut marks around it and the label below it.
 struct MarkerBox {
-  double cut_half_mm;     // half side of the cut square
-  double label_mm;        // height of the label line (0 if none)
+  double cut_half_mm;  // half side of the cut square
+  double label_mm;     // height of the label line (0 if none)
   double font_mm;
   double width() const { return 2 * (cut_half_mm + kCutMarkOffset + kCutMarkLength); }
   double height() const { return width() + label_mm; }
@@ -273,8 +273,10 @@ Status PageSpec::Parse(const std::string& name, PageSpec* out) {
     char tail = 0;
     if (std::sscanf(name.c_str(), "%lfx%lf%c", &w, &h, &tail) != 2 || !(w >= 20 && h >= 20) ||
         !(w <= 5000 && h <= 5000)) {
-      return Status::Error("--page: expected A4, A3, Letter or WxH in millimetres (20 to 5000), "
-                           "got \"" + name + "\"");
+      return Status::Error(
+          "--page: expected A4, A3, Letter or WxH in millimetres (20 to 5000), "
+          "got \"" +
+          name + "\"");
     }
     p.width_mm = w, p.height_mm = h;
   }
@@ -291,7 +293,8 @@ Status WriteMarkerArtwork(const MarkerModel& model, const std::string& base_in,
   const double margin = 4.0;  // mm of paper around the marks
   const double w = box.width() + 2 * margin;
   const double h = box.width() + 2 * (box.label_mm + margin);  // symmetric: centre stays centred
-  if (Status s = RenderPages({{Placement{&model, 0.5 * w, 0.5 * h}}}, w, h, base, options, written); !s)
+  if (Status s = RenderPages({{Placement{&model, 0.5 * w, 0.5 * h}}}, w, h, base, options, written);
+      !s)
     return s;
   const std::string json = base + ".json";
   if (Status s = WriteTextFile(json, MarkerModelToJson(model)); !s) return s;
@@ -328,8 +331,8 @@ Status WriteSheet(const std::vector<MarkerModel>& models, const std::string& bas
       pages.emplace_back();
       x = y = row_h = 0;
     }
-    pages.back().push_back(Placement{&m, o.margin_mm + x + 0.5 * box.width(),
-                                     o.margin_mm + y + 0.5 * box.width()});
+    pages.back().push_back(
+        Placement{&m, o.margin_mm + x + 0.5 * box.width(), o.margin_mm + y + 0.5 * box.width()});
     x += box.width() + o.gap_mm;
     row_h = std::max(row_h, box.height());
   }

@@ -8,10 +8,9 @@
 // one metre is dpi / 0.0254 pixels: ArtworkPixelFromPlane gives that mapping.
 #pragma once
 
+#include <Eigen/Core>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "svms/marker_model.h"
 #include "svms/status.h"
@@ -19,10 +18,10 @@
 namespace svms {
 
 struct ArtworkOptions {
-  double dpi = 300;             // PNG resolution, pixels per inch
-  bool label = true;            // family, ID, size and post printed below the marker
+  double dpi = 300;   // PNG resolution, pixels per inch
+  bool label = true;  // family, ID, size and post printed below the marker
   bool cut_marks = true;
-  bool annotate_bits = false;   // print each cell's bit index (for documentation)
+  bool annotate_bits = false;  // print each cell's bit index (for documentation)
   bool write_png = true;
 };
 

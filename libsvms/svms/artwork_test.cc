@@ -16,7 +16,8 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string TempBase(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("svms_artwork_test_" + std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("svms_artwork_test_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   return (dir / name).string();
 }
@@ -61,7 +62,8 @@ TEST(Artwork, SingleMarkerIsExactScaleAndReadsBack) {
   const std::regex rect(
       R"(d="M ([-0-9.]+) ([-0-9.]+) L ([-0-9.]+) ([-0-9.]+) L ([-0-9.]+) ([-0-9.]+) L ([-0-9.]+) ([-0-9.]+) Z)");
   int squares = 0;
-  for (auto it = std::sregex_iterator(svg.begin(), svg.end(), rect); it != std::sregex_iterator(); ++it) {
+  for (auto it = std::sregex_iterator(svg.begin(), svg.end(), rect); it != std::sregex_iterator();
+       ++it) {
     double v[8];
     for (int i = 0; i < 8; ++i) v[i] = std::stod((*it)[i + 1]);
     const double w = std::abs(v[2] - v[0]) + std::abs(v[4] - v[2]);

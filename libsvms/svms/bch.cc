@@ -6,7 +6,7 @@
 namespace svms {
 namespace {
 
-constexpr int kFieldOrder = 63;         // multiplicative order of GF(64)
+constexpr int kFieldOrder = 63;            // multiplicative order of GF(64)
 constexpr unsigned kPrimitivePoly = 0x43;  // x^6 + x + 1
 
 // Carry-less product of two binary polynomials (bit i = coefficient of x^i).
@@ -53,7 +53,8 @@ Bch44::Bch44() {
     for (int c = 0; c < 64; ++c) mul_[a][c] = static_cast<uint8_t>(mul(a, c));
 
   for (int p = 0; p < kN; ++p)
-    for (int i = 0; i <= kT; ++i) chien_powers_[p][i] = exp_[(kFieldOrder * kT - i * p) % kFieldOrder];
+    for (int i = 0; i <= kT; ++i)
+      chien_powers_[p][i] = exp_[(kFieldOrder * kT - i * p) % kFieldOrder];
 
   // g(x) = lcm of the minimal polynomials of alpha^1 .. alpha^10, i.e. the product of the
   // minimal polynomials of the cyclotomic cosets of 1, 3, 5, 7, 9.
@@ -191,8 +192,8 @@ int Bch44::Decode(uint64_t word, uint64_t* codeword) const {
   int roots = 0;
   for (int p = 0; p < kN; ++p) {
     const uint8_t* x = chien_powers_[p];  // x[i] = alpha^(-i p)
-    const unsigned v = 1 ^ mul[C[1]][x[1]] ^ mul[C[2]][x[2]] ^ mul[C[3]][x[3]] ^
-                       mul[C[4]][x[4]] ^ mul[C[5]][x[5]];
+    const unsigned v =
+        1 ^ mul[C[1]][x[1]] ^ mul[C[2]][x[2]] ^ mul[C[3]][x[3]] ^ mul[C[4]][x[4]] ^ mul[C[5]][x[5]];
     if (v == 0) {
       error |= uint64_t{1} << p;
       if (++roots == L) break;

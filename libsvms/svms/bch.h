@@ -16,10 +16,10 @@ namespace svms {
 
 class Bch44 {
  public:
-  static constexpr int kN = 44;        // code length in bits
-  static constexpr int kK = 17;        // information bits
-  static constexpr int kParity = 27;   // degree of the generator polynomial
-  static constexpr int kT = 5;         // guaranteed correctable errors
+  static constexpr int kN = 44;       // code length in bits
+  static constexpr int kK = 17;       // information bits
+  static constexpr int kParity = 27;  // degree of the generator polynomial
+  static constexpr int kT = 5;        // guaranteed correctable errors
   static constexpr uint64_t kWordMask = (uint64_t{1} << kN) - 1;
   static constexpr uint32_t kInfoCount = uint32_t{1} << kK;
 
@@ -47,9 +47,9 @@ class Bch44 {
  private:
   Bch44();
   uint64_t generator_ = 0;
-  std::array<uint8_t, 128> exp_{};  // exp_[i] = alpha^i, i in [0, 126)
-  std::array<uint8_t, 64> log_{};   // log_[x] for x != 0
-  uint8_t mul_[64][64] = {};         // GF(64) products
+  std::array<uint8_t, 128> exp_{};         // exp_[i] = alpha^i, i in [0, 126)
+  std::array<uint8_t, 64> log_{};          // log_[x] for x != 0
+  uint8_t mul_[64][64] = {};               // GF(64) products
   uint8_t chien_powers_[kN][kT + 1] = {};  // alpha^(-i p) for position p, power i
   std::array<std::array<uint32_t, 256>, 6> syndrome_table_{};  // per byte of the word
 };

@@ -41,7 +41,8 @@ TEST(Bch44, SyndromeIsNonzeroForEveryWordOfWeightOneAndTwo) {
   const Bch44& bch = Bch44::Get();
   for (int i = 0; i < 44; ++i) {
     EXPECT_NE(bch.Syndrome(uint64_t{1} << i), 0u);
-    for (int j = i + 1; j < 44; ++j) EXPECT_NE(bch.Syndrome((uint64_t{1} << i) | (uint64_t{1} << j)), 0u);
+    for (int j = i + 1; j < 44; ++j)
+      EXPECT_NE(bch.Syndrome((uint64_t{1} << i) | (uint64_t{1} << j)), 0u);
   }
 }
 

@@ -55,7 +55,7 @@ BitReading SampleBits(const cv::Mat& image, const Eigen::Matrix3d& pixel_from_pl
     // Unit vector from the ring toward the centre along this side's normal, and the position
     // along the side, clamped to where stripe and square exist.
     const int side = i / Svms44::kBitsPerSide;
-    const Eigen::Vector2d normal = side == 0 ? Eigen::Vector2d(0, 1)
+    const Eigen::Vector2d normal = side == 0   ? Eigen::Vector2d(0, 1)
                                    : side == 1 ? Eigen::Vector2d(1, 0)
                                    : side == 2 ? Eigen::Vector2d(0, -1)
                                                : Eigen::Vector2d(-1, 0);

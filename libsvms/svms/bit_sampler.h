@@ -5,10 +5,9 @@
 // marker moves both references with the cell. Used by the detector and by the artwork check.
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <cstdint>
-
-#include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include "svms/marker_model.h"

@@ -11,12 +11,11 @@
 // mrcal's headers are not included here (svms_core links mrcal privately).
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <cstddef>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "svms/pose.h"
 #include "svms/status.h"

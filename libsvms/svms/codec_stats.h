@@ -10,9 +10,9 @@ namespace svms {
 struct CodecStats {
   int bits = 0;
   int ids = 0;
-  int code_min_distance = 0;       // minimum weight of a nonzero codeword of the BCH code
-  int min_distance = 0;            // minimum Hamming distance between two IDs, same orientation
-  int rotation_min_distance = 0;   // minimum over ID pairs and rotations (incl. an ID with itself)
+  int code_min_distance = 0;      // minimum weight of a nonzero codeword of the BCH code
+  int min_distance = 0;           // minimum Hamming distance between two IDs, same orientation
+  int rotation_min_distance = 0;  // minimum over ID pairs and rotations (incl. an ID with itself)
   std::map<int, int64_t> rotation_distance_pairs;  // count of (a, b, r) at distances <= D + 2
   // Measured probability that a uniformly random 44-bit word is accepted with correction
   // limit 0..5, from `false_accept_samples` words; and the exact value where the decoding
@@ -21,7 +21,7 @@ struct CodecStats {
   std::array<int64_t, 6> false_accept_hits{};
   std::array<double, 6> false_accept_exact{};
   int64_t false_accept_samples = 0;
-  int64_t ambiguous_hits = 0;       // random words rejected as ambiguous (limit 5)
+  int64_t ambiguous_hits = 0;  // random words rejected as ambiguous (limit 5)
 };
 
 // Measures everything above: exhaustive over ID pairs (about 2e9 word comparisons, split over

@@ -18,7 +18,8 @@ double SampleImage(const cv::Mat& img, double u, double v) {
   auto at = [&](int y, int x) -> double {
     return img.depth() == CV_16U ? img.at<uint16_t>(y, x) : img.at<uint8_t>(y, x);
   };
-  return (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x1)) + fy * ((1 - fx) * at(y1, x0) + fx * at(y1, x1));
+  return (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x1)) +
+         fy * ((1 - fx) * at(y1, x0) + fx * at(y1, x1));
 }
 
 namespace {
@@ -99,7 +100,8 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
           bright += prof[ns - i] / 3;
         }
         if (bright - dark < 0.3 * best) continue;
-        for (int i = 0; i < ns; ++i) area += 0.5 * (prof[i] + prof[i + 1] - 2 * dark) / (bright - dark) * h;
+        for (int i = 0; i < ns; ++i)
+          area += 0.5 * (prof[i] + prof[i + 1] - 2 * dark) / (bright - dark) * h;
         const double offset = W - area;  // from the window's start: -W + (2W - area)
         const Eigen::Vector2d edge = centre + std::clamp(offset, -W, W) * outward;
         Eigen::Vector2d q;
@@ -117,7 +119,8 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       }
       mean /= wsum;
       Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
-      for (size_t i = 0; i < pts.size(); ++i) cov += weights[i] * (pts[i] - mean) * (pts[i] - mean).transpose();
+      for (size_t i = 0; i < pts.size(); ++i)
+        cov += weights[i] * (pts[i] - mean) * (pts[i] - mean).transpose();
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(cov);
       const Eigen::Vector2d nrm = es.eigenvectors().col(0);
       lines[k] = Eigen::Vector3d(nrm.x(), nrm.y(), -nrm.dot(mean));
@@ -128,7 +131,8 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       double scale = 1;
       if (camera) {
         Eigen::Vector2d p0, p1;
-        if (plane.ToPixel(mean, &p0) && plane.ToPixel(mean + 1e-3 * nrm, &p1)) scale = (p1 - p0).norm() / 1e-3;
+        if (plane.ToPixel(mean, &p0) && plane.ToPixel(mean + 1e-3 * nrm, &p1))
+          scale = (p1 - p0).norm() / 1e-3;
       }
       out.side_rms[k] = scale * std::sqrt(ss / pts.size());
     }

@@ -5,11 +5,10 @@
 // are the intersections of consecutive lines, projected back to pixels.
 #pragma once
 
-#include <array>
-#include <optional>
-
 #include <Eigen/Core>
+#include <array>
 #include <opencv2/core.hpp>
+#include <optional>
 
 #include "svms/camera.h"
 
@@ -17,15 +16,15 @@ namespace svms {
 
 struct CornerRefineOptions {
   int iterations = 2;
-  double search_px = 2.5;      // half-width of the search across each side, pixels
-  double end_margin = 0.12;    // fraction of each side left out next to the corners
-  int max_points = 64;         // edge points per side
+  double search_px = 2.5;    // half-width of the search across each side, pixels
+  double end_margin = 0.12;  // fraction of each side left out next to the corners
+  int max_points = 64;       // edge points per side
 };
 
 struct RefinedCorners {
   std::array<Eigen::Vector2d, 4> corners;  // same order as the input
-  std::array<double, 4> side_rms{};        // RMS distance of each side's edge points to its line, px
-  std::array<int, 4> side_points{};        // edge points used per side
+  std::array<double, 4> side_rms{};  // RMS distance of each side's edge points to its line, px
+  std::array<int, 4> side_points{};  // edge points used per side
   bool ok = false;
 };
 

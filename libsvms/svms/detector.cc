@@ -173,7 +173,8 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
       if (&r == &d) continue;
       const Eigen::Vector2d c = 0.25 * (d.corners[0] + d.corners[1] + d.corners[2] + d.corners[3]);
       const bool model_says = it != outer_of_.end() && it->second == r.id;
-      if ((model_says || outer_of_.empty()) && r.side_px() > 1.5 * d.side_px() && Inside(c, r.corners)) {
+      if ((model_says || outer_of_.empty()) && r.side_px() > 1.5 * d.side_px() &&
+          Inside(c, r.corners)) {
         d.nested_in = r.id;
       }
     }
@@ -186,13 +187,15 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
     cv::Mat dbg;
     cv::cvtColor(gray, dbg, cv::COLOR_GRAY2BGR);
     for (const Segment& s : segs)
-      cv::line(dbg, cv::Point2d(s.a.x(), s.a.y()), cv::Point2d(s.b.x(), s.b.y()), cv::Scalar(0, 200, 255), 1);
+      cv::line(dbg, cv::Point2d(s.a.x(), s.a.y()), cv::Point2d(s.b.x(), s.b.y()),
+               cv::Scalar(0, 200, 255), 1);
     cv::imwrite(o.debug_dir + "/1_segments.png", dbg);
     cv::cvtColor(gray, dbg, cv::COLOR_GRAY2BGR);
     for (const Quad& q : quads)
       for (int k = 0; k < 4; ++k)
         cv::line(dbg, cv::Point2d(q.corners[k].x(), q.corners[k].y()),
-                 cv::Point2d(q.corners[(k + 1) % 4].x(), q.corners[(k + 1) % 4].y()), cv::Scalar(255, 100, 0), 1);
+                 cv::Point2d(q.corners[(k + 1) % 4].x(), q.corners[(k + 1) % 4].y()),
+                 cv::Scalar(255, 100, 0), 1);
     cv::imwrite(o.debug_dir + "/2_quads.png", dbg);
   }
   if (stats_out) *stats_out = stats;

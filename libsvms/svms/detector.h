@@ -12,14 +12,13 @@
 // Safe to use one Detector per thread; Detect() is const and allocates only its own results.
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <map>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
-#include <opencv2/core.hpp>
 
 #include "svms/camera.h"
 #include "svms/corner_refine.h"
@@ -34,13 +33,13 @@ namespace svms {
 // One marker found in an image.
 struct Detection {
   int id = -1;
-  int rotation = 0;     // which marker corner the quad's first corner was (svms44.h)
-  int bit_errors = 0;   // corrected bits
-  std::array<Eigen::Vector2d, 4> corners;  // TL, TR, BR, BL as printed; pixels
-  std::optional<TipObservation> tip;       // the post tip, when found
-  std::optional<Pose> cam_from_marker;     // with a camera and the marker's model
+  int rotation = 0;    // which marker corner the quad's first corner was (svms44.h)
+  int bit_errors = 0;  // corrected bits
+  std::array<Eigen::Vector2d, 4> corners;              // TL, TR, BR, BL as printed; pixels
+  std::optional<TipObservation> tip;                   // the post tip, when found
+  std::optional<Pose> cam_from_marker;                 // with a camera and the marker's model
   PoseCovariance covariance = PoseCovariance::Zero();  // [rotation, translation], camera axes
-  bool pose_ambiguous = false;  // two planar poses and no tip to choose
+  bool pose_ambiguous = false;                         // two planar poses and no tip to choose
   double pose_rms_px = 0;
   int nested_in = -1;           // the outer marker's ID for the inner marker of a dual
   double black = 0, white = 0;  // grey levels of the square and the stripe
@@ -52,19 +51,19 @@ struct DetectorOptions {
   QuadOptions quads;
   CornerRefineOptions refine;
   MarkerPoseOptions pose;
-  int max_corrections = 5;               // never more than this many corrected bits
-  int max_unsupported_corrections = 2;   // beyond this, a decode needs independent evidence
-  int id_count = 32768;                  // decode among IDs [0, id_count)
-  bool known_ids_only = true;            // with marker models: report only their IDs
-  double min_contrast = 12;              // white - black, grey levels
+  int max_corrections = 5;              // never more than this many corrected bits
+  int max_unsupported_corrections = 2;  // beyond this, a decode needs independent evidence
+  int id_count = 32768;                 // decode among IDs [0, id_count)
+  bool known_ids_only = true;           // with marker models: report only their IDs
+  double min_contrast = 12;             // white - black, grey levels
   bool refine_corners = true;
-  std::string debug_dir;                 // if set, each step writes a picture there
+  std::string debug_dir;  // if set, each step writes a picture there
 };
 
 struct DetectionStats {
   static constexpr int kSteps = 6;
   static constexpr const char* kStepNames[kSteps] = {"segments", "quads", "decode",
-                                                     "refine", "pose", "nesting"};
+                                                     "refine",   "pose",  "nesting"};
   std::array<double, kSteps> ms{};
   int segments = 0, quads = 0, decoded = 0, rejected_for_evidence = 0;
 };

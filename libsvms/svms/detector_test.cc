@@ -34,15 +34,18 @@ Rendered Render(Scene s) {
   out.image = r->Expose(r->RenderRadiance(0), 0);
   if (const char* dir = std::getenv("SVMS_TEST_IMAGES")) {
     static int n = 0;
-    cv::imwrite(std::string(dir) + "/" + ::testing::UnitTest::GetInstance()->current_test_info()->name() +
-                    std::to_string(n++) + ".png", out.image);
+    cv::imwrite(std::string(dir) + "/" +
+                    ::testing::UnitTest::GetInstance()->current_test_info()->name() +
+                    std::to_string(n++) + ".png",
+                out.image);
   }
   out.truth = ComputeTruth(*r, 0);
   out.scene = s;
   return out;
 }
 
-Scene Base(const CameraModel& cam, const std::vector<std::pair<MarkerModel, Pose>>& markers, const Pose& view) {
+Scene Base(const CameraModel& cam, const std::vector<std::pair<MarkerModel, Pose>>& markers,
+           const Pose& view) {
   Scene s;
   s.seed = 3;
   s.camera = cam;
@@ -73,9 +76,11 @@ double AngleDeg(const Pose& a, const Pose& b) {
 
 CameraModel Distorted() {
   CameraModel cam;
-  EXPECT_TRUE(CameraModel::Create("LENSMODEL_OPENCV8",
-                                  {800, 800, 321, 238, -0.3, 0.1, 0.0005, -0.0003, -0.01, 0.01, 0.004, 0.001},
-                                  640, 480, &cam).ok());
+  EXPECT_TRUE(CameraModel::Create(
+                  "LENSMODEL_OPENCV8",
+                  {800, 800, 321, 238, -0.3, 0.1, 0.0005, -0.0003, -0.01, 0.01, 0.004, 0.001}, 640,
+                  480, &cam)
+                  .ok());
   return cam;
 }
 
@@ -87,7 +92,8 @@ TEST(Detector, FindsEveryMarkerWithAccurateCornersAndPose) {
   pa.rvec = Eigen::Vector3d(0, 0, 0.4);
   pb.tvec = Eigen::Vector3d(0.12, -0.03, 0);
   pb.rvec = Eigen::Vector3d(0, 0, -2.0);
-  const Rendered r = Render(Base(Distorted(), {{a, pa}, {b, pb}}, Look({0.1, -0.25, 0.75}, {0, 0, 0})));
+  const Rendered r =
+      Render(Base(Distorted(), {{a, pa}, {b, pb}}, Look({0.1, -0.25, 0.75}, {0, 0, 0})));
   DetectorOptions dopt;
   dopt.debug_dir = "/tmp/svms_detector_debug";
   cv::imwrite("/tmp/svms_detector_debug_input.png", r.image);
@@ -101,7 +107,8 @@ TEST(Detector, FindsEveryMarkerWithAccurateCornersAndPose) {
       if (mt.id == d.id) t = &mt;
     ASSERT_NE(t, nullptr) << d.id;
     double worst = 0;
-    for (int k = 0; k < 4; ++k) worst = std::max(worst, (d.corners[k] - t->corners[k].pixel).norm());
+    for (int k = 0; k < 4; ++k)
+      worst = std::max(worst, (d.corners[k] - t->corners[k].pixel).norm());
     EXPECT_LT(worst, 0.15) << "ID " << d.id << ": corner error in pixels";
     ASSERT_TRUE(d.cam_from_marker.has_value());
     EXPECT_LT((d.cam_from_marker->tvec - t->cam_from_marker.tvec).norm(), 0.002) << d.id;
@@ -121,7 +128,8 @@ TEST(Detector, DualMarkerReportsBothWithTheirNesting) {
   MarkerModel dual = MarkerModel::Standard(1, 0.3, 0.02);
   dual.AddInner(2, 0.075);
   dual.post->radius = dual.post->tip_radius = 0.004;
-  const Rendered r = Render(Base(Distorted(), {{dual, Pose{}}}, Look({0.05, -0.15, 1.6}, {0, 0, 0})));
+  const Rendered r =
+      Render(Base(Distorted(), {{dual, Pose{}}}, Look({0.05, -0.15, 1.6}, {0, 0, 0})));
   const Detector det(DetectorOptions{}, r.scene.camera, {dual});
   const std::vector<Detection> found = det.Detect(r.image);
   ASSERT_EQ(found.size(), 2u);
@@ -137,7 +145,8 @@ TEST(Detector, TheTipPicksTheRightPoseWhereThePlanarPoseIsAmbiguous) {
   MarkerModel m = MarkerModel::Standard(99, 0.08, 0.02);
   const CameraModel cam = CameraModel::Pinhole(700, 320, 240);
   const double a = 55 * M_PI / 180;
-  const Rendered r = Render(Base(cam, {{m, Pose{}}}, Look({std::sin(a), 0.1, std::cos(a)}, {0, 0, 0})));
+  const Rendered r =
+      Render(Base(cam, {{m, Pose{}}}, Look({std::sin(a), 0.1, std::cos(a)}, {0, 0, 0})));
   const Detector det(DetectorOptions{}, cam, {m});
   const std::vector<Detection> found = det.Detect(r.image);
   ASSERT_EQ(found.size(), 1u);
@@ -154,7 +163,8 @@ TEST(Detector, TheTipPicksTheRightPoseWhereThePlanarPoseIsAmbiguous) {
 
 TEST(Detector, WithoutCameraOrModelsGivesIdsAndCornersOnly) {
   MarkerModel a = MarkerModel::Standard(321, 0.1, 0.025);
-  const Rendered r = Render(Base(CameraModel::Pinhole(600, 320, 240), {{a, Pose{}}}, Look({0, -0.1, 0.6}, {0, 0, 0})));
+  const Rendered r = Render(
+      Base(CameraModel::Pinhole(600, 320, 240), {{a, Pose{}}}, Look({0, -0.1, 0.6}, {0, 0, 0})));
   const Detector det(DetectorOptions{}, CameraModel{}, {});
   const std::vector<Detection> found = det.Detect(r.image);
   ASSERT_EQ(found.size(), 1u);
@@ -162,7 +172,8 @@ TEST(Detector, WithoutCameraOrModelsGivesIdsAndCornersOnly) {
   EXPECT_FALSE(found[0].cam_from_marker.has_value());
   for (int k = 0; k < 4; ++k)
     EXPECT_LT((found[0].corners[k] - r.truth.markers[0].corners[k].pixel).norm(), 0.15)
-        << k << " found " << found[0].corners[k].transpose() << " truth " << r.truth.markers[0].corners[k].pixel.transpose();
+        << k << " found " << found[0].corners[k].transpose() << " truth "
+        << r.truth.markers[0].corners[k].pixel.transpose();
 }
 
 TEST(Detector, OddImagesGiveNoDetectionsAndNoCrash) {
@@ -178,7 +189,8 @@ TEST(Detector, OddImagesGiveNoDetectionsAndNoCrash) {
 
 TEST(Detector, SixteenBitAndColourImagesWork) {
   MarkerModel a = MarkerModel::Standard(55, 0.1, 0.025);
-  Scene s = Base(CameraModel::Pinhole(600, 320, 240), {{a, Pose{}}}, Look({0, -0.1, 0.6}, {0, 0, 0}));
+  Scene s =
+      Base(CameraModel::Pinhole(600, 320, 240), {{a, Pose{}}}, Look({0, -0.1, 0.6}, {0, 0, 0}));
   s.sensor.bits = 16;
   const Rendered r = Render(s);
   const Detector det(DetectorOptions{}, CameraModel{}, {});
@@ -222,8 +234,10 @@ TEST(RefinePose, JacobianMatchesFiniteDifferencesAndRecoversThePose) {
     dlt(k) = h;
     auto residuals = [&](double sgn) {
       const Eigen::Vector3d w = sgn * dlt.head<3>();
-      const Eigen::Matrix3d R = (w.norm() > 0 ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix()
-                                              : Eigen::Matrix3d::Identity()) * truth.Rotation();
+      const Eigen::Matrix3d R =
+          (w.norm() > 0 ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix()
+                        : Eigen::Matrix3d::Identity()) *
+          truth.Rotation();
       Eigen::Matrix<double, 10, 1> r;
       for (int i = 0; i < 5; ++i) {
         Eigen::Vector2d q;

@@ -20,20 +20,20 @@
 namespace svms {
 
 struct IdSelectionOptions {
-  int count = 32768;                       // IDs wanted
+  int count = 32768;                            // IDs wanted
   std::vector<int> phase_distances{11, 10, 9};  // D of each greedy phase, decreasing
-  int min_weight = 11;                     // skip codewords lighter than this
-  int max_weight = 33;                     // or heavier than this
-  int min_side_each = 2;                   // white and black cells each side must have
-  int max_run = 8;                         // longest cyclic run of equal cells
+  int min_weight = 11;                          // skip codewords lighter than this
+  int max_weight = 33;                          // or heavier than this
+  int min_side_each = 2;                        // white and black cells each side must have
+  int max_run = 8;                              // longest cyclic run of equal cells
 };
 
 // Longest run of equal bits around the 44-bit ring (cyclic).
 int LongestRun(uint64_t word);
 
 struct IdSelection {
-  std::vector<uint32_t> infos;       // information word of ID i, i in [0, count)
-  std::vector<int> phase_first_id;   // first ID selected in each phase
+  std::vector<uint32_t> infos;      // information word of ID i, i in [0, count)
+  std::vector<int> phase_first_id;  // first ID selected in each phase
 };
 
 // Runs the greedy selection; deterministic. `progress` (may be empty) is called now and then

@@ -4,8 +4,6 @@
 
 namespace svms::json_fields {
 
-
-
 std::string TypeName(const json& j) {
   if (j.is_null()) return "null";
   if (j.is_boolean()) return "a boolean";
@@ -61,7 +59,6 @@ std::string String(const json& obj, const std::string& path, const std::string& 
   return v.get<std::string>();
 }
 
-
 double NumberIn(const json& obj, const std::string& path, const std::string& key, double lo,
                 double hi) {
   const double v = Number(obj, path, key);
@@ -85,7 +82,8 @@ Pose ParsePose(const json& obj, const std::string& path, const std::string& key)
   Pose p;
   p.rvec = Vector<3>(pose, pp, "rvec");
   p.tvec = Vector<3>(pose, pp, "tvec");
-  if (!p.rvec.allFinite() || !p.tvec.allFinite()) throw FieldError{pp + ": expected finite numbers"};
+  if (!p.rvec.allFinite() || !p.tvec.allFinite())
+    throw FieldError{pp + ": expected finite numbers"};
   return p;
 }
 
@@ -164,7 +162,8 @@ json MarkerJson(const MarkerModel& m) {
   j["stripe_width"] = m.stripe_width;
   j["cell_size"] = m.cell_size;
   if (m.post)
-    j["post"] = {{"height", m.post->height}, {"radius", m.post->radius}, {"tip_radius", m.post->tip_radius}};
+    j["post"] = {
+        {"height", m.post->height}, {"radius", m.post->radius}, {"tip_radius", m.post->tip_radius}};
   if (m.inner) {
     j["inner"] = {{"id", m.inner->id},
                   {"size", m.inner->size},

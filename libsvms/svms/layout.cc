@@ -62,7 +62,8 @@ std::string Layout::Summary() const {
     surveyed += e.covariance.has_value();
   }
   char buf[160];
-  std::snprintf(buf, sizeof buf, "layout '%s': %zu markers (IDs %s), sizes %.4g-%.4g m, %d with covariance",
+  std::snprintf(buf, sizeof buf,
+                "layout '%s': %zu markers (IDs %s), sizes %.4g-%.4g m, %d with covariance",
                 name.c_str(), markers.size(), ids.c_str(), lo, hi, surveyed);
   return buf;
 }

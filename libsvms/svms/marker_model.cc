@@ -77,10 +77,14 @@ Eigen::Vector2d MarkerModel::BitCellCentre(int i) const {
   const int side = i / Svms44::kBitsPerSide, k = i % Svms44::kBitsPerSide;
   const double edge = 5.5 * cell_size, along = -5.5 * cell_size + k * cell_size;
   switch (side) {
-    case 0: return {along, edge};    // top, left to right
-    case 1: return {edge, -along};   // right, top to bottom
-    case 2: return {-along, -edge};  // bottom, right to left
-    default: return {-edge, along};  // left, bottom to top
+    case 0:
+      return {along, edge};  // top, left to right
+    case 1:
+      return {edge, -along};  // right, top to bottom
+    case 2:
+      return {-along, -edge};  // bottom, right to left
+    default:
+      return {-edge, along};  // left, bottom to top
   }
 }
 

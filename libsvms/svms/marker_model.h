@@ -11,11 +11,10 @@
 // marker inside the black square; the post is shared by both.
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <optional>
 #include <string>
-
-#include <Eigen/Core>
 
 #include "svms/status.h"
 

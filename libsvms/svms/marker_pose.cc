@@ -17,8 +17,9 @@ Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
 
 }  // namespace
 
-std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d& pred, double radius,
-                                      double black, double white, double min_contrast) {
+std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d& pred,
+                                      double radius, double black, double white,
+                                      double min_contrast) {
   const double thr = black + 0.5 * (white - black);
   const int x0 = std::max(0, static_cast<int>(std::floor(pred.x() - radius)));
   const int x1 = std::min(img.cols - 1, static_cast<int>(std::ceil(pred.x() + radius)));
@@ -62,7 +63,8 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
   }
   // Touching the window's edge means it is not a small blob (e.g. the white stripe).
   for (auto [x, y] : blob)
-    if ((x == x0 && x0 > 0) || (x == x1 && x1 < img.cols - 1) || (y == y0 && y0 > 0) || (y == y1 && y1 < img.rows - 1))
+    if ((x == x0 && x0 > 0) || (x == x1 && x1 < img.cols - 1) || (y == y0 && y0 > 0) ||
+        (y == y1 && y1 < img.rows - 1))
       return std::nullopt;
   double w = 0, w2 = 0;
   Eigen::Vector2d c = Eigen::Vector2d::Zero();
@@ -82,7 +84,8 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
   return t;
 }
 
-Eigen::Vector3d VisibleTipPoint(const MarkerModel& model, const Eigen::Vector3d& cam, double* fraction) {
+Eigen::Vector3d VisibleTipPoint(const MarkerModel& model, const Eigen::Vector3d& cam,
+                                double* fraction) {
   const PostModel& post = *model.post;
   const Eigen::Vector3d tip(0, 0, post.height);
   *fraction = 1;
@@ -116,8 +119,8 @@ Eigen::Vector3d VisibleTipPoint(const MarkerModel& model, const Eigen::Vector3d&
 }
 
 bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X,
-                const std::vector<Eigen::Vector2d>& px, const std::vector<double>& sigma, Pose* pose,
-                PoseCovariance* cov, double* rms) {
+                const std::vector<Eigen::Vector2d>& px, const std::vector<double>& sigma,
+                Pose* pose, PoseCovariance* cov, double* rms) {
   Eigen::Matrix3d R = pose->Rotation();
   Eigen::Vector3d t = pose->tvec;
   Eigen::Matrix<double, 6, 6> JtWJ;
@@ -156,8 +159,8 @@ bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X
 }
 
 bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 4>& corners,
-                        const MarkerModel& model, const CameraModel& camera, double black, double white,
-                        const MarkerPoseOptions& o, MarkerPose* out) {
+                        const MarkerModel& model, const CameraModel& camera, double black,
+                        double white, const MarkerPoseOptions& o, MarkerPose* out) {
   // Both planar solutions, from the undistorted corners (identity intrinsics).
   std::vector<cv::Point2d> normalized;
   for (const auto& c : corners) {
@@ -175,8 +178,9 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
     return false;
   }
   if (rvecs.empty()) return false;
-  const double side_px = 0.25 * ((corners[1] - corners[0]).norm() + (corners[2] - corners[1]).norm() +
-                                 (corners[3] - corners[2]).norm() + (corners[0] - corners[3]).norm());
+  const double side_px =
+      0.25 * ((corners[1] - corners[0]).norm() + (corners[2] - corners[1]).norm() +
+              (corners[3] - corners[2]).norm() + (corners[0] - corners[3]).norm());
   struct Candidate {
     Pose pose;
     std::optional<TipObservation> tip;
@@ -185,15 +189,18 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
   std::vector<Candidate> cands;
   for (size_t s = 0; s < rvecs.size(); ++s) {
     Candidate c;
-    c.pose.rvec = Eigen::Vector3d(rvecs[s].at<double>(0), rvecs[s].at<double>(1), rvecs[s].at<double>(2));
-    c.pose.tvec = Eigen::Vector3d(tvecs[s].at<double>(0), tvecs[s].at<double>(1), tvecs[s].at<double>(2));
+    c.pose.rvec =
+        Eigen::Vector3d(rvecs[s].at<double>(0), rvecs[s].at<double>(1), rvecs[s].at<double>(2));
+    c.pose.tvec =
+        Eigen::Vector3d(tvecs[s].at<double>(0), tvecs[s].at<double>(1), tvecs[s].at<double>(2));
     if (c.pose.tvec.z() <= 0) continue;
     if (model.post) {
       double fraction;
       const Eigen::Vector3d tip3 = VisibleTipPoint(model, c.pose.Inverse().tvec, &fraction);
       Eigen::Vector2d pred;
       if (fraction >= 0.25 && camera.Project(c.pose * tip3, &pred)) {
-        c.tip = FindTip(image, pred, std::max(3.0, o.tip_search_fraction * side_px), black, white, o.tip_min_contrast);
+        c.tip = FindTip(image, pred, std::max(3.0, o.tip_search_fraction * side_px), black, white,
+                        o.tip_min_contrast);
         if (c.tip) c.tip_error = (c.tip->pixel - pred).norm();
       }
     }

@@ -12,11 +12,10 @@
 // nothing, while Ceres' problem setup alone costs more than the whole solve.
 #pragma once
 
-#include <array>
-#include <optional>
-
 #include <Eigen/Core>
+#include <array>
 #include <opencv2/core.hpp>
+#include <optional>
 
 #include "svms/camera.h"
 #include "svms/marker_model.h"
@@ -30,7 +29,7 @@ struct TipObservation {
 };
 
 struct MarkerPoseOptions {
-  double corner_sigma_px = 0.1;   // standard deviation of a refined corner, each axis
+  double corner_sigma_px = 0.1;       // standard deviation of a refined corner, each axis
   double tip_search_fraction = 0.25;  // search radius, as a fraction of the square's side
   double tip_min_contrast = 0.35;     // tip brighter than black by this fraction of white - black
 };
@@ -39,9 +38,9 @@ struct MarkerPose {
   Pose cam_from_marker;
   PoseCovariance covariance = PoseCovariance::Zero();  // [rotation, translation], camera axes
   std::optional<TipObservation> tip;
-  bool ambiguous = false;   // two planar solutions and no tip to tell them apart
-  double rms_px = 0;        // RMS of the corner (and tip) residuals after the fit
-  int solutions = 0;        // planar solutions considered
+  bool ambiguous = false;  // two planar solutions and no tip to tell them apart
+  double rms_px = 0;       // RMS of the corner (and tip) residuals after the fit
+  int solutions = 0;       // planar solutions considered
 };
 
 // The white blob nearest `predicted` within `radius` pixels: centroid of the pixels brighter

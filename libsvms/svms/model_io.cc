@@ -29,7 +29,8 @@ void ParseRoot(const json& root, ModelFile* out) {
       for (int id : {out->markers.back().id,
                      out->markers.back().inner ? out->markers.back().inner->id : -1}) {
         if (id >= 0 && !ids.insert(id).second)
-          throw FieldError{p + ".id: ID " + std::to_string(id) + " appears twice; expected unique IDs"};
+          throw FieldError{p + ".id: ID " + std::to_string(id) +
+                           " appears twice; expected unique IDs"};
       }
     }
   } else if (type == "svms.layout") {
@@ -49,7 +50,8 @@ void ParseRoot(const json& root, ModelFile* out) {
         const Eigen::Matrix<double, 36, 1> c = Vector<36>(e, p, "covariance");
         entry.covariance = Eigen::Map<const PoseCovariance>(c.data());
       }
-      if (e.contains("post_height_sigma")) entry.post_height_sigma = Number(e, p, "post_height_sigma");
+      if (e.contains("post_height_sigma"))
+        entry.post_height_sigma = Number(e, p, "post_height_sigma");
       out->layout.markers.push_back(entry);
       out->markers.push_back(entry.marker);
     }
@@ -66,8 +68,10 @@ std::string Dump(const json& j) { return j.dump(2) + "\n"; }
 
 std::string ModelFile::Summary() const {
   switch (kind) {
-    case Kind::kMarker: return markers.front().Summary();
-    case Kind::kLayout: return layout.Summary();
+    case Kind::kMarker:
+      return markers.front().Summary();
+    case Kind::kLayout:
+      return layout.Summary();
     case Kind::kMarkerSet: {
       std::string s = "marker set: " + std::to_string(markers.size()) + " markers:";
       for (const MarkerModel& m : markers) s += " [" + m.Summary() + "]";

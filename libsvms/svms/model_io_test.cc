@@ -10,11 +10,10 @@ namespace {
 using nlohmann::json;
 
 json GoodMarker() {
-  return json::parse(MarkerModelToJson(
-      [] {
-        MarkerModel m = MarkerModel::Standard(17, 0.2, 0.05);
-        return m;
-      }()));
+  return json::parse(MarkerModelToJson([] {
+    MarkerModel m = MarkerModel::Standard(17, 0.2, 0.05);
+    return m;
+  }()));
 }
 
 // Parses and expects failure whose message contains every one of `parts`.
@@ -24,7 +23,8 @@ void ExpectError(const json& j, std::initializer_list<std::string> parts) {
   ASSERT_FALSE(s.ok()) << j.dump();
   EXPECT_EQ(s.message().find('\n'), std::string::npos) << "one line: " << s.message();
   EXPECT_EQ(s.message().rfind("bad.json: ", 0), 0u) << s.message();
-  for (const std::string& p : parts) EXPECT_NE(s.message().find(p), std::string::npos) << s.message();
+  for (const std::string& p : parts)
+    EXPECT_NE(s.message().find(p), std::string::npos) << s.message();
 }
 
 TEST(ModelIo, MarkerRoundTripsExactly) {
@@ -90,7 +90,8 @@ TEST(ModelIo, MarkerSetParses) {
 
 TEST(ModelIo, SyntaxErrorNamesLineAndColumn) {
   ModelFile f;
-  const Status s = ParseModelJson("{\n  \"type\": \"svms.marker\",\n  \"id\": ,\n}", "bad.json", &f);
+  const Status s =
+      ParseModelJson("{\n  \"type\": \"svms.marker\",\n  \"id\": ,\n}", "bad.json", &f);
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.message().find("bad.json: line 3"), std::string::npos) << s.message();
 }
@@ -104,27 +105,66 @@ TEST(ModelIo, MissingFileIsNamed) {
 
 TEST(ModelIo, EachBadFieldIsNamed) {
   json j;
-  j = GoodMarker(); j.erase("type");                 ExpectError(j, {"type: missing"});
-  j = GoodMarker(); j["type"] = "svms.thing";        ExpectError(j, {"type: expected", "svms.thing"});
-  j = GoodMarker(); j["family"] = "tag36h11";        ExpectError(j, {"family: expected \"svms44\""});
-  j = GoodMarker(); j.erase("size");                 ExpectError(j, {"size: missing"});
-  j = GoodMarker(); j["size"] = -0.2;                ExpectError(j, {"size: expected a positive", "-0.2"});
-  j = GoodMarker(); j["size"] = 0;                   ExpectError(j, {"size: expected a positive"});
-  j = GoodMarker(); j["size"] = "0.2";               ExpectError(j, {"size: expected a number", "string"});
-  j = GoodMarker(); j["id"] = 40000;                 ExpectError(j, {"id: expected an svms44 ID", "40000"});
-  j = GoodMarker(); j["id"] = 1.5;                   ExpectError(j, {"id: expected an integer"});
-  j = GoodMarker(); j["cell_size"] = 0.05;           ExpectError(j, {"cell_size: expected size / 2 + stripe_width = 5 * cell_size"});
-  j = GoodMarker(); j["stripe_widht"] = 0.1;         ExpectError(j, {"stripe_widht: unknown field"});
-  j = GoodMarker(); j["post"]["height"] = 0;         ExpectError(j, {"post.height: expected a nonzero"});
-  j = GoodMarker(); j["post"]["radius"] = 0.2;       ExpectError(j, {"post.radius: expected"});
-  j = GoodMarker(); j["post"]["tip_radius"] = 0.02;  ExpectError(j, {"post.tip_radius: expected"});
-  j = GoodMarker(); j["post"].erase("radius");       ExpectError(j, {"post.radius: missing"});
-  j = GoodMarker(); j["inner"] = {{"id", 17}, {"size", 0.05}, {"stripe_width", 5 * 0.05 / 6 - 0.025}, {"cell_size", 0.05 / 6}};
+  j = GoodMarker();
+  j.erase("type");
+  ExpectError(j, {"type: missing"});
+  j = GoodMarker();
+  j["type"] = "svms.thing";
+  ExpectError(j, {"type: expected", "svms.thing"});
+  j = GoodMarker();
+  j["family"] = "tag36h11";
+  ExpectError(j, {"family: expected \"svms44\""});
+  j = GoodMarker();
+  j.erase("size");
+  ExpectError(j, {"size: missing"});
+  j = GoodMarker();
+  j["size"] = -0.2;
+  ExpectError(j, {"size: expected a positive", "-0.2"});
+  j = GoodMarker();
+  j["size"] = 0;
+  ExpectError(j, {"size: expected a positive"});
+  j = GoodMarker();
+  j["size"] = "0.2";
+  ExpectError(j, {"size: expected a number", "string"});
+  j = GoodMarker();
+  j["id"] = 40000;
+  ExpectError(j, {"id: expected an svms44 ID", "40000"});
+  j = GoodMarker();
+  j["id"] = 1.5;
+  ExpectError(j, {"id: expected an integer"});
+  j = GoodMarker();
+  j["cell_size"] = 0.05;
+  ExpectError(j, {"cell_size: expected size / 2 + stripe_width = 5 * cell_size"});
+  j = GoodMarker();
+  j["stripe_widht"] = 0.1;
+  ExpectError(j, {"stripe_widht: unknown field"});
+  j = GoodMarker();
+  j["post"]["height"] = 0;
+  ExpectError(j, {"post.height: expected a nonzero"});
+  j = GoodMarker();
+  j["post"]["radius"] = 0.2;
+  ExpectError(j, {"post.radius: expected"});
+  j = GoodMarker();
+  j["post"]["tip_radius"] = 0.02;
+  ExpectError(j, {"post.tip_radius: expected"});
+  j = GoodMarker();
+  j["post"].erase("radius");
+  ExpectError(j, {"post.radius: missing"});
+  j = GoodMarker();
+  j["inner"] = {
+      {"id", 17}, {"size", 0.05}, {"stripe_width", 5 * 0.05 / 6 - 0.025}, {"cell_size", 0.05 / 6}};
   ExpectError(j, {"inner.id: expected an ID different"});
-  j["inner"]["id"] = 5; j["inner"]["size"] = 0.15; j["inner"]["cell_size"] = 0.025; j["inner"]["stripe_width"] = 0.05;
+  j["inner"]["id"] = 5;
+  j["inner"]["size"] = 0.15;
+  j["inner"]["cell_size"] = 0.025;
+  j["inner"]["stripe_width"] = 0.05;
   ExpectError(j, {"inner.size: the inner marker with a one-cell margin needs"});
-  j = GoodMarker(); j["inner"] = {{"id", 5}, {"size", 0.05}, {"stripe_width", 5 * 0.05 / 6 - 0.025}, {"cell_size", 0.05 / 6},
-                                 {"post", {{"height", 0.01}, {"radius", 0.001}, {"tip_radius", 0.001}}}};
+  j = GoodMarker();
+  j["inner"] = {{"id", 5},
+                {"size", 0.05},
+                {"stripe_width", 5 * 0.05 / 6 - 0.025},
+                {"cell_size", 0.05 / 6},
+                {"post", {{"height", 0.01}, {"radius", 0.001}, {"tip_radius", 0.001}}}};
   ExpectError(j, {"inner.post: a dual marker has one post"});
   ExpectError(json::array(), {"(top level): expected an object"});
 }

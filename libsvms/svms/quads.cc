@@ -8,7 +8,9 @@
 namespace svms {
 namespace {
 
-double Cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
+double Cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
 
 }  // namespace
 
@@ -41,7 +43,8 @@ std::vector<Quad> FindQuads(const std::vector<Segment>& segs, const QuadOptions&
   const double cell = std::max(8.0, o.join_min_px * 2);
   std::unordered_multimap<int64_t, int> starts;
   auto key = [&](double x, double y) {
-    return (static_cast<int64_t>(std::floor(x / cell)) << 32) ^ static_cast<int64_t>(std::floor(y / cell) + 1e6);
+    return (static_cast<int64_t>(std::floor(x / cell)) << 32) ^
+           static_cast<int64_t>(std::floor(y / cell) + 1e6);
   };
   for (int i = 0; i < n; ++i) starts.emplace(key(segs[i].a.x(), segs[i].a.y()), i);
 
@@ -53,7 +56,8 @@ std::vector<Quad> FindQuads(const std::vector<Segment>& segs, const QuadOptions&
     // Candidates: starts within the largest join radius of this end.
     const double reach = std::max(o.join_min_px, o.join_fraction * s.length());
     const int r = static_cast<int>(std::ceil(reach / cell));
-    const int64_t cx = static_cast<int64_t>(std::floor(s.b.x() / cell)), cy = static_cast<int64_t>(std::floor(s.b.y() / cell));
+    const int64_t cx = static_cast<int64_t>(std::floor(s.b.x() / cell)),
+                  cy = static_cast<int64_t>(std::floor(s.b.y() / cell));
     for (int64_t gx = cx - r; gx <= cx + r; ++gx) {
       for (int64_t gy = cy - r; gy <= cy + r; ++gy) {
         auto range = starts.equal_range((gx << 32) ^ static_cast<int64_t>(gy + 1e6));
@@ -65,10 +69,13 @@ std::vector<Quad> FindQuads(const std::vector<Segment>& segs, const QuadOptions&
           if (Cross(di, dj) < sin_min_turn) continue;  // must turn right (clockwise on screen)
           Eigen::Vector2d corner;
           if (!Intersect(s.line, t.line, &corner)) continue;
-          const double join = std::max(o.join_min_px, o.join_fraction * std::min(s.length(), t.length()));
+          const double join =
+              std::max(o.join_min_px, o.join_fraction * std::min(s.length(), t.length()));
           if ((corner - s.b).norm() > join || (corner - t.a).norm() > join) continue;
           // The corner must lie beyond the middle of both segments (not a crossing).
-          if ((corner - s.a).dot(di) < 0.5 * s.length() || (t.b - corner).dot(dj) < 0.5 * t.length()) continue;
+          if ((corner - s.a).dot(di) < 0.5 * s.length() ||
+              (t.b - corner).dot(dj) < 0.5 * t.length())
+            continue;
           follows[i].emplace_back(j, corner);
         }
       }
@@ -92,7 +99,8 @@ std::vector<Quad> FindQuads(const std::vector<Segment>& segs, const QuadOptions&
               const Eigen::Vector2d& p = q.corners[e];
               ok = p.x() > -0.5 && p.y() > -0.5 && p.x() < width - 0.5 && p.y() < height - 0.5;
               // Convex and clockwise on screen.
-              ok = ok && Cross(q.corners[(e + 1) % 4] - p, q.corners[(e + 2) % 4] - q.corners[(e + 1) % 4]) > 0;
+              ok = ok && Cross(q.corners[(e + 1) % 4] - p,
+                               q.corners[(e + 2) % 4] - q.corners[(e + 1) % 4]) > 0;
             }
             if (ok) quads.push_back(q);
           }

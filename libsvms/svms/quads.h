@@ -7,10 +7,9 @@
 // squares do not hide each other.
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "svms/segments.h"
 

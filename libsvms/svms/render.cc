@@ -21,13 +21,13 @@ namespace {
 using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
 
-constexpr double kEps = 1e-9;            // minimum ray distance, metres
-constexpr double kCoplanarWin = 1e-7;    // a marker wins over a coplanar surface by this much
-constexpr double kShadowOffset = 1e-6;   // shadow rays start this far off the surface
-constexpr int kTile = 16;                // pixels per culling tile side
-constexpr int kBlock = 4;                // pixels per classification block side (inside a tile)
-constexpr int kGroup = 4;                // pixels whose random numbers are drawn together
-constexpr int kMaxFused = 64;            // samples per pixel the fused pixel paths handle
+constexpr double kEps = 1e-9;           // minimum ray distance, metres
+constexpr double kCoplanarWin = 1e-7;   // a marker wins over a coplanar surface by this much
+constexpr double kShadowOffset = 1e-6;  // shadow rays start this far off the surface
+constexpr int kTile = 16;               // pixels per culling tile side
+constexpr int kBlock = 4;               // pixels per classification block side (inside a tile)
+constexpr int kGroup = 4;               // pixels whose random numbers are drawn together
+constexpr int kMaxFused = 64;           // samples per pixel the fused pixel paths handle
 
 uint64_t Mix(uint64_t x) {
   x += 0x9e3779b97f4a7c15ULL;
@@ -58,7 +58,7 @@ struct Surface {
   double retro_gain = 0;
   double specular = 0, shininess = 1;
   Vec3 normal = Vec3::Zero();  // world, facing the incoming ray
-  int well_prim = -1;     // inside the well of this marker primitive (its walls may shade)
+  int well_prim = -1;          // inside the well of this marker primitive (its walls may shade)
 };
 
 struct Prim {
@@ -79,14 +79,14 @@ struct Prim {
   bool casts_shadow = true;
   Vec3 post_centre = Vec3::Zero();  // a post marker: sphere around the post alone (world)
   double post_radius = 0;
-  double decal_half = 0;            // a marker: half the side of its decal
+  double decal_half = 0;  // a marker: half the side of its decal
 };
 
 // Local-frame hit.
 struct LocalHit {
-  double t = 0;        // ray parameter of the hit
-  double sort = 0;     // what hits are ordered by (a marker claims coplanar hits)
-  Vec3 n_local;        // outward normal, local frame
+  double t = 0;     // ray parameter of the hit
+  double sort = 0;  // what hits are ordered by (a marker claims coplanar hits)
+  Vec3 n_local;     // outward normal, local frame
   Surface surf;
 };
 
@@ -108,29 +108,35 @@ double PatternAt(const Material& m, double u, double v) {
     case Pattern::Kind::kStripes:
       return (cell(u) & 1) ? p.high : p.low;
     case Pattern::Kind::kGrid: {
-      const double fu = u - p.period * std::floor(u / p.period), fv = v - p.period * std::floor(v / p.period);
+      const double fu = u - p.period * std::floor(u / p.period),
+                   fv = v - p.period * std::floor(v / p.period);
       return (fu < p.line || fv < p.line) ? p.low : p.high;
     }
     case Pattern::Kind::kText: {
       // Lines of blocky 5 x 7 glyphs in cells of `period` (wide) x 1.6 period (tall).
       const double gw = p.period, gh = 1.6 * p.period;
-      const int64_t gx = static_cast<int64_t>(std::floor(u / gw)), gy = static_cast<int64_t>(std::floor(v / gh));
-      const uint64_t g = Mix(p.seed ^ Mix(static_cast<uint64_t>(gx) * 0x9e37ULL ^ Mix(static_cast<uint64_t>(gy))));
-      if ((g & 7) == 0) return p.high;  // a space
+      const int64_t gx = static_cast<int64_t>(std::floor(u / gw)),
+                    gy = static_cast<int64_t>(std::floor(v / gh));
+      const uint64_t g =
+          Mix(p.seed ^ Mix(static_cast<uint64_t>(gx) * 0x9e37ULL ^ Mix(static_cast<uint64_t>(gy))));
+      if ((g & 7) == 0) return p.high;                                      // a space
       const int px = static_cast<int>(std::floor((u - gx * gw) / gw * 6));  // 5 columns + gap
       const int py = static_cast<int>(std::floor((v - gy * gh) / gh * 9));  // 7 rows + gaps
       if (px >= 5 || py < 1 || py > 7) return p.high;
       return ((Mix(g + py) >> px) & 1) ? p.low : p.high;
     }
     case Pattern::Kind::kNoise: {
-      const uint64_t h = Mix(p.seed ^ Mix(static_cast<uint64_t>(cell(u)) * 0x51ULL ^ Mix(static_cast<uint64_t>(cell(v)))));
+      const uint64_t h = Mix(p.seed ^ Mix(static_cast<uint64_t>(cell(u)) * 0x51ULL ^
+                                          Mix(static_cast<uint64_t>(cell(v)))));
       return p.low + (p.high - p.low) * ((h >> 11) * 0x1.0p-53);
     }
   }
   return m.reflectance;
 }
 
-bool InsideSquare(double x, double y, double half) { return std::abs(x) <= half && std::abs(y) <= half; }
+bool InsideSquare(double x, double y, double half) {
+  return std::abs(x) <= half && std::abs(y) <= half;
+}
 
 // Bit index of the ring cell containing (x, y) (inside the ring), for cell size b.
 int CellBit(double x, double y, double b) {
@@ -169,13 +175,17 @@ bool CylinderRoots(const Vec3& o, const Vec3& d, double r, double* t0, double* t
 // Small fixed-size products written out: the hot loops call them per ray, and Eigen's generic
 // product is not always inlined. Each gives bit for bit what Eigen's expression in the comment
 // gives (same operations in the same order), so rendering does not change by a single bit.
-inline double Dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }  // a.dot(b)
+inline double Dot(const Vec3& a, const Vec3& b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}  // a.dot(b)
 inline Vec3 Mul(const Mat3& R, const Vec3& v) {  // R * v
-  return Vec3(R(0, 0) * v[0] + R(0, 1) * v[1] + R(0, 2) * v[2], R(1, 0) * v[0] + R(1, 1) * v[1] + R(1, 2) * v[2],
+  return Vec3(R(0, 0) * v[0] + R(0, 1) * v[1] + R(0, 2) * v[2],
+              R(1, 0) * v[0] + R(1, 1) * v[1] + R(1, 2) * v[2],
               R(2, 0) * v[0] + (R(2, 1) * v[1] + R(2, 2) * v[2]));
 }
 inline Vec3 MulT(const Mat3& R, const Vec3& v) {  // R.transpose() * v
-  return Vec3(R(0, 0) * v[0] + R(1, 0) * v[1] + R(2, 0) * v[2], R(0, 1) * v[0] + R(1, 1) * v[1] + R(2, 1) * v[2],
+  return Vec3(R(0, 0) * v[0] + R(1, 0) * v[1] + R(2, 0) * v[2],
+              R(0, 1) * v[0] + R(1, 1) * v[1] + R(2, 1) * v[2],
               R(0, 2) * v[0] + R(1, 2) * v[1] + R(2, 2) * v[2]);
 }
 inline Vec3 Normalized(const Vec3& v) {  // v.normalized()
@@ -192,10 +202,11 @@ inline double PerpSquared(const Vec3& oc, double along, const Vec3& d) {
 }
 // The bilinear blend of four float corner rays at (fx, fy) in [0, 1]^2, as the Eigen expression
 // (1 - fy) * ((1 - fx) * c00 + fx * c10) + fy * ((1 - fx) * c01 + fx * c11) evaluates it.
-inline Eigen::Vector3f Blend(const Eigen::Vector3f& c00, const Eigen::Vector3f& c10, const Eigen::Vector3f& c01,
-                             const Eigen::Vector3f& c11, double fx, double fy) {
-  const float a = static_cast<float>(1 - fy), b = static_cast<float>(1 - fx), c = static_cast<float>(fx),
-              e = static_cast<float>(fy);
+inline Eigen::Vector3f Blend(const Eigen::Vector3f& c00, const Eigen::Vector3f& c10,
+                             const Eigen::Vector3f& c01, const Eigen::Vector3f& c11, double fx,
+                             double fy) {
+  const float a = static_cast<float>(1 - fy), b = static_cast<float>(1 - fx),
+              c = static_cast<float>(fx), e = static_cast<float>(fy);
   Eigen::Vector3f r;
   for (int i = 0; i < 3; ++i) r[i] = a * (b * c00[i] + c * c10[i]) + e * (b * c01[i] + c * c11[i]);
   return r;
@@ -208,7 +219,8 @@ using F64x2 = __m128d;
 using F32x4 = __m128;
 // All ones in the lanes whose sign bit is set.
 inline F64x2 SignMask(F64x2 x) {
-  return _mm_castsi128_pd(_mm_srai_epi32(_mm_shuffle_epi32(_mm_castpd_si128(x), _MM_SHUFFLE(3, 3, 1, 1)), 31));
+  return _mm_castsi128_pd(
+      _mm_srai_epi32(_mm_shuffle_epi32(_mm_castpd_si128(x), _MM_SHUFFLE(3, 3, 1, 1)), 31));
 }
 // Truncated toward zero (|x| < 2^31), and as ints.
 inline F64x2 TruncPd(F64x2 x) { return _mm_cvtepi32_pd(_mm_cvttpd_epi32(x)); }
@@ -254,16 +266,30 @@ inline F64x2 _mm_min_pd(F64x2 a, F64x2 b) {
 inline F64x2 _mm_max_pd(F64x2 a, F64x2 b) {
   return Lanes(a.v[0] > b.v[0] ? a.v[0] : b.v[0], a.v[1] > b.v[1] ? a.v[1] : b.v[1]);
 }
-inline F64x2 _mm_and_pd(F64x2 a, F64x2 b) { return Lanes(Bits(Bits(a.v[0]) & Bits(b.v[0])), Bits(Bits(a.v[1]) & Bits(b.v[1]))); }
-inline F64x2 _mm_or_pd(F64x2 a, F64x2 b) { return Lanes(Bits(Bits(a.v[0]) | Bits(b.v[0])), Bits(Bits(a.v[1]) | Bits(b.v[1]))); }
+inline F64x2 _mm_and_pd(F64x2 a, F64x2 b) {
+  return Lanes(Bits(Bits(a.v[0]) & Bits(b.v[0])), Bits(Bits(a.v[1]) & Bits(b.v[1])));
+}
+inline F64x2 _mm_or_pd(F64x2 a, F64x2 b) {
+  return Lanes(Bits(Bits(a.v[0]) | Bits(b.v[0])), Bits(Bits(a.v[1]) | Bits(b.v[1])));
+}
 inline F64x2 _mm_andnot_pd(F64x2 a, F64x2 b) {
   return Lanes(Bits(~Bits(a.v[0]) & Bits(b.v[0])), Bits(~Bits(a.v[1]) & Bits(b.v[1])));
 }
-inline F64x2 _mm_cmpgt_pd(F64x2 a, F64x2 b) { return Lanes(Mask(a.v[0] > b.v[0]), Mask(a.v[1] > b.v[1])); }
-inline F64x2 _mm_cmpge_pd(F64x2 a, F64x2 b) { return Lanes(Mask(a.v[0] >= b.v[0]), Mask(a.v[1] >= b.v[1])); }
-inline F64x2 _mm_cmplt_pd(F64x2 a, F64x2 b) { return Lanes(Mask(a.v[0] < b.v[0]), Mask(a.v[1] < b.v[1])); }
-inline F64x2 _mm_cmple_pd(F64x2 a, F64x2 b) { return Lanes(Mask(a.v[0] <= b.v[0]), Mask(a.v[1] <= b.v[1])); }
-inline F64x2 _mm_cmpeq_pd(F64x2 a, F64x2 b) { return Lanes(Mask(a.v[0] == b.v[0]), Mask(a.v[1] == b.v[1])); }
+inline F64x2 _mm_cmpgt_pd(F64x2 a, F64x2 b) {
+  return Lanes(Mask(a.v[0] > b.v[0]), Mask(a.v[1] > b.v[1]));
+}
+inline F64x2 _mm_cmpge_pd(F64x2 a, F64x2 b) {
+  return Lanes(Mask(a.v[0] >= b.v[0]), Mask(a.v[1] >= b.v[1]));
+}
+inline F64x2 _mm_cmplt_pd(F64x2 a, F64x2 b) {
+  return Lanes(Mask(a.v[0] < b.v[0]), Mask(a.v[1] < b.v[1]));
+}
+inline F64x2 _mm_cmple_pd(F64x2 a, F64x2 b) {
+  return Lanes(Mask(a.v[0] <= b.v[0]), Mask(a.v[1] <= b.v[1]));
+}
+inline F64x2 _mm_cmpeq_pd(F64x2 a, F64x2 b) {
+  return Lanes(Mask(a.v[0] == b.v[0]), Mask(a.v[1] == b.v[1]));
+}
 inline int _mm_movemask_pd(F64x2 a) {
   return static_cast<int>(Bits(a.v[0]) >> 63) | static_cast<int>(Bits(a.v[1]) >> 63) << 1;
 }
@@ -280,7 +306,9 @@ inline F32x4 _mm_mul_ps(F32x4 a, F32x4 b) {
 inline F32x4 _mm_movehl_ps(F32x4 a, F32x4 b) { return F32x4{{b.v[2], b.v[3], a.v[2], a.v[3]}}; }
 inline F64x2 _mm_cvtps_pd(F32x4 a) { return Lanes(a.v[0], a.v[1]); }
 inline F64x2 SignMask(F64x2 x) { return Lanes(Mask(Bits(x.v[0]) >> 63), Mask(Bits(x.v[1]) >> 63)); }
-inline F64x2 TruncPd(F64x2 x) { return Lanes(static_cast<int32_t>(x.v[0]), static_cast<int32_t>(x.v[1])); }
+inline F64x2 TruncPd(F64x2 x) {
+  return Lanes(static_cast<int32_t>(x.v[0]), static_cast<int32_t>(x.v[1]));
+}
 inline void StoreInt2(F64x2 x, int* out) {
   out[0] = static_cast<int32_t>(x.v[0]);
   out[1] = static_cast<int32_t>(x.v[1]);
@@ -296,7 +324,9 @@ inline F64x2 Atan2Pd(F64x2 y, F64x2 x) {
   const F64x2 swap = _mm_cmpgt_pd(ay, ax);
   const F64x2 mx = _mm_max_pd(ax, ay), mn = _mm_min_pd(ax, ay);
   const F64x2 big = _mm_cmpgt_pd(mn, _mm_mul_pd(_mm_set1_pd(0.66), mx));
-  auto sel = [](F64x2 m, F64x2 a, F64x2 b) { return _mm_or_pd(_mm_and_pd(m, a), _mm_andnot_pd(m, b)); };
+  auto sel = [](F64x2 m, F64x2 a, F64x2 b) {
+    return _mm_or_pd(_mm_and_pd(m, a), _mm_andnot_pd(m, b));
+  };
   const F64x2 num = sel(big, _mm_sub_pd(mn, mx), mn);
   F64x2 den = sel(big, _mm_add_pd(mn, mx), mx);
   den = sel(_mm_cmpeq_pd(den, zero), one, den);
@@ -314,11 +344,14 @@ inline F64x2 Atan2Pd(F64x2 y, F64x2 x) {
   q = _mm_add_pd(_mm_mul_pd(q, zz), _mm_set1_pd(1.945506571482613964425E2));
   // atan(z) = z + z * zz * p / q; the reduction adds pi/4 (in two parts for precision).
   F64x2 r = _mm_add_pd(z, _mm_mul_pd(z, _mm_div_pd(_mm_mul_pd(zz, p), q)));
-  const F64x2 pio4_hi = _mm_set1_pd(7.85398163397448278999E-1), pio4_lo = _mm_set1_pd(3.061616997868383e-17);
+  const F64x2 pio4_hi = _mm_set1_pd(7.85398163397448278999E-1),
+              pio4_lo = _mm_set1_pd(3.061616997868383e-17);
   r = _mm_add_pd(sel(big, pio4_hi, zero), _mm_add_pd(r, sel(big, pio4_lo, zero)));
-  const F64x2 pio2_hi = _mm_set1_pd(1.57079632679489655800E0), pio2_lo = _mm_set1_pd(6.123233995736766e-17);
+  const F64x2 pio2_hi = _mm_set1_pd(1.57079632679489655800E0),
+              pio2_lo = _mm_set1_pd(6.123233995736766e-17);
   r = sel(swap, _mm_add_pd(_mm_sub_pd(pio2_hi, r), pio2_lo), r);
-  const F64x2 pi_hi = _mm_set1_pd(3.14159265358979311600E0), pi_lo = _mm_set1_pd(1.2246467991473532e-16);
+  const F64x2 pi_hi = _mm_set1_pd(3.14159265358979311600E0),
+              pi_lo = _mm_set1_pd(1.2246467991473532e-16);
   const F64x2 xneg = SignMask(x);
   r = sel(xneg, _mm_add_pd(_mm_sub_pd(pi_hi, r), pi_lo), r);
   return _mm_or_pd(r, _mm_and_pd(y, sign));
@@ -385,14 +418,14 @@ struct Renderer::Impl {
   // What one RenderRadiance call needs to know about its view, computed once.
   struct Frame {
     int view = 0;
-    int n = 1;                 // samples per pixel side
+    int n = 1;  // samples per pixel side
     const Sun* sun = nullptr;
-    Vec3 t1, t2;               // the sun disc's axes
-    double sun_r = 0;          // its angular radius
-    Vec3 sun_centre_dir;       // the sun direction when the disc has no size
-    bool moving = false;       // motion blur
-    Vec3 o;                    // camera centre (static camera)
-    Mat3 Rwc;                  // world_from_cam rotation (static camera)
+    Vec3 t1, t2;          // the sun disc's axes
+    double sun_r = 0;     // its angular radius
+    Vec3 sun_centre_dir;  // the sun direction when the disc has no size
+    bool moving = false;  // motion blur
+    Vec3 o;               // camera centre (static camera)
+    Mat3 Rwc;             // world_from_cam rotation (static camera)
     std::vector<Caster> casters;
     // Sun rays are within angle `sun_spread` of unit `to_sun`; false if that bound is useless.
     bool cull_casters = false;
@@ -406,28 +439,28 @@ struct Renderer::Impl {
 
   // One sample (ray) of a block of pixels, between tracing and shading.
   struct Sample {
-    LocalHit hit;       // what it hit (surface normal: world, facing the ray, once shaded)
-    int prim = -1;      // -1: the background
-    Vec3 d, o;          // the camera ray
+    LocalHit hit;           // what it hit (surface normal: world, facing the ray, once shaded)
+    int prim = -1;          // -1: the background
+    Vec3 d, o;              // the camera ray
     double px = 0, py = 0;  // its image position
     double ux = 0, uy = 0;  // its point of the sun's disc (unit disc)
-    Vec3 x;             // hit point
-    Vec3 xs;            // where its sun ray starts (off the surface)
-    Vec3 sd;            // the sun direction sampled for it
-    double cs = 0;      // cosine of the sun's incidence
-    double value = 0;   // radiance of the background, when nothing is hit
+    Vec3 x;                 // hit point
+    Vec3 xs;                // where its sun ray starts (off the surface)
+    Vec3 sd;                // the sun direction sampled for it
+    double cs = 0;          // cosine of the sun's incidence
+    double value = 0;       // radiance of the background, when nothing is hit
   };
 
   // How a pixel's samples can be traced (see ConeCandidates).
   struct PixelPlan {
-    int cover = -1;          // a candidate (index) every ray of the pixel hits: a box, through
-    int axis = 0;            // its face `axis` (local), outward normal `sign` along it
+    int cover = -1;  // a candidate (index) every ray of the pixel hits: a box, through
+    int axis = 0;    // its face `axis` (local), outward normal `sign` along it
     double sign = 0;
     bool face_only = false;  // that box (uniform) is the only candidate
     bool planned = false;    // no candidate, or a covering box: the samples' draws are known
-    Vec3 foot_lo = Vec3::Zero(), foot_hi = Vec3::Zero();  // with a covering box: the bounds of where
-                                                            // the corner rays meet it
-    double foot_t = 0;       // and their longest distance
+    Vec3 foot_lo = Vec3::Zero(), foot_hi = Vec3::Zero();  // with a covering box: the bounds of
+                                                          // where the corner rays meet it
+    double foot_t = 0;  // and their longest distance
   };
 
   // One pixel being rendered.
@@ -445,13 +478,12 @@ struct Renderer::Impl {
     std::vector<Caster> block_casters;
     std::vector<Candidate> moving_candidates;
     std::vector<Candidate> pixel_cands[kGroup];  // of the pixels at hand
-    std::vector<int> idx;                   // samples a loop works on
-    std::vector<Vec3> grid;                 // the block's corner rays (world, unit)
+    std::vector<int> idx;                        // samples a loop works on
+    std::vector<Vec3> grid;                      // the block's corner rays (world, unit)
     std::vector<Candidate> block_cands;
     std::vector<Caster> pixel_casters;
-    std::vector<double> ray;                // a pixel's camera rays (see CameraRays)
+    std::vector<double> ray;  // a pixel's camera rays (see CameraRays)
   };
-
 
   const Sun* SunOf(int view) const {
     if (scene.views[view].sun) return &*scene.views[view].sun;
@@ -459,7 +491,8 @@ struct Renderer::Impl {
   }
 
   // Intersects prim `p` with a local-frame ray; false if missed.
-  bool Intersect(const Prim& p, const Vec3& o, const Vec3& d, LocalHit* h, bool no_post = false) const {
+  bool Intersect(const Prim& p, const Vec3& o, const Vec3& d, LocalHit* h,
+                 bool no_post = false) const {
     switch (p.kind) {
       case Prim::Kind::kBox: {
         // A ray that starts outside a slab and does not head into it misses: what the slab
@@ -533,7 +566,8 @@ struct Renderer::Impl {
     return false;
   }
 
-  bool IntersectMarker(const Prim& p, const Vec3& o, const Vec3& d, LocalHit* h, bool no_post) const {
+  bool IntersectMarker(const Prim& p, const Vec3& o, const Vec3& d, LocalHit* h,
+                       bool no_post) const {
     const SceneMarker& sm = *p.marker;
     const MarkerModel& m = sm.model;
     bool found = false;
@@ -603,11 +637,13 @@ struct Renderer::Impl {
           bool inside = false;
           bool white = false;
           if (m.inner && InsideSquare(q.x(), q.y(), 6 * m.inner->cell_size)) {
-            white = RingWhite(q.x(), q.y(), m.inner->size, m.inner->cell_size, p.inner_word, &inside);
+            white =
+                RingWhite(q.x(), q.y(), m.inner->size, m.inner->cell_size, p.inner_word, &inside);
           } else {
             white = RingWhite(q.x(), q.y(), m.size, m.cell_size, p.word, &inside);
           }
-          if (inside) set(t0, t0 - kCoplanarWin, Vec3(0, 0, 1), white ? sm.white : sm.black, white, -1);
+          if (inside)
+            set(t0, t0 - kCoplanarWin, Vec3(0, 0, 1), white ? sm.white : sm.black, white, -1);
         }
       }
     }
@@ -639,8 +675,8 @@ struct Renderer::Impl {
 
   // Nearest for a pixel whose plan has a covering box: that box's hit is FaceHit's. False if
   // the ray does not hit that box's face after all.
-  bool NearestCovered(const std::vector<Candidate>& candidates, const PixelPlan& plan, const Vec3& o,
-                      const Vec3& d, LocalHit* best, int* best_prim) const {
+  bool NearestCovered(const std::vector<Candidate>& candidates, const PixelPlan& plan,
+                      const Vec3& o, const Vec3& d, LocalHit* best, int* best_prim) const {
     best->sort = 1e300;
     *best_prim = -1;
     for (size_t i = 0; i < candidates.size(); ++i) {
@@ -755,7 +791,8 @@ struct Renderer::Impl {
   }
   static void EarthAngles2(const V2& d, F64x2* lon, F64x2* lat) {
     const F64x2 one = _mm_set1_pd(1.0);
-    const F64x2 s = _mm_min_pd(_mm_max_pd(_mm_div_pd(d.z, _mm_sqrt_pd(Dot2(d, d))), _mm_set1_pd(-1.0)), one);
+    const F64x2 s =
+        _mm_min_pd(_mm_max_pd(_mm_div_pd(d.z, _mm_sqrt_pd(Dot2(d, d))), _mm_set1_pd(-1.0)), one);
     *lon = Atan2Pd(d.y, d.x);
     *lat = Atan2Pd(s, _mm_sqrt_pd(_mm_mul_pd(_mm_sub_pd(one, s), _mm_add_pd(one, s))));
   }
@@ -792,14 +829,17 @@ struct Renderer::Impl {
       const F64x2 s = _mm_sub_pd(_mm_mul_pd(d.y, r.x0), _mm_mul_pd(d.x, r.y0));
       const F64x2 t = _mm_div_pd(s, c);
       const F64x2 ok = _mm_and_pd(_mm_and_pd(_mm_cmple_pd(_mm_andnot_pd(sign, t), lim),
-                                               _mm_cmple_pd(_mm_andnot_pd(sign, delta), lim)),
-                                    _mm_cmpgt_pd(c, _mm_setzero_pd()));
+                                             _mm_cmple_pd(_mm_andnot_pd(sign, delta), lim)),
+                                  _mm_cmpgt_pd(c, _mm_setzero_pd()));
       if (_mm_movemask_pd(ok) == 3) {
         const F64x2 d2 = _mm_mul_pd(delta, delta), t2 = _mm_mul_pd(t, t);
         const F64x2 dlat = _mm_add_pd(
-            delta, _mm_mul_pd(_mm_mul_pd(delta, d2), _mm_add_pd(_mm_set1_pd(1.0 / 6), _mm_mul_pd(d2, _mm_set1_pd(3.0 / 40)))));
+            delta,
+            _mm_mul_pd(_mm_mul_pd(delta, d2),
+                       _mm_add_pd(_mm_set1_pd(1.0 / 6), _mm_mul_pd(d2, _mm_set1_pd(3.0 / 40)))));
         const F64x2 dlon = _mm_sub_pd(
-            t, _mm_mul_pd(_mm_mul_pd(t, t2), _mm_sub_pd(_mm_set1_pd(1.0 / 3), _mm_mul_pd(t2, _mm_set1_pd(1.0 / 5)))));
+            t, _mm_mul_pd(_mm_mul_pd(t, t2),
+                          _mm_sub_pd(_mm_set1_pd(1.0 / 3), _mm_mul_pd(t2, _mm_set1_pd(1.0 / 5)))));
         EarthLookup2(_mm_add_pd(r.lon0, dlon), _mm_add_pd(r.lat0, dlat), a, b);
         return;
       }
@@ -810,10 +850,13 @@ struct Renderer::Impl {
   // The earth's radiance at two (longitude, latitude) pairs.
   void EarthLookup2(F64x2 lon, F64x2 lat, double* a, double* b) const {
     const F64x2 half = _mm_set1_pd(0.5), one = _mm_set1_pd(1.0);
-    const F64x2 u = _mm_sub_pd(_mm_mul_pd(_mm_add_pd(_mm_mul_pd(lon, _mm_set1_pd(0.5 / M_PI)), half),
-                                            _mm_set1_pd(static_cast<double>(earth.cols))), half);
+    const F64x2 u =
+        _mm_sub_pd(_mm_mul_pd(_mm_add_pd(_mm_mul_pd(lon, _mm_set1_pd(0.5 / M_PI)), half),
+                              _mm_set1_pd(static_cast<double>(earth.cols))),
+                   half);
     const F64x2 v = _mm_sub_pd(_mm_mul_pd(_mm_sub_pd(half, _mm_mul_pd(lat, _mm_set1_pd(1 / M_PI))),
-                                            _mm_set1_pd(static_cast<double>(earth.rows))), half);
+                                          _mm_set1_pd(static_cast<double>(earth.rows))),
+                               half);
     // Bilinear(earth, u, v, true) for both lanes: floor by truncation and correction (|u|, |v|
     // are far below 2^31), then the same arithmetic.
     auto floor_pd = [&](F64x2 w) {
@@ -888,7 +931,8 @@ struct Renderer::Impl {
         }
       }
     }
-    if (L.earthshine) passive += L.earthshine->irradiance * std::max(0.0, Dot(n, L.earthshine->to_sun_world));
+    if (L.earthshine)
+      passive += L.earthshine->irradiance * std::max(0.0, Dot(n, L.earthshine->to_sun_world));
     double radiance = s.reflectance * passive + spec;
     if (L.narrow_band_filter) radiance *= L.filter_transmission;
     if (L.ring_light > 0) {
@@ -906,7 +950,8 @@ struct Renderer::Impl {
   Pose WorldFromCam(const Frame& f, double tau) const {
     if (tau <= 0 || !f.two_views) return f.cam_a;
     const double t = f.forward ? tau : -tau;
-    return Pose::FromRotation(f.q_a.slerp(t, f.q_b).toRotationMatrix(), (1 - t) * f.cam_a.tvec + t * f.cam_b.tvec);
+    return Pose::FromRotation(f.q_a.slerp(t, f.q_b).toRotationMatrix(),
+                              (1 - t) * f.cam_a.tvec + t * f.cam_b.tvec);
   }
 
   Status Build();
@@ -948,21 +993,24 @@ struct Renderer::Impl {
     h->surf.shininess = p.material.shininess;
     return true;
   }
-  void TracePixel(const Frame& f, int x, int y, const std::vector<Candidate>& cands, Sample* samples,
-                  Scratch* sc) const;
+  void TracePixel(const Frame& f, int x, int y, const std::vector<Candidate>& cands,
+                  Sample* samples, Scratch* sc) const;
   uint64_t PixelSeed(int view, int x, int y) const {
-    return scene.seed ^ Mix((static_cast<uint64_t>(view) << 40) ^ (static_cast<uint64_t>(y) << 20) ^ x);
+    return scene.seed ^
+           Mix((static_cast<uint64_t>(view) << 40) ^ (static_cast<uint64_t>(y) << 20) ^ x);
   }
-  double RenderPixel(const Frame& f, const PixelJob& job, const std::vector<Caster>* casters, Scratch* sc) const;
+  double RenderPixel(const Frame& f, const PixelJob& job, const std::vector<Caster>* casters,
+                     Scratch* sc) const;
   void CameraRays(const Frame& f, const PixelJob& J, double* ray) const;
   double EarthPixel(const Frame& f, const PixelJob& J, double* ray) const;
   bool FacePixel(const Frame& f, const PixelJob& J, double* ray, double* radiance) const;
-  bool CoveredPixel(const Frame& f, const PixelJob& J, double* ray, const std::vector<Caster>* casters, Scratch* sc,
-                    double* radiance) const;
+  bool CoveredPixel(const Frame& f, const PixelJob& J, double* ray,
+                    const std::vector<Caster>* casters, Scratch* sc, double* radiance) const;
   // `self_box`: a box every sun ray at hand starts on (lit), or -1.
-  void CullCasters(const Frame& f, const Vec3& lo, const Vec3& hi, std::vector<Caster>* out, int self_box) const;
-  void RenderBlock(const Frame& f, int x0, int y0, int x1, int y1, const std::vector<Candidate>& candidates,
-                   Scratch* scratch, cv::Mat* out) const;
+  void CullCasters(const Frame& f, const Vec3& lo, const Vec3& hi, std::vector<Caster>* out,
+                   int self_box) const;
+  void RenderBlock(const Frame& f, int x0, int y0, int x1, int y1,
+                   const std::vector<Candidate>& candidates, Scratch* scratch, cv::Mat* out) const;
 };
 
 Renderer::Renderer() : impl_(std::make_unique<Impl>()) {}
@@ -988,11 +1036,14 @@ Status Renderer::Impl::Build() {
     sun->to_sun_world /= n;
     return true;
   };
-  if (!unit(scene.light.sun)) return Status::Error("light.sun.to_sun: expected a nonzero direction");
-  if (!unit(scene.light.earthshine)) return Status::Error("light.earthshine.to_sun: expected a nonzero direction");
+  if (!unit(scene.light.sun))
+    return Status::Error("light.sun.to_sun: expected a nonzero direction");
+  if (!unit(scene.light.earthshine))
+    return Status::Error("light.earthshine.to_sun: expected a nonzero direction");
   for (size_t v = 0; v < scene.views.size(); ++v)
     if (!unit(scene.views[v].sun))
-      return Status::Error("views[" + std::to_string(v) + "].sun.to_sun: expected a nonzero direction");
+      return Status::Error("views[" + std::to_string(v) +
+                           "].sun.to_sun: expected a nonzero direction");
   W = scene.camera.width();
   H = scene.camera.height();
   // Pixel-corner rays: corner (i, j) is the pixel coordinate (i - 0.5, j - 0.5).
@@ -1070,7 +1121,8 @@ Status Renderer::Impl::Build() {
       p.half = o.shape == Occluder::Shape::kBar ? Vec3(0.5 * o.size) : Vec3(o.size.x(), 0, 0);
       p.material.reflectance = o.reflectance;
       p.centre = p.t;
-      p.radius = (o.shape == Occluder::Shape::kBar ? p.half.norm() : o.size.x()) * (1 + 1e-9) + 1e-9;
+      p.radius =
+          (o.shape == Occluder::Shape::kBar ? p.half.norm() : o.size.x()) * (1 + 1e-9) + 1e-9;
       idx.push_back(static_cast<int>(prims.size()));
       prims.push_back(p);
     }
@@ -1080,14 +1132,18 @@ Status Renderer::Impl::Build() {
   view_prims.resize(scene.views.size());
   for (size_t v = 0; v < scene.views.size(); ++v) {
     for (size_t i = 0; i < n_static; ++i) view_prims[v].push_back(static_cast<int>(i));
-    const std::vector<int> occ = scene.views[v].occluders ? add_occluders(*scene.views[v].occluders) : shared;
+    const std::vector<int> occ =
+        scene.views[v].occluders ? add_occluders(*scene.views[v].occluders) : shared;
     view_prims[v].insert(view_prims[v].end(), occ.begin(), occ.end());
   }
   // Marker pointers refer into scene.objects, which no longer changes.
   if (scene.background.kind == Background::Kind::kEarth) BuildEarth();
   if (scene.background.kind == Background::Kind::kImage) {
-    const cv::Mat img = cv::imread(scene.background.image_path, cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
-    if (img.empty()) return Status::Error("background.image: " + scene.background.image_path + ": cannot read as an image");
+    const cv::Mat img =
+        cv::imread(scene.background.image_path, cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
+    if (img.empty())
+      return Status::Error("background.image: " + scene.background.image_path +
+                           ": cannot read as an image");
     cv::Mat f;
     img.convertTo(f, CV_32F, img.depth() == CV_16U ? 1.0 / 65535 : 1.0 / 255);
     cv::resize(f, backdrop, cv::Size(W, H), 0, 0, cv::INTER_AREA);
@@ -1108,7 +1164,8 @@ void Renderer::Impl::BuildEarth() {
   earth.create(h, w, CV_32F);
   const uint64_t seed = Mix(scene.seed ^ 0xea57ULL);
   auto lattice = [&](int64_t x, int64_t y, int64_t z) {
-    return (Mix(seed ^ Mix(x * 73856093LL ^ Mix(y * 19349663LL ^ Mix(z * 83492791LL)))) >> 11) * 0x1.0p-53;
+    return (Mix(seed ^ Mix(x * 73856093LL ^ Mix(y * 19349663LL ^ Mix(z * 83492791LL)))) >> 11) *
+           0x1.0p-53;
   };
   auto smooth = [](double t) { return t * t * (3 - 2 * t); };
   struct Cell {
@@ -1125,7 +1182,8 @@ void Renderer::Impl::BuildEarth() {
   auto noise = [&](const Vec3& p, Cell* cell) {
     const Vec3 f(floor_small(p.x()), floor_small(p.y()), floor_small(p.z()));
     const Vec3 r = p - f;
-    const int64_t x = static_cast<int64_t>(f.x()), y = static_cast<int64_t>(f.y()), z = static_cast<int64_t>(f.z());
+    const int64_t x = static_cast<int64_t>(f.x()), y = static_cast<int64_t>(f.y()),
+                  z = static_cast<int64_t>(f.z());
     if (!cell->valid || cell->x != x || cell->y != y || cell->z != z) {
       for (int k = 0; k < 8; ++k) {
         const int dx = k & 1, dy = (k >> 1) & 1, dz = (k >> 2) & 1;
@@ -1165,7 +1223,8 @@ void Renderer::Impl::BuildEarth() {
     for (int i = 0; i < w; ++i) {
       const Vec3 p(cos_lat * cos_lon[i], cos_lat * sin_lon[i], sin_lat);
       double v = 0, amp = 0.5, freq = 3;
-      for (int o = 0; o < kOctaves; ++o, amp *= 0.5, freq *= 2.1) v += amp * noise(p * freq, &cells[o]);
+      for (int o = 0; o < kOctaves; ++o, amp *= 0.5, freq *= 2.1)
+        v += amp * noise(p * freq, &cells[o]);
       const double cloud = std::clamp((v - 0.45) * 4, 0.0, 1.0);
       row[i] = static_cast<float>(0.12 + 0.08 * v + 0.8 * cloud);
     }
@@ -1216,8 +1275,9 @@ Renderer::Impl::Frame Renderer::Impl::MakeFrame(int view) const {
 //
 // Also finds a box that every ray of the pixel enters through the inside of one face (the four
 // corner rays do, 1e-4 of their length inside its edges): then every sample hits something.
-void Renderer::Impl::ConeCandidates(const Frame& f, const Vec3* c, int nc, const std::vector<Candidate>& tile,
-                                    std::vector<Candidate>* out, PixelPlan* plan) const {
+void Renderer::Impl::ConeCandidates(const Frame& f, const Vec3* c, int nc,
+                                    const std::vector<Candidate>& tile, std::vector<Candidate>* out,
+                                    PixelPlan* plan) const {
   out->clear();
   *plan = PixelPlan{};
   if (tile.empty()) return;
@@ -1228,7 +1288,8 @@ void Renderer::Impl::ConeCandidates(const Frame& f, const Vec3* c, int nc, const
   for (int i = 0; i < nc; ++i) cos_t = std::min(cos_t, Dot(axis, c[i]));
   constexpr double kWiden = 2e-6;
   const double sin_t = std::sqrt(std::max(0.0, 1 - cos_t * cos_t));
-  const double cos_m = cos_t - kWiden * sin_t - kWiden * kWiden, sin_m = std::sqrt(std::max(0.0, 1 - cos_m * cos_m));
+  const double cos_m = cos_t - kWiden * sin_t - kWiden * kWiden,
+               sin_m = std::sqrt(std::max(0.0, 1 - cos_m * cos_m));
   if (!(cos_m > 0.5)) {  // not a pixel-sized cone (or NaN): keep everything
     *out = tile;
     return;
@@ -1279,7 +1340,8 @@ void Renderer::Impl::ConeCandidates(const Frame& f, const Vec3* c, int nc, const
     if (p.kind == Prim::Kind::kBox) {
       // A ray of the cone hitting the box does so at t <= T (the far side of its bounding
       // sphere), so the axis ray passes through the box grown by T * theta on every side.
-      const double grow = (std::sqrt(Dot(p.centre - f.o, p.centre - f.o)) + p.radius) * theta * (1 + 1e-6) + 1e-9;
+      const double grow =
+          (std::sqrt(Dot(p.centre - f.o, p.centre - f.o)) + p.radius) * theta * (1 + 1e-6) + 1e-9;
       const Vec3 la = MulT(p.R, axis);
       const Vec3& lo = cand.local_origin;
       double tn = 0, tf = INFINITY;
@@ -1295,7 +1357,8 @@ void Renderer::Impl::ConeCandidates(const Frame& f, const Vec3* c, int nc, const
         tf = std::min(tf, b);
       }
       if (tn <= tf) {
-        if (plan->cover < 0 && covers(p, lo, &plan->axis, &plan->sign)) plan->cover = static_cast<int>(out->size());
+        if (plan->cover < 0 && covers(p, lo, &plan->axis, &plan->sign))
+          plan->cover = static_cast<int>(out->size());
         out->push_back(cand);
       }
       continue;
@@ -1356,10 +1419,13 @@ void Renderer::Impl::ConeCandidates(const Frame& f, const Vec3* c, int nc, const
 // sun ray of the block (if one box face covers it) or else of the pixel can reach are dropped
 // before shading.
 void Renderer::Impl::RenderBlock(const Frame& f, int x0, int y0, int x1, int y1,
-                                 const std::vector<Candidate>& candidates, Scratch* sc, cv::Mat* out) const {
+                                 const std::vector<Candidate>& candidates, Scratch* sc,
+                                 cv::Mat* out) const {
   const int n = f.n, nn = n * n;
   const int bw = x1 - x0, bh = y1 - y0;
-  auto corner = [&](int x, int y) -> const Eigen::Vector3f& { return corner_dirs[static_cast<size_t>(y) * (W + 1) + x]; };
+  auto corner = [&](int x, int y) -> const Eigen::Vector3f& {
+    return corner_dirs[static_cast<size_t>(y) * (W + 1) + x];
+  };
 
   // What the block's rays may hit (all its pixels' corner rays bound them): often nothing, or
   // only one face of a box; else each pixel is looked at on its own.
@@ -1371,15 +1437,17 @@ void Renderer::Impl::RenderBlock(const Frame& f, int x0, int y0, int x1, int y1,
     for (int j = 0; j <= bh; ++j)
       for (int i = 0; i <= bw; ++i)
         sc->grid[j * gw + i] = Normalized(Mul(f.Rwc, corner(x0 + i, y0 + j).cast<double>()));
-    ConeCandidates(f, sc->grid.data(), static_cast<int>(sc->grid.size()), candidates, &sc->block_cands, &block_plan);
+    ConeCandidates(f, sc->grid.data(), static_cast<int>(sc->grid.size()), candidates,
+                   &sc->block_cands, &block_plan);
   }
   const bool block_planned = !f.moving && (sc->block_cands.empty() || block_plan.face_only);
   // A block on one face: its sun rays start near where its corner rays meet the face.
   bool block_casters = false;
   if (block_planned && block_plan.face_only && f.sun && f.cull_casters) {
     const double grow = 1e-4 * block_plan.foot_t + 2 * kShadowOffset + 1e-9;
-    CullCasters(f, block_plan.foot_lo - Vec3::Constant(grow), block_plan.foot_hi + Vec3::Constant(grow),
-                &sc->block_casters, sc->block_cands[block_plan.cover].prim);
+    CullCasters(f, block_plan.foot_lo - Vec3::Constant(grow),
+                block_plan.foot_hi + Vec3::Constant(grow), &sc->block_casters,
+                sc->block_cands[block_plan.cover].prim);
     block_casters = true;
   }
 
@@ -1397,8 +1465,8 @@ void Renderer::Impl::RenderBlock(const Frame& f, int x0, int y0, int x1, int y1,
         J.samples = &sc->samples[j * static_cast<size_t>(nn)];
         J.cands = block_planned ? &sc->block_cands : &sc->pixel_cands[j];
         const int x = J.x;
-        J.valid = corner(x, y).allFinite() && corner(x + 1, y).allFinite() && corner(x, y + 1).allFinite() &&
-                  corner(x + 1, y + 1).allFinite();
+        J.valid = corner(x, y).allFinite() && corner(x + 1, y).allFinite() &&
+                  corner(x, y + 1).allFinite() && corner(x + 1, y + 1).allFinite();
         if (!J.valid) continue;  // stays 0
         if (block_planned) {
           J.plan = block_plan;
@@ -1409,7 +1477,8 @@ void Renderer::Impl::RenderBlock(const Frame& f, int x0, int y0, int x1, int y1,
         J.cands->clear();
         if (!f.moving) {
           const int gi = (y - y0) * gw + (x - x0);
-          const Vec3 c[4] = {sc->grid[gi], sc->grid[gi + 1], sc->grid[gi + gw], sc->grid[gi + gw + 1]};
+          const Vec3 c[4] = {sc->grid[gi], sc->grid[gi + 1], sc->grid[gi + gw],
+                             sc->grid[gi + gw + 1]};
           ConeCandidates(f, c, 4, sc->block_cands, J.cands, &J.plan);
           J.plan.planned = J.cands->empty() || J.plan.cover >= 0;
         }
@@ -1456,20 +1525,24 @@ void Renderer::Impl::CameraRays(const Frame& f, const PixelJob& J, double* ray) 
   const int nn = f.n * f.n, stride = nn + 2;
   const size_t i = static_cast<size_t>(J.y) * (W + 1) + J.x;
   auto load = [&](const Eigen::Vector3f& c) { return _mm_setr_ps(c[0], c[1], c[2], 0.0f); };
-  const F32x4 c00 = load(corner_dirs[i]), c10 = load(corner_dirs[i + 1]), c01 = load(corner_dirs[i + W + 1]),
-               c11 = load(corner_dirs[i + W + 2]);
+  const F32x4 c00 = load(corner_dirs[i]), c10 = load(corner_dirs[i + 1]),
+              c01 = load(corner_dirs[i + W + 1]), c11 = load(corner_dirs[i + W + 2]);
   auto blend = [&](const Sample& s) {
-    const F32x4 a = _mm_set1_ps(static_cast<float>(1 - s.py)), b = _mm_set1_ps(static_cast<float>(1 - s.px)),
-                 c = _mm_set1_ps(static_cast<float>(s.px)), e = _mm_set1_ps(static_cast<float>(s.py));
+    const F32x4 a = _mm_set1_ps(static_cast<float>(1 - s.py)),
+                b = _mm_set1_ps(static_cast<float>(1 - s.px)),
+                c = _mm_set1_ps(static_cast<float>(s.px)),
+                e = _mm_set1_ps(static_cast<float>(s.py));
     return _mm_add_ps(_mm_mul_ps(a, _mm_add_ps(_mm_mul_ps(b, c00), _mm_mul_ps(c, c10))),
                       _mm_mul_ps(e, _mm_add_ps(_mm_mul_ps(b, c01), _mm_mul_ps(c, c11))));
   };
   for (int k = 0; k < nn; k += 2) {
     const F32x4 ra = blend(J.samples[k]), rb = blend(J.samples[k + 1 < nn ? k + 1 : k]);
     const F64x2 a_xy = _mm_cvtps_pd(ra), b_xy = _mm_cvtps_pd(rb);
-    const F64x2 a_z = _mm_cvtps_pd(_mm_movehl_ps(ra, ra)), b_z = _mm_cvtps_pd(_mm_movehl_ps(rb, rb));
-    const V2 d = Mul2(f.Rwc, Normalized2(V2{_mm_unpacklo_pd(a_xy, b_xy), _mm_unpackhi_pd(a_xy, b_xy),
-                                            _mm_unpacklo_pd(a_z, b_z)}));
+    const F64x2 a_z = _mm_cvtps_pd(_mm_movehl_ps(ra, ra)),
+                b_z = _mm_cvtps_pd(_mm_movehl_ps(rb, rb));
+    const V2 d =
+        Mul2(f.Rwc, Normalized2(V2{_mm_unpacklo_pd(a_xy, b_xy), _mm_unpackhi_pd(a_xy, b_xy),
+                                   _mm_unpacklo_pd(a_z, b_z)}));
     _mm_storeu_pd(ray + k, d.x);
     _mm_storeu_pd(ray + stride + k, d.y);
     _mm_storeu_pd(ray + 2 * stride + k, d.z);
@@ -1485,7 +1558,8 @@ double Renderer::Impl::EarthPixel(const Frame& f, const PixelJob& J, double* ray
   const EarthRef ref = MakeEarthRef(Vec3(rx[0], ry[0], rz[0]));
   for (int k = 0; k < nn; k += 2) {
     const int k2 = k + 1 < nn ? k + 1 : k;
-    const V2 d{_mm_loadu_pd(rx + k), _mm_loadu_pd(ry + k), _mm_loadu_pd(rz + k)};  // (k2: the same ray)
+    const V2 d{_mm_loadu_pd(rx + k), _mm_loadu_pd(ry + k),
+               _mm_loadu_pd(rz + k)};  // (k2: the same ray)
     double va, vb;
     EarthNear2(ref, d, &va, &vb);
     sum += va;
@@ -1497,7 +1571,8 @@ double Renderer::Impl::EarthPixel(const Frame& f, const PixelJob& J, double* ray
 // A planned pixel on one face of a box, matte, lit by sun and ambient only, with no shadow
 // caster: RenderPixel's arithmetic, without its records. False (nothing done) if a ray does
 // not hit the face as planned (which cannot happen).
-bool Renderer::Impl::FacePixel(const Frame& f, const PixelJob& J, double* ray, double* radiance) const {
+bool Renderer::Impl::FacePixel(const Frame& f, const PixelJob& J, double* ray,
+                               double* radiance) const {
   const int nn = f.n * f.n, stride = nn + 2;
   const Sample* samples = J.samples;
   CameraRays(f, J, ray);
@@ -1510,13 +1585,17 @@ bool Renderer::Impl::FacePixel(const Frame& f, const PixelJob& J, double* ray, d
   n_local[k] = sign;
   const Vec3 nrm = Mul(p.R, n_local);
   const V2 n2 = Load2(nrm, nrm);
-  // FaceHit: t = (-half - lo) / ld for rays entering the face at -half (ld > 0), else (half - lo) / ld.
-  const F64x2 num = _mm_set1_pd(sign < 0 ? -p.half[k] - c.local_origin[k] : p.half[k] - c.local_origin[k]);
+  // FaceHit: t = (-half - lo) / ld for rays entering the face at -half (ld > 0), else (half - lo) /
+  // ld.
+  const F64x2 num =
+      _mm_set1_pd(sign < 0 ? -p.half[k] - c.local_origin[k] : p.half[k] - c.local_origin[k]);
   const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
   const F64x2 lo1 = _mm_set1_pd(c.local_origin[k1]), lo2 = _mm_set1_pd(c.local_origin[k2]);
-  const F64x2 h1 = _mm_set1_pd(p.half[k1]), h2 = _mm_set1_pd(p.half[k2]), abs_mask = _mm_set1_pd(-0.0);
+  const F64x2 h1 = _mm_set1_pd(p.half[k1]), h2 = _mm_set1_pd(p.half[k2]),
+              abs_mask = _mm_set1_pd(-0.0);
   auto col = [&](int j, const V2& d) {  // (R^T d)[j], as MulT
-    return _mm_add_pd(_mm_add_pd(_mm_mul_pd(_mm_set1_pd(p.R(0, j)), d.x), _mm_mul_pd(_mm_set1_pd(p.R(1, j)), d.y)),
+    return _mm_add_pd(_mm_add_pd(_mm_mul_pd(_mm_set1_pd(p.R(0, j)), d.x),
+                                 _mm_mul_pd(_mm_set1_pd(p.R(1, j)), d.y)),
                       _mm_mul_pd(_mm_set1_pd(p.R(2, j)), d.z));
   };
   const double refl = p.material.reflectance, ambient = scene.light.ambient;
@@ -1527,15 +1606,20 @@ bool Renderer::Impl::FacePixel(const Frame& f, const PixelJob& J, double* ray, d
     const int i2 = i + 1 < nn ? i + 1 : i;
     const Sample& a = samples[i];
     const Sample& b = samples[i2];
-    const V2 d{_mm_loadu_pd(rx + i), _mm_loadu_pd(ry + i), _mm_loadu_pd(rz + i)};  // (i2: the same ray)
+    const V2 d{_mm_loadu_pd(rx + i), _mm_loadu_pd(ry + i),
+               _mm_loadu_pd(rz + i)};  // (i2: the same ray)
     const F64x2 ldk = col(k, d);
-    const F64x2 entering = sign < 0 ? _mm_cmpgt_pd(ldk, _mm_setzero_pd()) : _mm_cmple_pd(ldk, _mm_setzero_pd());
+    const F64x2 entering =
+        sign < 0 ? _mm_cmpgt_pd(ldk, _mm_setzero_pd()) : _mm_cmple_pd(ldk, _mm_setzero_pd());
     const F64x2 t = _mm_div_pd(num, ldk);
-    const F64x2 in1 = _mm_cmplt_pd(_mm_andnot_pd(abs_mask, _mm_add_pd(lo1, _mm_mul_pd(t, col(k1, d)))), h1);
-    const F64x2 in2 = _mm_cmplt_pd(_mm_andnot_pd(abs_mask, _mm_add_pd(lo2, _mm_mul_pd(t, col(k2, d)))), h2);
+    const F64x2 in1 =
+        _mm_cmplt_pd(_mm_andnot_pd(abs_mask, _mm_add_pd(lo1, _mm_mul_pd(t, col(k1, d)))), h1);
+    const F64x2 in2 =
+        _mm_cmplt_pd(_mm_andnot_pd(abs_mask, _mm_add_pd(lo2, _mm_mul_pd(t, col(k2, d)))), h2);
     const F64x2 facing = _mm_cmple_pd(Dot2(n2, d), _mm_setzero_pd());  // no flip of the normal
-    const F64x2 good = _mm_and_pd(_mm_and_pd(_mm_and_pd(entering, _mm_cmpge_pd(t, _mm_set1_pd(kEps))),
-                                               _mm_and_pd(in1, in2)), facing);
+    const F64x2 good = _mm_and_pd(
+        _mm_and_pd(_mm_and_pd(entering, _mm_cmpge_pd(t, _mm_set1_pd(kEps))), _mm_and_pd(in1, in2)),
+        facing);
     if (_mm_movemask_pd(good) != 3) return false;
     double va = refl * ambient + 0.0, vb = va;
     if (f.sun) {
@@ -1543,7 +1627,8 @@ bool Renderer::Impl::FacePixel(const Frame& f, const PixelJob& J, double* ray, d
       if (f.sun_r == 0) {
         sd = Load2(f.sun_centre_dir, f.sun_centre_dir);
       } else {
-        const F64x2 ca = _mm_mul_pd(r_sun, _mm_set_pd(b.ux, a.ux)), cb = _mm_mul_pd(r_sun, _mm_set_pd(b.uy, a.uy));
+        const F64x2 ca = _mm_mul_pd(r_sun, _mm_set_pd(b.ux, a.ux)),
+                    cb = _mm_mul_pd(r_sun, _mm_set_pd(b.uy, a.uy));
         auto comp = [&](int j) {
           return _mm_add_pd(_mm_add_pd(_mm_set1_pd(s[j]), _mm_mul_pd(ca, _mm_set1_pd(f.t1[j]))),
                             _mm_mul_pd(cb, _mm_set1_pd(f.t2[j])));
@@ -1553,8 +1638,9 @@ bool Renderer::Impl::FacePixel(const Frame& f, const PixelJob& J, double* ray, d
       const F64x2 cs = Dot2(n2, sd);
       const F64x2 amb = _mm_set1_pd(ambient);
       const F64x2 lit = _mm_cmpgt_pd(cs, _mm_setzero_pd());
-      const F64x2 passive = _mm_or_pd(_mm_and_pd(lit, _mm_add_pd(amb, _mm_mul_pd(_mm_set1_pd(f.sun->irradiance), cs))),
-                                        _mm_andnot_pd(lit, amb));
+      const F64x2 passive = _mm_or_pd(
+          _mm_and_pd(lit, _mm_add_pd(amb, _mm_mul_pd(_mm_set1_pd(f.sun->irradiance), cs))),
+          _mm_andnot_pd(lit, amb));
       alignas(16) double v[2];
       _mm_store_pd(v, _mm_add_pd(_mm_mul_pd(_mm_set1_pd(refl), passive), _mm_setzero_pd()));
       va = v[0];
@@ -1567,12 +1653,12 @@ bool Renderer::Impl::FacePixel(const Frame& f, const PixelJob& J, double* ray, d
   return true;
 }
 
-
 // A planned pixel covered by a box face whose other candidates are marker decals (no post, no
 // well in reach), matte, lit by sun and ambient only: what Nearest, Intersect and Shade do for
 // it, without their records. False (nothing done) if a ray does something else (a well).
-bool Renderer::Impl::CoveredPixel(const Frame& f, const PixelJob& J, double* ray, const std::vector<Caster>* casters,
-                                  Scratch* sc, double* radiance) const {
+bool Renderer::Impl::CoveredPixel(const Frame& f, const PixelJob& J, double* ray,
+                                  const std::vector<Caster>* casters, Scratch* sc,
+                                  double* radiance) const {
   const int nn = f.n * f.n, stride = nn + 2;
   if (nn > kMaxFused) return false;
   const std::vector<Candidate>& cands = *J.cands;
@@ -1588,7 +1674,9 @@ bool Renderer::Impl::CoveredPixel(const Frame& f, const PixelJob& J, double* ray
   for (size_t i = 0; i < cands.size(); ++i) {
     if (static_cast<int>(i) == plan.cover) continue;
     const Prim& p = prims[cands[i].prim];
-    if (p.kind != Prim::Kind::kMarker || !(cands[i].no_post || !(p.has_post && p.post_h > 0)) || n_decals == 8) return false;
+    if (p.kind != Prim::Kind::kMarker || !(cands[i].no_post || !(p.has_post && p.post_h > 0)) ||
+        n_decals == 8)
+      return false;
     decals[n_decals++] = {&p, &cands[i], Mul(p.R, Vec3(0, 0, 1))};
   }
   const Candidate& bc = cands[plan.cover];
@@ -1598,7 +1686,8 @@ bool Renderer::Impl::CoveredPixel(const Frame& f, const PixelJob& J, double* ray
   Vec3 n_local = Vec3::Zero();
   n_local[k] = sign;
   const Vec3 box_nrm = Mul(box.R, n_local);
-  const double num = sign < 0 ? -box.half[k] - bc.local_origin[k] : box.half[k] - bc.local_origin[k];
+  const double num =
+      sign < 0 ? -box.half[k] - bc.local_origin[k] : box.half[k] - bc.local_origin[k];
   CameraRays(f, J, ray);
   const double *rx = ray, *ry = ray + stride, *rz = ray + 2 * stride;
   // Per sample: what it hit (index into cands), its distance, reflectance and normal.
@@ -1684,7 +1773,8 @@ bool Renderer::Impl::CoveredPixel(const Frame& f, const PixelJob& J, double* ray
       sd[s] = Normalized(Vec3(su[0] + a * f.t1[0] + b * f.t2[0], su[1] + a * f.t1[1] + b * f.t2[1],
                               su[2] + a * f.t1[2] + b * f.t2[2]));
     }
-    xs[s] = Vec3(x[0] + kShadowOffset * nrm[s][0], x[1] + kShadowOffset * nrm[s][1], x[2] + kShadowOffset * nrm[s][2]);
+    xs[s] = Vec3(x[0] + kShadowOffset * nrm[s][0], x[1] + kShadowOffset * nrm[s][1],
+                 x[2] + kShadowOffset * nrm[s][2]);
     cs[s] = Dot(nrm[s], sd[s]);
     if (cs[s] > 0) {
       any_sun_ray = true;
@@ -1717,19 +1807,21 @@ bool Renderer::Impl::CoveredPixel(const Frame& f, const PixelJob& J, double* ray
 }
 
 // The rest of one pixel's work (its planned draws are done): returns its radiance.
-double Renderer::Impl::RenderPixel(const Frame& f, const PixelJob& J, const std::vector<Caster>* casters,
-                                   Scratch* sc) const {
+double Renderer::Impl::RenderPixel(const Frame& f, const PixelJob& J,
+                                   const std::vector<Caster>* casters, Scratch* sc) const {
   const int nn = f.n * f.n;
   if (J.plan.planned && !f.moving) {
     const Lighting& L = scene.light;
-    if (J.cands->empty() && scene.background.kind == Background::Kind::kEarth) return EarthPixel(f, J, sc->ray.data());
+    if (J.cands->empty() && scene.background.kind == Background::Kind::kEarth)
+      return EarthPixel(f, J, sc->ray.data());
     if (J.plan.face_only && !L.earthshine && !L.narrow_band_filter && !(L.ring_light > 0) &&
-        !(prims[(*J.cands)[0].prim].material.specular > 0) && (!f.sun || (casters && casters->empty()))) {
+        !(prims[(*J.cands)[0].prim].material.specular > 0) &&
+        (!f.sun || (casters && casters->empty()))) {
       double v;
       if (FacePixel(f, J, sc->ray.data(), &v)) return v;
     }
-    if (J.plan.cover >= 0 && !J.plan.face_only && !L.earthshine && !L.narrow_band_filter && !(L.ring_light > 0) &&
-        !(prims[(*J.cands)[J.plan.cover].prim].material.specular > 0) &&
+    if (J.plan.cover >= 0 && !J.plan.face_only && !L.earthshine && !L.narrow_band_filter &&
+        !(L.ring_light > 0) && !(prims[(*J.cands)[J.plan.cover].prim].material.specular > 0) &&
         prims[(*J.cands)[J.plan.cover].prim].material.pattern.kind == Pattern::Kind::kUniform) {
       double v;
       if (CoveredPixel(f, J, sc->ray.data(), casters, sc, &v)) return v;
@@ -1784,7 +1876,8 @@ double Renderer::Impl::RenderPixel(const Frame& f, const PixelJob& J, const std:
       }
     } else if (scene.background.kind == Background::Kind::kImage) {
       for (int i = 0; i < m; ++i)
-        samples[idx[i]].value = BackgroundRadiance(samples[idx[i]].d, samples[idx[i]].px, samples[idx[i]].py);
+        samples[idx[i]].value =
+            BackgroundRadiance(samples[idx[i]].d, samples[idx[i]].px, samples[idx[i]].py);
     }
   }
 
@@ -1807,7 +1900,8 @@ double Renderer::Impl::RenderPixel(const Frame& f, const PixelJob& J, const std:
   Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
   if (f.sun && m > 0) {
     if (f.sun_r == 0) {
-      for (int i = 0; i < m; ++i) samples[idx[i]].sd = f.sun_centre_dir;  // what the disc sample reduces to
+      for (int i = 0; i < m; ++i)
+        samples[idx[i]].sd = f.sun_centre_dir;  // what the disc sample reduces to
     } else {
       // normalize(to_sun + (sun_r ux) t1 + (sun_r uy) t2)
       const Vec3& s = f.sun->to_sun_world;
@@ -1815,7 +1909,8 @@ double Renderer::Impl::RenderPixel(const Frame& f, const PixelJob& J, const std:
       for (int i = 0; i < m; i += 2) {
         Sample& a = samples[idx[i]];
         Sample& b = samples[idx[i + 1 < m ? i + 1 : i]];
-        const F64x2 ca = _mm_mul_pd(r_sun, _mm_set_pd(b.ux, a.ux)), cb = _mm_mul_pd(r_sun, _mm_set_pd(b.uy, a.uy));
+        const F64x2 ca = _mm_mul_pd(r_sun, _mm_set_pd(b.ux, a.ux)),
+                    cb = _mm_mul_pd(r_sun, _mm_set_pd(b.uy, a.uy));
         auto comp = [&](int c) {
           return _mm_add_pd(_mm_add_pd(_mm_set1_pd(s[c]), _mm_mul_pd(ca, _mm_set1_pd(f.t1[c]))),
                             _mm_mul_pd(cb, _mm_set1_pd(f.t2[c])));
@@ -1876,8 +1971,8 @@ double Renderer::Impl::RenderPixel(const Frame& f, const PixelJob& J, const std:
 // does so at t <= |c - m| + rho + R, where it is within rho + t * spread of the ray from m
 // along to_sun. And a box that all the rays start beyond one face of and leave that face's
 // plane cannot be entered (a face lit by the sun does not shadow itself).
-void Renderer::Impl::CullCasters(const Frame& f, const Vec3& lo, const Vec3& hi, std::vector<Caster>* out,
-                                 int self_box) const {
+void Renderer::Impl::CullCasters(const Frame& f, const Vec3& lo, const Vec3& hi,
+                                 std::vector<Caster>* out, int self_box) const {
   out->clear();
   const Vec3 m = 0.5 * (lo + hi), hv = 0.5 * (hi - lo);
   const double rho = hv.norm();
@@ -1894,8 +1989,9 @@ void Renderer::Impl::CullCasters(const Frame& f, const Vec3& lo, const Vec3& hi,
       bool beyond = false;
       for (int k = 0; k < 3 && !beyond; ++k) {
         const Vec3 nk = p.R.col(k);
-        const double centre = Dot(nk, m - p.t),
-                     ext = std::abs(nk[0]) * hv[0] + std::abs(nk[1]) * hv[1] + std::abs(nk[2]) * hv[2];
+        const double centre = Dot(nk, m - p.t), ext = std::abs(nk[0]) * hv[0] +
+                                                      std::abs(nk[1]) * hv[1] +
+                                                      std::abs(nk[2]) * hv[2];
         const double along = Dot(nk, f.to_sun), spread = f.sun_spread * 1.01 + 1e-12;
         beyond = (centre - ext > p.half[k] + 1e-9 && along > spread) ||
                  (centre + ext < -p.half[k] - 1e-9 && along < -spread);
@@ -1909,12 +2005,14 @@ void Renderer::Impl::CullCasters(const Frame& f, const Vec3& lo, const Vec3& hi,
 // Traces the samples of pixel (x, y) one after the other (whether a sample hits decides
 // whether it draws a sun-disc point, hence the next sample's jitter), from its candidates
 // `cands` (unused with motion blur: each sample then has its own camera centre).
-void Renderer::Impl::TracePixel(const Frame& f, int x, int y, const std::vector<Candidate>& cands, Sample* samples,
-                                Scratch* sc) const {
+void Renderer::Impl::TracePixel(const Frame& f, int x, int y, const std::vector<Candidate>& cands,
+                                Sample* samples, Scratch* sc) const {
   const int n = f.n;
   const bool n_pow2 = (n & (n - 1)) == 0;
   const double inv_n = 1.0 / n;
-  auto corner = [&](int i, int j) -> const Eigen::Vector3f& { return corner_dirs[static_cast<size_t>(j) * (W + 1) + i]; };
+  auto corner = [&](int i, int j) -> const Eigen::Vector3f& {
+    return corner_dirs[static_cast<size_t>(j) * (W + 1) + i];
+  };
   const Eigen::Vector3f &c00 = corner(x, y), &c10 = corner(x + 1, y), &c01 = corner(x, y + 1),
                         &c11 = corner(x + 1, y + 1);
   Rng rng(PixelSeed(f.view, x, y));
@@ -1930,7 +2028,8 @@ void Renderer::Impl::TracePixel(const Frame& f, int x, int y, const std::vector<
       const Vec3 d_cam = Normalized(Blend(c00, c10, c01, c11, fx, fy).cast<double>());
       const std::vector<Candidate>* cs = &cands;
       if (f.moving) {
-        const Pose wfc = WorldFromCam(f, scene.sensor.motion_blur * (sy * n + sx + rng.Uniform()) / (n * n));
+        const Pose wfc =
+            WorldFromCam(f, scene.sensor.motion_blur * (sy * n + sx + rng.Uniform()) / (n * n));
         smp.d = Mul(wfc.Rotation(), d_cam);
         smp.o = wfc.tvec;
         AllCandidates(f.view, smp.o, &sc->moving_candidates);
@@ -1982,9 +2081,11 @@ cv::Mat Renderer::RenderRadiance(int view) const {
         Vec3 axis = Vec3::Zero();
         std::vector<Vec3> border;
         for (int i = tx; i <= x1; ++i)
-          for (int j : {ty, y1}) border.push_back(I.corner_dirs[static_cast<size_t>(j) * (I.W + 1) + i].cast<double>());
+          for (int j : {ty, y1})
+            border.push_back(I.corner_dirs[static_cast<size_t>(j) * (I.W + 1) + i].cast<double>());
         for (int j = ty; j <= y1; ++j)
-          for (int i : {tx, x1}) border.push_back(I.corner_dirs[static_cast<size_t>(j) * (I.W + 1) + i].cast<double>());
+          for (int i : {tx, x1})
+            border.push_back(I.corner_dirs[static_cast<size_t>(j) * (I.W + 1) + i].cast<double>());
         bool valid = true;
         for (const Vec3& b : border) {
           valid = valid && b.allFinite();
@@ -2001,17 +2102,20 @@ cv::Mat Renderer::RenderRadiance(int view) const {
             const Prim& p = I.prims[i];
             const Vec3 v = p.centre - o;
             const double dist = v.norm();
-            const double ang = dist <= p.radius ? 0 : std::acos(std::clamp(axis.dot(v) / dist, -1.0, 1.0));
+            const double ang =
+                dist <= p.radius ? 0 : std::acos(std::clamp(axis.dot(v) / dist, -1.0, 1.0));
             if (dist <= p.radius || ang <= half + std::asin(std::min(1.0, p.radius / dist)))
               candidates.push_back({i, MulT(p.R, o - p.t)});
           }
         }
       }
       // Nothing to hit and a black sky: the tile stays black.
-      if (!moving && candidates.empty() && I.scene.background.kind == Background::Kind::kBlack) continue;
+      if (!moving && candidates.empty() && I.scene.background.kind == Background::Kind::kBlack)
+        continue;
       for (int by = ty; by < y1; by += kBlock)
         for (int bx = tx; bx < x1; bx += kBlock)
-          I.RenderBlock(f, bx, by, std::min(x1, bx + kBlock), std::min(y1, by + kBlock), candidates, &scratch, &out);
+          I.RenderBlock(f, bx, by, std::min(x1, bx + kBlock), std::min(y1, by + kBlock), candidates,
+                        &scratch, &out);
     }
   }
   return out;
@@ -2025,10 +2129,12 @@ cv::Mat Renderer::Expose(const cv::Mat& radiance, int view) const {
     for (int y = 0; y < e.rows; ++y) {
       float* row = e.ptr<float>(y);
       for (int x = 0; x < e.cols; ++x)
-        row[x] *= static_cast<float>(1 - s.vignetting * ((x - cx) * (x - cx) + (y - cy) * (y - cy)) / r2max);
+        row[x] *= static_cast<float>(1 - s.vignetting *
+                                             ((x - cx) * (x - cx) + (y - cy) * (y - cy)) / r2max);
     }
   }
-  if (s.defocus_sigma_px > 0) cv::GaussianBlur(e, e, cv::Size(0, 0), s.defocus_sigma_px, 0, cv::BORDER_REFLECT);
+  if (s.defocus_sigma_px > 0)
+    cv::GaussianBlur(e, e, cv::Size(0, 0), s.defocus_sigma_px, 0, cv::BORDER_REFLECT);
   const double max_dn = s.bits == 16 ? 65535.0 : 255.0;
   const double dn_per_electron = max_dn / s.full_well;
   std::mt19937_64 rng(Mix(impl_->scene.seed ^ Mix(0x5e55000ULL + view)));
@@ -2062,7 +2168,8 @@ bool Renderer::CameraRay(double u, double v, Vec3* direction) const {
   const Impl& I = *impl_;
   const double gx = u + 0.5, gy = v + 0.5;  // corner-grid coordinates
   if (!(gx >= 0 && gy >= 0 && gx <= I.W && gy <= I.H)) return false;
-  const int x = std::min(static_cast<int>(gx), I.W - 1), y = std::min(static_cast<int>(gy), I.H - 1);
+  const int x = std::min(static_cast<int>(gx), I.W - 1),
+            y = std::min(static_cast<int>(gy), I.H - 1);
   const float fx = static_cast<float>(gx - x), fy = static_cast<float>(gy - y);
   auto at = [&](int i, int j) { return I.corner_dirs[static_cast<size_t>(j) * (I.W + 1) + i]; };
   const Eigen::Vector3f d = (1 - fy) * ((1 - fx) * at(x, y) + fx * at(x + 1, y)) +
@@ -2076,7 +2183,8 @@ std::optional<RayHit> Renderer::Cast(int view, const Vec3& origin, const Vec3& d
   const Vec3 d = direction.normalized();
   LocalHit h;
   int prim;
-  if (!impl_->Nearest(impl_->AllCandidates(view, origin), origin, d, &h, &prim)) return std::nullopt;
+  if (!impl_->Nearest(impl_->AllCandidates(view, origin), origin, d, &h, &prim))
+    return std::nullopt;
   return RayHit{h.t, origin + h.t * d, prim};
 }
 

@@ -11,12 +11,11 @@
 // Thread-safe: one Renderer may render several views at once from several threads.
 #pragma once
 
+#include <Eigen/Core>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <vector>
-
-#include <Eigen/Core>
-#include <opencv2/core.hpp>
 
 #include "svms/scene.h"
 #include "svms/status.h"

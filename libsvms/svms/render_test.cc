@@ -33,7 +33,8 @@ Scene BaseScene(const CameraModel& cam) {
   return s;
 }
 
-SceneObject PlateWithMarker(const MarkerModel& m, const Pose& object_from_marker, double plate = 2) {
+SceneObject PlateWithMarker(const MarkerModel& m, const Pose& object_from_marker,
+                            double plate = 2) {
   SceneObject o;
   o.name = "plate";
   o.shape = SceneObject::Shape::kPlane;
@@ -55,9 +56,10 @@ std::unique_ptr<Renderer> Make(const Scene& s) {
 
 CameraModel Opencv8(int w, int h) {
   CameraModel cam;
-  const Status s = CameraModel::Create(
-      "LENSMODEL_OPENCV8", {700, 705, (w - 1) / 2.0 + 3, (h - 1) / 2.0 - 2, -0.28, 0.09, 0.001, -0.0007, -0.01, 0.02, 0.003, 0.001},
-      w, h, &cam);
+  const Status s = CameraModel::Create("LENSMODEL_OPENCV8",
+                                       {700, 705, (w - 1) / 2.0 + 3, (h - 1) / 2.0 - 2, -0.28, 0.09,
+                                        0.001, -0.0007, -0.01, 0.02, 0.003, 0.001},
+                                       w, h, &cam);
   EXPECT_TRUE(s.ok()) << s.message();
   return cam;
 }
@@ -93,7 +95,8 @@ TEST(Render, TruthCornersEqualAnIndependentProjection) {
   }
   EXPECT_EQ(t.markers[0].bits_occluded, 0);
   // Fully visible exactly when no cell leaves the frame (corners are in, nothing occludes).
-  EXPECT_EQ(t.markers[0].fully_visible(), t.markers[0].bits_outside == 0) << t.markers[0].bits_outside;
+  EXPECT_EQ(t.markers[0].fully_visible(), t.markers[0].bits_outside == 0)
+      << t.markers[0].bits_outside;
 }
 
 TEST(Render, CameraRaysMatchMrcalWithinATenThousandthOfAPixel) {
@@ -126,7 +129,8 @@ TEST(Render, RenderedMarkerDecodesAtItsTruthCorners) {
     fm.rvec = Eigen::Vector3d(0, 0, 2.0);
     MarkerModel m = MarkerModel::Standard(id, 0.12, 0.03);
     s.objects.push_back(PlateWithMarker(m, fm));
-    s.views = {View{"v", Pose{Eigen::Vector3d(0.12, -0.08, 0), Eigen::Vector3d::Zero()} * LookDown(0.8)}};
+    s.views = {
+        View{"v", Pose{Eigen::Vector3d(0.12, -0.08, 0), Eigen::Vector3d::Zero()} * LookDown(0.8)}};
     auto r = Make(s);
     const cv::Mat img = r->Expose(r->RenderRadiance(0), 0);
     const ViewTruth t = ComputeTruth(*r, 0);
@@ -147,8 +151,9 @@ TEST(Render, RenderedMarkerDecodesAtItsTruthCorners) {
     const CodeMatch match = Svms44::Decode(br.word, 0);
     if (!match.accepted()) cv::imwrite("/tmp/decode_fail_" + std::to_string(id) + ".png", img);
     ASSERT_TRUE(match.accepted()) << id << " read " << Svms44::ToBitString(br.word) << " want "
-                                  << Svms44::ToBitString(Svms44::Codeword(id)) << " black " << br.black
-                                  << " white " << br.white << " outside " << br.samples_outside;
+                                  << Svms44::ToBitString(Svms44::Codeword(id)) << " black "
+                                  << br.black << " white " << br.white << " outside "
+                                  << br.samples_outside;
     EXPECT_EQ(match.id, id);
     EXPECT_EQ(match.rotation, 0);
   }
@@ -170,7 +175,8 @@ TEST(Render, FrontoParallelSquareCoversTheExpectedArea) {
   double dark = 0;
   for (int y = 0; y < 400; ++y)
     for (int x = 0; x < 400; ++x)
-      if (std::abs(x - c) < half && std::abs(y - (199.5 - 1000 * 0.0007 / 2.0)) < half) dark += 1 - L.at<float>(y, x);
+      if (std::abs(x - c) < half && std::abs(y - (199.5 - 1000 * 0.0007 / 2.0)) < half)
+        dark += 1 - L.at<float>(y, x);
   const double expected = 50.0 * 50.0;
   EXPECT_NEAR(dark, expected, 0.005 * expected);
 }
@@ -178,7 +184,8 @@ TEST(Render, FrontoParallelSquareCoversTheExpectedArea) {
 TEST(Render, PostLitAt45DegreesCastsAShadowAsLongAsItIsTall) {
   Scene s = BaseScene(CameraModel::Pinhole(2000, 400, 400));
   s.light.ambient = 0.05;
-  s.light.sun = Sun{Eigen::Vector3d(1, 0, 1).normalized(), 1.0, 0.0};  // point sun, 45 degrees, from +x
+  s.light.sun =
+      Sun{Eigen::Vector3d(1, 0, 1).normalized(), 1.0, 0.0};  // point sun, 45 degrees, from +x
   const double h = 0.07, radius = 0.002;
   MarkerModel m = MarkerModel::Standard(8, 0.1, h);
   m.post->radius = m.post->tip_radius = radius;
@@ -289,15 +296,27 @@ TEST(SceneFile, ErrorsNameTheField) {
   expect("\"seed\": 1", "\"seed\": -1", "seed: expected a non-negative integer");
   expect("\"width\": 200", "\"width\": 0", "camera: ");
   expect("[500, 500, 99.5, 99.5]", "[500, 500, 99.5]", "camera: ");
-  expect("\"objects\": []", "\"objects\": [{\"name\": \"b\", \"shape\": \"cone\"}]", "objects[0].shape: expected \"plane\" or \"box\"");
-  expect("\"views\": [", "\"sensor\": {\"rays_per_pixel\": 10}, \"views\": [", "sensor.rays_per_pixel: expected a square number");
-  expect("\"views\": [", "\"sensor\": {\"bits\": 12}, \"views\": [", "sensor.bits: expected 8 or 16");
-  expect("\"views\": [", "\"light\": {\"sun\": {\"to_sun\": [0,0,0], \"irradiance\": 1}}, \"views\": [", "light.sun.to_sun: expected a nonzero direction");
-  expect("\"views\": [", "\"background\": {\"kind\": \"image\", \"image\": \"nope.png\"}, \"views\": [", "background.image: nope.png: no such file");
-  expect("\"name\": \"a\"", "\"name\": \"a/b\"", "views[0].name: expected a non-empty file name without slashes");
-  expect("\"tvec\": [0,0,1]", "\"tvec\": [0,0]", "views[0].cam_from_world.tvec: expected an array of 3 numbers");
+  expect("\"objects\": []", "\"objects\": [{\"name\": \"b\", \"shape\": \"cone\"}]",
+         "objects[0].shape: expected \"plane\" or \"box\"");
+  expect("\"views\": [", "\"sensor\": {\"rays_per_pixel\": 10}, \"views\": [",
+         "sensor.rays_per_pixel: expected a square number");
+  expect("\"views\": [", "\"sensor\": {\"bits\": 12}, \"views\": [",
+         "sensor.bits: expected 8 or 16");
+  expect("\"views\": [",
+         "\"light\": {\"sun\": {\"to_sun\": [0,0,0], \"irradiance\": 1}}, \"views\": [",
+         "light.sun.to_sun: expected a nonzero direction");
+  expect("\"views\": [",
+         "\"background\": {\"kind\": \"image\", \"image\": \"nope.png\"}, \"views\": [",
+         "background.image: nope.png: no such file");
+  expect("\"name\": \"a\"", "\"name\": \"a/b\"",
+         "views[0].name: expected a non-empty file name without slashes");
+  expect("\"tvec\": [0,0,1]", "\"tvec\": [0,0]",
+         "views[0].cam_from_world.tvec: expected an array of 3 numbers");
   expect("\"seed\": 1,", "\"seed\": 1, \"colour\": 3,", "colour: unknown field");
-  expect("\"objects\": [], \"views\": [{\"name\": \"a\", \"cam_from_world\": {\"rvec\": [0,0,0], \"tvec\": [0,0,1]}}]", "\"objects\": [], \"views\": []", "views: expected a non-empty array");
+  expect(
+      "\"objects\": [], \"views\": [{\"name\": \"a\", \"cam_from_world\": {\"rvec\": [0,0,0], "
+      "\"tvec\": [0,0,1]}}]",
+      "\"objects\": [], \"views\": []", "views: expected a non-empty array");
 }
 
 TEST(Render, SunDirectionsFromCodeAreNormalised) {

@@ -51,7 +51,9 @@ Pattern ParsePattern(const json& j, const std::string& path) {
     }
   }
   if (!found)
-    throw FieldError{Join(path, "kind") + ": expected uniform, checker, stripes, grid, text or noise, got \"" + kind + "\""};
+    throw FieldError{Join(path, "kind") +
+                     ": expected uniform, checker, stripes, grid, text or noise, got \"" + kind +
+                     "\""};
   if (j.contains("period")) p.period = NumberIn(j, path, "period", 1e-6, 1e6);
   if (j.contains("low")) p.low = NumberIn(j, path, "low", 0, 1);
   if (j.contains("high")) p.high = NumberIn(j, path, "high", 0, 1);
@@ -64,7 +66,8 @@ Pattern ParsePattern(const json& j, const std::string& path) {
     p.rows = static_cast<int>(sq.y());
   }
   if (j.contains("seed")) {
-    if (!j["seed"].is_number_unsigned()) Fail(Join(path, "seed"), "a non-negative integer", j["seed"]);
+    if (!j["seed"].is_number_unsigned())
+      Fail(Join(path, "seed"), "a non-negative integer", j["seed"]);
     p.seed = j["seed"].get<uint64_t>();
   }
   return p;
@@ -72,8 +75,12 @@ Pattern ParsePattern(const json& j, const std::string& path) {
 
 json PatternJson(const Pattern& p) {
   static const char* kNames[] = {"uniform", "checker", "stripes", "grid", "text", "noise"};
-  json j = {{"kind", kNames[static_cast<int>(p.kind)]}, {"period", p.period}, {"low", p.low},
-            {"high", p.high}, {"line", p.line}, {"seed", p.seed}};
+  json j = {{"kind", kNames[static_cast<int>(p.kind)]},
+            {"period", p.period},
+            {"low", p.low},
+            {"high", p.high},
+            {"line", p.line},
+            {"seed", p.seed}};
   if (p.cols > 0) j["squares"] = {p.cols, p.rows};
   return j;
 }
@@ -141,8 +148,9 @@ CameraModel ParseCamera(const json& j, const std::string& path, const std::strin
 }
 
 void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
-  CheckKeys(root, "", {"type", "seed", "camera", "sensor", "light", "background", "objects",
-                       "occluders", "views"});
+  CheckKeys(
+      root, "",
+      {"type", "seed", "camera", "sensor", "light", "background", "objects", "occluders", "views"});
   const std::string type = String(root, "", "type");
   if (type != "svms.scene") throw FieldError{"type: expected \"svms.scene\", got \"" + type + "\""};
   const json& seed = Required(root, "", "seed");
@@ -153,8 +161,9 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
   if (root.contains("sensor")) {
     const json& j = root["sensor"];
     const std::string p = "sensor";
-    CheckKeys(j, p, {"bits", "exposure", "full_well", "read_noise", "shot_noise", "defocus_sigma_px",
-                     "vignetting", "rays_per_pixel", "motion_blur"});
+    CheckKeys(j, p,
+              {"bits", "exposure", "full_well", "read_noise", "shot_noise", "defocus_sigma_px",
+               "vignetting", "rays_per_pixel", "motion_blur"});
     Sensor& s = scene->sensor;
     if (j.contains("bits")) {
       s.bits = Integer(j, p, "bits");
@@ -164,7 +173,8 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
     if (j.contains("full_well")) s.full_well = NumberIn(j, p, "full_well", 1, 1e12);
     if (j.contains("read_noise")) s.read_noise = NumberIn(j, p, "read_noise", 0, 1e6);
     if (j.contains("shot_noise")) s.shot_noise = Boolean(j, p, "shot_noise");
-    if (j.contains("defocus_sigma_px")) s.defocus_sigma_px = NumberIn(j, p, "defocus_sigma_px", 0, 100);
+    if (j.contains("defocus_sigma_px"))
+      s.defocus_sigma_px = NumberIn(j, p, "defocus_sigma_px", 0, 100);
     if (j.contains("vignetting")) s.vignetting = NumberIn(j, p, "vignetting", 0, 1);
     if (j.contains("motion_blur")) s.motion_blur = NumberIn(j, p, "motion_blur", 0, 1);
     if (j.contains("rays_per_pixel")) {
@@ -177,14 +187,16 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
   if (root.contains("light")) {
     const json& j = root["light"];
     const std::string p = "light";
-    CheckKeys(j, p, {"sun", "ambient", "earthshine", "ring_light", "narrow_band_filter",
-                     "filter_transmission"});
+    CheckKeys(j, p,
+              {"sun", "ambient", "earthshine", "ring_light", "narrow_band_filter",
+               "filter_transmission"});
     Lighting& l = scene->light;
     if (j.contains("sun")) l.sun = ParseSun(j["sun"], "light.sun");
     if (j.contains("earthshine")) l.earthshine = ParseSun(j["earthshine"], "light.earthshine");
     if (j.contains("ambient")) l.ambient = NumberIn(j, p, "ambient", 0, 1e6);
     if (j.contains("ring_light")) l.ring_light = NumberIn(j, p, "ring_light", 0, 1e9);
-    if (j.contains("narrow_band_filter")) l.narrow_band_filter = Boolean(j, p, "narrow_band_filter");
+    if (j.contains("narrow_band_filter"))
+      l.narrow_band_filter = Boolean(j, p, "narrow_band_filter");
     if (j.contains("filter_transmission"))
       l.filter_transmission = NumberIn(j, p, "filter_transmission", 0, 1);
   }
@@ -204,7 +216,8 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
       if (!std::filesystem::is_regular_file(b.image_path))
         throw FieldError{"background.image: " + b.image_path + ": no such file"};
     } else {
-      throw FieldError{"background.kind: expected \"black\", \"earth\" or \"image\", got \"" + kind + "\""};
+      throw FieldError{"background.kind: expected \"black\", \"earth\" or \"image\", got \"" +
+                       kind + "\""};
     }
     if (j.contains("brightness")) b.brightness = NumberIn(j, p, "brightness", 0, 1e6);
   }
@@ -215,8 +228,9 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
   for (size_t i = 0; i < objects.size(); ++i) {
     const std::string p = "objects[" + std::to_string(i) + "]";
     const json& j = objects[i];
-    CheckKeys(j, p, {"name", "shape", "size", "world_from_object", "reflectance", "specular",
-                     "shininess", "pattern", "markers"});
+    CheckKeys(j, p,
+              {"name", "shape", "size", "world_from_object", "reflectance", "specular", "shininess",
+               "pattern", "markers"});
     SceneObject o;
     o.name = String(j, p, "name");
     const std::string shape = String(j, p, "shape");
@@ -229,7 +243,7 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
     }
     o.size = Vector<3>(j, p, "size");
     const bool size_ok = o.shape == SceneObject::Shape::kBox ? o.size.minCoeff() > 0
-                                                              : o.size.head<2>().minCoeff() > 0;
+                                                             : o.size.head<2>().minCoeff() > 0;
     if (!size_ok || !o.size.allFinite())
       throw FieldError{Join(p, "size") + ": expected positive extents in metres"};
     o.world_from_object = ParsePose(j, p, "world_from_object");
@@ -243,7 +257,8 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
       for (size_t k = 0; k < ms.size(); ++k) {
         const std::string mp = p + ".markers[" + std::to_string(k) + "]";
         const json& mj = ms[k];
-        CheckKeys(mj, mp, {"marker", "object_from_marker", "black", "white", "retro", "retro_gain"});
+        CheckKeys(mj, mp,
+                  {"marker", "object_from_marker", "black", "white", "retro", "retro_gain"});
         SceneMarker m;
         m.model = ParseMarker(Required(mj, mp, "marker"), mp + ".marker", false);
         m.object_from_marker = ParsePose(mj, mp, "object_from_marker");
@@ -278,7 +293,8 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
     if (v.name.empty() || v.name.find_first_of("/\\") != std::string::npos)
       throw FieldError{Join(p, "name") + ": expected a non-empty file name without slashes"};
     if (!names.insert(v.name).second)
-      throw FieldError{Join(p, "name") + ": \"" + v.name + "\" appears twice; expected unique names"};
+      throw FieldError{Join(p, "name") + ": \"" + v.name +
+                       "\" appears twice; expected unique names"};
     v.cam_from_world = ParsePose(j, p, "cam_from_world");
     if (j.contains("sun")) v.sun = ParseSun(j["sun"], Join(p, "sun"));
     if (j.contains("occluders")) v.occluders = ParseOccluders(j["occluders"], Join(p, "occluders"));
@@ -325,18 +341,25 @@ std::string SceneToJson(const Scene& s) {
                     {"width", s.camera.width()},
                     {"height", s.camera.height()}};
   const Sensor& se = s.sensor;
-  root["sensor"] = {{"bits", se.bits}, {"exposure", se.exposure}, {"full_well", se.full_well},
-                    {"read_noise", se.read_noise}, {"shot_noise", se.shot_noise},
-                    {"defocus_sigma_px", se.defocus_sigma_px}, {"vignetting", se.vignetting},
-                    {"rays_per_pixel", se.rays_per_pixel}, {"motion_blur", se.motion_blur}};
-  json light = {{"ambient", s.light.ambient}, {"ring_light", s.light.ring_light},
+  root["sensor"] = {{"bits", se.bits},
+                    {"exposure", se.exposure},
+                    {"full_well", se.full_well},
+                    {"read_noise", se.read_noise},
+                    {"shot_noise", se.shot_noise},
+                    {"defocus_sigma_px", se.defocus_sigma_px},
+                    {"vignetting", se.vignetting},
+                    {"rays_per_pixel", se.rays_per_pixel},
+                    {"motion_blur", se.motion_blur}};
+  json light = {{"ambient", s.light.ambient},
+                {"ring_light", s.light.ring_light},
                 {"narrow_band_filter", s.light.narrow_band_filter},
                 {"filter_transmission", s.light.filter_transmission}};
   if (s.light.sun) light["sun"] = SunJson(*s.light.sun);
   if (s.light.earthshine) light["earthshine"] = SunJson(*s.light.earthshine);
   root["light"] = light;
   const char* kinds[] = {"black", "earth", "image"};
-  json bg = {{"kind", kinds[static_cast<int>(s.background.kind)]}, {"brightness", s.background.brightness}};
+  json bg = {{"kind", kinds[static_cast<int>(s.background.kind)]},
+             {"brightness", s.background.brightness}};
   if (s.background.kind == Background::Kind::kImage) bg["image"] = s.background.image_path;
   root["background"] = bg;
   json objects = json::array();
@@ -348,7 +371,8 @@ std::string SceneToJson(const Scene& s) {
                {"reflectance", o.material.reflectance},
                {"specular", o.material.specular},
                {"shininess", o.material.shininess}};
-    if (o.material.pattern.kind != Pattern::Kind::kUniform) jo["pattern"] = PatternJson(o.material.pattern);
+    if (o.material.pattern.kind != Pattern::Kind::kUniform)
+      jo["pattern"] = PatternJson(o.material.pattern);
     json ms = json::array();
     for (const SceneMarker& m : o.markers) {
       ms.push_back({{"marker", MarkerJson(m.model)},

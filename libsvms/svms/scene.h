@@ -24,12 +24,12 @@ namespace svms {
 struct Pattern {
   enum class Kind { kUniform, kChecker, kStripes, kGrid, kText, kNoise };
   Kind kind = Kind::kUniform;
-  double period = 0.05;      // square / stripe / grid / glyph / noise cell size
+  double period = 0.05;            // square / stripe / grid / glyph / noise cell size
   double low = 0.05, high = 0.85;  // the two reflectances (noise: the range)
-  double line = 0.005;       // grid line width
-  int cols = 0, rows = 0;    // checker: a board of cols x rows squares centred on the origin
-                             // with a `high` border around it (0: unbounded)
-  uint64_t seed = 0;         // text and noise layouts
+  double line = 0.005;             // grid line width
+  int cols = 0, rows = 0;          // checker: a board of cols x rows squares centred on the origin
+                                   // with a `high` border around it (0: unbounded)
+  uint64_t seed = 0;               // text and noise layouts
 };
 
 struct Material {
@@ -42,9 +42,9 @@ struct Material {
 struct SceneMarker {
   MarkerModel model;
   Pose object_from_marker;
-  double black = 0.04;   // reflectance of the black print (black paint is not zero)
-  double white = 0.85;   // reflectance of the white print
-  bool retro = false;    // white parts retro-reflective (bright under the ring light)
+  double black = 0.04;     // reflectance of the black print (black paint is not zero)
+  double white = 0.85;     // reflectance of the white print
+  bool retro = false;      // white parts retro-reflective (bright under the ring light)
   double retro_gain = 50;  // their brightness under the ring light, relative to diffuse white
 };
 
@@ -76,11 +76,11 @@ struct Sun {
 
 struct Lighting {
   std::optional<Sun> sun;
-  double ambient = 0;                    // uniform irradiance, no shadows
-  std::optional<Sun> earthshine;         // a broad directional fill, no shadows
-  double ring_light = 0;                 // irradiance at 1 m from a light at the camera centre
-  bool narrow_band_filter = false;       // a filter passing only the ring light's band
-  double filter_transmission = 0.03;     // what the filter lets through of sun, ambient, earth
+  double ambient = 0;                 // uniform irradiance, no shadows
+  std::optional<Sun> earthshine;      // a broad directional fill, no shadows
+  double ring_light = 0;              // irradiance at 1 m from a light at the camera centre
+  bool narrow_band_filter = false;    // a filter passing only the ring light's band
+  double filter_transmission = 0.03;  // what the filter lets through of sun, ambient, earth
 };
 
 struct Sensor {
@@ -98,14 +98,14 @@ struct Sensor {
 struct Background {
   enum class Kind { kBlack, kEarth, kImage };
   Kind kind = Kind::kBlack;
-  double brightness = 0.5;     // radiance scale of earth or image
-  std::string image_path;      // kImage: an image stretched over the frame (behind everything)
+  double brightness = 0.5;  // radiance scale of earth or image
+  std::string image_path;   // kImage: an image stretched over the frame (behind everything)
 };
 
 struct View {
   std::string name;
   Pose cam_from_world;
-  std::optional<Sun> sun;                         // overrides the scene's sun
+  std::optional<Sun> sun;                          // overrides the scene's sun
   std::optional<std::vector<Occluder>> occluders;  // replaces the scene's occluders
 };
 

@@ -1,8 +1,8 @@
 #include "svms/segments.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
-#include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
 namespace svms {
@@ -61,7 +61,7 @@ void Split(const std::vector<cv::Point>& c, int lo, int hi, double tol, double r
   for (int i = lo + 1; i < hi; ++i) {
     const Eigen::Vector2d p(c[i].x, c[i].y);
     const double dist = len > 0 ? std::abs(d.x() * (p.y() - a.y()) - d.y() * (p.x() - a.x())) / len
-                                 : (p - a).norm();
+                                : (p - a).norm();
     if (dist > worst_dist) {
       worst_dist = dist;
       worst = i;
@@ -86,7 +86,8 @@ std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& o,
   std::vector<Segment> out;
   for (const auto& chain : LinkChains(edges)) {
     std::vector<std::pair<int, int>> pieces;
-    Split(chain, 0, static_cast<int>(chain.size()) - 1, o.max_deviation, o.relative_deviation, &pieces);
+    Split(chain, 0, static_cast<int>(chain.size()) - 1, o.max_deviation, o.relative_deviation,
+          &pieces);
     for (const auto& [lo, hi] : pieces) {
       if (hi - lo + 1 < o.min_length) continue;
       // Total least squares line through the piece's pixels, and its mean gradient.
@@ -156,7 +157,8 @@ void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
         const Eigen::Vector2d dj = (t.b - t.a) / t.length();
         if (di.dot(dj) < cos_max) continue;
         const double gap = (t.a - s.b).dot(di);
-        if (gap > std::max(o.merge_gap_px, o.merge_gap_fraction * std::min(s.length(), t.length())) ||
+        if (gap >
+                std::max(o.merge_gap_px, o.merge_gap_fraction * std::min(s.length(), t.length())) ||
             gap < -o.merge_gap_px)
           continue;
         if (dist_to_line(s, t.a) > o.merge_offset_px || dist_to_line(s, t.b) > o.merge_offset_px ||
@@ -166,11 +168,13 @@ void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
         Segment m;
         m.a = s.a;
         m.b = t.b;
-        const Eigen::Vector2d mid = (s.length() * 0.5 * (s.a + s.b) + t.length() * 0.5 * (t.a + t.b)) /
-                                    (s.length() + t.length());
+        const Eigen::Vector2d mid =
+            (s.length() * 0.5 * (s.a + s.b) + t.length() * 0.5 * (t.a + t.b)) /
+            (s.length() + t.length());
         const Eigen::Vector2d u = (m.b - m.a).normalized(), n(-u.y(), u.x());
         m.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(mid));
-        m.contrast = (s.contrast * s.length() + t.contrast * t.length()) / (s.length() + t.length());
+        m.contrast =
+            (s.contrast * s.length() + t.contrast * t.length()) / (s.length() + t.length());
         v[i] = m;
         gone[j] = 1;
         merged = true;

@@ -7,10 +7,9 @@
 // gets a least-squares line. A segment knows its polarity: the side its dark region is on.
 #pragma once
 
-#include <vector>
-
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
+#include <vector>
 
 namespace svms {
 
@@ -28,11 +27,11 @@ struct SegmentOptions {
   // Hysteresis thresholds on the gradient, grey levels per pixel: low, because a marker in
   // shadow or seen at a grazing angle may show a step of only 10-20 grey levels.
   double canny_low = 3, canny_high = 8;
-  double min_length = 6;                   // pixels
+  double min_length = 6;  // pixels
   // A chain is split where it leaves its chord by more than max(max_deviation,
   // relative_deviation * chord length): lens distortion bows a marker's side by about 1 % of
   // its length, a corner by far more.
-  double max_deviation = 1.0;       // pixels
+  double max_deviation = 1.0;  // pixels
   double relative_deviation = 0.02;
   // Pieces of one straight edge (split by a junction, a shadow or a small occlusion) are
   // joined when they point the same way within merge_angle_deg, each end lies within

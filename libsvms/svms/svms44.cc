@@ -22,11 +22,11 @@ const std::vector<int32_t>& InfoToId() {
 
 uint64_t Svms44::Codeword(int id) { return Bch44::Get().Encode(kSvms44Info[id]); }
 
-uint64_t Svms44::Rotate(uint64_t word, int quarter_turns) { return RotateWord(word, quarter_turns); }
-
-int Svms44::IdOfInfo(uint32_t info) {
-  return info < Bch44::kInfoCount ? InfoToId()[info] : -1;
+uint64_t Svms44::Rotate(uint64_t word, int quarter_turns) {
+  return RotateWord(word, quarter_turns);
 }
+
+int Svms44::IdOfInfo(uint32_t info) { return info < Bch44::kInfoCount ? InfoToId()[info] : -1; }
 
 int Svms44::StrongIdCount() { return kSvms44PhaseFirstId[1]; }
 

@@ -17,9 +17,9 @@ namespace svms {
 // What the decoder concluded about one 44-bit word.
 struct CodeMatch {
   enum class Verdict {
-    kAccepted,       // id, rotation, bit_errors are valid
-    kNoCodeword,     // no (ID, rotation) within max_corrections flips
-    kAmbiguous,      // two (ID, rotation) pairs are equally close: never guessed
+    kAccepted,    // id, rotation, bit_errors are valid
+    kNoCodeword,  // no (ID, rotation) within max_corrections flips
+    kAmbiguous,   // two (ID, rotation) pairs are equally close: never guessed
   };
   Verdict verdict = Verdict::kNoCodeword;
   int id = -1;

@@ -230,11 +230,11 @@ namespace {
 
 TEST(IdSelection, LongestRunIsCyclic) {
   EXPECT_EQ(LongestRun(0), 44);
-  EXPECT_EQ(LongestRun(0b1), 43);                               // 43 zeros wrap around
-  EXPECT_EQ(LongestRun(0x55555555555ULL), 1);                   // alternating
-  EXPECT_EQ(LongestRun((uint64_t{1} << 43) | 0b111), 40);        // the zeros in between
-  uint64_t w = (uint64_t{7} << 41) | 7;                          // 6 ones across the wrap
-  for (int k = 4; k <= 38; k += 2) w |= uint64_t{1} << k;        // alternating elsewhere
+  EXPECT_EQ(LongestRun(0b1), 43);                          // 43 zeros wrap around
+  EXPECT_EQ(LongestRun(0x55555555555ULL), 1);              // alternating
+  EXPECT_EQ(LongestRun((uint64_t{1} << 43) | 0b111), 40);  // the zeros in between
+  uint64_t w = (uint64_t{7} << 41) | 7;                    // 6 ones across the wrap
+  for (int k = 4; k <= 38; k += 2) w |= uint64_t{1} << k;  // alternating elsewhere
   EXPECT_EQ(LongestRun(w), 6);
 }
 

@@ -11,7 +11,8 @@ namespace {
 
 using nlohmann::json;
 
-PointTruth Point(const Renderer& r, int view, const Pose& cam_from_world, const Eigen::Vector3d& p_world) {
+PointTruth Point(const Renderer& r, int view, const Pose& cam_from_world,
+                 const Eigen::Vector3d& p_world) {
   const Scene& s = r.scene();
   PointTruth t;
   t.pixel.setConstant(NAN);
@@ -35,7 +36,10 @@ json PoseJ(const Pose& p) { return json_fields::PoseJson(p); }
 
 json PointJ(const PointTruth& t) {
   json px = t.projects ? json{t.pixel.x(), t.pixel.y()} : json();
-  return {{"pixel", px}, {"in_image", t.in_image}, {"occluded", t.occluded}, {"in_shadow", t.in_shadow}};
+  return {{"pixel", px},
+          {"in_image", t.in_image},
+          {"occluded", t.occluded},
+          {"in_shadow", t.in_shadow}};
 }
 
 }  // namespace
@@ -67,14 +71,16 @@ ViewTruth ComputeTruth(const Renderer& r, int view) {
         mt.object = o.name;
         mt.cam_from_marker = vt.cam_from_world * world_from_marker;
         const auto corners = m.Corners();
-        for (int c = 0; c < 4; ++c) mt.corners[c] = Point(r, view, vt.cam_from_world, world_from_marker * corners[c]);
+        for (int c = 0; c < 4; ++c)
+          mt.corners[c] = Point(r, view, vt.cam_from_world, world_from_marker * corners[c]);
         if (auto tip = m.PostTip()) {
           mt.has_tip = true;
           mt.tip = Point(r, view, vt.cam_from_world, world_from_marker * *tip);
         }
         for (int b = 0; b < 44; ++b) {
           const Eigen::Vector2d c = m.BitCellCentre(b);
-          const PointTruth pt = Point(r, view, vt.cam_from_world, world_from_marker * Eigen::Vector3d(c.x(), c.y(), 0));
+          const PointTruth pt = Point(r, view, vt.cam_from_world,
+                                      world_from_marker * Eigen::Vector3d(c.x(), c.y(), 0));
           mt.bits_occluded += pt.occluded;
           mt.bits_in_shadow += pt.in_shadow;
           mt.bits_outside += !pt.in_image;

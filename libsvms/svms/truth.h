@@ -3,11 +3,10 @@
 // 44 data bits are occluded or in shadow. Written as DIR/truth.json (docs/simulator.md).
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "svms/pose.h"
 #include "svms/render.h"
@@ -24,25 +23,25 @@ struct PointTruth {
 
 struct MarkerTruth {
   int id = -1;
-  int nested_in = -1;   // the outer marker's ID for an inner marker, else -1
-  std::string object;   // the object carrying it
+  int nested_in = -1;  // the outer marker's ID for an inner marker, else -1
+  std::string object;  // the object carrying it
   Pose cam_from_marker;
   std::array<PointTruth, 4> corners;  // black-square corners, order of docs/conventions.md
   bool has_tip = false;
-  PointTruth tip;                     // the post tip (white top or well bottom)
-  int bits_occluded = 0;              // of the 44 cell centres
+  PointTruth tip;         // the post tip (white top or well bottom)
+  int bits_occluded = 0;  // of the 44 cell centres
   int bits_in_shadow = 0;
-  int bits_outside = 0;               // cell centres outside the image (or behind the camera)
-  double side_px = 0;                 // mean side of the projected square, pixels
-  double min_side_px = 0;             // its shortest side (what "a 30 x 30 px marker" means)
-  bool facing = false;                // the marker's front faces the camera
+  int bits_outside = 0;    // cell centres outside the image (or behind the camera)
+  double side_px = 0;      // mean side of the projected square, pixels
+  double min_side_px = 0;  // its shortest side (what "a 30 x 30 px marker" means)
+  bool facing = false;     // the marker's front faces the camera
   // Facing the camera, with all four corners and all 44 cell centres in the image and
   // unoccluded: everything the detector needs to identify it.
   bool fully_visible() const;
 };
 
 struct ViewTruth {
-  std::string name;   // image file is name + ".png"
+  std::string name;  // image file is name + ".png"
   Pose cam_from_world;
   std::vector<std::pair<std::string, Pose>> cam_from_object;
   std::vector<MarkerTruth> markers;
