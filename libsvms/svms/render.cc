@@ -460,7 +460,7 @@ struct Renderer::Impl {
     bool planned = false;    // no candidate, or a covering box: the samples' draws are known
     Vec3 foot_lo = Vec3::Zero(), foot_hi = Vec3::Zero();  // with a covering box: the bounds of
                                                           // where the corner rays meet it
-    double foot_t = 0;  // and their longest distance
+    double foot_t = 0;                                    // and their longest distance
   };
 
   // One pixel being rendered.
