@@ -87,6 +87,13 @@ Pose ParsePose(const json& obj, const std::string& path, const std::string& key)
   return p;
 }
 
+json CameraJson(const CameraModel& c) {
+  return {{"lensmodel", c.lensmodel()},
+          {"intrinsics", c.intrinsics()},
+          {"width", c.width()},
+          {"height", c.height()}};
+}
+
 json PoseJson(const Pose& p) {
   return {{"rvec", {p.rvec(0), p.rvec(1), p.rvec(2)}}, {"tvec", {p.tvec(0), p.tvec(1), p.tvec(2)}}};
 }

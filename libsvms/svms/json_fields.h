@@ -9,6 +9,7 @@
 #include <set>
 #include <string>
 
+#include "svms/camera.h"
 #include "svms/marker_model.h"
 #include "svms/pose.h"
 
@@ -50,6 +51,10 @@ Eigen::Matrix<double, N, 1> Vector(const json& obj, const std::string& path,
 // {"rvec": [3], "tvec": [3]}
 Pose ParsePose(const json& obj, const std::string& path, const std::string& key);
 json PoseJson(const Pose& p);
+
+// A camera written inline: {"lensmodel", "intrinsics", "width", "height"} (what a scene's
+// "camera" field and truth.json carry).
+json CameraJson(const CameraModel& camera);
 
 // A marker model object (with "type" allowed only at the top level of a file).
 MarkerModel ParseMarker(const json& j, const std::string& path, bool top_level);

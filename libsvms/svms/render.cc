@@ -1007,6 +1007,16 @@ struct Renderer::Impl {
   bool CoveredPixel(const Frame& f, const PixelJob& J, double* ray,
                     const std::vector<Caster>* casters, Scratch* sc, double* radiance) const;
   // `self_box`: a box every sun ray at hand starts on (lit), or -1.
+  // The casters one pixel's shadow rays must test: the frame's list, narrowed (into
+  // sc->pixel_casters) to those that can reach a sun ray from the pixel's hit points, which lie
+  // in the box [lo, hi]; `lit_prim` is the one primitive all of them are on (-1 none, -2 many).
+  const std::vector<Caster>* PixelCasters(const Frame& f, Scratch* sc, bool any_sun_ray,
+                                          const Vec3& lo, const Vec3& hi, int lit_prim) const {
+    if (!(any_sun_ray && f.cull_casters && lo.allFinite() && hi.allFinite())) return &f.casters;
+    CullCasters(f, lo, hi, &sc->pixel_casters,
+                lit_prim >= 0 && prims[lit_prim].kind == Prim::Kind::kBox ? lit_prim : -1);
+    return &sc->pixel_casters;
+  }
   void CullCasters(const Frame& f, const Vec3& lo, const Vec3& hi, std::vector<Caster>* out,
                    int self_box) const;
   void RenderBlock(const Frame& f, int x0, int y0, int x1, int y1,
@@ -1784,14 +1794,7 @@ bool Renderer::Impl::CoveredPixel(const Frame& f, const PixelJob& J, double* ray
       lit_prim = lit_prim == -1 || lit_prim == prim ? prim : -2;
     }
   }
-  if (!casters) {
-    casters = &f.casters;
-    if (any_sun_ray && f.cull_casters && lo.allFinite() && hi.allFinite()) {
-      CullCasters(f, lo, hi, &sc->pixel_casters,
-                  lit_prim >= 0 && prims[lit_prim].kind == Prim::Kind::kBox ? lit_prim : -1);
-      casters = &sc->pixel_casters;
-    }
-  }
+  if (!casters) casters = PixelCasters(f, sc, any_sun_ray, lo, hi, lit_prim);
   const double ambient = scene.light.ambient;
   double sum = 0;
   for (int s = 0; s < nn; ++s) {
@@ -1932,14 +1935,7 @@ double Renderer::Impl::RenderPixel(const Frame& f, const PixelJob& J,
       }
     }
   }
-  if (!casters) {
-    casters = &f.casters;
-    if (any_sun_ray && f.cull_casters && lo.allFinite() && hi.allFinite()) {
-      CullCasters(f, lo, hi, &sc->pixel_casters,
-                  lit_prim >= 0 && prims[lit_prim].kind == Prim::Kind::kBox ? lit_prim : -1);
-      casters = &sc->pixel_casters;
-    }
-  }
+  if (!casters) casters = PixelCasters(f, sc, any_sun_ray, lo, hi, lit_prim);
 
   // Shade: the mean of the samples, summed in their order. Lit by sun and ambient only, a matte
   // surface with nothing to cast a shadow on it is Shade's first lines, inline.

@@ -336,10 +336,7 @@ std::string SceneToJson(const Scene& s) {
   json root;
   root["type"] = "svms.scene";
   root["seed"] = s.seed;
-  root["camera"] = {{"lensmodel", s.camera.lensmodel()},
-                    {"intrinsics", s.camera.intrinsics()},
-                    {"width", s.camera.width()},
-                    {"height", s.camera.height()}};
+  root["camera"] = json_fields::CameraJson(s.camera);
   const Sensor& se = s.sensor;
   root["sensor"] = {{"bits", se.bits},
                     {"exposure", se.exposure},

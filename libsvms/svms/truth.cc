@@ -106,10 +106,7 @@ ViewTruth ComputeTruth(const Renderer& r, int view) {
 std::string TruthToJson(const Scene& s, const std::vector<ViewTruth>& views) {
   json root;
   root["type"] = "svms.truth";
-  root["camera"] = {{"lensmodel", s.camera.lensmodel()},
-                    {"intrinsics", s.camera.intrinsics()},
-                    {"width", s.camera.width()},
-                    {"height", s.camera.height()}};
+  root["camera"] = json_fields::CameraJson(s.camera);
   root["seed"] = s.seed;
   root["rays_per_pixel"] = s.sensor.rays_per_pixel;
   root["bits"] = s.sensor.bits;
