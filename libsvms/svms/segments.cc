@@ -23,19 +23,30 @@ std::vector<std::vector<cv::Point>> LinkChains(const cv::Mat& edges) {
     for (int k = 0; k < 8; ++k) n += is_edge(x + dx[k], y + dy[k]);
     return n;
   };
-  auto follow = [&](int x, int y) {
-    std::vector<cv::Point> chain;
+  // Walks from (x, y) while an unvisited neighbour remains, appending to `chain`.
+  auto walk = [&](int x, int y, std::vector<cv::Point>* chain) {
     for (;;) {
-      visited.at<uint8_t>(y, x) = 1;
-      chain.emplace_back(x, y);
       int k = 0;
       for (; k < 8; ++k)
         if (is_edge(x + dx[k], y + dy[k])) break;
-      if (k == 8) break;
+      if (k == 8) return;
       x += dx[k];
       y += dy[k];
+      visited.at<uint8_t>(y, x) = 1;
+      chain->emplace_back(x, y);
     }
-    if (chain.size() >= 4) chains.push_back(std::move(chain));
+  };
+  // A chain grows both ways from its first pixel: a start inside a closed curve (or at a
+  // junction) must not leave the curve's other half behind in shreds.
+  auto follow = [&](int x, int y) {
+    visited.at<uint8_t>(y, x) = 1;
+    std::vector<cv::Point> forward{{x, y}}, backward;
+    walk(x, y, &forward);
+    walk(x, y, &backward);
+    if (forward.size() + backward.size() < 4) return;
+    std::vector<cv::Point> chain(backward.rbegin(), backward.rend());
+    chain.insert(chain.end(), forward.begin(), forward.end());
+    chains.push_back(std::move(chain));
   };
   for (int pass = 0; pass < 2; ++pass) {
     for (int y = 0; y < edges.rows; ++y) {
@@ -75,6 +86,45 @@ void Split(const std::vector<cv::Point>& c, int lo, int hi, double tol, double r
   Split(c, worst, hi, tol, rel, out);
 }
 
+// Largest distance of chain[lo..hi] from its total-least-squares line.
+double MaxLineResidual(const std::vector<cv::Point>& c, int lo, int hi) {
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (int i = lo; i <= hi; ++i) mean += Eigen::Vector2d(c[i].x, c[i].y);
+  mean /= hi - lo + 1;
+  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+  for (int i = lo; i <= hi; ++i) {
+    const Eigen::Vector2d q = Eigen::Vector2d(c[i].x, c[i].y) - mean;
+    cov += q * q.transpose();
+  }
+  const Eigen::Vector2d n =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov).eigenvectors().col(0);
+  double worst = 0;
+  for (int i = lo; i <= hi; ++i)
+    worst = std::max(worst, std::abs(n.dot(Eigen::Vector2d(c[i].x, c[i].y) - mean)));
+  return worst;
+}
+
+// The merge half of split-and-merge: Douglas-Peucker cuts a digital line (a staircase whose
+// pixels stray up to a pixel from the true edge) into short pieces wherever its chord happens
+// to be off; neighbouring pieces whose union still fits one line within the tolerance are
+// joined again.
+void MergeAdjacent(const std::vector<cv::Point>& c, double tol, double rel,
+                   std::vector<std::pair<int, int>>* pieces) {
+  std::vector<std::pair<int, int>> out;
+  for (const auto& p : *pieces) {
+    if (!out.empty()) {
+      const int lo = out.back().first, hi = p.second;
+      const double len = std::hypot(c[hi].x - c[lo].x, c[hi].y - c[lo].y);
+      if (MaxLineResidual(c, lo, hi) <= std::max(tol, rel * len)) {
+        out.back().second = hi;
+        continue;
+      }
+    }
+    out.push_back(p);
+  }
+  *pieces = std::move(out);
+}
+
 }  // namespace
 
 std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx,
@@ -88,6 +138,7 @@ std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& o,
     std::vector<std::pair<int, int>> pieces;
     Split(chain, 0, static_cast<int>(chain.size()) - 1, o.max_deviation, o.relative_deviation,
           &pieces);
+    MergeAdjacent(chain, o.rejoin_deviation, o.relative_deviation, &pieces);
     for (const auto& [lo, hi] : pieces) {
       if (hi - lo + 1 < o.min_length) continue;
       // Total least squares line through the piece's pixels, and its mean gradient.
@@ -155,14 +206,26 @@ void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
         if (j == static_cast<int>(i) || gone[j]) continue;
         const Segment& t = v[j];
         const Eigen::Vector2d dj = (t.b - t.a) / t.length();
-        if (di.dot(dj) < cos_max) continue;
+        // A short piece's direction is uncertain: allow it the angle at which its own length
+        // moves its far end by merge_offset_px.
+        const double shorter = std::min(s.length(), t.length());
+        if (di.dot(dj) < std::min(cos_max, std::cos(std::atan(o.merge_offset_px / shorter))))
+          continue;
         const double gap = (t.a - s.b).dot(di);
         if (gap >
                 std::max(o.merge_gap_px, o.merge_gap_fraction * std::min(s.length(), t.length())) ||
             gap < -o.merge_gap_px)
           continue;
-        if (dist_to_line(s, t.a) > o.merge_offset_px || dist_to_line(s, t.b) > o.merge_offset_px ||
-            dist_to_line(t, s.a) > o.merge_offset_px || dist_to_line(t, s.b) > o.merge_offset_px)
+        // The shorter piece's ends must lie on the longer piece's line (the better-measured
+        // of the two); the longer piece's ends on the shorter's line only when both are long.
+        const Segment& longer = s.length() >= t.length() ? s : t;
+        const Segment& other = s.length() >= t.length() ? t : s;
+        if (dist_to_line(longer, other.a) > o.merge_offset_px ||
+            dist_to_line(longer, other.b) > o.merge_offset_px)
+          continue;
+        if (shorter > 4 * o.merge_offset_px / std::tan(o.merge_angle_deg * M_PI / 180) &&
+            (dist_to_line(other, longer.a) > o.merge_offset_px ||
+             dist_to_line(other, longer.b) > o.merge_offset_px))
           continue;
         // Join: the line through the length-weighted end points.
         Segment m;

@@ -1,0 +1,39 @@
+#include "overlay.h"
+
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+namespace svms::cli {
+
+// The paper's Fig. 4 style: a coloured outline per marker, a star at the post tip, the ID.
+void DrawOverlay(cv::Mat& bgr, const std::vector<Detection>& found) {
+  static const cv::Scalar colours[] = {{0, 0, 255},   {0, 200, 0},   {255, 80, 0},
+                                       {0, 200, 255}, {255, 0, 255}, {255, 255, 0}};
+  const int thick = std::max(1, bgr.cols / 600);
+  for (size_t i = 0; i < found.size(); ++i) {
+    const Detection& d = found[i];
+    const cv::Scalar c = colours[d.id % 6];
+    std::vector<cv::Point> poly;
+    for (const auto& p : d.corners) poly.emplace_back(cvRound(p.x() * 16), cvRound(p.y() * 16));
+    cv::polylines(bgr, poly, true, c, thick, cv::LINE_AA, 4);
+    cv::circle(bgr, cv::Point(cvRound(d.corners[0].x() * 16), cvRound(d.corners[0].y() * 16)),
+               3 * thick * 16, c, thick, cv::LINE_AA, 4);  // the top-left corner as printed
+    if (d.tip) {
+      const cv::Point t(cvRound(d.tip->pixel.x()), cvRound(d.tip->pixel.y()));
+      const int r = std::max(4, static_cast<int>(d.side_px() / 10));
+      for (int k = 0; k < 4; ++k) {
+        const double a = k * M_PI / 4;
+        cv::line(bgr, t + cv::Point(cvRound(r * std::cos(a)), cvRound(r * std::sin(a))),
+                 t - cv::Point(cvRound(r * std::cos(a)), cvRound(r * std::sin(a))), c, thick,
+                 cv::LINE_AA);
+      }
+    }
+    const std::string label =
+        std::to_string(d.id) + (d.bit_errors ? " (" + std::to_string(d.bit_errors) + " bits)" : "");
+    cv::putText(bgr, label,
+                cv::Point(cvRound(d.corners[0].x()), cvRound(d.corners[0].y()) - 4 * thick),
+                cv::FONT_HERSHEY_SIMPLEX, 0.5 * thick, c, thick, cv::LINE_AA);
+  }
+}
+
+}  // namespace svms::cli

@@ -1,0 +1,136 @@
+// Detector steps 1-4 on synthetic images and segments with known answers.
+#include "svms/segments.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <opencv2/core.hpp>
+
+#include "svms/quads.h"
+
+namespace svms {
+namespace {
+
+// A square of side `side` px and grey level `grey` centred at (cx, cy), turned by `deg`,
+// painted by exact area coverage (16 x 16 samples per pixel, pixel centres at integers, as in
+// docs/conventions.md). Returns its corners clockwise on screen.
+std::array<Eigen::Vector2d, 4> DrawSquare(cv::Mat& img, double cx, double cy, double side,
+                                          double deg, uint8_t grey = 20) {
+  const double a = deg * M_PI / 180, h = side / 2;
+  const Eigen::Vector2d u(std::cos(a), std::sin(a)), v(-std::sin(a), std::cos(a)), c(cx, cy);
+  const std::array<Eigen::Vector2d, 4> corners = {c - h * u - h * v, c + h * u - h * v,
+                                                  c + h * u + h * v, c - h * u + h * v};
+  const int x0 = std::max(0, static_cast<int>(cx - side)),
+            x1 = std::min(img.cols, static_cast<int>(cx + side) + 1);
+  const int y0 = std::max(0, static_cast<int>(cy - side)),
+            y1 = std::min(img.rows, static_cast<int>(cy + side) + 1);
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      int inside = 0;
+      for (int sy = 0; sy < 16; ++sy)
+        for (int sx = 0; sx < 16; ++sx) {
+          const Eigen::Vector2d p(x - 0.5 + (sx + 0.5) / 16, y - 0.5 + (sy + 0.5) / 16);
+          const Eigen::Vector2d q = p - c;
+          inside += std::abs(q.dot(u)) <= h && std::abs(q.dot(v)) <= h;
+        }
+      uint8_t& px = img.at<uint8_t>(y, x);
+      px = cv::saturate_cast<uint8_t>((inside * grey + (256 - inside) * px) / 256.0);
+    }
+  return corners;
+}
+
+double DistToLine(const Eigen::Vector3d& l, const Eigen::Vector2d& p) {
+  return std::abs(l.head<2>().dot(p) + l.z());
+}
+
+// Every side of a lone square (a closed edge curve, no end points) is one segment, with the
+// dark side on its right, within a pixel (edge pixels are whole pixels; step 8 refines), at every
+// rotation: a chain started inside a closed curve must not leave it in shreds.
+TEST(Segments, EachSideOfASquareIsOneSegmentAtEveryRotation) {
+  for (double deg = 0; deg < 90; deg += 3.7) {
+    for (double side : {24.0, 60.0}) {
+      cv::Mat img(120, 120, CV_8U, cv::Scalar(200));
+      const auto c = DrawSquare(img, 60.3, 59.6, side, deg);
+      cv::Mat gx, gy;
+      const std::vector<Segment> segs = FindSegments(img, SegmentOptions{}, &gx, &gy);
+      for (int k = 0; k < 4; ++k) {
+        const Eigen::Vector2d a = c[k], b = c[(k + 1) % 4];
+        int matches = 0;
+        for (const Segment& s : segs) {
+          // Walking a -> b clockwise on screen has the dark square on the right.
+          if (DistToLine(s.line, 0.5 * (a + b)) > 1.0 || (s.b - s.a).dot(b - a) <= 0) continue;
+          ++matches;
+          EXPECT_GT(s.length(), 0.7 * side) << "deg " << deg << " side " << side << " k " << k;
+          EXPECT_LT(DistToLine(s.line, a), 1.5) << "deg " << deg;
+          EXPECT_LT(DistToLine(s.line, b), 1.5) << "deg " << deg;
+          EXPECT_GT(s.contrast, 20);
+        }
+        EXPECT_EQ(matches, 1) << "deg " << deg << " side " << side << " side index " << k;
+      }
+    }
+  }
+}
+
+TEST(Segments, MergeJoinsPiecesOfOneEdgeButNotACorner) {
+  auto make = [](Eigen::Vector2d a, Eigen::Vector2d b) {
+    Segment s;
+    s.a = a;
+    s.b = b;
+    const Eigen::Vector2d u = (b - a).normalized(), n(-u.y(), u.x());
+    s.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(a));
+    s.contrast = 50;
+    return s;
+  };
+  // A long piece and a short one whose direction is 9 degrees off (a one-pixel bump near a
+  // corner): one edge.
+  std::vector<Segment> v = {make({0, 0}, {22, 1.2}), make({22.5, 1.6}, {30.5, 0.8})};
+  MergeCollinear(SegmentOptions{}, &v);
+  ASSERT_EQ(v.size(), 1u);
+  EXPECT_NEAR(v[0].a.x(), 0, 1e-9);
+  EXPECT_NEAR(v[0].b.x(), 30.5, 1e-9);
+  // A real corner (a turn of 25 degrees) and a parallel edge 3 px away stay apart.
+  std::vector<Segment> w = {make({0, 0}, {20, 0}), make({21, 0}, {30, 4.7}), make({0, 3}, {20, 3})};
+  MergeCollinear(SegmentOptions{}, &w);
+  EXPECT_EQ(w.size(), 3u);
+}
+
+// Nested and adjacent squares do not hide one another: the white stripe of a marker on a dark
+// skin is a bright frame whose inner border is the black square's border seen the other way.
+TEST(Quads, NestedAndAdjacentSquaresAreAllFound) {
+  cv::Mat img(200, 300, CV_8U, cv::Scalar(200));
+  DrawSquare(img, 100, 100, 120, 5, 20);                    // dark skin
+  DrawSquare(img, 100, 100, 80, 5, 200);                    // white stripe
+  const auto inner = DrawSquare(img, 100, 100, 40, 5, 20);  // black square
+  const auto beside = DrawSquare(img, 230, 100, 50, -12, 20);
+  cv::Mat gx, gy;
+  const std::vector<Segment> segs = FindSegments(img, SegmentOptions{}, &gx, &gy);
+  const std::vector<Quad> quads = FindQuads(segs, QuadOptions{}, img.cols, img.rows);
+  auto found = [&](const std::array<Eigen::Vector2d, 4>& truth) {
+    for (const Quad& q : quads)
+      for (int r = 0; r < 4; ++r) {
+        double worst = 0;
+        for (int k = 0; k < 4; ++k)
+          worst = std::max(worst, (q.corners[(k + r) % 4] - truth[k]).norm());
+        if (worst < 1.0) return true;
+      }
+    return false;
+  };
+  EXPECT_TRUE(found(inner));
+  EXPECT_TRUE(found(beside));
+  // The outer skin square (dark on the right when walked clockwise) is found too.
+  const double a = 5 * M_PI / 180;
+  const Eigen::Vector2d u(std::cos(a), std::sin(a)), v(-std::sin(a), std::cos(a)), c(100, 100);
+  EXPECT_TRUE(
+      found({c - 60 * u - 60 * v, c + 60 * u - 60 * v, c + 60 * u + 60 * v, c - 60 * u + 60 * v}));
+}
+
+TEST(Quads, IntersectGivesTheCrossingAndRejectsParallelLines) {
+  Eigen::Vector2d p;
+  ASSERT_TRUE(Intersect({1, 0, -3}, {0, 1, -4}, &p));  // x = 3, y = 4
+  EXPECT_NEAR(p.x(), 3, 1e-12);
+  EXPECT_NEAR(p.y(), 4, 1e-12);
+  EXPECT_FALSE(Intersect({1, 0, -3}, {1, 0, -5}, &p));
+}
+
+}  // namespace
+}  // namespace svms
