@@ -201,7 +201,10 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
   }
   std::vector<MarkerModel> models;
   for (const LayoutEntry& e : o.layout.markers) models.push_back(e.marker);
-  const Detector detector(DetectorOptions(), CameraModel(), models);
+  // Every ID is decoded (not only the board's), so that images of another board are named.
+  DetectorOptions dopt;
+  dopt.known_ids_only = false;
+  const Detector detector(dopt, CameraModel(), models);
   const double corner_sigma = DetectorOptions().pose.corner_sigma_px;
 
   // Detect on every image, in parallel.
