@@ -10,6 +10,7 @@ void AddBenchCommands(CLI::App& app, int* exit_code) {
       "bench", "Measure detection, accuracy and speed on simulated datasets against truth");
   bench->require_subcommand(1);
   AddBenchDetect(*bench, exit_code);
+  AddBenchCalibrate(*bench, exit_code);
 }
 
 }  // namespace svms::cli

@@ -375,10 +375,10 @@ bool WriteReport(const BenchDetectOptions& o, const std::map<std::string, SetRes
        << "set arrow from 30, graph 0 to 30, graph 1 nohead dt 2\n"
        << "set arrow from 20, graph 0 to 20, graph 1 nohead dt 3\nplot ";
     for (size_t i = 0; i < rate_sets.size(); ++i)
-      gp << (i ? ", " : "") << "'" << (dir / "detection_vs_size.dat").string() << "' u 1:" << i + 2
-         << " w lp lw 2 pt 7 t '" << rate_sets[i] << "'";
+      gp << (i ? ", " : "") << "'detection_vs_size.dat' u 1:" << i + 2 << " w lp lw 2 pt 7 t '"
+         << rate_sets[i] << "'";
     gp << "\n";
-    if (Status s = PlotPngSvg(gp.str(), (dir / "detection_vs_size").string()); !s)
+    if (Status s = Gnuplot(dir.string(), "detection_vs_size", gp.str()); !s)
       std::cerr << "svms bench detect: " << s.message() << "\n";
   }
   md << "\n![detection rate against size](detection_vs_size.png)\n\n";
@@ -566,7 +566,7 @@ bool WriteReport(const BenchDetectOptions& o, const std::map<std::string, SetRes
                          {"far_m", far.first},
                          {"far_range_rms_mm", far.second.first},
                          {"far_orient_rms_deg", far.second.second}};
-      const std::string dat = (dir / "fig9.dat").string();
+      const std::string dat = "fig9.dat";
       std::ostringstream gp;
       gp << "set title 'Range error against distance, dual marker 0.432 m, 1024 x 1024'\n"
          << "set xlabel 'distance (m)'\nset ylabel 'range error RMS (mm)'\nset logscale xy\n"
@@ -575,7 +575,7 @@ bool WriteReport(const BenchDetectOptions& o, const std::map<std::string, SetRes
          << "plot '" << dat << "' u 1:2 w lp lw 2 pt 7 t 'svms: RMS error', '" << dat
          << "' u 1:3 w l lw 1 dt 2 t 'svms: predicted sigma', $paper w p pt 9 ps 2 "
             "t 'paper (Fig. 9)', $target w p pt 8 ps 2 t 'target (half)'\n";
-      if (Status s = PlotPngSvg(gp.str(), (dir / "fig9_range").string()); !s)
+      if (Status s = Gnuplot(dir.string(), "fig9_range", gp.str()); !s)
         std::cerr << "svms bench detect: " << s.message() << "\n";
       std::ostringstream go;
       go << "set title 'Orientation error against distance, dual marker 0.432 m'\n"
@@ -585,7 +585,7 @@ bool WriteReport(const BenchDetectOptions& o, const std::map<std::string, SetRes
          << "plot '" << dat
          << "' u 1:4 w lp lw 2 pt 7 t 'svms: RMS error', $paper w p pt 9 ps 2 "
             "t 'paper', $target w p pt 8 ps 2 t 'target (half)'\n";
-      if (Status s = PlotPngSvg(go.str(), (dir / "fig9_orientation").string()); !s)
+      if (Status s = Gnuplot(dir.string(), "fig9_orientation", go.str()); !s)
         std::cerr << "svms bench detect: " << s.message() << "\n";
       md << "\n![range error against distance](fig9_range.png)\n"
          << "![orientation error against distance](fig9_orientation.png)\n";

@@ -39,8 +39,9 @@ bool IsImageFile(const fs::path& p) {
          e == ".pgm" || e == ".ppm";
 }
 
-// IMAGE | DIR (its image files, sorted) | GLOB; unmatched names are kept (and fail to read).
-std::vector<std::string> Expand(const std::vector<std::string>& inputs) {
+}  // namespace
+
+std::vector<std::string> ExpandImageInputs(const std::vector<std::string>& inputs) {
   std::vector<std::string> out;
   for (const std::string& in : inputs) {
     std::error_code ec;
@@ -63,6 +64,8 @@ std::vector<std::string> Expand(const std::vector<std::string>& inputs) {
   }
   return out;
 }
+
+namespace {
 
 nlohmann::json DetectionJson(const Detection& d) {
   nlohmann::json c = nlohmann::json::array();
@@ -115,7 +118,7 @@ int RunDetect(const DetectOptions& o) {
   DetectorOptions dopt;
   dopt.debug_dir = o.debug;
   const Detector detector(dopt, camera, models);
-  const std::vector<std::string> files = Expand(o.inputs);
+  const std::vector<std::string> files = ExpandImageInputs(o.inputs);
   std::vector<std::string> lines(files.size()), errors(files.size());
   std::atomic<size_t> next{0}, done{0};
   std::mutex io;

@@ -6,6 +6,7 @@
 
 #include "commands.h"
 #include "svms/artwork.h"
+#include "svms/board.h"
 #include "svms/model_io.h"
 #include "svms/svms44.h"
 
@@ -25,6 +26,9 @@ struct GenerateOptions {
   std::string out;
   // sheet
   std::string markers_file, ids, page = "A4";
+  // board
+  int rows = 0, cols = 0, first_id = 0;
+  double gap = 0, margin_mm = 10;
 };
 
 // The model the options describe; false (message on stderr) if they are inconsistent.
@@ -143,6 +147,27 @@ int RunGenerateSheet(const GenerateOptions& o) {
   return kExitOk;
 }
 
+int RunGenerateBoard(const GenerateOptions& o) {
+  const calib::BoardSpec spec{o.rows, o.cols, o.size, o.gap, o.first_id};
+  if (Status s = spec.Validate(); !s) {
+    std::cerr << "svms generate board: " << s.message() << "\n";
+    return kExitBadInput;
+  }
+  const Layout layout = calib::MakeBoardLayout(spec);
+  ArtworkOptions a;
+  a.dpi = o.dpi;
+  a.label = !o.no_label;
+  WrittenFiles written;
+  const Status s = WriteLayoutArtwork(layout, o.out, a, o.margin_mm, &written);
+  Report(written);
+  if (!s) {
+    std::cerr << "svms generate board: " << s.message() << "\n";
+    return kExitFailed;
+  }
+  std::cout << layout.Summary() << "\n";
+  return kExitOk;
+}
+
 void AddMarkerShapeOptions(CLI::App* cmd, GenerateOptions& o) {
   cmd->add_option(
          "--post-height", o.post_height,
@@ -213,6 +238,38 @@ void AddGenerateCommands(CLI::App& app, int* exit_code) {
       "  svms generate sheet --ids 0-5 --size 0.05 --page A4 --out sheet\n"
       "  svms generate sheet --markers layout.json --page 600x400 --out mockup-markers");
   sheet->callback([o, exit_code] { *exit_code = RunGenerateSheet(*o); });
+
+  auto* board = gen->add_subcommand(
+      "board", "A calibration board: a grid of flat markers (SVG/PDF/PNG) and its layout JSON");
+  board->add_option("--rows", o->rows, "Markers down")->required()->check(CLI::Range(1, 1000));
+  board->add_option("--cols", o->cols, "Markers across")->required()->check(CLI::Range(1, 1000));
+  board->add_option("--size", o->size, "Side of each black square, metres")
+      ->required()
+      ->check(CLI::PositiveNumber);
+  board->add_option("--gap", o->gap, "White space between neighbouring markers, metres")
+      ->required()
+      ->check(CLI::NonNegativeNumber);
+  board->add_option("--first-id", o->first_id, "ID of the top-left marker (row by row after it)")
+      ->required()
+      ->check(CLI::Range(0, Svms44::kNumIds - 1));
+  board->add_option("--margin", o->margin_mm, "White margin around the markers, millimetres")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  board->add_option("--dpi", o->dpi, "PNG resolution")
+      ->check(CLI::Range(10.0, 2400.0))
+      ->capture_default_str();
+  board->add_flag("--no-label", o->no_label, "Leave out the caption line");
+  board
+      ->add_option("--out", o->out,
+                   "Output base name: writes OUT.svg, OUT.pdf, OUT.png and OUT.json (the layout)")
+      ->required();
+  board->footer(
+      "The board frame: origin at the grid centre, x right, y up as printed; pitch = 2 * size + "
+      "gap (a marker's ring is twice its square). Print at 100 %.\n"
+      "Examples:\n"
+      "  svms generate board --rows 5 --cols 6 --size 0.06 --gap 0.015 --first-id 100 --out board\n"
+      "  svms calibrate 'images/*.png' --board board.json --out cam.cameramodel");
+  board->callback([o, exit_code] { *exit_code = RunGenerateBoard(*o); });
 }
 
 }  // namespace svms::cli

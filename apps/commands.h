@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 #include <string>
+#include <vector>
 
 #include "svms/scene.h"
 
@@ -18,10 +19,16 @@ void AddGenerateCommands(CLI::App& app, int* exit_code);
 void AddRenderCommands(CLI::App& app, int* exit_code);
 void AddDatasetCommands(CLI::App& app, int* exit_code);
 void AddDetectCommands(CLI::App& app, int* exit_code);
+void AddCalibrateCommands(CLI::App& app, int* exit_code);
 void AddBenchCommands(CLI::App& app, int* exit_code);
 
 // The `svms bench` subcommands, each registered on the `bench` group (cmd_bench.cc).
 void AddBenchDetect(CLI::App& bench, int* exit_code);
+void AddBenchCalibrate(CLI::App& bench, int* exit_code);
+
+// Image inputs: IMAGE | DIR (its image files, sorted) | GLOB; unmatched names are kept (and fail
+// to read later).
+std::vector<std::string> ExpandImageInputs(const std::vector<std::string>& inputs);
 
 // Renders every view of `scene` into `out_dir` (VIEW.png, truth.json) on `threads` threads,
 // progress on stderr; `source` names the scene in messages. Returns an exit code.

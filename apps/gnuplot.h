@@ -1,4 +1,4 @@
-// Plots for the benchmark reports: a gnuplot script rendered to PNG and SVG.
+// Plots for reports: runs gnuplot on a script, once for PNG and once for SVG.
 #pragma once
 
 #include <string>
@@ -7,9 +7,8 @@
 
 namespace svms::cli {
 
-// Runs gnuplot on `script` (plot commands only: no `set terminal`/`set output`) twice, writing
-// BASE.png (1000 x 650) and BASE.svg. The script is kept as BASE.gp next to them so that a
-// reader can re-plot. Fails with gnuplot's message if gnuplot is missing or the script is bad.
-Status PlotPngSvg(const std::string& script, const std::string& base);
+// Writes DIR/NAME.gp (the `body` after a terminal and output line for NAME.png, then again for
+// NAME.svg) and runs gnuplot in DIR. `body` refers to data files by names relative to DIR.
+Status Gnuplot(const std::string& dir, const std::string& name, const std::string& body);
 
 }  // namespace svms::cli

@@ -128,5 +128,26 @@ expect 1 "2 of 4 images failed" "$svms" detect "$tmp/det" --quiet
 expect 1 "/nonexistent.png: cannot read as an image" "$svms" detect /nonexistent.png --quiet
 expect 2 "/nonexistent.cameramodel" "$svms" detect "$tmp/det/a.png" --camera /nonexistent.cameramodel
 
+# generate board + calibrate: bad inputs (the full run is `svms bench calibrate --quick`)
+expect 0 "30 markers" "$svms" generate board --rows 5 --cols 6 --size 0.06 --gap 0.015 --first-id 100 --dpi 20 --out "$tmp/board"
+for ext in svg pdf png json; do [ -s "$tmp/board.$ext" ] && pass || fail "missing board.$ext"; done
+"$svms" dataset calibration --no-render --quiet --out "$tmp/cal" >/dev/null
+cmp -s "$tmp/board.json" "$tmp/cal/board_layout.json" && pass || fail "generate board: not the dataset's board_layout.json"
+expect 0 "layout 'calibration board" "$svms" model check "$tmp/board.json"
+expect 2 "--first-id: the board needs IDs 32760 to 32789" "$svms" generate board --rows 5 --cols 6 --size 0.06 --gap 0 --first-id 32760 --out "$tmp/x"
+expect 0 "Examples:" "$svms" generate board --help
+expect 0 "Examples:" "$svms" calibrate --help
+expect 2 "/nonexistent.json: cannot open for reading" "$svms" calibrate "$tmp/det/a.png" --board /nonexistent.json --out "$tmp/c.cameramodel"
+expect 2 "expected a layout" "$svms" calibrate "$tmp/det/a.png" --board "$tmp/m17.json" --out "$tmp/c.cameramodel"
+expect 2 "the images show markers 1234 but none of the board's" "$svms" calibrate "$tmp/det/a.png" --board "$tmp/board.json" --out "$tmp/c.cameramodel" --quiet
+expect 2 "junk.png: cannot read as an image" "$svms" calibrate "$tmp/det/junk.png" --board "$tmp/board.json" --out "$tmp/c.cameramodel" --quiet
+# The board's own artwork as the images: twice is too few views; three times, all
+# fronto-parallel, is degenerate. No model either time.
+for i in 1 2; do cp "$tmp/board.png" "$tmp/board_view$i.png"; done
+expect 1 "too few views: 2 of 2 images" "$svms" calibrate "$tmp"/board_view*.png --board "$tmp/board.json" --out "$tmp/c.cameramodel" --quiet
+cp "$tmp/board.png" "$tmp/board_view3.png"
+expect 1 "degenerate views" "$svms" calibrate "$tmp"/board_view*.png --board "$tmp/board.json" --out "$tmp/c.cameramodel" --quiet
+[ ! -e "$tmp/c.cameramodel" ] && pass || fail "calibrate wrote a model after failing"
+
 echo "$passes passed, $fails failed"
 [ "$fails" -eq 0 ]

@@ -176,20 +176,48 @@ void DrawMarker(cairo_t* cr, const MarkerModel& m, double cx, double cy, const A
   }
 }
 
-// What is drawn on one page: markers and their centres in mm.
+// What is drawn on one page: markers and their centres in mm; `bare` draws the rings only,
+// turned by `angle` (radians, counter-clockwise as printed).
 struct Placement {
   const MarkerModel* model;
   double cx, cy;
+  bool bare = false;
+  double angle = 0;
 };
 using Page = std::vector<Placement>;
 
+void DrawBareMarker(cairo_t* cr, const Placement& p) {
+  cairo_save(cr);
+  cairo_translate(cr, p.cx, p.cy);
+  cairo_rotate(cr, -p.angle);  // page y is down
+  DrawRing(cr, *p.model, 0, 0, false);
+  if (const auto inner = p.model->InnerModel()) DrawRing(cr, *inner, 0, 0, true);
+  cairo_restore(cr);
+}
+
 // Renders `pages` (each `w` x `h` mm) into SVG, PDF and PNG files named from `base`.
 Status RenderPages(const std::vector<Page>& pages, double w, double h, const std::string& base,
-                   const ArtworkOptions& o, WrittenFiles* written) {
+                   const ArtworkOptions& o, WrittenFiles* written,
+                   const std::string& caption = "") {
   auto draw_page = [&](cairo_t* cr, const Page& page) {
     cairo_set_source_rgb(cr, 1, 1, 1);
     cairo_paint(cr);
-    for (const Placement& p : page) DrawMarker(cr, *p.model, p.cx, p.cy, o);
+    for (const Placement& p : page) {
+      if (p.bare) {
+        DrawBareMarker(cr, p);
+      } else {
+        DrawMarker(cr, *p.model, p.cx, p.cy, o);
+      }
+    }
+    if (!caption.empty()) {
+      cairo_select_font_face(cr, "DejaVu Sans", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+      cairo_set_font_size(cr, 3.0);
+      cairo_text_extents_t ext;
+      cairo_text_extents(cr, caption.c_str(), &ext);
+      cairo_set_source_rgb(cr, 0.25, 0.25, 0.25);
+      cairo_move_to(cr, 0.5 * w - ext.width / 2 - ext.x_bearing, h - 2.0);
+      cairo_show_text(cr, caption.c_str());
+    }
   };
   auto check = [&](cairo_surface_t* s, const std::string& file) -> Status {
     const cairo_status_t st = cairo_surface_status(s);
@@ -339,6 +367,45 @@ Status WriteSheet(const std::vector<MarkerModel>& models, const std::string& bas
   if (Status s = RenderPages(pages, W, H, base, o, written); !s) return s;
   const std::string json = base + ".json";
   if (Status s = WriteTextFile(json, MarkerSetToJson(models)); !s) return s;
+  written->push_back(json);
+  return Status::Ok();
+}
+
+Status WriteLayoutArtwork(const Layout& layout, const std::string& base_in,
+                          const ArtworkOptions& options, double margin_mm, WrittenFiles* written) {
+  if (Status s = layout.Validate(); !s) return s;
+  if (!(std::isfinite(margin_mm) && margin_mm >= 0))
+    return Status::Error("layout artwork: expected a non-negative margin, got " +
+                         std::to_string(margin_mm) + " mm");
+  const std::string base = StripExtension(base_in);
+  if (Status s = CheckOutputDirectory(base); !s) return s;
+  double lo_x = 1e300, hi_x = -1e300, lo_y = 1e300, hi_y = -1e300;
+  Page page;
+  for (size_t i = 0; i < layout.markers.size(); ++i) {
+    const LayoutEntry& e = layout.markers[i];
+    const Pose& p = e.object_from_marker;
+    if (std::abs(p.tvec.z()) > 1e-9 || std::abs(p.rvec.x()) > 1e-9 || std::abs(p.rvec.y()) > 1e-9)
+      return Status::Error("markers[" + std::to_string(i) + "] (ID " + std::to_string(e.marker.id) +
+                           "): expected a marker in the layout's z = 0 plane turned about z only");
+    // The outer edge of the ring, turned: its bounding box.
+    const double a = p.rvec.z(), h = e.marker.half_extent();
+    const double r = h * (std::abs(std::cos(a)) + std::abs(std::sin(a)));
+    lo_x = std::min(lo_x, p.tvec.x() - r), hi_x = std::max(hi_x, p.tvec.x() + r);
+    lo_y = std::min(lo_y, p.tvec.y() - r), hi_y = std::max(hi_y, p.tvec.y() + r);
+    page.push_back(Placement{&e.marker, kMmPerM * p.tvec.x(), -kMmPerM * p.tvec.y(), true, a});
+  }
+  // Symmetric about the origin, so the page centre is the layout origin.
+  const double half_w = kMmPerM * std::max(std::abs(lo_x), std::abs(hi_x)) + margin_mm;
+  const double half_h = kMmPerM * std::max(std::abs(lo_y), std::abs(hi_y)) + margin_mm;
+  const double caption_mm = options.label ? 6.0 : 0.0;
+  const double w = 2 * half_w, h = 2 * (half_h + caption_mm);
+  for (Placement& p : page) p.cx += 0.5 * w, p.cy += 0.5 * h;
+  if (Status s = RenderPages({page}, w, h, base, options, written,
+                             options.label ? layout.name : std::string());
+      !s)
+    return s;
+  const std::string json = base + ".json";
+  if (Status s = WriteTextFile(json, LayoutToJson(layout)); !s) return s;
   written->push_back(json);
   return Status::Ok();
 }

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "svms/layout.h"
 #include "svms/marker_model.h"
 #include "svms/status.h"
 
@@ -51,6 +52,16 @@ Status WriteMarkerArtwork(const MarkerModel& model, const std::string& base,
 // BASE.json (an svms.markers set). Fails, writing nothing, if a marker does not fit a page.
 Status WriteSheet(const std::vector<MarkerModel>& models, const std::string& base,
                   const SheetOptions& options, WrittenFiles* written);
+
+// Writes a planar layout (e.g. a calibration board, calib/board.h) at exact scale on one page:
+// BASE.svg, BASE.pdf, BASE.png (unless !write_png) and BASE.json (the layout, model_io.h).
+// Every marker must lie in the layout's z = 0 plane, turned about z only; the page centre is
+// the layout origin, x right and y up as printed, with `margin_mm` of white around the markers'
+// outer edges. Only the markers' rings and squares are drawn (no per-marker cut marks or
+// labels: neighbours may be closer than those need); `options.label` prints one caption line
+// with the layout's name below the markers. Errors name the marker that is not planar.
+Status WriteLayoutArtwork(const Layout& layout, const std::string& base,
+                          const ArtworkOptions& options, double margin_mm, WrittenFiles* written);
 
 // The homography from the marker plane (metres) to pixels of the single-marker PNG of an
 // image of `width` x `height` pixels at `dpi`.

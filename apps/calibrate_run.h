@@ -1,0 +1,37 @@
+// The `svms calibrate` pipeline, shared by the command and `svms bench calibrate`: detect the
+// board's markers in every image, calibrate (calib/calibrate.h), write the model and a report.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "svms/calibrate.h"
+#include "svms/layout.h"
+
+namespace svms::cli {
+
+struct CalibrateRunOptions {
+  std::vector<std::string> images;  // image files (already expanded)
+  std::string board;                // the layout JSON (for messages; `layout` is what is used)
+  Layout layout;
+  calib::CalibrationOptions calib;  // width/height are filled from the images
+  std::string out;                  // the .cameramodel to write ("" = none)
+  std::string report_dir;           // "" = no report
+  double uncertainty_range = 0;     // metres; 0 = the median board distance
+  int threads = 1;
+  bool quiet = false;
+};
+
+struct CalibrateRunOutcome {
+  calib::CalibrationResult result;
+  std::vector<std::string> image_of_view;  // per input view (readable images), its file
+  std::vector<std::string> errors;         // per-image problems (unreadable, wrong size, ...)
+  double uncertainty_range = 0;            // the range used, metres
+  double uncertainty_rms = 0, uncertainty_max = 0;  // sqrt(trace) over the image grid, px
+  double coverage = 0;                              // fraction of 16x16 image cells with an inlier
+};
+
+// Runs the pipeline. Returns an exit code (commands.h); messages on stderr, one line each.
+int RunCalibration(const CalibrateRunOptions& options, CalibrateRunOutcome* outcome);
+
+}  // namespace svms::cli

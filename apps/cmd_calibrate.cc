@@ -1,0 +1,101 @@
+// svms calibrate: camera intrinsics from images of a marker board (or any surveyed layout).
+#include <iostream>
+#include <memory>
+#include <thread>
+
+#include "calibrate_run.h"
+#include "commands.h"
+#include "svms/model_io.h"
+
+namespace svms::cli {
+namespace {
+
+struct CalibrateCliOptions {
+  std::vector<std::string> inputs;
+  std::string board, lensmodel = "LENSMODEL_OPENCV8", out, report;
+  bool warp = false, quiet = false;
+  double range = 0, max_rms = 2.0;
+  int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+};
+
+int RunCalibrate(const CalibrateCliOptions& c) {
+  ModelFile f;
+  if (Status s = ReadModelFile(c.board, &f); !s) {
+    std::cerr << "svms calibrate: --board: " << s.message() << "\n";
+    return kExitBadInput;
+  }
+  if (f.kind != ModelFile::Kind::kLayout) {
+    std::cerr << "svms calibrate: --board " << c.board
+              << ": expected a layout (\"type\": \"svms.layout\", e.g. from svms generate board), "
+                 "got "
+              << f.Summary() << "\n";
+    return kExitBadInput;
+  }
+  CalibrateRunOptions o;
+  o.images = ExpandImageInputs(c.inputs);
+  o.board = c.board;
+  o.layout = f.layout;
+  o.calib.lensmodel = c.lensmodel;
+  o.calib.board_warp = c.warp;
+  o.calib.max_rms_px = c.max_rms;
+  o.out = c.out;
+  o.report_dir = c.report;
+  o.uncertainty_range = c.range;
+  o.threads = c.threads;
+  o.quiet = c.quiet;
+  CalibrateRunOutcome out;
+  const int rc = RunCalibration(o, &out);
+  if (rc == kExitBadInput || out.result.camera.empty() || out.result.num_inliers == 0) return rc;
+  if (rc == kExitOk || !out.errors.empty()) {
+    const calib::CalibrationResult& r = out.result;
+    std::printf("%s: %zu views, %d points (%d outliers), RMS %.3f px, worst %.3f px\n",
+                r.camera.Summary().c_str(), r.views.size(), r.num_inliers, r.num_outliers, r.rms_px,
+                r.worst_px);
+    if (!c.out.empty()) std::printf("wrote %s\n", c.out.c_str());
+    if (!c.report.empty())
+      std::printf("wrote %s/summary.json (uncertainty at %.2f m: RMS %.3f px, max %.3f px)\n",
+                  c.report.c_str(), out.uncertainty_range, out.uncertainty_rms,
+                  out.uncertainty_max);
+    if (!out.errors.empty())
+      std::fprintf(stderr, "svms calibrate: %zu images failed (listed above)\n", out.errors.size());
+  }
+  return rc;
+}
+
+}  // namespace
+
+void AddCalibrateCommands(CLI::App& app, int* exit_code) {
+  auto c = std::make_shared<CalibrateCliOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "calibrate", "Camera intrinsics from images of a marker board -> mrcal .cameramodel");
+  cmd->add_option("images", c->inputs, "Images, directories of images, or globs")->required();
+  cmd->add_option("--board", c->board, "The board's layout JSON (svms generate board)")->required();
+  cmd->add_option("--lensmodel", c->lensmodel,
+                  "mrcal lens model: LENSMODEL_PINHOLE, LENSMODEL_OPENCV4/5/8/12, "
+                  "LENSMODEL_SPLINED_STEREOGRAPHIC[_order=..._Nx=..._Ny=..._fov_x_deg=...]")
+      ->capture_default_str();
+  cmd->add_option("--out", c->out, "The camera model to write (.cameramodel)")->required();
+  cmd->add_option("--report", c->report,
+                  "Directory for the report: summary.json and PNG/SVG plots (residual histogram "
+                  "and vectors, coverage, projection uncertainty)");
+  cmd->add_flag("--warp", c->warp, "Also estimate the board's flatness deviation (mrcal's warp)");
+  cmd->add_option("--uncertainty-range", c->range,
+                  "Range (m) of the projection-uncertainty map [default: median board distance]")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--max-rms", c->max_rms,
+                  "Fail (no model) if the final RMS residual exceeds this many pixels")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--threads", c->threads, "Detection threads")->check(CLI::Range(1, 256));
+  cmd->add_flag("--quiet", c->quiet, "No progress on stderr");
+  cmd->footer(
+      "Examples:\n"
+      "  svms generate board --rows 5 --cols 6 --size 0.06 --gap 0.015 --first-id 100 --out board\n"
+      "  svms calibrate 'images/*.png' --board board.json --lensmodel LENSMODEL_OPENCV8 "
+      "--out cam.cameramodel --report report\n"
+      "Exit codes: 0 ok; 1 the calibration failed (too few or degenerate views, no convergence: "
+      "no model written) or some images failed; 2 bad input.");
+  cmd->callback([c, exit_code] { *exit_code = RunCalibrate(*c); });
+}
+
+}  // namespace svms::cli
