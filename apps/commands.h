@@ -18,6 +18,9 @@ void AddGenerateCommands(CLI::App& app, int* exit_code);
 void AddRenderCommands(CLI::App& app, int* exit_code);
 void AddDatasetCommands(CLI::App& app, int* exit_code);
 void AddDetectCommands(CLI::App& app, int* exit_code);
+void AddBenchCommands(CLI::App& app, int* exit_code);
+// The `bench` group's subcommands (apps/cmd_bench_NAME.cc).
+void AddBenchCompare(CLI::App& bench, int* exit_code);
 
 // Renders every view of `scene` into `out_dir` (VIEW.png, truth.json) on `threads` threads,
 // progress on stderr; `source` names the scene in messages. Returns an exit code.
