@@ -11,6 +11,7 @@ void AddBenchCommands(CLI::App& app, int* exit_code) {
   bench->require_subcommand(1);
   AddBenchDetect(*bench, exit_code);
   AddBenchCalibrate(*bench, exit_code);
+  AddBenchCompare(*bench, exit_code);
 }
 
 }  // namespace svms::cli

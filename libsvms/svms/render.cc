@@ -158,6 +158,18 @@ bool RingWhite(double x, double y, double s, double b, uint64_t word, bool* insi
   return (word >> CellBit(x, y, b)) & 1;
 }
 
+// A peer tag (PrintedTag) on a marker of black-square side s and decal half side `half`: its
+// n x n grid fills the black square, white around it. Returns false (and *inside = false)
+// outside the decal.
+bool PeerWhite(double x, double y, double s, double half, const PrintedTag& t, bool* inside) {
+  const double m = std::max(std::abs(x), std::abs(y));
+  *inside = m <= half;
+  if (m > 0.5 * s) return true;
+  const int col = std::clamp(static_cast<int>(std::floor((x + 0.5 * s) / s * t.n)), 0, t.n - 1);
+  const int row = std::clamp(static_cast<int>(std::floor((0.5 * s - y) / s * t.n)), 0, t.n - 1);
+  return t.white[static_cast<size_t>(row) * t.n + col];
+}
+
 // Ray-cylinder (axis z through the origin, radius r): roots of |o_xy + t d_xy| = r.
 bool CylinderRoots(const Vec3& o, const Vec3& d, double r, double* t0, double* t1) {
   const double a = d.x() * d.x() + d.y() * d.y();
@@ -636,7 +648,9 @@ struct Renderer::Impl {
         } else {
           bool inside = false;
           bool white = false;
-          if (m.inner && InsideSquare(q.x(), q.y(), 6 * m.inner->cell_size)) {
+          if (sm.print.peer()) {
+            white = PeerWhite(q.x(), q.y(), m.size, p.decal_half, sm.print, &inside);
+          } else if (m.inner && InsideSquare(q.x(), q.y(), 6 * m.inner->cell_size)) {
             white =
                 RingWhite(q.x(), q.y(), m.inner->size, m.inner->cell_size, p.inner_word, &inside);
           } else {
@@ -1100,7 +1114,7 @@ Status Renderer::Impl::Build() {
       mp.R = world_from_marker.Rotation();
       mp.t = world_from_marker.tvec;
       mp.marker = &sm;
-      mp.word = Svms44::Codeword(sm.model.id);
+      mp.word = sm.print.peer() ? 0 : Svms44::Codeword(sm.model.id);
       if (sm.model.inner) mp.inner_word = Svms44::Codeword(sm.model.inner->id);
       if (sm.model.post) {
         mp.has_post = true;
@@ -1745,7 +1759,9 @@ bool Renderer::Impl::CoveredPixel(const Frame& f, const PixelJob& J, double* ray
       if (p.has_post && p.post_h < 0 && rho2 < p.post_r * p.post_r) return false;  // into a well
       const MarkerModel& m = p.marker->model;
       bool inside = false, white;
-      if (m.inner && InsideSquare(q.x(), q.y(), 6 * m.inner->cell_size)) {
+      if (p.marker->print.peer()) {
+        white = PeerWhite(q.x(), q.y(), m.size, p.decal_half, p.marker->print, &inside);
+      } else if (m.inner && InsideSquare(q.x(), q.y(), 6 * m.inner->cell_size)) {
         white = RingWhite(q.x(), q.y(), m.inner->size, m.inner->cell_size, p.inner_word, &inside);
       } else {
         white = RingWhite(q.x(), q.y(), m.size, m.cell_size, p.word, &inside);

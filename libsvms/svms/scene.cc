@@ -12,6 +12,9 @@ namespace {
 
 using namespace json_fields;  // NOLINT: the field readers
 
+PrintedTag ParsePrint(const json& j, const std::string& path);
+json PrintJson(const PrintedTag& t);
+
 Eigen::Vector3d UnitDirection(const json& j, const std::string& path, const std::string& key) {
   const Eigen::Vector3d d = Vector<3>(j, path, key);
   if (!d.allFinite() || d.norm() < 1e-12)
@@ -257,8 +260,9 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
       for (size_t k = 0; k < ms.size(); ++k) {
         const std::string mp = p + ".markers[" + std::to_string(k) + "]";
         const json& mj = ms[k];
-        CheckKeys(mj, mp,
-                  {"marker", "object_from_marker", "black", "white", "retro", "retro_gain"});
+        CheckKeys(
+            mj, mp,
+            {"marker", "object_from_marker", "black", "white", "retro", "retro_gain", "print"});
         SceneMarker m;
         m.model = ParseMarker(Required(mj, mp, "marker"), mp + ".marker", false);
         m.object_from_marker = ParsePose(mj, mp, "object_from_marker");
@@ -269,6 +273,12 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
                            json(m.black).dump() + ")"};
         if (mj.contains("retro")) m.retro = Boolean(mj, mp, "retro");
         if (mj.contains("retro_gain")) m.retro_gain = NumberIn(mj, mp, "retro_gain", 0, 1e6);
+        if (mj.contains("print")) {
+          m.print = ParsePrint(mj["print"], mp + ".print");
+          if (m.print.peer() && m.model.inner)
+            throw FieldError{mp + ".print.family: expected \"svms44\" for a dual marker, got \"" +
+                             m.print.family + "\""};
+        }
         for (int id : {m.model.id, m.model.inner ? m.model.inner->id : -1}) {
           if (id >= 0 && !ids.insert(id).second)
             throw FieldError{mp + ".marker.id: ID " + std::to_string(id) +
@@ -302,11 +312,81 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
   }
 }
 
+PrintedTag ParsePrint(const json& j, const std::string& path) {
+  CheckKeys(j, path, {"family", "cells"});
+  PrintedTag t;
+  t.family = String(j, path, "family");
+  if (!t.peer()) {
+    if (j.contains("cells"))
+      throw FieldError{Join(path, "cells") + ": expected no cells for the svms44 family"};
+    return t;
+  }
+  const json& cells = Required(j, path, "cells");
+  if (!cells.is_array() || cells.size() < 3)
+    Fail(Join(path, "cells"), "an array of at least 3 rows of '0' (black) and '1' (white)", cells);
+  t.n = static_cast<int>(cells.size());
+  for (size_t r = 0; r < cells.size(); ++r) {
+    const std::string rp = Join(path, "cells") + "[" + std::to_string(r) + "]";
+    if (!cells[r].is_string()) Fail(rp, "a string of '0' and '1'", cells[r]);
+    const std::string row = cells[r].get<std::string>();
+    if (static_cast<int>(row.size()) != t.n || row.find_first_not_of("01") != std::string::npos)
+      throw FieldError{rp + ": expected " + std::to_string(t.n) + " characters '0' or '1', got \"" +
+                       row + "\""};
+    for (char c : row) t.white.push_back(c == '1');
+  }
+  return t;
+}
+
+json PrintJson(const PrintedTag& t) {
+  json j = {{"family", t.family}};
+  if (t.peer()) {
+    json rows = json::array();
+    for (int r = 0; r < t.n; ++r) {
+      std::string row;
+      for (int c = 0; c < t.n; ++c) row += t.white[static_cast<size_t>(r) * t.n + c] ? '1' : '0';
+      rows.push_back(row);
+    }
+    j["cells"] = rows;
+  }
+  return j;
+}
+
 }  // namespace
+
+std::vector<Eigen::Vector2d> PrintedTag::DataCellCentres(double size) const {
+  std::vector<Eigen::Vector2d> out;
+  if (!peer() || n < 3) return out;
+  const double cell = size / n;
+  for (int r = 1; r < n - 1; ++r)
+    for (int c = 1; c < n - 1; ++c)
+      out.emplace_back(-0.5 * size + (c + 0.5) * cell, 0.5 * size - (r + 0.5) * cell);
+  return out;
+}
+
+Status PrintedTag::Validate(const std::string& path) const {
+  if (!peer()) {
+    if (n != 0 || !white.empty())
+      return Status::Error(path + "cells: expected no cells for the svms44 family");
+    return Status::Ok();
+  }
+  if (n < 3 || white.size() != static_cast<size_t>(n) * n)
+    return Status::Error(path + "cells: expected an n x n grid (n >= 3) for family \"" + family +
+                         "\"");
+  return Status::Ok();
+}
 
 Status Scene::Validate() const {
   if (views.empty()) return Status::Error("views: expected at least one view");
   if (camera.width() <= 0) return Status::Error("camera: expected a camera model");
+  for (size_t i = 0; i < objects.size(); ++i)
+    for (size_t k = 0; k < objects[i].markers.size(); ++k) {
+      const SceneMarker& m = objects[i].markers[k];
+      const std::string path =
+          "objects[" + std::to_string(i) + "].markers[" + std::to_string(k) + "].print.";
+      if (Status s = m.print.Validate(path); !s) return s;
+      if (m.print.peer() && m.model.inner)
+        return Status::Error(path + "family: expected \"svms44\" for a dual marker");
+    }
   return Status::Ok();
 }
 
@@ -378,6 +458,7 @@ std::string SceneToJson(const Scene& s) {
                     {"white", m.white},
                     {"retro", m.retro},
                     {"retro_gain", m.retro_gain}});
+      if (m.print.peer()) ms.back()["print"] = PrintJson(m.print);
     }
     jo["markers"] = ms;
     objects.push_back(jo);

@@ -39,9 +39,28 @@ struct Material {
   double shininess = 50;     // its exponent
 };
 
+// What is printed on a scene marker: the svms44 pattern of its model (the default), or a peer
+// system's planar tag for the comparison benchmark (bench compare). A peer tag is an n x n grid
+// of square cells, outer black border included, printed so that its outer black edge is the
+// model's black square (side model.size; same corners, so the same truth corners and the same
+// pose reference); the rest of the model's decal (out to half_extent()) is white, a quiet
+// zone. The grid comes from the peer's own library (peers/svms/peer_tags.h); the core only
+// prints it. No nested marker with a peer tag; the post is whatever the model says.
+struct PrintedTag {
+  std::string family = "svms44";  // "svms44", or a peer family's name (e.g. "tag36h11")
+  int n = 0;                      // peer: cells per side (border included), >= 3
+  std::vector<uint8_t> white;     // peer: n * n, row-major, row 0 at the top as printed
+  bool peer() const { return family != "svms44"; }
+  // The interior (data) cell centres of a peer grid, marker frame, metres, for a black edge of
+  // side `size`: row by row from the top-left, (n - 2)^2 of them.
+  std::vector<Eigen::Vector2d> DataCellCentres(double size) const;
+  Status Validate(const std::string& path) const;
+};
+
 struct SceneMarker {
   MarkerModel model;
   Pose object_from_marker;
+  PrintedTag print;        // svms44 unless a peer tag is printed instead
   double black = 0.04;     // reflectance of the black print (black paint is not zero)
   double white = 0.85;     // reflectance of the white print
   bool retro = false;      // white parts retro-reflective (bright under the ring light)

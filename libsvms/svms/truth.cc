@@ -77,8 +77,11 @@ ViewTruth ComputeTruth(const Renderer& r, int view) {
           mt.has_tip = true;
           mt.tip = Point(r, view, vt.cam_from_world, world_from_marker * *tip);
         }
-        for (int b = 0; b < 44; ++b) {
-          const Eigen::Vector2d c = m.BitCellCentre(b);
+        mt.family = sm.print.family;
+        std::vector<Eigen::Vector2d> cells = sm.print.DataCellCentres(m.size);
+        if (!sm.print.peer())
+          for (int b = 0; b < 44; ++b) cells.push_back(m.BitCellCentre(b));
+        for (const Eigen::Vector2d& c : cells) {
           const PointTruth pt = Point(r, view, vt.cam_from_world,
                                       world_from_marker * Eigen::Vector3d(c.x(), c.y(), 0));
           mt.bits_occluded += pt.occluded;
@@ -131,6 +134,7 @@ std::string TruthToJson(const Scene& s, const std::vector<ViewTruth>& views) {
                  {"facing", m.facing},
                  {"fully_visible", m.fully_visible()}};
       if (m.nested_in >= 0) jm["nested_in"] = m.nested_in;
+      if (m.family != "svms44") jm["family"] = m.family;
       markers.push_back(jm);
     }
     jv.push_back({{"name", v.name},

@@ -23,19 +23,23 @@ struct PointTruth {
 
 struct MarkerTruth {
   int id = -1;
-  int nested_in = -1;  // the outer marker's ID for an inner marker, else -1
-  std::string object;  // the object carrying it
+  std::string family = "svms44";  // what is printed (scene.h PrintedTag): svms44 or a peer tag
+  int nested_in = -1;             // the outer marker's ID for an inner marker, else -1
+  std::string object;             // the object carrying it
   Pose cam_from_marker;
-  std::array<PointTruth, 4> corners;  // black-square corners, order of docs/conventions.md
+  // Black-square corners, order of docs/conventions.md. For a peer tag: its outer black
+  // edge's corners, which are the same points (the tag is printed on the black square).
+  std::array<PointTruth, 4> corners;
   bool has_tip = false;
-  PointTruth tip;         // the post tip (white top or well bottom)
-  int bits_occluded = 0;  // of the 44 cell centres
+  PointTruth tip;  // the post tip (white top or well bottom)
+  // Of the 44 cell centres (a peer tag: of its (n - 2)^2 data cell centres).
+  int bits_occluded = 0;
   int bits_in_shadow = 0;
   int bits_outside = 0;    // cell centres outside the image (or behind the camera)
   double side_px = 0;      // mean side of the projected square, pixels
   double min_side_px = 0;  // its shortest side (what "a 30 x 30 px marker" means)
   bool facing = false;     // the marker's front faces the camera
-  // Facing the camera, with all four corners and all 44 cell centres in the image and
+  // Facing the camera, with all four corners and all data cell centres in the image and
   // unoccluded: everything the detector needs to identify it.
   bool fully_visible() const;
 };

@@ -1,0 +1,59 @@
+// How the comparison benchmark scores one image: every detection matched against the truth
+// (truth.h), for any marker system. A detection belongs to the truth marker whose projected
+// black square (peer: outer black edge) contains its corners' centroid; with the truth's ID it
+// is a hit, else a wrong ID; inside no truth square it is a false positive. A truth marker
+// counts toward the detection rate when it faces the camera with all four corners in the
+// image (occluded or not: occlusion is what the occlusion sweep measures).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "svms/pose.h"
+#include "svms/truth.h"
+
+namespace svms {
+
+// One marker reported by any system.
+struct FoundMarker {
+  int id = -1;
+  std::array<Eigen::Vector2d, 4> corners;  // TL, TR, BR, BL as printed, pixels
+  std::optional<Pose> cam_from_marker;
+};
+
+// One truth marker, for one system, in one image.
+struct MarkerOutcome {
+  int truth_id = -1;
+  int nested_in = -1;
+  bool eligible = false;                // facing, all four corners in the image
+  bool detected = false;                // a detection with its ID
+  bool wrong_id = false;                // a detection on it with another ID (and none with its ID)
+  double min_side_px = 0, side_px = 0;  // truth
+  double view_angle_deg = 0;            // between the marker normal and the line of sight
+  double occluded_fraction = 0;         // of its data cells (svms44: 44, peers: 36)
+  double distance_m = 0;                // camera centre to marker centre
+  // Of the hit (NaN otherwise): RMS over the four corners; |estimated - true| distance to the
+  // marker centre; rotation angle between estimated and true orientation.
+  double corner_rms_px = NAN, range_err_m = NAN, orientation_err_deg = NAN;
+};
+
+struct ImageOutcome {
+  std::vector<MarkerOutcome> markers;  // in truth order
+  int false_positives = 0;
+  int wrong_ids = 0;  // detections on a marker with a wrong ID
+};
+
+ImageOutcome EvaluateImage(const ViewTruth& truth, const std::vector<FoundMarker>& found);
+
+// Pose flip: orientation error above this (the planar two-fold ambiguity), degrees.
+inline constexpr double kFlipDeg = 10;
+
+// Small statistics over the finite values of `v` (NaN when there are none): median, and the
+// p-th percentile (0-100) by linear interpolation between order statistics.
+double Median(std::vector<double> v);
+double Percentile(std::vector<double> v, double p);
+
+}  // namespace svms

@@ -1,0 +1,79 @@
+// Scoring of one image against its truth: hits, wrong IDs, false positives, nested markers,
+// errors; and the small statistics.
+#include "svms/compare_metrics.h"
+
+#include <gtest/gtest.h>
+
+namespace svms {
+namespace {
+
+MarkerTruth Square(int id, double cx, double cy, double half, int nested_in = -1) {
+  MarkerTruth t;
+  t.id = id;
+  t.nested_in = nested_in;
+  t.facing = true;
+  t.cam_from_marker.tvec = Eigen::Vector3d(0, 0, 2);
+  t.cam_from_marker.rvec = Eigen::Vector3d(M_PI, 0, 0);  // facing the camera
+  const double d[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+  for (int k = 0; k < 4; ++k) {
+    t.corners[k].pixel = Eigen::Vector2d(cx + half * d[k][0], cy + half * d[k][1]);
+    t.corners[k].projects = t.corners[k].in_image = true;
+  }
+  t.side_px = t.min_side_px = 2 * half;
+  return t;
+}
+
+FoundMarker Found(const MarkerTruth& t, int id, double shift) {
+  FoundMarker f;
+  f.id = id;
+  for (int k = 0; k < 4; ++k) f.corners[k] = t.corners[k].pixel + Eigen::Vector2d(shift, 0);
+  return f;
+}
+
+TEST(CompareMetrics, HitsWrongIdsAndFalsePositives) {
+  ViewTruth v;
+  v.markers = {Square(5, 100, 100, 20), Square(6, 300, 100, 20), Square(7, 500, 100, 20)};
+  v.markers[2].bits_occluded = 11;
+  FoundMarker posed = Found(v.markers[0], 5, 0.3);
+  Pose p = v.markers[0].cam_from_marker;
+  p.tvec.z() += 0.01;
+  p.rvec = Eigen::Vector3d(M_PI, 0, 0.2);  // 0.2 rad off about z... of the rotated frame
+  posed.cam_from_marker = p;
+  const ImageOutcome o = EvaluateImage(v, {posed, Found(v.markers[1], 99, 0),
+                                           Found(v.markers[0], 5, 0), Found(v.markers[0], 5, 900)});
+  ASSERT_EQ(o.markers.size(), 3u);
+  EXPECT_TRUE(o.markers[0].detected);
+  EXPECT_NEAR(o.markers[0].corner_rms_px, 0.3, 1e-12);  // the first of two duplicates counts
+  EXPECT_NEAR(o.markers[0].range_err_m, 0.01, 1e-12);
+  EXPECT_GT(o.markers[0].orientation_err_deg, 1);
+  EXPECT_FALSE(o.markers[1].detected);
+  EXPECT_TRUE(o.markers[1].wrong_id);
+  EXPECT_FALSE(o.markers[2].detected);
+  EXPECT_NEAR(o.markers[2].occluded_fraction, 0.25, 1e-12);
+  EXPECT_NEAR(o.markers[0].view_angle_deg, 0, 1e-9);
+  EXPECT_EQ(o.wrong_ids, 1);
+  EXPECT_EQ(o.false_positives, 1);
+}
+
+TEST(CompareMetrics, NestedMarkerGoesToTheInnerSquare) {
+  ViewTruth v;
+  v.markers = {Square(1, 200, 200, 100), Square(2, 200, 200, 25, 1)};
+  const ImageOutcome o = EvaluateImage(v, {Found(v.markers[1], 2, 0), Found(v.markers[0], 1, 0)});
+  EXPECT_TRUE(o.markers[0].detected);
+  EXPECT_TRUE(o.markers[1].detected);
+  EXPECT_EQ(o.wrong_ids + o.false_positives, 0);
+  // A wrong ID inside the inner square is charged to the inner marker.
+  const ImageOutcome w = EvaluateImage(v, {Found(v.markers[1], 3, 0)});
+  EXPECT_TRUE(w.markers[1].wrong_id);
+  EXPECT_FALSE(w.markers[0].wrong_id);
+}
+
+TEST(CompareMetrics, Percentiles) {
+  EXPECT_DOUBLE_EQ(Median({3, 1, 2, NAN}), 2);
+  EXPECT_DOUBLE_EQ(Percentile({0, 10}, 25), 2.5);
+  EXPECT_DOUBLE_EQ(Percentile({1, 2, 3, 4, 5}, 100), 5);
+  EXPECT_TRUE(std::isnan(Median({})));
+}
+
+}  // namespace
+}  // namespace svms

@@ -1,0 +1,40 @@
+// The scenes of the comparison benchmark (svms bench compare): one SVMS marker per image on a
+// dark plate, in four sweeps (size, viewing angle, occlusion, sun and shadow), plus the
+// standard clutter set (no markers: false positives) and the range set (the paper's Fig. 9).
+//
+// Every sweep is built once with SVMS markers; PeerScene() then prints a peer tag in place of
+// every marker (peer_tags.h: its outer black edge on the SVMS black square). Camera, poses,
+// light, occluders, sensor, noise seed and rays per pixel stay the same, so the three images
+// of a view differ only in what is printed. Views carry their sweep and condition in their
+// name: "size_030px_02", "angle_60deg_01", "occl_60_0007", "sun_e45_a045", "lowsun_e10_a045",
+// "edge_40deg_03", "shadow_e30_00".
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "svms/scene.h"
+
+namespace svms {
+
+struct CompareOptions {
+  uint64_t seed = 1;
+  bool quick = false;        // a few views per sweep (smoke test, < 2 min in all)
+  double marker_size = 0.1;  // black square side (= a peer's outer black edge), metres
+};
+
+struct CompareSweep {
+  std::string name;         // "size", "angle", "occlusion", "sun"
+  std::string description;  // one line, for the report
+  Scene scene;              // SVMS markers
+};
+
+// The four sweeps (1024 x 1024 pinhole of the range set, f = 1111.1 px; the standard sensor).
+std::vector<CompareSweep> MakeCompareSweeps(const CompareOptions& options);
+
+// `scene` with every marker printed as the peer tag of `family` ("svms44": unchanged). Marker
+// k of the scene (in object order) gets peer ID (7 + 37 k) mod the family's size.
+Status PeerScene(const Scene& scene, const std::string& family, Scene* out);
+
+}  // namespace svms

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Smoke test of `svms bench compare --quick`: it runs, and writes its report, tables and plots
+# with a result for every system and the Fig. 9 distances.
+set -euo pipefail
+svms="$1"
+out="$(mktemp -d)"
+trap 'rm -rf "$out"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+"$svms" bench compare --quick --out "$out" > "$out/stdout.txt" || fail "exit code $?"
+for f in report.md summary.json markers.csv images.csv fig9.csv fig9_summary.csv \
+         compare_size.png compare_size.svg compare_angle.png compare_occlusion.png \
+         compare_size_orientation.svg fig9.png fig9.svg scenes/size_tag36h11.json; do
+  [[ -s "$out/$f" ]] || fail "$f missing or empty"
+done
+head -1 "$out/report.md" | grep -q '^## ' || fail "report.md does not start with a ## section"
+grep -q '!\[\](fig9.png)' "$out/report.md" || fail "report.md does not link fig9.png"
+for sys in svms apriltag_d2 apriltag_d1 aruco_subpix aruco3; do
+  grep -q "\"$sys\"" "$out/summary.json" || fail "summary.json has no $sys"
+  grep -q "^| $sys |" "$out/report.md" || fail "report.md has no row for $sys"
+done
+grep -q '"useAruco3Detection": true' "$out/summary.json" || fail "settings not written"
+# Every system finds the large head-on markers of the size sweep (60 px).
+for sys in svms apriltag_d2 apriltag_d1 aruco_subpix; do
+  grep -q "^size,size_060px_00,060,$sys,[a-z0-9]*,[0-9]*,1,1," "$out/markers.csv" ||
+    fail "$sys did not find the 60 px marker"
+done
+[[ $(wc -l < "$out/fig9_summary.csv") -ge 6 ]] || fail "fig9_summary.csv has too few distances"
+echo "bench compare --quick: ok"
