@@ -258,21 +258,23 @@ Dataset Mockup(const DatasetOptions& o) {
     truth_layout.markers.push_back(LayoutEntry{p.m, pose, std::nullopt, std::nullopt});
   }
   s.objects.push_back(box);
+  // A survey: views all around the module at 1.8 to 3.2 m, in eight sectors of azimuth about
+  // its long axis, from 15 to 55 degrees above its equator toward the front face, so that every
+  // marker is seen at 30 px or more from several directions and neighbouring faces are seen
+  // together (a connected view graph). The approach path for fused poses is another dataset.
   std::mt19937_64 rng(o.seed * 31 + 1);
-  std::normal_distribution<double> g(0, 1);
-  const int n = o.quick ? 6 : 200;
+  std::uniform_real_distribution<double> u(-1, 1), u01(0, 1);
+  const int n = o.quick ? 8 : 200;
   for (int i = 0; i < n; ++i) {
-    const double f = static_cast<double>(i) / (n - 1);
-    const double D = 10.0 * std::pow(0.5 / 10.0, f);  // 10 m to 0.5 m from the front face
-    // Off-axis far away (the side faces show), nearly on-axis at docking.
-    const Vec3 dir = Vec3(0.45 * (1 - f) + 0.05, 0.35 * (1 - f) + 0.03, 1).normalized();
-    const Vec3 front(0, 0, half.z());
-    const Vec3 eye = front + D * dir + 0.01 * D * Vec3(g(rng), g(rng), g(rng));
-    const Vec3 target = front + Vec3(-0.1 * (1 - f), -0.1 * (1 - f), -0.3 * (1 - f)) +
-                        0.005 * D * Vec3(g(rng), g(rng), 0);
-    const double roll = 0.2 * std::sin(6 * f);
-    View v{Name("mockup_", i), LookAt(eye, target, Vec3(std::sin(roll), std::cos(roll), 0))};
-    v.sun = Sunlight(40 - 15 * f, 20 + 70 * f).sun;  // the sun moves during the approach
+    const double az = (i % 8) * M_PI / 4 + 0.25 * u(rng);
+    const double el = (15 + 40 * u01(rng)) * kDeg;
+    const double D = 1.8 + 1.4 * u01(rng);
+    const Vec3 centre(0, 0, 0.3);
+    const Vec3 eye =
+        centre + D * Vec3(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+    const Vec3 target = centre + 0.15 * Vec3(u(rng), u(rng), u(rng));
+    View v{Name("mockup_", i), LookAt(eye, target, Vec3(0.3 * u(rng), 0.3 * u(rng), 1))};
+    v.sun = Sunlight(25 + 30 * u01(rng), 360 * u01(rng)).sun;
     s.views.push_back(v);
   }
   d.scenes.emplace_back("", s);
@@ -489,8 +491,8 @@ std::string DatasetDescription(const std::string& name) {
   if (name == "occlusion")
     return "0 to 10 data bits covered by patches of the opposite colour (each a flipped bit)";
   if (name == "mockup")
-    return "1 x 1 x 2 m module, 8 markers (3 sizes, a dual, a concave), 200 views from 10 m to 0.5 "
-           "m, moving sun";
+    return "1 x 1 x 2 m module, 8 markers (3 sizes, a dual, a concave), 200 survey views all "
+           "around it at 1.8-3.2 m, true layout";
   if (name == "calibration")
     return "a 6x5 marker board and a 10x8 chessboard, same 40 views, OPENCV8 camera";
   if (name == "clutter")

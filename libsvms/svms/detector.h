@@ -55,7 +55,7 @@ struct DetectorOptions {
   int max_unsupported_corrections = 2;  // beyond this, a decode needs independent evidence
   int id_count = 32768;                 // decode among IDs [0, id_count)
   bool known_ids_only = true;           // with marker models: report only their IDs
-  double min_contrast = 12;             // white - black, grey levels
+  double min_contrast = 5;  // white - black, grey levels (a marker in deep shadow: about 10)
   bool refine_corners = true;
   std::string debug_dir;  // if set, each step writes a picture there
 };

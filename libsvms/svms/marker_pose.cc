@@ -194,13 +194,18 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
     c.pose.tvec =
         Eigen::Vector3d(tvecs[s].at<double>(0), tvecs[s].at<double>(1), tvecs[s].at<double>(2));
     if (c.pose.tvec.z() <= 0) continue;
-    if (model.post) {
+    // The tip is looked for only where it can be told from the marker's own print: a white
+    // top of at least tip_min_radius_px, searched no farther than 60 % of the way to the edge
+    // of the innermost black square (a dual's inner stripe and bits lie beyond it).
+    const double px_per_m = side_px / model.size;
+    const double innermost_half = 0.5 * (model.inner ? model.inner->size : model.size) * px_per_m;
+    const double search = std::min(o.tip_search_fraction * side_px, 0.6 * innermost_half);
+    if (model.post && model.post->tip_radius * px_per_m >= o.tip_min_radius_px && search >= 1.5) {
       double fraction;
       const Eigen::Vector3d tip3 = VisibleTipPoint(model, c.pose.Inverse().tvec, &fraction);
       Eigen::Vector2d pred;
       if (fraction >= 0.25 && camera.Project(c.pose * tip3, &pred)) {
-        c.tip = FindTip(image, pred, std::max(3.0, o.tip_search_fraction * side_px), black, white,
-                        o.tip_min_contrast);
+        c.tip = FindTip(image, pred, search, black, white, o.tip_min_contrast);
         if (c.tip) c.tip_error = (c.tip->pixel - pred).norm();
       }
     }

@@ -32,6 +32,9 @@ struct MarkerPoseOptions {
   double corner_sigma_px = 0.1;       // standard deviation of a refined corner, each axis
   double tip_search_fraction = 0.25;  // search radius, as a fraction of the square's side
   double tip_min_contrast = 0.35;     // tip brighter than black by this fraction of white - black
+  // A white top smaller than this in the image (radius, pixels) is not looked for: a blob of
+  // a pixel or less is as likely noise or a neighbouring bit cell, and pulls the pose wrong.
+  double tip_min_radius_px = 0.5;
 };
 
 struct MarkerPose {

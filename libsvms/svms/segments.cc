@@ -129,16 +129,44 @@ void MergeAdjacent(const std::vector<cv::Point>& c, double tol, double rel,
 
 std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx,
                                   cv::Mat* gy) {
-  cv::Sobel(gray8, *gx, CV_16S, 1, 0, 3);
-  cv::Sobel(gray8, *gy, CV_16S, 0, 1, 3);
+  // Edges are found on 16 sqrt(grey): shot noise makes the noise grow as the square root of
+  // the signal, so on this scale it is about one level everywhere, and a marker in shadow
+  // (white at 15, black at 3) shows a step of 35 instead of 12: one pair of thresholds serves
+  // sunlit and shadowed markers alike. Later steps measure on the image itself.
+  const cv::Mat* edge_input = &gray8;
+  cv::Mat stabilised;
+  if (o.stabilise_variance) {
+    static const cv::Mat lut = [] {
+      cv::Mat t(1, 256, CV_8U);
+      for (int v = 0; v < 256; ++v)
+        t.at<uint8_t>(v) = cv::saturate_cast<uint8_t>(16 * std::sqrt(v));
+      return t;
+    }();
+    cv::LUT(gray8, lut, stabilised);
+    edge_input = &stabilised;
+  }
+  cv::Sobel(*edge_input, *gx, CV_16S, 1, 0, 3);
+  cv::Sobel(*edge_input, *gy, CV_16S, 0, 1, 3);
   cv::Mat edges;
   cv::Canny(*gx, *gy, edges, o.canny_low * 8, o.canny_high * 8, true);  // Sobel is 8x the slope
   std::vector<Segment> out;
-  for (const auto& chain : LinkChains(edges)) {
+  std::vector<std::vector<cv::Point>> chains = LinkChains(edges);
+  for (std::vector<cv::Point>& chain : chains) {
     std::vector<std::pair<int, int>> pieces;
-    Split(chain, 0, static_cast<int>(chain.size()) - 1, o.max_deviation, o.relative_deviation,
-          &pieces);
-    MergeAdjacent(chain, o.rejoin_deviation, o.relative_deviation, &pieces);
+    auto split = [&] {
+      pieces.clear();
+      Split(chain, 0, static_cast<int>(chain.size()) - 1, o.max_deviation, o.relative_deviation,
+            &pieces);
+      MergeAdjacent(chain, o.rejoin_deviation, o.relative_deviation, &pieces);
+    };
+    split();
+    // A closed curve's seam lies wherever the walk began, often just past a corner, which then
+    // bends the first piece: start the curve again at its first corner and split once more.
+    const cv::Point gap = chain.front() - chain.back();
+    if (pieces.size() >= 2 && gap.dot(gap) <= 2) {
+      std::rotate(chain.begin(), chain.begin() + pieces[0].second, chain.end());
+      split();
+    }
     for (const auto& [lo, hi] : pieces) {
       if (hi - lo + 1 < o.min_length) continue;
       // Total least squares line through the piece's pixels, and its mean gradient.

@@ -27,6 +27,9 @@ struct SegmentOptions {
   // Hysteresis thresholds on the gradient, grey levels per pixel: low, because a marker in
   // shadow or seen at a grazing angle may show a step of only 10-20 grey levels.
   double canny_low = 3, canny_high = 8;
+  // Find edges on 16 sqrt(grey) (noise about one level at every brightness; see segments.cc)
+  // instead of on the grey levels; the thresholds above then apply on that scale.
+  bool stabilise_variance = true;
   double min_length = 6;  // pixels
   // A chain is split where it leaves its chord by more than max(max_deviation,
   // relative_deviation * chord length): lens distortion bows a marker's side by about 1 % of
