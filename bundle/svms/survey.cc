@@ -588,9 +588,15 @@ Status Solver::ComputeCovariance() {
   for (auto& [id, h] : post_height_)
     if (problem_->HasParameterBlock(&h) && !problem_->IsParameterBlockConstant(&h))
       blocks.emplace_back(&h, &h);
+  // SuiteSparseQR's numerical rank does not always see a gauge freedom (parameters in metres
+  // and radians, poorly scaled), so the reduced normal matrix is checked first.
+  if (const std::string undetermined = RankDeficiency(); !undetermined.empty())
+    return Fail("the problem is rank deficient: " + undetermined);
   if (!covariance.Compute(blocks, problem_.get()))
-    return Fail("the problem is rank deficient (ceres::Covariance::Compute failed): " +
-                RankDeficiency());
+    return Fail(
+        "the problem is rank deficient: ceres::Covariance::Compute failed (its numerical rank "
+        "is below the number of parameters; no single undetermined direction was found at a "
+        "relative tolerance of 1e-9: check the gauge and the geometry)");
   const double factor = options_.scale_covariance ? S_.variance_factor : 1.0;
   S_.covariance_scaled = options_.scale_covariance;
   for (LayoutEntry& e : R_.layout.markers) {
@@ -621,6 +627,7 @@ Status Solver::ComputeCovariance() {
 // Which parameters the observations leave undetermined: the Gauss-Newton matrix J^T J with
 // the camera poses eliminated (Schur complement onto markers, posts and intrinsics),
 // normalised by its diagonal; its near-null eigenvectors name the parameters they move.
+// Empty when every parameter is determined.
 std::string Solver::RankDeficiency() {
   struct Param {
     const double* block;
@@ -667,16 +674,18 @@ std::string Solver::RankDeficiency() {
     S -= Hrc * Hcc.inverse() * Hrc.transpose();
   }
   Eigen::VectorXd d = S.diagonal().cwiseMax(0).cwiseSqrt();
-  std::vector<std::string> names;
+  // Parameter k is component `what[k]` of block `block_of[k]`.
+  std::vector<std::string> block_of, what;
   static const char* kAxes[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
   for (const Param& p : rest)
-    for (int k = 0; k < p.size; ++k)
-      names.push_back(p.size == 6   ? p.name + " " + kAxes[k]
-                      : p.size == 1 ? p.name
-                                    : p.name + "[" + std::to_string(k) + "]");
+    for (int k = 0; k < p.size; ++k) {
+      block_of.push_back(p.name);
+      what.push_back(p.size == 6 ? kAxes[k] : p.size == 1 ? "" : "[" + std::to_string(k) + "]");
+    }
   for (int k = 0; k < nr; ++k)
     if (d(k) <= 1e-12 * std::max(1.0, d.maxCoeff())) {
-      found.push_back(names[k] + " (no observation constrains it)");
+      found.push_back(block_of[k] + (what[k].empty() ? "" : " " + what[k]) +
+                      " (no observation constrains it)");
       d(k) = 1;
     }
   const Eigen::MatrixXd Sn = d.asDiagonal().inverse() * S * d.asDiagonal().inverse();
@@ -687,18 +696,23 @@ std::string Solver::RankDeficiency() {
     if (es.eigenvalues()(e) > 1e-9 * top) break;
     ++null_dims;
     const Eigen::VectorXd v = es.eigenvectors().col(e);
+    // "marker 100 (rx tz), marker 101 (tx ty), post height of marker 104"
+    std::vector<std::pair<std::string, std::string>> moved;
+    for (int k = 0; k < nr; ++k) {
+      if (std::abs(v(k)) <= 0.2 * v.cwiseAbs().maxCoeff()) continue;
+      if (moved.empty() || moved.back().first != block_of[k])
+        moved.emplace_back(block_of[k], what[k]);
+      else
+        moved.back().second += " " + what[k];
+    }
     std::string dir;
-    int listed = 0;
-    for (int k = 0; k < nr; ++k)
-      if (std::abs(v(k)) > 0.2 * v.cwiseAbs().maxCoeff()) {
-        if (listed++ < 12) dir += (dir.empty() ? "" : ", ") + names[k];
-      }
-    if (listed > 12) dir += ", ... (" + std::to_string(listed) + " in all)";
+    for (size_t i = 0; i < moved.size() && i < 10; ++i)
+      dir += (i ? ", " : "") + moved[i].first +
+             (moved[i].second.empty() ? "" : " (" + moved[i].second + ")");
+    if (moved.size() > 10) dir += ", ... (" + std::to_string(moved.size()) + " blocks in all)";
     found.push_back("direction " + std::to_string(null_dims) + " moves " + dir);
   }
-  if (found.empty())
-    return "no undetermined parameter found at a relative tolerance of 1e-9 (the problem is "
-           "nearly singular; check the gauge and the geometry)";
+  if (found.empty()) return "";
   std::string s = "not determined: ";
   for (size_t i = 0; i < found.size(); ++i) s += (i ? "; " : "") + found[i];
   return s + " (fix the gauge or add observations that constrain them)";
