@@ -18,6 +18,11 @@ void AddGenerateCommands(CLI::App& app, int* exit_code);
 void AddRenderCommands(CLI::App& app, int* exit_code);
 void AddDatasetCommands(CLI::App& app, int* exit_code);
 void AddDetectCommands(CLI::App& app, int* exit_code);
+void AddSurveyCommands(CLI::App& app, int* exit_code);
+void AddBenchCommands(CLI::App& app, int* exit_code);
+
+// Benchmarks: each registers its subcommand on the `bench` group (apps/cmd_bench.cc).
+void AddBenchSurvey(CLI::App& bench, int* exit_code);
 
 // Renders every view of `scene` into `out_dir` (VIEW.png, truth.json) on `threads` threads,
 // progress on stderr; `source` names the scene in messages. Returns an exit code.

@@ -24,6 +24,8 @@ int main(int argc, char** argv) {
   svms::cli::AddRenderCommands(app, &exit_code);
   svms::cli::AddDatasetCommands(app, &exit_code);
   svms::cli::AddDetectCommands(app, &exit_code);
+  svms::cli::AddSurveyCommands(app, &exit_code);
+  svms::cli::AddBenchCommands(app, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

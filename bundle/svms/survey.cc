@@ -530,7 +530,10 @@ void Solver::RejectOutliers() {
       std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
       scale = v[v.size() / 2] / 1.1774;
     }
-    thresh[kind] = options_.outlier_sigmas * std::max(scale, 1e-6);
+    // Never tighter than the stated sigma: the detector's corners are often better than
+    // 0.1 px on large markers, and a threshold at 5 times that would cut into the honest
+    // residuals of small, oblique ones.
+    thresh[kind] = options_.outlier_sigmas * std::max(scale, 1.0);
   }
   std::map<int, int> bad_per_detection;
   for (size_t k = 0; k < points_.size(); ++k) {
@@ -566,6 +569,27 @@ void Solver::RejectOutliers() {
       for (PointObs& p : points_)
         if (p.marker_id == id) p.rejected = true;
     }
+  // The rejections may have cut the view graph: keep the root's component.
+  std::vector<ImageSightings> left(images_.size());
+  std::set<std::pair<int, int>> kept;  // (image, marker) with a corner left
+  for (const PointObs& p : points_)
+    if (!p.rejected && p.point != 4 && image_used_[p.image]) kept.insert({p.image, p.marker_id});
+  for (const auto& [image, id] : kept) left[image].push_back(MarkerSighting{id, Pose(), 0, false});
+  for (const std::vector<int>& comp : ConnectedComponents(left)) {
+    if (std::count(comp.begin(), comp.end(), root_)) continue;
+    for (int id : comp) {
+      if (!surveyed_.erase(id)) continue;
+      S_.left_out.emplace_back(
+          id, "after outlier rejection, no longer seen together with the reference's group");
+      for (PointObs& p : points_)
+        if (p.marker_id == id) p.rejected = true;
+    }
+  }
+  std::fill(points_in_image.begin(), points_in_image.end(), 0);
+  for (const PointObs& p : points_)
+    if (!p.rejected && image_used_[p.image]) ++points_in_image[p.image];
+  for (size_t i = 0; i < images_.size(); ++i)
+    if (points_in_image[i] == 0) image_used_[i] = false;
 }
 
 Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
@@ -650,7 +674,8 @@ std::string Solver::RankDeficiency() {
   for (const Param& p : cams) eo.parameter_blocks.push_back(const_cast<double*>(p.block));
   for (const Param& p : rest) eo.parameter_blocks.push_back(const_cast<double*>(p.block));
   ceres::CRSMatrix crs;
-  problem_->Evaluate(eo, nullptr, nullptr, nullptr, &crs);
+  if (!problem_->Evaluate(eo, nullptr, nullptr, nullptr, &crs))
+    return "(the Jacobian could not be evaluated at the solution: a point does not project)";
   Eigen::SparseMatrix<double, Eigen::RowMajor> J(crs.num_rows, crs.num_cols);
   std::vector<Eigen::Triplet<double>> t;
   for (int r = 0; r < crs.num_rows; ++r)
@@ -687,6 +712,9 @@ std::string Solver::RankDeficiency() {
       found.push_back(block_of[k] + (what[k].empty() ? "" : " " + what[k]) +
                       " (no observation constrains it)");
       d(k) = 1;
+      S.row(k).setZero();
+      S.col(k).setZero();
+      S(k, k) = 1;  // listed; keep it out of the directions below
     }
   const Eigen::MatrixXd Sn = d.asDiagonal().inverse() * S * d.asDiagonal().inverse();
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Sn);

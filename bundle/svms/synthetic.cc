@@ -1,5 +1,6 @@
 #include "svms/synthetic.h"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -31,7 +32,8 @@ Pose LookAtPose(const Eigen::Vector3d& eye, const Eigen::Vector3d& target,
 std::vector<SurveyImage> SynthesiseImages(
     const Layout& truth, const CameraModel& camera,
     const std::vector<std::pair<std::string, Pose>>& cam_from_object, const SyntheticOptions& o,
-    uint64_t seed) {
+    uint64_t seed, const std::vector<std::vector<int>>* only_ids,
+    const std::vector<std::vector<bool>>* with_tip) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> g(0, 1);
   std::vector<Candidate> cands;
@@ -44,24 +46,34 @@ std::vector<SurveyImage> SynthesiseImages(
   }
   const double cos_max = std::cos(o.max_view_angle_deg * M_PI / 180);
   std::vector<SurveyImage> out;
-  for (const auto& [name, cam_from_obj] : cam_from_object) {
+  for (size_t view = 0; view < cam_from_object.size(); ++view) {
+    const auto& [name, cam_from_obj] = cam_from_object[view];
     SurveyImage im;
     im.name = name;
     std::vector<int> outer_seen;
     for (const Candidate& c : cands) {
       const Pose cam_from_marker = cam_from_obj * c.object_from_marker;
       const Eigen::Vector3d cam_in_marker = cam_from_marker.Inverse().tvec;
-      if (cam_in_marker.z() <= cos_max * cam_in_marker.norm()) continue;
+      int listed = -1;  // index in only_ids, or -1
+      if (only_ids) {
+        const std::vector<int>& ids = (*only_ids)[view];
+        const auto it = std::find(ids.begin(), ids.end(), c.model.id);
+        if (it == ids.end()) continue;
+        listed = static_cast<int>(it - ids.begin());
+      } else if (cam_in_marker.z() <= cos_max * cam_in_marker.norm()) {
+        continue;
+      }
       Detection d;
       d.id = c.model.id;
       bool ok = true;
       for (int k = 0; k < 4 && ok; ++k) {
         Eigen::Vector2d px;
-        ok = camera.Project(cam_from_marker * c.model.Corners()[k], &px) && px.x() >= 0 &&
-             px.y() >= 0 && px.x() <= camera.width() - 1 && px.y() <= camera.height() - 1;
+        ok = camera.Project(cam_from_marker * c.model.Corners()[k], &px) &&
+             (only_ids || (px.x() >= 0 && px.y() >= 0 && px.x() <= camera.width() - 1 &&
+                           px.y() <= camera.height() - 1));
         d.corners[k] = px;
       }
-      if (!ok || d.side_px() < o.min_side_px) continue;
+      if (!ok || (!only_ids && d.side_px() < o.min_side_px)) continue;
       for (auto& p : d.corners) p += o.corner_sigma_px * Eigen::Vector2d(g(rng), g(rng));
       const std::array<Eigen::Vector3d, 4> corners = c.model.Corners();
       std::vector<Eigen::Vector3d> X(corners.begin(), corners.end());
@@ -69,11 +81,12 @@ std::vector<SurveyImage> SynthesiseImages(
       std::vector<double> sig(4, o.corner_sigma_px);
       const bool tip_here = c.outer_id < 0 || std::find(outer_seen.begin(), outer_seen.end(),
                                                         c.outer_id) == outer_seen.end();
-      if (o.tips && c.model.post && tip_here) {
+      const bool tip_listed = !with_tip || (listed >= 0 && (*with_tip)[view][listed]);
+      if (o.tips && c.model.post && tip_here && tip_listed) {
         double fraction = 0;
         const Eigen::Vector3d tip = VisibleTipPoint(c.model, cam_in_marker, &fraction);
         Eigen::Vector2d t;
-        if (fraction >= 0.25 && camera.Project(cam_from_marker * tip, &t)) {
+        if ((fraction >= 0.25 || with_tip) && camera.Project(cam_from_marker * tip, &t)) {
           d.tip =
               TipObservation{t + o.tip_sigma_px * Eigen::Vector2d(g(rng), g(rng)), o.tip_sigma_px};
           X.push_back(tip);

@@ -28,10 +28,15 @@ struct SyntheticOptions {
 // VisibleTipPoint) plus noise, and a single-marker pose fitted to them (RefinePose from the
 // true pose). A dual marker's tip goes with its outer detection (the inner one's when the
 // outer is not seen). Deterministic for a seed. Occlusion is not modelled.
+// With `only_ids` (one list per camera), exactly those markers are synthesised in each image
+// (e.g. what the detector found in rendered images), whatever the criteria above say, as long
+// as they project; tips only where `with_tip` (same shape, when given) says so.
 std::vector<SurveyImage> SynthesiseImages(
     const Layout& truth, const CameraModel& camera,
     const std::vector<std::pair<std::string, Pose>>& cam_from_object,
-    const SyntheticOptions& options, uint64_t seed);
+    const SyntheticOptions& options, uint64_t seed,
+    const std::vector<std::vector<int>>* only_ids = nullptr,
+    const std::vector<std::vector<bool>>* with_tip = nullptr);
 
 // A synthetic object for tests and scaling runs: `markers` markers (sizes 0.1 and 0.15 m with
 // posts, every fifth a concave well; IDs 100, 101, ...) on grids over the five visible faces
