@@ -358,8 +358,8 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
      << F(result.summary.variance_factor, 3) << ", " << result.summary.rejected.size()
      << " points rejected.\n\n";
   md << "| marker | detections | BA position error (mm) | BA orientation error (deg) | BA post "
-        "height error (mm) | naive position error (mm) | naive orientation error (deg) | "
-        "initialisation position error (mm) |\n|---|---|---|---|---|---|---|---|\n";
+        "height error (mm) | BA NEES | naive position error (mm) | naive orientation error "
+        "(deg) | initialisation position error (mm) |\n|---|---|---|---|---|---|---|---|---|\n";
   for (const MarkerError& b : ba) {
     MarkerError n, in;
     for (const MarkerError& m : naive)
@@ -368,8 +368,8 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
       if (m.id == b.id) in = m;
     md << "| " << b.id << " | " << detections_of[b.id] << " | " << F(b.position_mm, 3) << " | "
        << F(b.orientation_deg, 4) << " | " << (b.has_post ? F(b.post_error_mm, 3) : "-") << " | "
-       << F(n.position_mm, 3) << " | " << F(n.orientation_deg, 4) << " | " << F(in.position_mm, 3)
-       << " |\n";
+       << F(b.nees, 1) << " | " << F(n.position_mm, 3) << " | " << F(n.orientation_deg, 4) << " | "
+       << F(in.position_mm, 3) << " |\n";
   }
   std::vector<MarkerError> posts;
   for (const MarkerError& m : ba)

@@ -128,5 +128,12 @@ expect 1 "2 of 4 images failed" "$svms" detect "$tmp/det" --quiet
 expect 1 "/nonexistent.png: cannot read as an image" "$svms" detect /nonexistent.png --quiet
 expect 2 "/nonexistent.cameramodel" "$svms" detect "$tmp/det/a.png" --camera /nonexistent.cameramodel
 
+# survey (bundle/): bad input named, exit 2; survey failures exit 1
+expect 0 "Examples:" "$svms" survey --help
+expect 2 "/nonexistent.cameramodel" "$svms" survey "$tmp/range" --camera /nonexistent.cameramodel --markers "$tmp/range/markers.json" --reference 1 --out "$tmp/l.json"
+expect 2 "expected A:B:DISTANCE" "$svms" survey "$tmp/range" --camera "$tmp/range/true.cameramodel" --markers "$tmp/range/markers.json" --reference 1 --scale-bar 1:2 --out "$tmp/l.json"
+expect 2 "expected --reference ID or three --control-point" "$svms" survey "$tmp/range" --camera "$tmp/range/true.cameramodel" --markers "$tmp/range/markers.json" --out "$tmp/l.json"
+expect 1 "reference marker 999 has no model" "$svms" survey "$tmp/range" --camera "$tmp/range/true.cameramodel" --markers "$tmp/range/markers.json" --reference 999 --out "$tmp/l.json" --quiet
+
 echo "$passes passed, $fails failed"
 [ "$fails" -eq 0 ]
