@@ -96,9 +96,14 @@ RelativePoseAverage RobustAverage(const std::vector<Pose>& samples, double inlie
   out.samples = static_cast<int>(n);
   // Medoid: the sample with the least summed (capped) distance to the others, distances in
   // units of the inlier thresholds. Beyond 200 samples, 200 evenly spaced candidates.
-  auto dist = [&](const Pose& a, const Pose& b) {
-    const double d =
-        RotationAngle(a, b) / inlier_angle_rad + (a.tvec - b.tvec).norm() / inlier_distance;
+  std::vector<Eigen::Matrix3d> R(n);
+  for (size_t i = 0; i < n; ++i) R[i] = samples[i].Rotation();
+  auto angle = [&](size_t i, size_t j) {
+    return std::acos(std::clamp(0.5 * ((R[i].transpose() * R[j]).trace() - 1), -1.0, 1.0));
+  };
+  auto dist = [&](size_t i, size_t j) {
+    const double d = angle(i, j) / inlier_angle_rad +
+                     (samples[i].tvec - samples[j].tvec).norm() / inlier_distance;
     return std::min(d, 10.0);
   };
   const size_t step = std::max<size_t>(1, n / 200);
@@ -106,17 +111,17 @@ RelativePoseAverage RobustAverage(const std::vector<Pose>& samples, double inlie
   double best_sum = 1e300;
   for (size_t i = 0; i < n; i += step) {
     double sum = 0;
-    for (size_t j = 0; j < n; ++j) sum += dist(samples[i], samples[j]);
+    for (size_t j = 0; j < n; ++j) sum += dist(i, j);
     if (sum < best_sum) {
       best_sum = sum;
       best = i;
     }
   }
   std::vector<Pose> inliers;
-  for (const Pose& p : samples)
-    if (RotationAngle(p, samples[best]) <= inlier_angle_rad &&
-        (p.tvec - samples[best].tvec).norm() <= inlier_distance)
-      inliers.push_back(p);
+  for (size_t i = 0; i < n; ++i)
+    if (angle(i, best) <= inlier_angle_rad &&
+        (samples[i].tvec - samples[best].tvec).norm() <= inlier_distance)
+      inliers.push_back(samples[i]);
   out.inliers = static_cast<int>(inliers.size());
   out.a_from_b = PlainAverage(inliers);
   return out;
