@@ -1,6 +1,7 @@
 #include "svms/survey_report.h"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -98,18 +99,28 @@ Status WriteSurveyReport(const SurveyResult& r, const std::string& dir) {
 
   // The layout picture: marker squares, 3-sigma position ellipsoids magnified, cameras.
   std::ostringstream squares, ellipses, cams, labels;
-  double extent = 0.1;
-  for (const LayoutEntry& e : r.layout.markers)
-    extent = std::max(extent, e.object_from_marker.tvec.norm());
-  double largest = 0;
-  for (const LayoutEntry& e : r.layout.markers)
-    if (e.covariance)
-      largest = std::max(
-          largest,
+  // Plot box: the markers' bounding box with a margin (cameras outside are clipped); the
+  // ellipsoids magnified by a power of ten that makes the median one about 5 % of the box.
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+  std::vector<double> radii3;
+  for (const LayoutEntry& e : r.layout.markers) {
+    for (const Eigen::Vector3d& c : e.marker.Corners()) {
+      lo = lo.cwiseMin(e.object_from_marker * c);
+      hi = hi.cwiseMax(e.object_from_marker * c);
+    }
+    if (e.covariance && !e.covariance->isZero())
+      radii3.push_back(
           3 * std::sqrt(std::max(
                   0.0, e.covariance->bottomRightCorner<3, 3>().eigenvalues().real().maxCoeff())));
+  }
+  if (r.layout.markers.empty()) lo = hi = Eigen::Vector3d::Zero();
+  const double extent = std::max(0.2, (hi - lo).maxCoeff());
+  lo -= Eigen::Vector3d::Constant(0.3 * extent);
+  hi += Eigen::Vector3d::Constant(0.3 * extent);
+  std::sort(radii3.begin(), radii3.end());
+  const double median = radii3.empty() ? 0 : radii3[radii3.size() / 2];
   const double magnify =
-      largest > 0 ? std::pow(10, std::floor(std::log10(0.08 * extent / largest))) : 1;
+      median > 0 ? std::max(1.0, std::pow(10, std::floor(std::log10(0.05 * extent / median)))) : 1;
   for (const LayoutEntry& e : r.layout.markers) {
     const auto corners = e.marker.Corners();
     for (int k = 0; k <= 4; ++k) {
@@ -150,12 +161,16 @@ Status WriteSurveyReport(const SurveyResult& r, const std::string& dir) {
       "set title 'Surveyed layout (object frame, m): markers, 3-sigma position ellipsoids x" + mag +
       ", cameras'\n"
       "set xlabel 'x'\nset ylabel 'y'\nset zlabel 'z'\nset view equal xyz\nset view 60, 30\n"
-      "set key bottom right\n"
+      "set key bottom right\nset xrange [" +
+      Fixed(lo.x(), 3) + ":" + Fixed(hi.x(), 3) + "]\nset yrange [" + Fixed(lo.y(), 3) + ":" +
+      Fixed(hi.y(), 3) + "]\nset zrange [" + Fixed(lo.z(), 3) + ":" + Fixed(hi.z(), 3) +
+      "]\n"
       "splot 'layout_squares.dat' with lines lw 2 lc rgb '#202020' title 'markers', \\\n"
       "  'layout_ellipses.dat' with lines lc rgb '#d02020' title '3 sigma x" +
       mag +
       "', \\\n"
-      "  'layout_cameras.dat' with points pt 7 ps 0.4 lc rgb '#2060d0' title 'cameras', \\\n"
+      "  'layout_cameras.dat' with points pt 7 ps 0.4 lc rgb '#2060d0' title 'cameras (in the "
+      "box)', \\\n"
       "  'layout_labels.dat' using 1:2:3:4 with labels offset 1,1 notitle\n";
   const std::string layout_gp =
       "set terminal pngcairo size 1100,850\nset output 'layout.png'\n" + plot_body +
