@@ -20,12 +20,14 @@ void AddRenderCommands(CLI::App& app, int* exit_code);
 void AddDatasetCommands(CLI::App& app, int* exit_code);
 void AddDetectCommands(CLI::App& app, int* exit_code);
 void AddCalibrateCommands(CLI::App& app, int* exit_code);
+void AddSurveyCommands(CLI::App& app, int* exit_code);
 void AddBenchCommands(CLI::App& app, int* exit_code);
 
 // The `svms bench` subcommands, each registered on the `bench` group (cmd_bench.cc).
 void AddBenchDetect(CLI::App& bench, int* exit_code);
 void AddBenchCalibrate(CLI::App& bench, int* exit_code);
 void AddBenchCompare(CLI::App& bench, int* exit_code);
+void AddBenchSurvey(CLI::App& bench, int* exit_code);
 
 // Image inputs: IMAGE | DIR (its image files, sorted) | GLOB; unmatched names are kept (and fail
 // to read later).

@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   svms::cli::AddDatasetCommands(app, &exit_code);
   svms::cli::AddDetectCommands(app, &exit_code);
   svms::cli::AddCalibrateCommands(app, &exit_code);
+  svms::cli::AddSurveyCommands(app, &exit_code);
   svms::cli::AddBenchCommands(app, &exit_code);
   try {
     app.parse(argc, argv);

@@ -148,6 +148,12 @@ expect 1 "too few views: 2 of 2 images" "$svms" calibrate "$tmp"/board_view*.png
 cp "$tmp/board.png" "$tmp/board_view3.png"
 expect 1 "degenerate views" "$svms" calibrate "$tmp"/board_view*.png --board "$tmp/board.json" --out "$tmp/c.cameramodel" --quiet
 [ ! -e "$tmp/c.cameramodel" ] && pass || fail "calibrate wrote a model after failing"
+# survey (bundle/): bad input named, exit 2; survey failures exit 1
+expect 0 "Examples:" "$svms" survey --help
+expect 2 "/nonexistent.cameramodel" "$svms" survey "$tmp/range" --camera /nonexistent.cameramodel --markers "$tmp/range/markers.json" --reference 1 --out "$tmp/l.json"
+expect 2 "expected A:B:DISTANCE" "$svms" survey "$tmp/range" --camera "$tmp/range/true.cameramodel" --markers "$tmp/range/markers.json" --reference 1 --scale-bar 1:2 --out "$tmp/l.json"
+expect 2 "expected --reference ID or three --control-point" "$svms" survey "$tmp/range" --camera "$tmp/range/true.cameramodel" --markers "$tmp/range/markers.json" --out "$tmp/l.json"
+expect 1 "reference marker 999 has no model" "$svms" survey "$tmp/range" --camera "$tmp/range/true.cameramodel" --markers "$tmp/range/markers.json" --reference 999 --out "$tmp/l.json" --quiet
 
 echo "$passes passed, $fails failed"
 [ "$fails" -eq 0 ]

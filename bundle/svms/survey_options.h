@@ -1,0 +1,167 @@
+// The survey's plain structs, free of Ceres: what the user asks for (SurveyOptions: tuning
+// knobs with Check()), what the problem is tied to (SurveyConfig: the gauge, the scale bars,
+// what is fixed or refined), and what happened (SurveySummary). The solver itself is in
+// survey.h; the Ceres cost functions in cost_functions.h.
+//
+// A survey estimates, from many images of one object carrying several markers:
+//   - object_from_marker for every marker (6 DOF each; a dual marker's inner marker is a
+//     marker of its own, so their relative pose is surveyed too),
+//   - the height of every post (as built is not as drawn: the drawing's height is a prior),
+//   - cam_from_object for every image, and optionally the camera's intrinsics.
+// Frames and units as in docs/conventions.md: metres, radians, pixels.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "svms/status.h"
+
+namespace svms::bundle {
+
+// Tuning knobs. Defaults suit the SVMS detector's corners (0.1 px) and tips.
+struct SurveyOptions {
+  // Standard deviation of a detected corner, each axis (pixels). The detector's own figure
+  // (MarkerPoseOptions::corner_sigma_px).
+  double corner_sigma_px = 0.1;
+  // Floor on a post tip's standard deviation (pixels); the detector's TipObservation::sigma_px
+  // is used when larger.
+  double min_tip_sigma_px = 0.3;
+  // Standard deviation of the drawing's post height as a prior on the built one (metres).
+  double post_height_prior_sigma = 0.002;
+
+  // Robust loss of the first solve, on residuals in units of their sigma:
+  // "cauchy", "huber" or "trivial"; `loss_scale` is where it starts to bite (sigmas).
+  std::string loss = "cauchy";
+  double loss_scale = 3;
+  // After the first solve, a corner or tip whose residual exceeds `outlier_sigmas` times the
+  // robust scale of all residuals (1.4826 MAD of the normalised residuals) is rejected, and a
+  // detection with `outlier_points_per_detection` or more rejected points is dropped whole
+  // (a wrong ID or a flipped corner order). The second solve is least squares (no loss), so
+  // that its covariance is the textbook one.
+  bool reject_outliers = true;
+  double outlier_sigmas = 5;
+  int outlier_points_per_detection = 2;
+
+  // Initialisation: relative poses of two markers seen in the same image are averaged
+  // robustly; a sample further than these from the medoid is left out of the mean.
+  double init_inlier_angle_deg = 3;
+  double init_inlier_distance = 0.05;  // metres
+
+  int max_iterations = 100;
+  double function_tolerance = 1e-12;
+  double gradient_tolerance = 1e-14;
+  double parameter_tolerance = 1e-12;
+  int num_threads = 1;
+
+  bool compute_covariance = true;
+  // Scale covariances by the a-posteriori variance factor 2 cost / (m - n) (noise not known
+  // a priori). false: covariances assume the sigmas above are right.
+  bool scale_covariance = true;
+
+  // Progress of the solver on stderr.
+  bool verbose = false;
+
+  // Ok, or one line naming the bad field and what was expected.
+  Status Check() const;
+};
+
+// A point on the object named by the marker it is on: "ID" (the centre of the black square),
+// "ID.tl", "ID.tr", "ID.br", "ID.bl" (its corners as printed) or "ID.tip" (its post tip).
+struct NamedPoint {
+  std::string name;
+  int marker_id = -1;
+  enum class Kind { kCentre, kCorner, kTip } kind = Kind::kCentre;
+  int corner = 0;  // for kCorner: 0 TL, 1 TR, 2 BR, 3 BL
+};
+// Parses "12", "12.tl", "12.tip", ...; the error names `name` and the expected forms.
+Status ParseNamedPoint(const std::string& name, NamedPoint* out);
+
+// A measured distance between two named points (a scale bar), metres.
+struct ScaleBar {
+  NamedPoint a, b;
+  double distance = 0;
+  double sigma = 1e-4;
+};
+
+// A named point whose coordinates in the object frame are known (control point), metres.
+struct ControlPoint {
+  NamedPoint point;
+  Eigen::Vector3d point_in_object = Eigen::Vector3d::Zero();
+  double sigma = 1e-4;
+};
+
+// What the problem is tied to.
+struct SurveyConfig {
+  // The gauge (the object frame):
+  //  kReferenceMarker: the frame of `reference_id` (its pose is held at the identity);
+  //  kControlPoints: three or more non-collinear control points, weighted by their sigmas
+  //  (no marker held); the covariances then include the control points' uncertainty.
+  enum class Gauge { kReferenceMarker, kControlPoints };
+  Gauge gauge = Gauge::kReferenceMarker;
+  int reference_id = -1;
+  std::vector<ControlPoint> control_points;
+  // Scale comes from the marker sizes; scale bars add measured distances.
+  std::vector<ScaleBar> scale_bars;
+
+  bool refine_intrinsics = false;
+  bool estimate_post_heights = true;  // false: posts held at their drawn height
+  // Markers whose pose is held at its initial value (besides the reference), e.g. from a
+  // previous survey. Rarely needed.
+  std::vector<int> fixed_markers;
+  // A disconnected view graph is an error unless this is set; then only the component that
+  // holds the reference is surveyed and the others are listed as left out.
+  bool drop_disconnected = false;
+
+  // Ok, or one line naming the bad field.
+  Status Check() const;
+};
+
+// Residual statistics of one image or one marker after the final solve.
+struct ResidualStats {
+  std::string name;  // image name, or "marker ID"
+  int points = 0;    // corners and tips used
+  int outliers = 0;  // rejected after the first solve
+  double rms_px = 0;
+  double max_px = 0;
+};
+
+struct RejectedPoint {
+  std::string image;
+  int marker_id = -1;
+  std::string point;  // "tl", "tr", "br", "bl" or "tip"
+  double residual_px = 0;
+};
+
+// What the survey did.
+struct SurveySummary {
+  bool success = false;
+  std::string message;  // the failure, one line; empty on success
+
+  int images_total = 0, images_used = 0;
+  int detections_used = 0;
+  int markers_surveyed = 0;
+  // Markers left out, each with the reason ("seen in 1 image", "not in the reference's
+  // component", "no model").
+  std::vector<std::pair<int, std::string>> left_out;
+  // The view graph's connected components (marker IDs), largest first.
+  std::vector<std::vector<int>> components;
+
+  int residuals = 0, parameters = 0;  // m and n of the final solve
+  double initial_cost = 0, first_cost = 0, final_cost = 0;
+  int iterations_first = 0, iterations_second = 0;
+  double rms_px = 0;           // over all corners and tips of the final solve
+  double variance_factor = 1;  // 2 cost / (m - n) of the final solve
+  bool covariance_ok = false;
+  bool covariance_scaled = false;
+
+  std::vector<ResidualStats> per_image, per_marker;
+  std::vector<RejectedPoint> rejected;
+
+  double seconds_init = 0, seconds_first = 0, seconds_second = 0, seconds_covariance = 0;
+  std::string ceres_report_first, ceres_report_second;  // Ceres' BriefReport()
+
+  std::string BriefReport() const;  // a few lines for a terminal
+};
+
+}  // namespace svms::bundle
