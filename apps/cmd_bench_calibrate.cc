@@ -663,7 +663,9 @@ int RunBench(const BenchOptions& o) {
      << " views of a 6x5 SVMS marker board and, at the same poses, of a 10x8 chessboard, "
      << "1024x1024 " << truth.lensmodel()
      << " camera (the true model is known and all three tools solve for that same model). "
-     << "(a) `svms calibrate` on the marker board; (b) mrcal 2.2's `mrcal-calibrate-cameras` on "
+     << "(a) `svms calibrate` on the marker board (two passes: the second re-detects the corners "
+        "with the first pass's lens model, see the pass-1 row); (b) mrcal 2.2's "
+        "`mrcal-calibrate-cameras` on "
         "the chessboard corners found by OpenCV's `findChessboardCornersSB`; (c) OpenCV's "
         "`calibrateCamera` (`CALIB_RATIONAL_MODEL`, the same 8 distortion terms) on the same "
         "corners.\n\n"
@@ -738,6 +740,15 @@ int RunBench(const BenchOptions& o) {
                   pdiff[k][0], pdiff[k][1], pdiff[k][2]);
     md << line;
   }
+  md << "\nOutside the region every tool extrapolates an 8-term rational model into image "
+        "corners no view reached, and the whole-image figures rank that extrapolation: OpenCV "
+        "and mrcal see identical corners and agree inside the region, and mrcal additionally "
+        "regularises the distortion terms (its optimisation_inputs: "
+        "`do_apply_regularization`), which biases the extrapolation without showing in its "
+        "predicted uncertainty. svms's prediction there comes from directions of the state the "
+        "data barely see (eigenvalues near the pseudo-inverse cutoff of 1e-15 of the largest): "
+        "it says 'unknown' (hundreds of px) or, when a direction falls below the cutoff, too "
+        "little; it means nothing outside the data.\n";
   std::snprintf(line, sizeof line,
                 "\nsvms's corner noise: a-posteriori sigma %.4f px per axis (from the residuals "
                 "of the fit, what the prediction uses); the detected corners against the true "
