@@ -174,6 +174,11 @@ Status WriteReport(const CalibrateRunOptions& o, const std::vector<calib::ViewOb
                       {"rms_px", out->uncertainty_rms},
                       {"max_px", out->uncertainty_max}};
   if (o.calib.board_warp) j["board_warp_m"] = {r.warp.x(), r.warp.y()};
+  j["noise_sigma_px"] = r.noise_sigma_px;
+  if (o.redetect)
+    j["pass1"] = {{"what", "corners fitted in pixels, before re-detection with the lens model"},
+                  {"rms_px", out->pass1.rms_px},
+                  {"noise_sigma_px", out->pass1.noise_sigma_px}};
   j["solver"] = {
       {"iterations", r.iterations}, {"outlier_rounds", r.outlier_rounds}, {"final", r.report}};
   std::ofstream f(dir + "/summary.json");
@@ -204,37 +209,46 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
   // Every ID is decoded (not only the board's), so that images of another board are named.
   DetectorOptions dopt;
   dopt.known_ids_only = false;
-  const Detector detector(dopt, CameraModel(), models);
   const double corner_sigma = DetectorOptions().pose.corner_sigma_px;
 
-  // Detect on every image, in parallel.
-  const size_t n = o.images.size();
-  std::vector<calib::ViewObservations> all(n);
-  std::vector<std::string> errors(n);
-  std::vector<cv::Size> sizes(n);
-  std::atomic<size_t> next{0}, done{0};
-  std::mutex io;
-  auto worker = [&] {
-    for (size_t i; (i = next++) < n;) {
-      const cv::Mat img = cv::imread(o.images[i], cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
-      if (img.empty()) {
-        errors[i] = o.images[i] + ": cannot read as an image";
-      } else {
-        sizes[i] = img.size();
-        all[i] = calib::ObservationsFromDetections(detector.Detect(img), o.layout, o.images[i],
-                                                   corner_sigma);
+  // Detects on every image in `files`, in parallel, with `camera` (empty: corners fitted in
+  // pixels). Unreadable images get an error and no observations.
+  std::vector<cv::Size> sizes;
+  std::vector<std::string> errors;
+  auto detect_all = [&](const std::vector<std::string>& files, const CameraModel& camera,
+                        const char* what) {
+    const Detector detector(dopt, camera, models);
+    const size_t n = files.size();
+    std::vector<calib::ViewObservations> all(n);
+    errors.assign(n, "");
+    sizes.assign(n, cv::Size());
+    std::atomic<size_t> next{0}, done{0};
+    std::mutex io;
+    auto worker = [&] {
+      for (size_t i; (i = next++) < n;) {
+        const cv::Mat img = cv::imread(files[i], cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
+        if (img.empty()) {
+          errors[i] = files[i] + ": cannot read as an image";
+        } else {
+          sizes[i] = img.size();
+          all[i] = calib::ObservationsFromDetections(detector.Detect(img), o.layout, files[i],
+                                                     corner_sigma);
+        }
+        const size_t d = ++done;
+        if (!o.quiet) {
+          std::lock_guard<std::mutex> lock(io);
+          std::cerr << "\rsvms calibrate: " << what << " " << d << "/" << n << std::flush;
+        }
       }
-      const size_t d = ++done;
-      if (!o.quiet) {
-        std::lock_guard<std::mutex> lock(io);
-        std::cerr << "\rsvms calibrate: detected " << d << "/" << n << std::flush;
-      }
-    }
+    };
+    std::vector<std::thread> pool;
+    for (int t = 0; t < std::max(1, o.threads); ++t) pool.emplace_back(worker);
+    for (std::thread& t : pool) t.join();
+    if (!o.quiet) std::cerr << "\n";
+    return all;
   };
-  std::vector<std::thread> pool;
-  for (int t = 0; t < std::max(1, o.threads); ++t) pool.emplace_back(worker);
-  for (std::thread& t : pool) t.join();
-  if (!o.quiet) std::cerr << "\n";
+  const size_t n = o.images.size();
+  std::vector<calib::ViewObservations> all = detect_all(o.images, CameraModel(), "detected");
 
   // One image size; every image must have it.
   cv::Size size;
@@ -282,7 +296,30 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
   calib::CalibrationOptions co = o.calib;
   co.width = size.width, co.height = size.height;
   co.verbose = !o.quiet;
-  const Status st = calib::Calibrate(views, co, &out->result);
+  Status st = calib::Calibrate(views, co, &out->result);
+  if (st && o.redetect) {
+    // Pass 2: the detector fits each marker side as a straight line; through a distorting lens
+    // the side is curved, and lines fitted in pixels meet a little off the true corner, by an
+    // amount that follows the distortion (a bias, not noise: it goes into the intrinsics).
+    // Re-detect with the first pass's lens model, so the sides are fitted in the undistorted
+    // plane, and calibrate again.
+    if (!o.quiet)
+      std::cerr << prog << "pass 1: RMS " << out->result.rms_px
+                << " px; re-detecting with that lens model\n";
+    out->pass1 = out->result;
+    out->pass1_views = views;
+    std::vector<calib::ViewObservations> again =
+        detect_all(out->image_of_view, out->result.camera, "re-detected");
+    for (size_t i = 0; i < again.size(); ++i) {
+      if (!errors[i].empty()) {
+        std::cerr << prog << errors[i] << " (on re-reading)\n";
+        return kExitFailed;
+      }
+    }
+    views = std::move(again);
+    st = calib::Calibrate(views, co, &out->result);
+  }
+  out->views = views;
   for (const auto& [v, why] : out->result.skipped)
     if (!o.quiet) std::cerr << prog << "skipped " << why << "\n";
   if (!st) {

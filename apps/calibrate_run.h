@@ -20,15 +20,22 @@ struct CalibrateRunOptions {
   double uncertainty_range = 0;     // metres; 0 = the median board distance
   int threads = 1;
   bool quiet = false;
+  // Detect again with the first pass's lens model (corners fitted in the undistorted plane, so
+  // the curved image of a marker's side does not bias them) and calibrate again.
+  bool redetect = true;
 };
 
 struct CalibrateRunOutcome {
   calib::CalibrationResult result;
-  std::vector<std::string> image_of_view;  // per input view (readable images), its file
-  std::vector<std::string> errors;         // per-image problems (unreadable, wrong size, ...)
-  double uncertainty_range = 0;            // the range used, metres
+  std::vector<std::string> image_of_view;      // per input view (readable images), its file
+  std::vector<calib::ViewObservations> views;  // per input view, what was seen (result.views
+                                               // indexes into it)
+  std::vector<std::string> errors;             // per-image problems (unreadable, wrong size, ...)
+  double uncertainty_range = 0;                // the range used, metres
   double uncertainty_rms = 0, uncertainty_max = 0;  // sqrt(trace) over the image grid, px
   double coverage = 0;                              // fraction of 16x16 image cells with an inlier
+  calib::CalibrationResult pass1;  // with redetect: the first pass (corners fitted in pixels)
+  std::vector<calib::ViewObservations> pass1_views;  // and what it saw
 };
 
 // Runs the pipeline. Returns an exit code (commands.h); messages on stderr, one line each.

@@ -13,7 +13,7 @@ namespace {
 struct CalibrateCliOptions {
   std::vector<std::string> inputs;
   std::string board, lensmodel = "LENSMODEL_OPENCV8", out, report;
-  bool warp = false, quiet = false;
+  bool warp = false, quiet = false, no_redetect = false;
   double range = 0, max_rms = 2.0;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 };
@@ -43,6 +43,7 @@ int RunCalibrate(const CalibrateCliOptions& c) {
   o.uncertainty_range = c.range;
   o.threads = c.threads;
   o.quiet = c.quiet;
+  o.redetect = !c.no_redetect;
   CalibrateRunOutcome out;
   const int rc = RunCalibration(o, &out);
   if (rc == kExitBadInput || out.result.camera.empty() || out.result.num_inliers == 0) return rc;
@@ -88,6 +89,8 @@ void AddCalibrateCommands(CLI::App& app, int* exit_code) {
       ->capture_default_str();
   cmd->add_option("--threads", c->threads, "Detection threads")->check(CLI::Range(1, 256));
   cmd->add_flag("--quiet", c->quiet, "No progress on stderr");
+  cmd->add_flag("--no-redetect", c->no_redetect,
+                "One pass only: do not re-detect the corners with the first pass's lens model");
   cmd->footer(
       "Examples:\n"
       "  svms generate board --rows 5 --cols 6 --size 0.06 --gap 0.015 --first-id 100 --out board\n"

@@ -423,18 +423,37 @@ Status Calibrate(const std::vector<ViewObservations>& all_views, const Calibrati
   const double lmax = eig.eigenvalues()(nstate - 1);
   Eigen::VectorXd inv = eig.eigenvalues();
   for (int k = 0; k < nstate; ++k) inv(k) = inv(k) > 1e-15 * lmax ? 1 / inv(k) : 0.0;
-  const Eigen::MatrixXd Ainv =
-      eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
-  const Eigen::MatrixXd B = d.asDiagonal() * JotJo * d.asDiagonal();
   // sigma of the weighted residuals (mrcal's observed_pixel_uncertainty, in units of the
-  // reference sigma's pixels).
+  // reference sigma's pixels): the a-posteriori estimate of the corner noise, over the
+  // residuals' degrees of freedom (2 per inlier, less the state's dimension).
   double sum_w2 = 0;
   for (int v = 0; v < nv; ++v)
     for (size_t i = 0; i < res[v].size(); ++i)
       if (!outlier[v][i])
         sum_w2 += res[v][i].squaredNorm() * std::pow(Weight(views[v]->points[i], ref_sigma), 2);
-  const double sigma = inliers > 0 ? std::sqrt(sum_w2 / (2.0 * inliers)) : 0;
-  result->covariance = sigma * sigma * d.asDiagonal() * (Ainv * B * Ainv) * d.asDiagonal();
+  const int dof = 2 * inliers - nstate;
+  const double sigma = dof > 0 ? std::sqrt(sum_w2 / dof) : 0;
+  result->noise_sigma_px = sigma;
+  // The covariance is kept as a factor F (covariance = F F^t), so that everything propagated
+  // from it is positive semi-definite by construction: the rational and splined models have
+  // directions the data barely see (condition numbers near 1e15), and a dense product
+  // Ainv B Ainv then loses its positivity to round-off.
+  Eigen::VectorXd inv_sqrt(nstate);
+  for (int k = 0; k < nstate; ++k) inv_sqrt(k) = std::sqrt(inv(k));
+  Eigen::MatrixXd F;
+  if (!p.splined) {
+    // No prior: J_obs = J, so Ainv B Ainv = Ainv = V diag(1/l) V^t.
+    F = d.asDiagonal() * eig.eigenvectors() * inv_sqrt.asDiagonal();
+  } else {
+    const Eigen::MatrixXd B = d.asDiagonal() * JotJo * d.asDiagonal();
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eb(B);
+    const Eigen::VectorXd b_sqrt = eb.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+    const Eigen::MatrixXd Ainv =
+        eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
+    F = d.asDiagonal() * Ainv * eb.eigenvectors() * b_sqrt.asDiagonal();
+  }
+  result->covariance_factor = sigma * F;
+  result->covariance = result->covariance_factor * result->covariance_factor.transpose();
   const double rel = std::sqrt(result->covariance(0, 0)) / s.intrinsics[0];
   if (!(rel <= o.max_focal_rel_sigma)) {
     return Status::Error(
@@ -460,13 +479,13 @@ bool ProjectionCovariance(const CalibrationResult& r, const Eigen::Vector2d& px,
   const CameraModel& cam = r.camera;
   const int n = static_cast<int>(cam.intrinsics().size());
   const int nv = static_cast<int>(r.cam_from_board.size());
-  if (cam.empty() || nv == 0 || r.covariance.rows() < n + 6 * nv) return false;
+  if (cam.empty() || nv == 0 || r.covariance_factor.rows() < n + 6 * nv) return false;
   Eigen::Vector3d dir;
   if (!cam.Unproject(px, &dir)) return false;
   const Eigen::Vector3d p_cam = range * dir;
   // The point in each board's frame, mapped back through that board's (perturbed) pose; the
   // camera-frame point is the mean.
-  const int nstate = static_cast<int>(r.covariance.rows());
+  const int nstate = static_cast<int>(r.covariance_factor.rows());
   Eigen::MatrixXd dpmean_db = Eigen::MatrixXd::Zero(3, nstate);
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (int v = 0; v < nv; ++v) {
@@ -489,7 +508,8 @@ bool ProjectionCovariance(const CalibrationResult& r, const Eigen::Vector2d& px,
   if (!cam.Project(mean, &q, &dq_dp, &dq_di)) return false;
   Eigen::MatrixXd G = dq_dp * dpmean_db;
   G.leftCols(n) += dq_di;
-  *covariance = G * r.covariance * G.transpose();
+  const Eigen::MatrixXd GF = G * r.covariance_factor;  // PSD by construction
+  *covariance = GF * GF.transpose();
   return covariance->allFinite();
 }
 

@@ -13,7 +13,8 @@
 // models get mrcal-style regularisation (a weak prior pulling the control points to zero and
 // the centre to the image centre). The parameter covariance is mrcal's:
 //   Var(b) = sigma^2 inv(JtJ) J_obs^t J_obs inv(JtJ),
-// sigma the standard deviation of the inlier residuals (mrcal's observed_pixel_uncertainty).
+// sigma the a-posteriori noise of the inlier residuals (mrcal's observed_pixel_uncertainty,
+// estimated from the residuals of the fit, not assumed).
 #pragma once
 
 #include <Eigen/Core>
@@ -74,8 +75,15 @@ struct CalibrationResult {
   int outlier_rounds = 0;
   int iterations = 0;  // Ceres iterations over all solves
   // Covariance of the state [intrinsics (N), cam_from_board per used view (6 each: rotation
-  // vector, translation), warp (2, with board_warp)]; units of the parameters.
+  // vector, translation), warp (2, with board_warp)]; units of the parameters. Also as a factor
+  // F with covariance = F F^t (what ProjectionCovariance uses: positive semi-definite by
+  // construction, where the dense matrix of a nearly degenerate model loses that to round-off).
   Eigen::MatrixXd covariance;
+  Eigen::MatrixXd covariance_factor;
+  // The a-posteriori corner noise the covariance is scaled by: the RMS of the weighted inlier
+  // residual coordinates over their degrees of freedom (2 per inlier less the state's
+  // dimension), pixels (mrcal's observed_pixel_uncertainty).
+  double noise_sigma_px = 0;
   std::string report;  // the final Ceres solve's one-line report
 };
 

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -134,6 +135,31 @@ TEST(Calibrate, OpenCV8KnownAnswerWithNoise) {
   // One noise sample: the realised error is within a factor 3 of the predicted spread.
   EXPECT_LT(err / pred, 3.0);
   EXPECT_GT(err / pred, 1 / 3.0);
+}
+
+TEST(Calibrate, ProjectionCovarianceIsPositiveWhereTheModelExtrapolates) {
+  // The dataset's views leave the image corners empty; there the rational model's projection
+  // hangs on directions the data barely see (condition numbers near 1e15). The covariance must
+  // still be a covariance: finite and positive semi-definite, and larger than in the middle.
+  const BoardViews s = DatasetSetup();
+  const CameraModel truth = DistortedCamera();
+  CalibrationResult r;
+  ASSERT_TRUE(Calibrate(Synthesise(s, truth, 0.05, 6), Options("LENSMODEL_OPENCV8"), &r).ok());
+  ASSERT_EQ(r.covariance_factor.rows(), r.covariance.rows());
+  EXPECT_NEAR(r.noise_sigma_px, 0.05, 0.005);
+  Eigen::Matrix2d centre;
+  ASSERT_TRUE(ProjectionCovariance(r, Eigen::Vector2d(511.5, 511.5), 2.0, &centre));
+  for (int y = 0; y < 1024; y += 31)
+    for (int x = 0; x < 1024; x += 31) {
+      Eigen::Matrix2d C;
+      if (!ProjectionCovariance(r, Eigen::Vector2d(x, y), 2.0, &C)) continue;
+      ASSERT_TRUE(C.allFinite()) << x << " " << y;
+      const Eigen::Vector2d l = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(C).eigenvalues();
+      EXPECT_GE(l(0), -1e-12 * std::max(1.0, l(1))) << x << " " << y;
+    }
+  Eigen::Matrix2d corner;
+  ASSERT_TRUE(ProjectionCovariance(r, Eigen::Vector2d(5, 5), 2.0, &corner));
+  EXPECT_GT(corner.trace(), 10 * centre.trace());
 }
 
 TEST(Calibrate, PredictedUncertaintyMatchesMonteCarlo) {
