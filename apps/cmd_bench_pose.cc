@@ -25,7 +25,7 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 struct BenchPoseOptions {
-  std::string out, data, mockup, layout;
+  std::string out, data, mockup, layout, camera;
   bool quick = false;
   int repeat = 20;  // passes over the approach for the long run (500 x 20 = 10,000 frames)
   int threads = 2;  // rendering and the survey only; the pose runs on one thread
@@ -108,7 +108,8 @@ int RunBenchPose(const BenchPoseOptions& o) {
       return kExitFailed;
     }
     layout_path = (fs::path(o.out) / "layout.json").string();
-    if (Run("'" + exe + "' survey '" + M + "' --camera '" + M + "/true.cameramodel' --markers '" +
+    const std::string survey_camera = o.camera.empty() ? M + "/true.cameramodel" : o.camera;
+    if (Run("'" + exe + "' survey '" + M + "' --camera '" + survey_camera + "' --markers '" +
             M + "/markers.json' --reference 10 --out '" + layout_path + "' --quiet" + threads) != 0) {
       std::cerr << "svms bench pose: the survey failed\n";
       return kExitFailed;
@@ -117,7 +118,8 @@ int RunBenchPose(const BenchPoseOptions& o) {
   PoseEstimatorOptions options;
   options.fusion.corner_sigma_px = o.corner_sigma_px;
   std::unique_ptr<PoseEstimator> est;
-  if (Status s = PoseEstimator::CreateFromFiles(D + "/true.cameramodel", layout_path, options, &est);
+  const std::string camera_path = o.camera.empty() ? D + "/true.cameramodel" : o.camera;
+  if (Status s = PoseEstimator::CreateFromFiles(camera_path, layout_path, options, &est);
       !s) {
     std::cerr << "svms bench pose: " << s.message() << "\n";
     return kExitBadInput;
@@ -340,7 +342,8 @@ int RunBenchPose(const BenchPoseOptions& o) {
         "latency per 1024x1024 frame, detection included, <= 15 ms median on one core; memory "
         "flat over 10,000 frames.\n\n"
      << "Setup: the `approach` dataset (" << rows.size()
-     << " frames, 12 m -> 1.3 m, 1024x1024 OPENCV8 true camera); layout: `"
+     << " frames, 12 m -> 1.3 m, 1024x1024 OPENCV8 camera; "
+     << (o.camera.empty() ? std::string("the true model") : "`" + o.camera + "`") << "); layout: `"
      << (o.layout.empty() ? "svms survey` of the rendered `mockup` dataset (reference marker 10)"
                           : o.layout + "`")
      << "; corner sigma " << o.corner_sigma_px
@@ -389,6 +392,8 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
   cmd->add_option("--data", o->data, "A rendered approach dataset to reuse");
   cmd->add_option("--mockup", o->mockup, "A rendered mockup dataset to survey (reuse)");
   cmd->add_option("--layout", o->layout, "A surveyed layout to use instead of surveying");
+  cmd->add_option("--camera", o->camera,
+                  "Camera model for the survey and the pose (default: the dataset's true one)");
   cmd->add_option("--repeat", o->repeat, "Passes over the approach in the long run")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
