@@ -30,6 +30,8 @@ struct BenchPoseOptions {
   int repeat = 20;  // passes over the approach for the long run (500 x 20 = 10,000 frames)
   int threads = 2;  // rendering and the survey only; the pose runs on one thread
   double corner_sigma_px = ObjectPoseOptions{}.corner_sigma_px;
+  double corner_sigma_exponent = ObjectPoseOptions{}.corner_sigma_exponent;
+  double variance_prior_dof = ObjectPoseOptions{}.variance_prior_dof;
 };
 
 std::string F(double v, int digits) {
@@ -78,6 +80,8 @@ struct FrameRow {
   double position_mm = 0, orientation_deg = 0;
   double single_position_mm = std::nan(""), single_orientation_deg = std::nan("");
   double latency_ms = 0;
+  double chi2 = 0;
+  int dof = 0;
   bool budget_exceeded = false;
 };
 
@@ -117,6 +121,8 @@ int RunBenchPose(const BenchPoseOptions& o) {
   }
   PoseEstimatorOptions options;
   options.fusion.corner_sigma_px = o.corner_sigma_px;
+  options.fusion.corner_sigma_exponent = o.corner_sigma_exponent;
+  options.fusion.variance_prior_dof = o.variance_prior_dof;
   std::unique_ptr<PoseEstimator> est;
   const std::string camera_path = o.camera.empty() ? D + "/true.cameramodel" : o.camera;
   if (Status s = PoseEstimator::CreateFromFiles(camera_path, layout_path, options, &est);
@@ -132,13 +138,17 @@ int RunBenchPose(const BenchPoseOptions& o) {
       std::cerr << "svms bench pose: " << s.message() << "\n";
       return kExitBadInput;
     }
-  // The layout's object frame is the reference marker's (10): truth cam_from_object is the
-  // true cam_from_module times the true module_from_marker10.
+  // The layout's object frame against the module's: through marker 10, whose pose is known in
+  // both (the survey's reference: identity in the layout; the true layout: the module frame).
   const LayoutEntry* ref = truth_layout.layout.Find(10);
-  if (!ref) {
-    std::cerr << "svms bench pose: " << D << "/true_layout.json: no marker 10 (the reference)\n";
+  const LayoutEntry* ref_in_layout = est->layout().Find(10);
+  if (!ref || !ref_in_layout) {
+    std::cerr << "svms bench pose: marker 10 (the reference) is missing from "
+              << (!ref ? D + "/true_layout.json" : layout_path) << "\n";
     return kExitBadInput;
   }
+  const Pose module_from_object =
+      ref->object_from_marker * ref_in_layout->object_from_marker.Inverse();
   std::vector<std::pair<std::string, Pose>> truth;
   try {
     const nlohmann::json tj = nlohmann::json::parse(truth_text);
@@ -149,7 +159,7 @@ int RunBenchPose(const BenchPoseOptions& o) {
         pose.rvec[i] = p.at("rvec")[i].get<double>();
         pose.tvec[i] = p.at("tvec")[i].get<double>();
       }
-      truth.emplace_back(v.at("name").get<std::string>(), pose * ref->object_from_marker);
+      truth.emplace_back(v.at("name").get<std::string>(), pose * module_from_object);
     }
   } catch (const std::exception& e) {
     std::cerr << "svms bench pose: " << D << "/truth.json: " << e.what() << "\n";
@@ -177,6 +187,8 @@ int RunBenchPose(const BenchPoseOptions& o) {
     row.markers = r.pose.markers_used;
     row.rejected = static_cast<int>(r.pose.ids_rejected.size());
     row.latency_ms = r.latency_ms;
+    row.chi2 = r.pose.chi2;
+    row.dof = r.pose.dof;
     row.budget_exceeded = r.budget_exceeded;
     if (r.pose.valid) {
       row.error = PoseError(truth[i].second, r.pose.cam_from_object);
@@ -226,7 +238,7 @@ int RunBenchPose(const BenchPoseOptions& o) {
     std::ofstream f(fs::path(o.out) / "frames.csv");
     f << "frame,name,range_m,valid,markers,rejected,ex_rad,ey_rad,ez_rad,ex_m,ey_m,ez_m,"
          "sx_rad,sy_rad,sz_rad,sx_m,sy_m,sz_m,nees,position_mm,orientation_deg,"
-         "single_position_mm,single_orientation_deg,latency_ms\n";
+         "single_position_mm,single_orientation_deg,latency_ms,chi2,dof\n";
     f.precision(9);
     for (size_t i = 0; i < rows.size(); ++i) {
       const FrameRow& w = rows[i];
@@ -235,7 +247,8 @@ int RunBenchPose(const BenchPoseOptions& o) {
       for (int k = 0; k < 6; ++k) f << "," << w.error[k];
       for (int k = 0; k < 6; ++k) f << "," << w.sigma[k];
       f << "," << w.nees << "," << w.position_mm << "," << w.orientation_deg << ","
-        << w.single_position_mm << "," << w.single_orientation_deg << "," << w.latency_ms << "\n";
+        << w.single_position_mm << "," << w.single_orientation_deg << "," << w.latency_ms << ","
+        << w.chi2 << "," << w.dof << "\n";
     }
     std::ofstream s(fs::path(o.out) / "soak.csv");
     s << "frames,rss_mib\n";
@@ -244,6 +257,7 @@ int RunBenchPose(const BenchPoseOptions& o) {
     l << "frame,latency_ms\n";
     for (size_t i = 0; i < latency.size(); ++i) l << i << "," << latency[i] << "\n";
   }
+  std::vector<double> chi2_per_dof;
   std::vector<double> nees, pos, ori, single_pos, single_ori, fused_pos_multi, single_pos_multi;
   std::map<int, std::vector<double>> nees_by_markers;
   int valid = 0, flips = 0, budget = 0;
@@ -252,6 +266,7 @@ int RunBenchPose(const BenchPoseOptions& o) {
     if (!w.valid) continue;
     ++valid;
     nees.push_back(w.nees);
+    if (w.dof > 0) chi2_per_dof.push_back(w.chi2 / w.dof);
     nees_by_markers[std::min(w.markers, 5)].push_back(w.nees);
     pos.push_back(w.position_mm);
     ori.push_back(w.orientation_deg);
@@ -281,6 +296,8 @@ int RunBenchPose(const BenchPoseOptions& o) {
       {"corner_sigma_px", o.corner_sigma_px},
       {"nees_mean", nees_mean},
       {"nees_bounds", {6 - half, 6 + half}},
+      {"nees_median", Percentile(nees, 0.5)},
+      {"chi2_per_dof_mean", Mean(chi2_per_dof)},
       {"position_error_mm_median", Percentile(pos, 0.5)},
       {"position_error_mm_p95", Percentile(pos, 0.95)},
       {"orientation_error_deg_median", Percentile(ori, 0.5)},
@@ -346,13 +363,18 @@ int RunBenchPose(const BenchPoseOptions& o) {
      << (o.camera.empty() ? std::string("the true model") : "`" + o.camera + "`") << "); layout: `"
      << (o.layout.empty() ? "svms survey` of the rendered `mockup` dataset (reference marker 10)"
                           : o.layout + "`")
-     << "; corner sigma " << o.corner_sigma_px
-     << " px; truth is the renderer's cam_from_module times the true module_from_marker10 (the "
-        "layout's object frame). Pose on one thread, images preloaded.\n\n"
+     << "; corner sigma " << o.corner_sigma_px << " px at 30 px, scaled by (30 / side)^"
+     << o.corner_sigma_exponent << ", variance prior dof " << o.variance_prior_dof << "; truth is the renderer's cam_from_module times module_from_object, the layout's "
+        "object frame placed through marker 10 (the survey's reference). Pose on one thread, "
+        "images preloaded.\n\n"
      << "| measure | value | target |\n|---|---|---|\n"
      << "| frames with a pose | " << valid << " / " << rows.size() << " | |\n"
      << "| mean NEES | " << F(nees_mean, 2) << " | [" << F(6 - half, 2) << ", " << F(6 + half, 2)
      << "] " << (nees_ok ? "met" : "**not met**") << " |\n"
+     << "| median NEES (chi-square(6) median: 5.35) / 95th percentile (12.59) | "
+     << F(Percentile(nees, 0.5), 2) << " / " << F(Percentile(nees, 0.95), 2) << " | |\n"
+     << "| mean chi2 / dof of the fits (1 if the pixel noise model is right) | "
+     << F(Mean(chi2_per_dof), 2) << " | |\n"
      << "| position error, median / 95 % (mm) | " << F(Percentile(pos, 0.5), 2) << " / "
      << F(Percentile(pos, 0.95), 2) << " | |\n"
      << "| orientation error, median / 95 % (deg) | " << F(Percentile(ori, 0.5), 4) << " / "
@@ -399,6 +421,12 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
       ->capture_default_str();
   cmd->add_option("--corner-sigma", o->corner_sigma_px, "Corner pixel noise for the fusion")
       ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--corner-sigma-exponent", o->corner_sigma_exponent,
+                  "Corner sigma scales as (30 px / side)^this")
+      ->capture_default_str();
+  cmd->add_option("--variance-prior-dof", o->variance_prior_dof,
+                  "Scale covariances by the frame's variance factor with this prior (0: off)")
       ->capture_default_str();
   cmd->add_option("--threads", o->threads, "Threads for rendering and the survey")
       ->check(CLI::Range(1, 256))

@@ -52,6 +52,7 @@ nlohmann::json FrameJson(const FrameResult& r) {
   }
   j["markers"] = p.ids_used;
   j["markers_rejected"] = p.ids_rejected;
+  j["points_rejected"] = p.points_rejected;
   j["markers_seen"] = p.markers_seen;
   j["points"] = p.points_used;
   j["rms"] = p.rms_px;
@@ -197,7 +198,7 @@ void AddPoseCommands(CLI::App& app, int* exit_code) {
       "Output: one JSON line per frame, flushed: image, timestamp (given, or the frame index),\n"
       "valid, cam_from_object {rvec, tvec, quaternion [w, x, y, z]}, covariance (36 numbers,\n"
       "row-major, [rotation, translation], rotation about the camera axes), markers (IDs used),\n"
-      "markers_rejected, markers_seen, points, rms (px), chi2, dof, flags {ambiguous,\n"
+      "markers_rejected, points_rejected, markers_seen, points, rms (px), chi2, dof, flags {ambiguous,\n"
       "poorly_conditioned, budget_exceeded}, latency_ms, detect_ms; message when not valid.\n"
       "An unreadable frame gets an \"error\" field and a line on stderr; the stream goes on;\n"
       "exit code 1 at the end. See docs/flight-interface.md.\n"

@@ -55,6 +55,7 @@ struct Point {
   Eigen::Vector2d px;
   double sigma;
   Eigen::Vector3d d_dheight = Eigen::Vector3d::Zero();
+  int index = 0;  // 0-3 the corners, 4 the tip
 };
 
 struct Block {
@@ -63,8 +64,10 @@ struct Block {
   Eigen::Matrix3d R_om;  // object_from_marker rotation
   Eigen::Vector3d t_om;
   Eigen::MatrixXd L_inv;  // inverse Cholesky factor of the marker's residual covariance
+  std::vector<double> total_sigma;  // per point: pixel and layout noise, RMS per axis
   double weight = 1;      // robust weight of the iteration
   bool active = true;
+  std::array<bool, 5> dropped{};  // points left out as outliers (corners 0-3, tip 4)
 };
 
 // The marker's points at the current pose (the concave well's visible bottom depends on it).
@@ -73,8 +76,10 @@ void UpdatePoints(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
   const MarkerObservation& m = *b->obs;
   b->points.clear();
   const auto corners = m.model.Corners();
-  for (int k = 0; k < 4; ++k) b->points.push_back({corners[k], m.corners[k], o.corner_sigma_px});
-  if (o.use_tips && m.tip && m.model.post) {
+  const double sigma = CornerSigma(o, m.side_px);
+  for (int k = 0; k < 4; ++k)
+    if (!b->dropped[k]) b->points.push_back({corners[k], m.corners[k], sigma, Eigen::Vector3d::Zero(), k});
+  if (o.use_tips && m.tip && m.model.post && !b->dropped[4]) {
     // Camera centre in the marker frame: marker_from_cam = (cam_from_object object_from_marker)^-1.
     const Eigen::Matrix3d R_cm = R * b->R_om;
     const Eigen::Vector3d t_cm = R * b->t_om + t;
@@ -84,6 +89,7 @@ void UpdatePoints(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
     if (fraction > 0 || !m.model.post->concave()) {
       Point p{tip, m.tip->pixel, std::max(o.min_tip_sigma_px, m.tip->sigma_px)};
       p.d_dheight = Eigen::Vector3d::UnitZ();
+      p.index = 4;
       b->points.push_back(p);
     }
   }
@@ -134,6 +140,8 @@ bool Whitening(const CameraModel& camera, Block* b, const Eigen::Matrix3d& R,
     if (b->obs->post_height_sigma) S(6, 6) = *b->obs->post_height_sigma * *b->obs->post_height_sigma;
     C += JL * S * JL.transpose();
   }
+  b->total_sigma.resize(n);
+  for (int i = 0; i < n; ++i) b->total_sigma[i] = std::sqrt(0.5 * C.block<2, 2>(2 * i, 2 * i).trace());
   Eigen::LLT<Eigen::MatrixXd> llt(C);
   if (llt.info() != Eigen::Success) return false;
   b->L_inv = llt.matrixL().solve(Eigen::MatrixXd::Identity(2 * n, 2 * n));
@@ -150,6 +158,12 @@ double MarkerChi2(const CameraModel& camera, const Block& b, const Eigen::Matrix
 }
 
 }  // namespace
+
+double CornerSigma(const ObjectPoseOptions& o, double side_px) {
+  const double side = std::max(1.0, side_px);
+  return std::max(o.min_corner_sigma_px,
+                  o.corner_sigma_px * std::pow(30.0 / side, o.corner_sigma_exponent));
+}
 
 std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Detection>& detections,
                                                            const Layout& layout) {
@@ -179,6 +193,7 @@ std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Dete
       o.layout_covariance = entry.covariance;
       o.post_height_sigma = entry.post_height_sigma;
       o.corners = d->corners;
+      o.side_px = d->side_px();
       o.cam_from_marker = d->cam_from_marker;
       o.pose_ambiguous = d->pose_ambiguous;
       // One tip per physical post: the inner marker of a dual shares the outer's post, whether
@@ -284,22 +299,56 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
       t += step.tail<3>();
       converged = step.head<3>().norm() < 1e-10 && step.tail<3>().norm() < 1e-10 * (1 + t.norm());
     }
-    // Rejection: the worst marker, if its chi-square is beyond the quantile and others remain.
-    int worst = -1, active = 0;
-    double worst_excess = 1;
+    // Rejection, one at a time, then a new fit. A marker that stays inconsistent without its
+    // worst point (chi-square beyond the reject_quantile) is wrong as a whole (a misread quad,
+    // a marker seen at a grazing angle) and goes first: left in, it pulls the fit and makes
+    // good points elsewhere look bad. Otherwise the worst single point (a corner hidden by the
+    // post, a glint taken for the tip) goes if it is beyond point_reject_sigma of its noise
+    // (pixel and layout) and its marker keeps 3 points.
+    int worst_marker = -1, worst_block = -1, worst_point = -1, active = 0;
+    double worst_excess = 1, worst_norm = o.point_reject_sigma;
     for (size_t i = 0; i < blocks.size(); ++i) {
-      if (!blocks[i].active) continue;
+      Block& b = blocks[i];
+      if (!b.active) continue;
       ++active;
-      const double chi2 = MarkerChi2(camera, blocks[i], R, t);
-      const double limit = ChiSquareQuantile(o.reject_quantile, 2 * static_cast<int>(blocks[i].points.size()));
-      if (chi2 / limit > worst_excess) {
-        worst_excess = chi2 / limit;
-        worst = static_cast<int>(i);
+      Eigen::VectorXd r;
+      Eigen::MatrixXd J;
+      if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) continue;
+      const double chi2 = (b.L_inv * r).squaredNorm();
+      double point_max = 0;
+      int point_arg = -1;
+      for (size_t k = 0; k < b.points.size(); ++k) {
+        const double n = r.segment<2>(2 * k).norm() / b.total_sigma[k];
+        if (n > point_max) {
+          point_max = n;
+          point_arg = b.points[k].index;
+        }
+      }
+      const int n_points = static_cast<int>(b.points.size());
+      const bool can_drop = n_points > 3;
+      const double rest = can_drop ? std::max(0.0, chi2 - point_max * point_max) : chi2;
+      const double excess = rest / ChiSquareQuantile(o.reject_quantile, 2 * (n_points - can_drop));
+      if (excess > worst_excess) {
+        worst_excess = excess;
+        worst_marker = static_cast<int>(i);
+      }
+      if (can_drop && point_max > worst_norm) {
+        worst_norm = point_max;
+        worst_block = static_cast<int>(i);
+        worst_point = point_arg;
       }
     }
-    if (worst < 0 || active <= 1) break;
-    blocks[worst].active = false;
-    result.ids_rejected.push_back(blocks[worst].obs->id);
+    if (worst_marker >= 0 && active > 1) {
+      blocks[worst_marker].active = false;
+      result.ids_rejected.push_back(blocks[worst_marker].obs->id);
+      continue;
+    }
+    if (worst_block >= 0) {
+      blocks[worst_block].dropped[worst_point] = true;
+      ++result.points_rejected;
+      continue;
+    }
+    break;
   }
 
   // 4. The result: covariance from the unweighted information of the markers kept.
@@ -335,6 +384,13 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
   }
   result.covariance = lu.inverse();
   result.covariance = 0.5 * (result.covariance + result.covariance.transpose()).eval();
+  // The frame's own evidence on the noise level: the variance factor's posterior mean under a
+  // prior worth variance_prior_dof degrees of freedom at 1 (the nominal noise model).
+  const int dof = 2 * points - 6;
+  result.variance_factor = o.variance_prior_dof > 0
+                               ? (o.variance_prior_dof + chi2) / (o.variance_prior_dof + std::max(0, dof))
+                               : 1.0;
+  result.covariance *= result.variance_factor;
   result.cam_from_object = Pose::FromRotation(R, t);
   result.rms_px = std::sqrt(ss / (2.0 * points));
   result.chi2 = chi2;

@@ -14,8 +14,10 @@
 //     the pose covariance (J^T R^-1 J)^-1 includes both the image noise and the layout's.
 //     Cross-covariances between markers are not in a layout file and are taken as zero.
 //   - Robust: a marker whose whitened residual is large is down-weighted (Cauchy on its
-//     Mahalanobis norm per coordinate) during the iterations, and after convergence the worst marker is
-//     rejected and the fit redone while its chi-square exceeds the 99.9 % quantile.
+//     Mahalanobis norm per coordinate) during the iterations; after convergence, single
+//     outlying points (a corner hidden by the post, a glint taken for the tip) are left out,
+//     then whole markers whose chi-square exceeds the 99.9 % quantile, one at a time, each
+//     followed by a new fit.
 //   - Start: each marker's own pose (Detection::cam_from_marker) gives a candidate
 //     cam_from_object; the candidate with the least robust cost over all markers is refined.
 //
@@ -38,9 +40,13 @@
 namespace svms {
 
 struct ObjectPoseOptions {
-  // Pixel noise of a refined corner, each axis (the detector's sub-pixel corners on the
-  // simulator's images: see docs/flight-interface.md for how it was measured).
-  double corner_sigma_px = 0.1;
+  // Pixel noise of a refined corner, each axis, for a marker whose square is 30 px on a side;
+  // it scales as (30 / side)^corner_sigma_exponent (a line fit over more edge pixels is
+  // better), never below min_corner_sigma_px. Measured on the simulator's mockup survey
+  // images (docs/flight-interface.md).
+  double corner_sigma_px = 0.05;
+  double corner_sigma_exponent = 0.5;
+  double min_corner_sigma_px = 0.01;
   double min_tip_sigma_px = 0.3;       // floor on the detector's own tip sigma
   bool use_tips = true;                // post tips as observations
   bool use_layout_covariance = true;   // add the layout's uncertainty to the noise model
@@ -48,6 +54,13 @@ struct ObjectPoseOptions {
   // residual per coordinate (Cauchy: a wrong marker's pull fades instead of staying).
   double robust_k = 3;
   double reject_quantile = 0.999;      // a marker is rejected when its chi-square exceeds this quantile
+  // A single corner or tip is left out when its residual exceeds this many of its sigmas
+  // (pixel noise and layout uncertainty; per axis) and its marker keeps 3 points or more.
+  double point_reject_sigma = 5;
+  // The covariance is scaled by the frame's variance factor, estimated as
+  // (variance_prior_dof + chi2) / (variance_prior_dof + dof): the nominal noise model counts as
+  // this many degrees of freedom of evidence, the frame's residuals as theirs. 0: no scaling.
+  double variance_prior_dof = 0;
   int max_iterations = 20;
   // Flags (ObjectPose::poorly_conditioned): rotation sigma above this (degrees) or
   // translation sigma above this fraction of the range.
@@ -63,6 +76,7 @@ struct MarkerObservation {
   std::optional<PoseCovariance> layout_covariance;  // object axes (layout.h)
   std::optional<double> post_height_sigma;          // metres
   std::array<Eigen::Vector2d, 4> corners;            // pixels, TL, TR, BR, BL
+  double side_px = 30;                               // mean side of the square in the image
   std::optional<TipObservation> tip;
   std::optional<Pose> cam_from_marker;  // the detector's single-marker pose (a start)
   bool pose_ambiguous = false;          // the detector could not tell its two planar poses apart
@@ -75,10 +89,12 @@ struct ObjectPose {
   int markers_seen = 0;   // observations given (markers of the layout detected)
   int markers_used = 0;   // after rejection
   int points_used = 0;    // corners and tips of the markers used
+  int points_rejected = 0;  // single corners or tips left out as outliers
   std::vector<int> ids_used, ids_rejected;
   double rms_px = 0;      // RMS pixel residual (per coordinate) of the points used
   double chi2 = 0;        // whitened residual sum of squares of the points used
   int dof = 0;            // 2 * points_used - 6
+  double variance_factor = 1;  // the scale applied to the covariance (variance_prior_dof)
   bool ambiguous = false;           // one marker, and its planar pose could not be told apart
   bool poorly_conditioned = false;  // sigmas above ObjectPoseOptions' limits
   std::string message;              // why not valid
@@ -88,6 +104,9 @@ struct ObjectPose {
 // as the inner marker of a dual entry). A post seen by both markers of a dual gives one tip.
 std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Detection>& detections,
                                                            const Layout& layout);
+
+// The corner sigma the noise model gives a marker of `side_px` pixels.
+double CornerSigma(const ObjectPoseOptions& options, double side_px);
 
 // Solves cam_from_object. Returns an invalid pose with a message when there is nothing to fit
 // (no observation, the camera cannot project, a singular problem).
