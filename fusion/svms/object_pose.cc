@@ -148,15 +148,6 @@ bool Whitening(const CameraModel& camera, Block* b, const Eigen::Matrix3d& R,
   return true;
 }
 
-// Whitened chi-square of one marker at (R, t).
-double MarkerChi2(const CameraModel& camera, const Block& b, const Eigen::Matrix3d& R,
-                  const Eigen::Vector3d& t) {
-  Eigen::VectorXd r;
-  Eigen::MatrixXd J;
-  if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) return std::numeric_limits<double>::infinity();
-  return (b.L_inv * r).squaredNorm();
-}
-
 }  // namespace
 
 double CornerSigma(const ObjectPoseOptions& o, double side_px) {
@@ -260,21 +251,19 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
     return result;
   }
 
-  // 2. Gauss-Newton with per-marker whitening and Cauchy weights; 3. reject the worst marker
-  // while it is inconsistent, and solve again.
-  Mat6 H = Mat6::Zero();
-  for (;;) {
-    for (Block& b : blocks) {
+  // 2. Gauss-Newton with per-marker whitening and Cauchy weights.
+  auto solve = [&](std::vector<Block>& bs, Eigen::Matrix3d& R, Eigen::Vector3d& t) {
+    for (Block& b : bs) {
       if (!b.active) continue;
       UpdatePoints(&b, R, t, o);
       if (!Whitening(camera, &b, R, t, o)) b.active = false;
     }
     bool converged = false;
     for (int iter = 0; iter < o.max_iterations && !converged; ++iter) {
-      H.setZero();
+      Mat6 H = Mat6::Zero();
       Vec6 g = Vec6::Zero();
       int active = 0;
-      for (Block& b : blocks) {
+      for (Block& b : bs) {
         if (!b.active) continue;
         if (iter > 0 && iter % 3 == 0) {  // the well's visible bottom and R_m follow the pose
           UpdatePoints(&b, R, t, o);
@@ -285,8 +274,7 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
         if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) { b.active = false; continue; }
         const Eigen::VectorXd wr = b.L_inv * r;
         const Eigen::MatrixXd wJ = b.L_inv * J;
-        const double dof = static_cast<double>(r.size());
-        const double norm = std::sqrt(wr.squaredNorm() / dof);
+        const double norm = std::sqrt(wr.squaredNorm() / static_cast<double>(r.size()));
         b.weight = 1.0 / (1.0 + (norm / o.robust_k) * (norm / o.robust_k));  // Cauchy
         H += b.weight * wJ.transpose() * wJ;
         g += b.weight * wJ.transpose() * wr;
@@ -299,49 +287,76 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
       t += step.tail<3>();
       converged = step.head<3>().norm() < 1e-10 && step.tail<3>().norm() < 1e-10 * (1 + t.norm());
     }
-    // Rejection, one at a time, then a new fit. A marker that stays inconsistent without its
-    // worst point (chi-square beyond the reject_quantile) is wrong as a whole (a misread quad,
-    // a marker seen at a grazing angle) and goes first: left in, it pulls the fit and makes
-    // good points elsewhere look bad. Otherwise the worst single point (a corner hidden by the
-    // post, a glint taken for the tip) goes if it is beyond point_reject_sigma of its noise
-    // (pixel and layout) and its marker keeps 3 points.
+  };
+  // Chi-square of a block over its quantile (> 1: inconsistent), and its worst point in sigmas.
+  auto excess = [&](const Block& b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                    int* worst_point, double* worst_norm) {
+    Eigen::VectorXd r;
+    Eigen::MatrixXd J;
+    *worst_point = -1;
+    *worst_norm = 0;
+    if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) return std::numeric_limits<double>::infinity();
+    for (size_t k = 0; k < b.points.size(); ++k) {
+      const double n = r.segment<2>(2 * k).norm() / b.total_sigma[k];
+      if (n > *worst_norm) {
+        *worst_norm = n;
+        *worst_point = b.points[k].index;
+      }
+    }
+    return (b.L_inv * r).squaredNorm() /
+           ChiSquareQuantile(o.reject_quantile, 2 * static_cast<int>(b.points.size()));
+  };
+
+  // 3. Rejection, one thing at a time, each followed by a new fit. The most inconsistent
+  // marker (chi-square beyond the reject_quantile) is refitted without its worst point: if
+  // that makes it consistent, only the point goes (a corner hidden by the post, a glint taken
+  // for the tip); if not, the whole marker goes (a misread quad, a marker at a grazing angle),
+  // before it pulls the fit and makes good points elsewhere look bad. Then single points
+  // beyond point_reject_sigma (pixel and layout noise) go, as long as their marker keeps 3.
+  for (;;) {
+    solve(blocks, R, t);
     int worst_marker = -1, worst_block = -1, worst_point = -1, active = 0;
     double worst_excess = 1, worst_norm = o.point_reject_sigma;
     for (size_t i = 0; i < blocks.size(); ++i) {
-      Block& b = blocks[i];
-      if (!b.active) continue;
+      if (!blocks[i].active) continue;
       ++active;
-      Eigen::VectorXd r;
-      Eigen::MatrixXd J;
-      if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) continue;
-      const double chi2 = (b.L_inv * r).squaredNorm();
-      double point_max = 0;
-      int point_arg = -1;
-      for (size_t k = 0; k < b.points.size(); ++k) {
-        const double n = r.segment<2>(2 * k).norm() / b.total_sigma[k];
-        if (n > point_max) {
-          point_max = n;
-          point_arg = b.points[k].index;
-        }
-      }
-      const int n_points = static_cast<int>(b.points.size());
-      const bool can_drop = n_points > 3;
-      const double rest = can_drop ? std::max(0.0, chi2 - point_max * point_max) : chi2;
-      const double excess = rest / ChiSquareQuantile(o.reject_quantile, 2 * (n_points - can_drop));
-      if (excess > worst_excess) {
-        worst_excess = excess;
+      int point;
+      double norm;
+      const double e = excess(blocks[i], R, t, &point, &norm);
+      if (e > worst_excess) {
+        worst_excess = e;
         worst_marker = static_cast<int>(i);
       }
-      if (can_drop && point_max > worst_norm) {
-        worst_norm = point_max;
+      if (blocks[i].points.size() > 3 && norm > worst_norm) {
+        worst_norm = norm;
         worst_block = static_cast<int>(i);
-        worst_point = point_arg;
+        worst_point = point;
       }
     }
-    if (worst_marker >= 0 && active > 1) {
-      blocks[worst_marker].active = false;
-      result.ids_rejected.push_back(blocks[worst_marker].obs->id);
-      continue;
+    if (worst_marker >= 0) {
+      Block& b = blocks[worst_marker];
+      int point;
+      double norm;
+      excess(b, R, t, &point, &norm);
+      if (b.points.size() > 3 && point >= 0) {
+        std::vector<Block> trial = blocks;
+        trial[worst_marker].dropped[point] = true;
+        Eigen::Matrix3d R2 = R;
+        Eigen::Vector3d t2 = t;
+        solve(trial, R2, t2);
+        int p2;
+        double n2;
+        if (trial[worst_marker].active && excess(trial[worst_marker], R2, t2, &p2, &n2) <= 1) {
+          b.dropped[point] = true;
+          ++result.points_rejected;
+          continue;
+        }
+      }
+      if (active > 1) {
+        b.active = false;
+        result.ids_rejected.push_back(b.obs->id);
+        continue;
+      }
     }
     if (worst_block >= 0) {
       blocks[worst_block].dropped[worst_point] = true;
@@ -352,7 +367,7 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
   }
 
   // 4. The result: covariance from the unweighted information of the markers kept.
-  H.setZero();
+  Mat6 H = Mat6::Zero();
   double ss = 0, chi2 = 0;
   int points = 0;
   bool ambiguous_single = false;

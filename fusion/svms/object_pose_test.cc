@@ -176,7 +176,31 @@ TEST(ObjectPose, AnInconsistentMarkerIsRejected) {
   ASSERT_EQ(p.ids_rejected.size(), 1u);
   EXPECT_EQ(p.ids_rejected[0], 2);
   EXPECT_EQ(p.markers_used, 2);
+  EXPECT_EQ(p.points_rejected, 0);  // the bad marker went first: no good point was dropped
   EXPECT_LT(PoseError(rig.cam_from_object, p.cam_from_object).norm(), 1e-8);
+}
+
+// One corner is off (hidden by the post, pulled by a neighbouring edge): that corner goes,
+// the marker stays.
+TEST(ObjectPose, ASingleBadCornerIsDroppedAndItsMarkerKept) {
+  const Rig rig;
+  std::vector<MarkerObservation> obs = rig.ObserveAll();
+  obs[0].corners[2] += Eigen::Vector2d(1.5, 0.5);
+  const ObjectPose p = SolveObjectPose(rig.camera, obs, ObjectPoseOptions{});
+  ASSERT_TRUE(p.valid);
+  EXPECT_TRUE(p.ids_rejected.empty());
+  EXPECT_EQ(p.points_rejected, 1);
+  EXPECT_EQ(p.points_used, 14);
+  EXPECT_LT(PoseError(rig.cam_from_object, p.cam_from_object).norm(), 1e-8);
+}
+
+TEST(ObjectPose, CornerSigmaFollowsTheMarkerSize) {
+  ObjectPoseOptions o;
+  o.corner_sigma_px = 0.05;
+  EXPECT_DOUBLE_EQ(CornerSigma(o, 30), 0.05);
+  EXPECT_NEAR(CornerSigma(o, 120), 0.025, 1e-12);
+  EXPECT_DOUBLE_EQ(CornerSigma(o, 1e9), o.min_corner_sigma_px);
+  EXPECT_TRUE(std::isfinite(CornerSigma(o, 0)));
 }
 
 TEST(ObjectPose, ObservationsFromDetectionsMatchTheLayoutAndShareADualsPost) {
