@@ -32,6 +32,8 @@ struct BenchPoseOptions {
   double corner_sigma_px = ObjectPoseOptions{}.corner_sigma_px;
   double corner_sigma_exponent = ObjectPoseOptions{}.corner_sigma_exponent;
   double variance_prior_dof = ObjectPoseOptions{}.variance_prior_dof;
+  double corner_fit_scale = ObjectPoseOptions{}.corner_fit_scale;
+  bool size_model = false;
 };
 
 std::string F(double v, int digits) {
@@ -123,6 +125,8 @@ int RunBenchPose(const BenchPoseOptions& o) {
   options.fusion.corner_sigma_px = o.corner_sigma_px;
   options.fusion.corner_sigma_exponent = o.corner_sigma_exponent;
   options.fusion.variance_prior_dof = o.variance_prior_dof;
+  options.fusion.corner_fit_scale = o.corner_fit_scale;
+  options.fusion.corner_sigma_from_fit = !o.size_model;
   std::unique_ptr<PoseEstimator> est;
   const std::string camera_path = o.camera.empty() ? D + "/true.cameramodel" : o.camera;
   if (Status s = PoseEstimator::CreateFromFiles(camera_path, layout_path, options, &est);
@@ -363,7 +367,10 @@ int RunBenchPose(const BenchPoseOptions& o) {
      << (o.camera.empty() ? std::string("the true model") : "`" + o.camera + "`") << "); layout: `"
      << (o.layout.empty() ? "svms survey` of the rendered `mockup` dataset (reference marker 10)"
                           : o.layout + "`")
-     << "; corner sigma " << o.corner_sigma_px << " px at 30 px, scaled by (30 / side)^"
+     << "; corner sigma: "
+     << (o.size_model ? "" : "the detector's line-fit sigma times " + F(o.corner_fit_scale, 2) +
+                                 " (where refined), else ")
+     << o.corner_sigma_px << " px at 30 px scaled by (30 / shortest side)^"
      << o.corner_sigma_exponent << ", variance prior dof " << o.variance_prior_dof << "; truth is the renderer's cam_from_module times module_from_object, the layout's "
         "object frame placed through marker 10 (the survey's reference). Pose on one thread, "
         "images preloaded.\n\n"
@@ -428,6 +435,11 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
   cmd->add_option("--variance-prior-dof", o->variance_prior_dof,
                   "Scale covariances by the frame's variance factor with this prior (0: off)")
       ->capture_default_str();
+  cmd->add_option("--corner-fit-scale", o->corner_fit_scale,
+                  "Corner sigma = this times the detector's line-fit sigma")
+      ->capture_default_str();
+  cmd->add_flag("--size-model", o->size_model,
+                "Corner sigma from the marker's size only (--corner-sigma, exponent)");
   cmd->add_option("--threads", o->threads, "Threads for rendering and the survey")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();

@@ -76,9 +76,14 @@ void UpdatePoints(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
   const MarkerObservation& m = *b->obs;
   b->points.clear();
   const auto corners = m.model.Corners();
-  const double sigma = CornerSigma(o, m.side_px);
-  for (int k = 0; k < 4; ++k)
-    if (!b->dropped[k]) b->points.push_back({corners[k], m.corners[k], sigma, Eigen::Vector3d::Zero(), k});
+  const double size_sigma = CornerSigma(o, m.side_px);
+  for (int k = 0; k < 4; ++k) {
+    if (b->dropped[k]) continue;
+    const double sigma = o.corner_sigma_from_fit && m.corner_sigma[k] > 0
+                             ? std::max(o.min_corner_sigma_px, o.corner_fit_scale * m.corner_sigma[k])
+                             : size_sigma;
+    b->points.push_back({corners[k], m.corners[k], sigma, Eigen::Vector3d::Zero(), k});
+  }
   if (o.use_tips && m.tip && m.model.post && !b->dropped[4]) {
     // Camera centre in the marker frame: marker_from_cam = (cam_from_object object_from_marker)^-1.
     const Eigen::Matrix3d R_cm = R * b->R_om;
@@ -184,7 +189,12 @@ std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Dete
       o.layout_covariance = entry.covariance;
       o.post_height_sigma = entry.post_height_sigma;
       o.corners = d->corners;
-      o.side_px = d->side_px();
+      o.corner_sigma = d->corner_sigma;
+      // The shortest side: a marker seen obliquely has fewer edge pixels along it, and its
+      // corners are worse than its mean size says.
+      o.side_px = std::numeric_limits<double>::infinity();
+      for (int k = 0; k < 4; ++k)
+        o.side_px = std::min(o.side_px, (d->corners[(k + 1) % 4] - d->corners[k]).norm());
       o.cam_from_marker = d->cam_from_marker;
       o.pose_ambiguous = d->pose_ambiguous;
       // One tip per physical post: the inner marker of a dual shares the outer's post, whether

@@ -40,13 +40,18 @@
 namespace svms {
 
 struct ObjectPoseOptions {
-  // Pixel noise of a refined corner, each axis, for a marker whose square is 30 px on a side;
-  // it scales as (30 / side)^corner_sigma_exponent (a line fit over more edge pixels is
+  // Pixel noise of a refined corner, each axis, for a marker whose square's shortest side is
+  // 30 px; it scales as (30 / side)^corner_sigma_exponent (a line fit over more edge pixels is
   // better), never below min_corner_sigma_px. Measured on the simulator's mockup survey
   // images (docs/flight-interface.md).
   double corner_sigma_px = 0.05;
   double corner_sigma_exponent = 0.5;
   double min_corner_sigma_px = 0.01;
+  // When the detector measured a corner's sigma from its line fits (Detection::corner_sigma),
+  // use corner_fit_scale times that instead of the size model (at least min_corner_sigma_px).
+  // 1.04 makes the mean NEES 6 on the simulator's mockup survey images (1.0: 6.45).
+  bool corner_sigma_from_fit = true;
+  double corner_fit_scale = 1.04;
   double min_tip_sigma_px = 0.3;       // floor on the detector's own tip sigma
   bool use_tips = true;                // post tips as observations
   bool use_layout_covariance = true;   // add the layout's uncertainty to the noise model
@@ -76,7 +81,8 @@ struct MarkerObservation {
   std::optional<PoseCovariance> layout_covariance;  // object axes (layout.h)
   std::optional<double> post_height_sigma;          // metres
   std::array<Eigen::Vector2d, 4> corners;            // pixels, TL, TR, BR, BL
-  double side_px = 30;                               // mean side of the square in the image
+  double side_px = 30;  // shortest side of the square in the image, pixels
+  std::array<double, 4> corner_sigma{};  // from the detector's line fits, px (0: unknown)
   std::optional<TipObservation> tip;
   std::optional<Pose> cam_from_marker;  // the detector's single-marker pose (a start)
   bool pose_ambiguous = false;          // the detector could not tell its two planar poses apart
@@ -105,7 +111,7 @@ struct ObjectPose {
 std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Detection>& detections,
                                                            const Layout& layout);
 
-// The corner sigma the noise model gives a marker of `side_px` pixels.
+// The corner sigma the size model gives a marker of `side_px` pixels.
 double CornerSigma(const ObjectPoseOptions& options, double side_px);
 
 // Solves cam_from_object. Returns an invalid pose with a message when there is nothing to fit

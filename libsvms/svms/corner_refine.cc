@@ -136,6 +136,19 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       }
       out.side_rms[k] = scale * std::sqrt(ss / pts.size());
     }
+    // A line fitted to n points spread evenly over a fraction f of a side, residual RMS s: its
+    // offset at the middle has variance s^2 / n and its slope s^2 / (n (f L)^2 / 12); at the
+    // side's end (L / 2 away) the perpendicular variance is s^2 / n (1 + 3 / f^2).
+    const double f = 1 - 2 * o.end_margin;
+    std::array<double, 4> perp{};
+    for (int k = 0; k < 4; ++k)
+      perp[k] = out.side_rms[k] * std::sqrt((1 + 3 / (f * f)) / std::max(1, out.side_points[k]));
+    for (int k = 0; k < 4; ++k) {
+      const int j = (k + 3) % 4;
+      const double sin_angle = std::max(
+          0.2, std::abs(lines[j].x() * lines[k].y() - lines[j].y() * lines[k].x()));
+      out.corner_sigma[k] = std::sqrt(0.5 * (perp[j] * perp[j] + perp[k] * perp[k])) / sin_angle;
+    }
     for (int k = 0; k < 4; ++k) {
       const Eigen::Vector3d h = lines[(k + 3) % 4].cross(lines[k]);
       if (std::abs(h.z()) < 1e-15) return out;

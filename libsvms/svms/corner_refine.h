@@ -25,6 +25,10 @@ struct RefinedCorners {
   std::array<Eigen::Vector2d, 4> corners;  // same order as the input
   std::array<double, 4> side_rms{};  // RMS distance of each side's edge points to its line, px
   std::array<int, 4> side_points{};  // edge points used per side
+  // Standard deviation of each corner (pixels, each axis) propagated from its two side lines'
+  // fits: each line's offset and slope from its edge points' scatter (side_rms, side_points),
+  // evaluated at the corner, then the intersection at the lines' angle.
+  std::array<double, 4> corner_sigma{};
   bool ok = false;
 };
 

@@ -139,7 +139,10 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
       }
       Detection& d = out[i];
       const RefinedCorners r = RefineCorners(gray, d.corners, cam, o.refine);
-      if (r.ok) d.corners = r.corners;
+      if (r.ok) {
+        d.corners = r.corners;
+        d.corner_sigma = r.corner_sigma;
+      }
     }
   }
   auto t4 = Clock::now();
