@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "commands.h"
+#include "gnuplot.h"
 #include "svms/detector.h"
 #include "svms/model_io.h"
 #include "svms/survey.h"
@@ -110,11 +111,13 @@ std::vector<bundle::ImageSightings> Sightings(const std::vector<bundle::SurveyIm
   return out;
 }
 
+// Draws NAME.png and NAME.svg (900 x 450) in `dir`; false (with a message) if gnuplot fails.
 bool Plot(const std::string& dir, const std::string& name, const std::string& body) {
-  const std::string script = "set terminal pngcairo size 900,450\nset output '" + name + ".png'\n" +
-                             body + "set terminal svg size 900,450\nset output '" + name +
-                             ".svg'\nreplot\n";
-  return bundle::RunGnuplot(dir, name, script);
+  if (Status s = Gnuplot(dir, name, body, "900,450"); !s) {
+    std::cerr << "svms bench survey: " << s.message() << "\n";
+    return false;
+  }
+  return true;
 }
 
 int RunBenchSurvey(const BenchSurveyOptions& o) {

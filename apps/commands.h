@@ -29,10 +29,6 @@ void AddBenchCalibrate(CLI::App& bench, int* exit_code);
 void AddBenchCompare(CLI::App& bench, int* exit_code);
 void AddBenchSurvey(CLI::App& bench, int* exit_code);
 
-// Image inputs: IMAGE | DIR (its image files, sorted) | GLOB; unmatched names are kept (and fail
-// to read later).
-std::vector<std::string> ExpandImageInputs(const std::vector<std::string>& inputs);
-
 // Renders every view of `scene` into `out_dir` (VIEW.png, truth.json) on `threads` threads,
 // progress on stderr; `source` names the scene in messages. Returns an exit code.
 int RenderScene(const Scene& scene, const std::string& source, const std::string& out_dir,
