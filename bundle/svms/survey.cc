@@ -4,7 +4,6 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
-#include <Eigen/Sparse>
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -711,43 +710,55 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
   ceres::CRSMatrix crs;
   if (!problem_->Evaluate(eo, nullptr, nullptr, nullptr, &crs))
     return "(the Jacobian could not be evaluated at the solution: a point does not project)";
-  Eigen::SparseMatrix<double, Eigen::RowMajor> J(crs.num_rows, crs.num_cols);
-  std::vector<Eigen::Triplet<double>> t;
-  for (int r = 0; r < crs.num_rows; ++r)
-    for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k)
-      t.emplace_back(r, crs.cols[k], crs.values[k]);
-  J.setFromTriplets(t.begin(), t.end());
-  const Eigen::SparseMatrix<double> H = (J.transpose() * J).pruned();
+  // J^T J reduced onto the non-camera parameters, accumulated row by row from the Jacobian
+  // (every residual touches at most one camera): H_cc per camera, the coupling H_rc of each
+  // camera to the reduced rows it touches, and H_rr (dense, small). Forming the whole J^T J
+  // as a sparse product instead took most of the 2000 x 40 covariance step.
   const int nc = 6 * static_cast<int>(cams.size());
   const int nr = crs.num_cols - nc;
-  Eigen::MatrixXd S = Eigen::MatrixXd(H.bottomRightCorner(nr, nr));
+  using Row6 = Eigen::Matrix<double, 1, 6>;
+  std::vector<Eigen::Matrix<double, 6, 6>> Hcc(cams.size(), Eigen::Matrix<double, 6, 6>::Zero());
+  std::vector<std::map<int, Row6>> Hrc(cams.size());  // reduced row -> H(row, camera block)
+  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(nr, nr);
+  std::vector<std::pair<int, double>> cam_entries, rest_entries;
+  for (int r = 0; r < crs.num_rows; ++r) {
+    cam_entries.clear();
+    rest_entries.clear();
+    int cam = -1;
+    for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
+      const int col = crs.cols[k];
+      if (col < nc) {
+        cam = col / 6;
+        cam_entries.emplace_back(col % 6, crs.values[k]);
+      } else {
+        rest_entries.emplace_back(col - nc, crs.values[k]);
+      }
+    }
+    for (const auto& [a, va] : rest_entries)
+      for (const auto& [b, vb] : rest_entries) S(a, b) += va * vb;
+    if (cam < 0) continue;
+    for (const auto& [a, va] : cam_entries)
+      for (const auto& [b, vb] : cam_entries) Hcc[cam](a, b) += va * vb;
+    for (const auto& [a, va] : rest_entries) {
+      Row6& h = Hrc[cam].try_emplace(a, Row6::Zero()).first->second;
+      for (const auto& [b, vb] : cam_entries) h(b) += va * vb;
+    }
+  }
   std::vector<std::string> found;
   for (size_t c = 0; c < cams.size(); ++c) {
-    const int o = 6 * static_cast<int>(c);
-    Eigen::Matrix<double, 6, 6> Hcc = Eigen::Matrix<double, 6, 6>::Zero();
-    // The rows of the reduced system this camera couples to (the markers it sees), and the
-    // coupling block H_rc restricted to them: S -= H_rc H_cc^-1 H_cr touches only those.
-    std::map<int, Eigen::Matrix<double, 1, 6>> coupled;
-    for (int j = 0; j < 6; ++j)
-      for (Eigen::SparseMatrix<double>::InnerIterator it(H, o + j); it; ++it) {
-        if (it.row() >= nc)
-          coupled.try_emplace(static_cast<int>(it.row()) - nc, Eigen::Matrix<double, 1, 6>::Zero())
-              .first->second(j) = it.value();
-        else if (it.row() >= o && it.row() < o + 6)
-          Hcc(it.row() - o, j) = it.value();
-      }
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(Hcc);
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(Hcc[c]);
     if (es.eigenvalues()(0) <= 1e-12 * std::max(1.0, es.eigenvalues()(5))) {
       found.push_back(cams[c].name + " (camera pose)");
       continue;
     }
+    // S -= H_rc H_cc^-1 H_cr, over the reduced rows this camera touches only.
     std::vector<int> rows;
-    Eigen::MatrixXd Hrc(coupled.size(), 6);
-    for (const auto& [row, v] : coupled) {
-      Hrc.row(static_cast<Eigen::Index>(rows.size())) = v;
+    Eigen::MatrixXd B(Hrc[c].size(), 6);
+    for (const auto& [row, v] : Hrc[c]) {
+      B.row(static_cast<Eigen::Index>(rows.size())) = v;
       rows.push_back(row);
     }
-    const Eigen::MatrixXd update = Hrc * Hcc.inverse() * Hrc.transpose();
+    const Eigen::MatrixXd update = B * Hcc[c].inverse() * B.transpose();
     for (size_t a = 0; a < rows.size(); ++a)
       for (size_t b = 0; b < rows.size(); ++b) S(rows[a], rows[b]) -= update(a, b);
   }
