@@ -743,14 +743,13 @@ int RunBench(const BenchOptions& o) {
     md << line;
   }
   md << "\nOutside the region every tool extrapolates an 8-term rational model into cells "
-        "no view reached, and the whole-image figures rank that extrapolation: OpenCV "
-        "and mrcal see identical corners and agree inside the region, and mrcal additionally "
-        "regularises the distortion terms (its optimisation_inputs: "
-        "`do_apply_regularization`), which biases the extrapolation without showing in its "
-        "predicted uncertainty. svms's prediction there comes from directions of the state the "
-        "data barely see (eigenvalues near the pseudo-inverse cutoff of 1e-15 of the largest): "
-        "it says 'unknown' (hundreds of px) or, when a direction falls below the cutoff, too "
-        "little; it means nothing outside the data.\n";
+        "no view reached, and the whole-image figures rank that extrapolation too. OpenCV "
+        "and mrcal see identical corners; mrcal additionally regularises the distortion terms "
+        "(its optimisation_inputs: `do_apply_regularization`), which biases its solution "
+        "without showing in its predicted uncertainty. Where the data barely see a direction "
+        "of the state (eigenvalues near svms's pseudo-inverse cutoff of 1e-15 of the largest), "
+        "svms's prediction says 'unknown' (large) or, when a direction falls below the cutoff, "
+        "too little: it means little outside the data.\n";
   std::snprintf(line, sizeof line,
                 "\nsvms's corner noise: a-posteriori sigma %.4f px per axis (from the residuals "
                 "of the fit, what the prediction uses); the detected corners against the true "
