@@ -184,7 +184,7 @@ void AddSurveyCommands(CLI::App& app, int* exit_code) {
   auto o = std::make_shared<SurveyCliOptions>();
   CLI::App* cmd = app.add_subcommand(
       "survey", "Survey where several markers sit on one object, from many images of it");
-  cmd->add_option("IMAGES", o->inputs, "Image files or directories")->required();
+  cmd->add_option("IMAGES", o->inputs, "Image files, directories or globs")->required();
   cmd->add_option("--camera", o->camera, "mrcal .cameramodel of the images")->required();
   cmd->add_option("--markers", o->markers, "Marker models (svms.markers or svms.layout)")
       ->required();
