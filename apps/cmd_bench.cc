@@ -13,6 +13,7 @@ void AddBenchCommands(CLI::App& app, int* exit_code) {
   AddBenchCalibrate(*bench, exit_code);
   AddBenchCompare(*bench, exit_code);
   AddBenchSurvey(*bench, exit_code);
+  AddBenchPose(*bench, exit_code);
 }
 
 }  // namespace svms::cli

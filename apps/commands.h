@@ -4,10 +4,15 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
 #include "svms/scene.h"
+
+namespace svms {
+struct FrameResult;
+}
 
 namespace svms::cli {
 
@@ -21,6 +26,7 @@ void AddDatasetCommands(CLI::App& app, int* exit_code);
 void AddDetectCommands(CLI::App& app, int* exit_code);
 void AddCalibrateCommands(CLI::App& app, int* exit_code);
 void AddSurveyCommands(CLI::App& app, int* exit_code);
+void AddPoseCommands(CLI::App& app, int* exit_code);
 void AddBenchCommands(CLI::App& app, int* exit_code);
 
 // The `svms bench` subcommands, each registered on the `bench` group (cmd_bench.cc).
@@ -28,6 +34,10 @@ void AddBenchDetect(CLI::App& bench, int* exit_code);
 void AddBenchCalibrate(CLI::App& bench, int* exit_code);
 void AddBenchCompare(CLI::App& bench, int* exit_code);
 void AddBenchSurvey(CLI::App& bench, int* exit_code);
+void AddBenchPose(CLI::App& bench, int* exit_code);
+
+// One frame of `svms pose` as its JSON line (cmd_pose.cc; docs/flight-interface.md).
+nlohmann::json FrameJson(const FrameResult& frame);
 
 // Renders every view of `scene` into `out_dir` (VIEW.png, truth.json) on `threads` threads,
 // progress on stderr; `source` names the scene in messages. Returns an exit code.

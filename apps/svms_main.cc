@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
   svms::cli::AddDetectCommands(app, &exit_code);
   svms::cli::AddCalibrateCommands(app, &exit_code);
   svms::cli::AddSurveyCommands(app, &exit_code);
+  svms::cli::AddPoseCommands(app, &exit_code);
   svms::cli::AddBenchCommands(app, &exit_code);
   try {
     app.parse(argc, argv);

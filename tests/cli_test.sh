@@ -155,5 +155,32 @@ expect 2 "expected A:B:DISTANCE" "$svms" survey "$tmp/range" --camera "$tmp/rang
 expect 2 "expected --reference ID or three --control-point" "$svms" survey "$tmp/range" --camera "$tmp/range/true.cameramodel" --markers "$tmp/range/markers.json" --out "$tmp/l.json"
 expect 1 "reference marker 999 has no model" "$svms" survey "$tmp/range" --camera "$tmp/range/true.cameramodel" --markers "$tmp/range/markers.json" --reference 999 --out "$tmp/l.json" --quiet
 
+# pose (fusion/): the range set's dual marker as a one-marker layout; a pose per frame, errors named
+python3 - "$tmp/range/markers.json" "$tmp/range_layout.json" <<'PY'
+import json, sys
+m = json.load(open(sys.argv[1]))["markers"][0]
+json.dump({"type": "svms.layout", "name": "range plate", "markers": [
+    {"marker": m, "object_from_marker": {"rvec": [0, 0, 0], "tvec": [0, 0, 0]}}]}, open(sys.argv[2], "w"))
+PY
+expect 0 "Examples:" "$svms" pose --help
+ls "$tmp"/range/range_000[0-2].png > "$tmp/frames.txt"
+if out=$("$svms" pose --stdin --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json" --quiet < "$tmp/frames.txt"); then
+  python3 - "$out" <<'PY' && pass || fail "svms pose --stdin output: $out"
+import json, sys
+lines = [json.loads(l) for l in sys.argv[1].splitlines()]
+assert len(lines) == 3, lines
+for i, j in enumerate(lines):
+    assert j["valid"] and j["timestamp"] == i and len(j["covariance"]) == 36, j
+    assert len(j["cam_from_object"]["quaternion"]) == 4 and j["markers"][0] in (1, 2), j
+PY
+else fail "svms pose --stdin exited $?"; fi
+printf '%s 12.5\n/nonexistent.png 13\n' "$(head -1 "$tmp/frames.txt")" > "$tmp/frames2.txt"
+expect 1 "/nonexistent.png: cannot read" "$svms" pose --stdin --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json" --quiet < "$tmp/frames2.txt"
+if out=$("$svms" pose --stdin --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json" --quiet < "$tmp/frames2.txt" 2>/dev/null); then fail "bad frame: exit 0"
+else grep -q '"timestamp":12.5' <<<"$out" && grep -q '"error"' <<<"$out" && pass || fail "bad frame lines: $out"; fi
+expect 2 "/nonexistent.cameramodel" "$svms" pose "$tmp/range" --camera /nonexistent.cameramodel --layout "$tmp/range_layout.json"
+expect 2 "expected a layout" "$svms" pose "$tmp/range" --camera "$tmp/range/true.cameramodel" --layout "$tmp/range/markers.json"
+expect 2 "not both and not neither" "$svms" pose --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json"
+
 echo "$passes passed, $fails failed"
 [ "$fails" -eq 0 ]

@@ -219,10 +219,12 @@ Dataset Occlusion(const DatasetOptions& o) {
   return d;
 }
 
-Dataset Mockup(const DatasetOptions& o) {
-  Dataset d;
-  d.name = "mockup";
-  Scene s = NewScene(o.seed, DistortedCamera(), Sunlight(40, 20));
+// The mockup module: a 1 x 1 x 2 m box (front, docking face at z = +1) with 8 markers of three
+// sizes, a dual and a concave one, in the mockup's scene (distorted camera, sun, Earth below).
+// Used by the survey set (mockup) and the approach path (approach); *truth_layout gets the
+// true marker poses in the box's frame.
+Scene MockupModuleScene(uint64_t seed, Layout* truth_layout) {
+  Scene s = NewScene(seed, DistortedCamera(), Sunlight(40, 20));
   s.light.earthshine = Sun{Vec3(0, 0, -1), 0.08, 0};
   s.background.kind = Background::Kind::kEarth;
   s.background.brightness = 0.7;
@@ -250,14 +252,22 @@ Dataset Mockup(const DatasetOptions& o) {
       {MarkerModel::Standard(17, 0.2, 0.05), 0, -1, 0.0, 0.5, 0},
       {MarkerModel::Standard(18, 0.1, 0.025), 1, -1, 0.2, 0.5, 0},
   };
-  Layout truth_layout;
-  truth_layout.name = "mockup (true)";
+  truth_layout->name = "mockup (true)";
+  truth_layout->markers.clear();
   for (const Place& p : places) {
     const Pose pose = OnBoxFace(half, p.axis, p.sign, p.u, p.v, p.spin);
     box.markers.push_back(Printed(p.m, pose));
-    truth_layout.markers.push_back(LayoutEntry{p.m, pose, std::nullopt, std::nullopt});
+    truth_layout->markers.push_back(LayoutEntry{p.m, pose, std::nullopt, std::nullopt});
   }
   s.objects.push_back(box);
+  return s;
+}
+
+Dataset Mockup(const DatasetOptions& o) {
+  Dataset d;
+  d.name = "mockup";
+  Layout truth_layout;
+  Scene s = MockupModuleScene(o.seed, &truth_layout);
   // A survey: views all around the module at 1.8 to 3.2 m, in eight sectors of azimuth about
   // its long axis, from 15 to 55 degrees above its equator toward the front face, so that every
   // marker is seen at 30 px or more from several directions and neighbouring faces are seen
@@ -279,6 +289,41 @@ Dataset Mockup(const DatasetOptions& o) {
   }
   d.scenes.emplace_back("", s);
   d.files.emplace_back("true.cameramodel", "");  // written by the caller from the scene camera
+  d.files.emplace_back("true_layout.json", LayoutToJson(truth_layout));
+  return d;
+}
+
+// The approach: a chaser closing on the module's docking face from 12 m to 1.3 m along a line
+// 35 degrees off the face normal (so that the front face and two side faces are in view), with
+// a slow spiral of the line of sight and a roll that drifts, one frame every 0.1 s. The camera
+// looks at the dual marker with an aim error of a few centimetres. The module is the mockup's,
+// the same markers at the same places, so a survey of the mockup set is the layout to use.
+Dataset Approach(const DatasetOptions& o) {
+  Dataset d;
+  d.name = "approach";
+  Layout truth_layout;
+  Scene s = MockupModuleScene(o.seed, &truth_layout);
+  std::mt19937_64 rng(o.seed * 57 + 3);
+  std::normal_distribution<double> g(0, 1);
+  const int n = o.quick ? 12 : 500;
+  const Vec3 face_centre(0, 0, 1);
+  const Vec3 dir = Vec3(0.45, 0.35, 1).normalized();  // about 35 degrees off the z axis
+  Vec3 aim_error = Vec3::Zero();
+  for (int i = 0; i < n; ++i) {
+    const double f = n == 1 ? 0 : static_cast<double>(i) / (n - 1);
+    const double D = 12.0 * std::pow(1.3 / 12.0, f);  // geometric: equal steps in log range
+    const double spiral = 6 * M_PI * f;
+    const Vec3 side1 = dir.cross(Vec3::UnitY()).normalized(), side2 = dir.cross(side1);
+    const Vec3 wobble = 0.08 * D * (std::cos(spiral) * side1 + std::sin(spiral) * side2);
+    const Vec3 eye = face_centre + D * dir + wobble;
+    aim_error = 0.9 * aim_error + 0.01 * Vec3(g(rng), g(rng), g(rng));
+    const double roll = 0.4 * std::sin(2 * M_PI * f) + 0.02 * g(rng);
+    View v{Name("approach_", i),
+           LookAt(eye, face_centre + aim_error, Vec3(std::sin(roll), std::cos(roll), 0))};
+    s.views.push_back(v);
+  }
+  d.scenes.emplace_back("", s);
+  d.files.emplace_back("true.cameramodel", "");
   d.files.emplace_back("true_layout.json", LayoutToJson(truth_layout));
   return d;
 }
@@ -498,7 +543,8 @@ CameraModel DistortedCamera() {
 }
 
 std::vector<std::string> DatasetNames() {
-  return {"range", "angle", "sun", "occlusion", "mockup", "calibration", "clutter", "gallery"};
+  return {"range",       "angle",   "sun",     "occlusion", "mockup",
+          "approach",    "calibration", "clutter", "gallery"};
 }
 
 std::string DatasetDescription(const std::string& name) {
@@ -512,6 +558,9 @@ std::string DatasetDescription(const std::string& name) {
   if (name == "mockup")
     return "1 x 1 x 2 m module, 8 markers (3 sizes, a dual, a concave), 200 survey views all "
            "around it at 1.8-3.2 m, true layout";
+  if (name == "approach")
+    return "the mockup module approached from 12 m to 1.3 m, 35 degrees off its docking face's "
+           "normal, 500 frames at 10 Hz, true layout";
   if (name == "calibration")
     return "a 6x5 marker board and a 10x8 chessboard, same 48 views (8 with the board in the image corners), OPENCV8 camera";
   if (name == "clutter")
@@ -534,6 +583,8 @@ Status MakeDataset(const std::string& name, const DatasetOptions& o, Dataset* ou
     d = Occlusion(o);
   else if (name == "mockup")
     d = Mockup(o);
+  else if (name == "approach")
+    d = Approach(o);
   else if (name == "calibration")
     d = Calibration(o);
   else if (name == "clutter")

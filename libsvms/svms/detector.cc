@@ -57,6 +57,11 @@ Detector::Detector(const DetectorOptions& options, const CameraModel& camera,
 }
 
 std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* stats_out) const {
+  return Detect(input, stats_out, Clock::time_point::max());
+}
+
+std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* stats_out,
+                                        Clock::time_point deadline) const {
   DetectionStats stats;
   const DetectorOptions& o = options_;
   std::vector<Detection> out;
@@ -95,7 +100,15 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
 
   // 5-7. Homography, bits, decoding.
   const MarkerModel unit = MarkerModel::Standard(0, 1.0, 0);
-  for (const Quad& q : quads) {
+  const bool has_deadline = deadline != Clock::time_point::max();
+  auto out_of_time = [&](size_t i) {
+    if (!has_deadline || i % 8 != 0 || Clock::now() < deadline) return false;
+    stats.budget_exceeded = true;
+    return true;
+  };
+  for (size_t qi = 0; qi < quads.size(); ++qi) {
+    if (out_of_time(qi)) break;
+    const Quad& q = quads[qi];
     const Eigen::Matrix3d H = UnitHomography(q.corners);
     const BitReading bits = SampleBits(gray, H, unit);
     if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) continue;
@@ -118,7 +131,13 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
   // 8. Sub-pixel corners (in the rotated order: clockwise on screen either way).
   const CameraModel* cam = camera_.empty() ? nullptr : &camera_;
   if (o.refine_corners) {
-    for (Detection& d : out) {
+    for (size_t i = 0; i < out.size(); ++i) {
+      if (stats.budget_exceeded || (has_deadline && Clock::now() >= deadline)) {
+        stats.budget_exceeded = true;  // only fully processed markers are reported
+        out.resize(i);
+        break;
+      }
+      Detection& d = out[i];
       const RefinedCorners r = RefineCorners(gray, d.corners, cam, o.refine);
       if (r.ok) d.corners = r.corners;
     }
@@ -129,6 +148,10 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
   // 9-10. Tip and pose; graded acceptance of large corrections.
   std::vector<Detection> accepted;
   for (Detection& d : out) {
+    if (has_deadline && Clock::now() >= deadline) {
+      stats.budget_exceeded = true;  // only fully processed markers are reported
+      break;
+    }
     auto it = models_.find(d.id);
     if (cam && it != models_.end()) {
       MarkerPose mp;

@@ -14,6 +14,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <chrono>
 #include <map>
 #include <opencv2/core.hpp>
 #include <optional>
@@ -66,6 +67,8 @@ struct DetectionStats {
                                                      "refine",   "pose",  "nesting"};
   std::array<double, kSteps> ms{};
   int segments = 0, quads = 0, decoded = 0, rejected_for_evidence = 0;
+  // The deadline passed before every quad was processed: what was finished is returned.
+  bool budget_exceeded = false;
 };
 
 class Detector {
@@ -77,6 +80,11 @@ class Detector {
 
   // All markers in `image` (CV_8UC1, CV_16UC1 or 3-channel 8-bit; any size >= 1x1).
   std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats = nullptr) const;
+  // The same under a deadline: steps 5-10 stop once it has passed (steps 1-4 cost what the
+  // image size says and are not interrupted), stats->budget_exceeded is set, and only the
+  // markers that went through every step before it are returned.
+  std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats,
+                                std::chrono::steady_clock::time_point deadline) const;
 
   const DetectorOptions& options() const { return options_; }
 

@@ -1,0 +1,211 @@
+// svms pose: the fused object pose of every frame, streamed as JSON Lines.
+#include <Eigen/Geometry>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+
+#include "commands.h"
+#include "image_inputs.h"
+#include "overlay.h"
+#include "svms/pose_estimator.h"
+
+namespace svms::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct PoseCliOptions {
+  std::vector<std::string> inputs;
+  std::string camera, layout, overlay;
+  bool from_stdin = false;
+  bool quiet = false;
+  double corner_sigma_px = ObjectPoseOptions{}.corner_sigma_px;
+  double budget_ms = 0;
+  double max_megapixels = 100;
+};
+
+}  // namespace
+
+nlohmann::json FrameJson(const FrameResult& r) {
+  const ObjectPose& p = r.pose;
+  nlohmann::json j;
+  j["timestamp"] = r.timestamp;
+  j["valid"] = p.valid;
+  if (p.valid) {
+    const Pose& c = p.cam_from_object;
+    const Eigen::Quaterniond q(c.Rotation());
+    j["cam_from_object"] = {{"rvec", {c.rvec(0), c.rvec(1), c.rvec(2)}},
+                            {"tvec", {c.tvec(0), c.tvec(1), c.tvec(2)}},
+                            {"quaternion", {q.w(), q.x(), q.y(), q.z()}}};
+    std::vector<double> cov(36);
+    for (int a = 0; a < 6; ++a)
+      for (int b = 0; b < 6; ++b) cov[a * 6 + b] = p.covariance(a, b);
+    j["covariance"] = cov;
+  } else {
+    j["cam_from_object"] = nullptr;
+    j["covariance"] = nullptr;
+    j["message"] = p.message;
+  }
+  j["markers"] = p.ids_used;
+  j["markers_rejected"] = p.ids_rejected;
+  j["markers_seen"] = p.markers_seen;
+  j["points"] = p.points_used;
+  j["rms"] = p.rms_px;
+  j["chi2"] = p.chi2;
+  j["dof"] = p.dof;
+  j["flags"] = {{"ambiguous", p.ambiguous},
+                {"poorly_conditioned", p.poorly_conditioned},
+                {"budget_exceeded", r.budget_exceeded}};
+  j["latency_ms"] = r.latency_ms;
+  j["detect_ms"] = r.detect_ms;
+  return j;
+}
+
+namespace {
+
+int RunPose(const PoseCliOptions& o) {
+  if (o.from_stdin == !o.inputs.empty()) {
+    std::cerr << "svms pose: give IMAGES or --stdin (a path, and optionally a timestamp in "
+                 "seconds, per line), not both and not neither\n";
+    return kExitBadInput;
+  }
+  PoseEstimatorOptions options;
+  options.fusion.corner_sigma_px = o.corner_sigma_px;
+  options.budget_ms = o.budget_ms;
+  std::unique_ptr<PoseEstimator> est;
+  if (Status s = PoseEstimator::CreateFromFiles(o.camera, o.layout, options, &est); !s) {
+    std::cerr << "svms pose: " << s.message() << "\n";
+    return kExitBadInput;
+  }
+  if (!o.overlay.empty()) {
+    std::error_code ec;
+    fs::create_directories(o.overlay, ec);
+    if (!fs::is_directory(o.overlay)) {
+      std::cerr << "svms pose: --overlay " << o.overlay << ": cannot create the directory\n";
+      return kExitBadInput;
+    }
+  }
+  const std::string limit = std::to_string(static_cast<long long>(o.max_megapixels * 1e6));
+  setenv("OPENCV_IO_MAX_IMAGE_PIXELS", limit.c_str(), 1);
+  const CameraModel& camera = est->camera();
+
+  std::vector<std::string> files;
+  if (!o.from_stdin) files = ExpandImageInputs(o.inputs);
+  size_t index = 0, failed = 0, valid = 0;
+  std::string line, first_error;
+  FrameResult r;
+  // One frame: read, estimate, print (flushed, so that a reader of the pipe sees it now).
+  auto frame = [&](const std::string& path, double timestamp) {
+    nlohmann::json j;
+    std::string error;
+    const cv::Mat img = cv::imread(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
+    if (img.empty())
+      error = path + ": cannot read as an image (missing, not an image, or over " +
+              std::to_string(o.max_megapixels) + " megapixels)";
+    else if (img.cols != camera.width() || img.rows != camera.height())
+      error = path + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
+              " pixels, but the camera model is " + std::to_string(camera.width()) + "x" +
+              std::to_string(camera.height());
+    if (error.empty()) {
+      est->Estimate(img, timestamp, &r);
+      j = FrameJson(r);
+      valid += r.pose.valid;
+      if (!o.overlay.empty()) {
+        cv::Mat bgr, eight;
+        img.convertTo(eight, CV_8U, img.depth() == CV_16U ? 1.0 / 256 : 1.0);
+        cv::cvtColor(eight, bgr, cv::COLOR_GRAY2BGR);
+        DrawOverlay(bgr, r.detections);
+        const std::string out = (fs::path(o.overlay) / (fs::path(path).stem().string() + ".png")).string();
+        if (!cv::imwrite(out, bgr)) error = out + ": cannot write the overlay";
+      }
+    }
+    j["image"] = path;
+    if (!error.empty()) {
+      j["timestamp"] = timestamp;
+      j["valid"] = false;
+      j["error"] = error;
+      std::cerr << "svms pose: " << error << "\n";
+      if (first_error.empty()) first_error = error;
+      ++failed;
+    }
+    std::cout << j.dump() << std::endl;
+    ++index;
+    if (!o.quiet && index % 50 == 0)
+      std::cerr << "svms pose: " << index << " frames, " << valid << " with a pose\n";
+  };
+  if (o.from_stdin) {
+    while (std::getline(std::cin, line)) {
+      if (line.empty()) continue;
+      // "PATH" or "PATH TIMESTAMP" (the last field, if it parses as a number).
+      std::string path = line;
+      double timestamp = static_cast<double>(index);
+      const size_t space = line.find_last_of(" \t");
+      if (space != std::string::npos) {
+        const std::string tail = line.substr(space + 1);
+        char* end = nullptr;
+        const double t = std::strtod(tail.c_str(), &end);
+        if (end && *end == '\0' && !tail.empty() && std::isfinite(t)) {
+          timestamp = t;
+          path = line.substr(0, line.find_last_not_of(" \t", space) + 1);
+        }
+      }
+      frame(path, timestamp);
+    }
+  } else {
+    for (const std::string& f : files) frame(f, static_cast<double>(index));
+  }
+  if (!o.quiet)
+    std::cerr << "svms pose: " << index << " frames, " << valid << " with a pose, " << failed
+              << " unreadable\n";
+  if (failed) {
+    std::cerr << "svms pose: " << failed << " of " << index << " frames failed (first: "
+              << first_error << ")\n";
+    return kExitFailed;
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+void AddPoseCommands(CLI::App& app, int* exit_code) {
+  auto o = std::make_shared<PoseCliOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "pose", "The object's pose in each frame from every visible marker of a surveyed layout");
+  cmd->add_option("IMAGES", o->inputs, "Image files, directories or globs (in this order)");
+  cmd->add_flag("--stdin", o->from_stdin,
+                "Read frames from stdin: a path per line, optionally followed by a timestamp "
+                "(seconds)");
+  cmd->add_option("--camera", o->camera, "mrcal .cameramodel")->required();
+  cmd->add_option("--layout", o->layout, "Surveyed layout (svms survey --out)")->required();
+  cmd->add_option("--corner-sigma", o->corner_sigma_px,
+                  "Pixel noise of a detected corner, each axis (see docs/flight-interface.md)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--budget-ms", o->budget_ms, "Time budget per frame (0: none)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd->add_option("--overlay", o->overlay, "Write overlay PNGs to this directory");
+  cmd->add_option("--max-megapixels", o->max_megapixels, "Refuse larger images")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_flag("--quiet", o->quiet, "No progress on stderr");
+  cmd->footer(
+      "Output: one JSON line per frame, flushed: image, timestamp (given, or the frame index),\n"
+      "valid, cam_from_object {rvec, tvec, quaternion [w, x, y, z]}, covariance (36 numbers,\n"
+      "row-major, [rotation, translation], rotation about the camera axes), markers (IDs used),\n"
+      "markers_rejected, markers_seen, points, rms (px), chi2, dof, flags {ambiguous,\n"
+      "poorly_conditioned, budget_exceeded}, latency_ms, detect_ms; message when not valid.\n"
+      "An unreadable frame gets an \"error\" field and a line on stderr; the stream goes on;\n"
+      "exit code 1 at the end. See docs/flight-interface.md.\n"
+      "Examples:\n"
+      "  svms pose out/approach --camera cam.cameramodel --layout layout.json\n"
+      "  ls frames/*.png | svms pose --stdin --camera cam.cameramodel --layout layout.json");
+  cmd->callback([o, exit_code] { *exit_code = RunPose(*o); });
+}
+
+}  // namespace svms::cli

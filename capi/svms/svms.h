@@ -1,0 +1,112 @@
+/* SVMS C API: the fused object pose of each camera frame, for flight-like software.
+ *
+ * C99, no exceptions cross this boundary, every call returns a status code and never aborts.
+ * Frames, units and the covariance convention: docs/flight-interface.md.
+ *
+ *   svms_estimator* est = NULL;
+ *   if (svms_create("cam.cameramodel", "layout.json", NULL, &est) != SVMS_OK)
+ *     fprintf(stderr, "%s\n", svms_last_error());
+ *   svms_pose pose;
+ *   svms_status s = svms_process_frame(est, pixels, 1024, 1024, 1024, t, &pose);
+ *   if (s == SVMS_OK && pose.valid) use(pose.tvec, pose.covariance);
+ *   svms_destroy(est);
+ *
+ * Threads: one estimator per thread. Several estimators may run at once in different threads;
+ * two calls on the same estimator at the same time get SVMS_ERR_BUSY for the second.
+ * A destroyed estimator stays detectable: any call through it returns SVMS_ERR_BAD_HANDLE
+ * (its 32-byte shell is kept for the life of the process for that purpose).
+ */
+#ifndef SVMS_SVMS_H_
+#define SVMS_SVMS_H_
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum svms_status {
+  SVMS_OK = 0,
+  SVMS_ERR_NULL_ARGUMENT = 1,    /* a required pointer is NULL */
+  SVMS_ERR_INVALID_ARGUMENT = 2, /* a size, stride or option out of range */
+  SVMS_ERR_FILE = 3,             /* the camera model or layout cannot be read or is invalid */
+  SVMS_ERR_BAD_HANDLE = 4,       /* not an estimator from svms_create, or destroyed */
+  SVMS_ERR_BUSY = 5,             /* the estimator is in use by another thread */
+  SVMS_ERR_INTERNAL = 6          /* an unexpected failure inside (out of memory, a bug) */
+} svms_status;
+
+/* Flags of a pose (svms_pose.flags). */
+#define SVMS_FLAG_AMBIGUOUS 1u          /* one marker, and its two planar poses could not be told apart */
+#define SVMS_FLAG_POORLY_CONDITIONED 2u /* rotation sigma > 1 deg or position sigma > 2 % of range */
+#define SVMS_FLAG_BUDGET_EXCEEDED 4u    /* the time budget ran out: the markers found until then */
+#define SVMS_FLAG_MARKER_REJECTED 8u    /* a marker was inconsistent with the others and left out */
+
+#define SVMS_MAX_REPORTED_MARKERS 32
+
+typedef struct svms_options {
+  double corner_sigma_px;   /* pixel noise of a detected corner, each axis (default 0.1) */
+  double budget_ms;         /* time budget per frame, milliseconds; 0: none (default 0) */
+} svms_options;
+
+typedef struct svms_pose {
+  double timestamp;         /* as given to svms_process_frame */
+  int valid;                /* 1: the fields below hold a pose; 0: no pose this frame */
+  /* cam_from_object: p_cam = R p_object + t (metres). rvec: axis * angle (radians);
+   * quaternion: [w, x, y, z] of the same rotation. */
+  double rvec[3];
+  double tvec[3];
+  double quaternion[4];
+  /* 6x6 row-major, ordered [rotation(3), translation(3)]: the rotation a small angle about the
+   * camera axes (rad^2), the translation of tvec (m^2). Includes image noise and the layout's
+   * own uncertainty. */
+  double covariance[36];
+  int markers_seen;         /* markers of the layout detected */
+  int markers_used;         /* after rejection */
+  int points_used;          /* corners and post tips in the fit */
+  int marker_ids[SVMS_MAX_REPORTED_MARKERS]; /* IDs used (the first SVMS_MAX_REPORTED_MARKERS) */
+  double rms_px;            /* RMS pixel residual, per coordinate */
+  double chi2;              /* whitened residual sum of squares */
+  int dof;                  /* 2 * points_used - 6 */
+  uint32_t flags;           /* SVMS_FLAG_* */
+  double latency_ms;        /* detection and fusion, wall clock */
+} svms_pose;
+
+typedef struct svms_estimator svms_estimator;
+
+/* Defaults for svms_options. */
+void svms_options_default(svms_options* options);
+
+/* Creates an estimator from an mrcal .cameramodel and a surveyed layout (svms survey --out).
+ * `options` may be NULL (defaults). On failure *out is NULL and svms_last_error() says why. */
+svms_status svms_create(const char* camera_path, const char* layout_path,
+                        const svms_options* options, svms_estimator** out);
+
+/* One frame of 8-bit grey pixels, `width` x `height`, rows `stride` bytes apart (stride >=
+ * width). The size must be the camera model's. No copy is made of the pixels. *out is always
+ * written (valid = 0 when there is no pose). */
+svms_status svms_process_frame(svms_estimator* estimator, const uint8_t* pixels, int width,
+                               int height, ptrdiff_t stride, double timestamp, svms_pose* out);
+
+/* The same for 16-bit grey pixels (stride in bytes, >= 2 * width). */
+svms_status svms_process_frame_u16(svms_estimator* estimator, const uint16_t* pixels, int width,
+                                   int height, ptrdiff_t stride, double timestamp, svms_pose* out);
+
+/* Destroys an estimator; NULL is accepted (SVMS_OK). */
+svms_status svms_destroy(svms_estimator* estimator);
+
+/* The message of the last failed call in this thread (never NULL; "" if none). Valid until the
+ * next failing call in this thread. */
+const char* svms_last_error(void);
+
+/* A short name for a status ("SVMS_OK", ...). */
+const char* svms_status_string(svms_status status);
+
+/* The library's version, "MAJOR.MINOR.PATCH". */
+const char* svms_version(void);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* SVMS_SVMS_H_ */

@@ -1,0 +1,231 @@
+// The C API (svms/svms.h) over svms::PoseEstimator. Every entry point catches everything: no
+// exception crosses into C. Handles are checked against a registry of live estimators, and a
+// destroyed estimator's shell is never freed, so that a call through it is detected rather than
+// undefined.
+#include "svms/svms.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <memory>
+#include <mutex>
+#include <new>
+#include <opencv2/core.hpp>
+#include <string>
+#include <unordered_set>
+
+#include "svms/pose_estimator.h"
+
+struct svms_estimator {
+  static constexpr uint64_t kMagic = 0x53564d5345535431ull;  // "SVMSEST1"
+  uint64_t magic = kMagic;
+  std::unique_ptr<svms::PoseEstimator> impl;
+  svms::FrameResult* scratch = nullptr;  // reused every frame (its vectors keep their capacity)
+  std::atomic<bool> busy{false};
+};
+
+namespace {
+
+std::mutex registry_mutex;
+std::unordered_set<const svms_estimator*>& Live() {
+  static auto* live = new std::unordered_set<const svms_estimator*>;
+  return *live;
+}
+
+thread_local std::string last_error;
+
+svms_status Fail(svms_status s, const std::string& message) {
+  try {
+    last_error = message;
+  } catch (...) {
+    // Out of memory while saying why: the status still tells.
+  }
+  return s;
+}
+
+bool IsLive(const svms_estimator* e) {
+  std::lock_guard<std::mutex> lock(registry_mutex);
+  return Live().count(e) > 0;
+}
+
+void Fill(const svms::FrameResult& r, svms_pose* out) {
+  const svms::ObjectPose& p = r.pose;
+  *out = svms_pose{};
+  out->timestamp = r.timestamp;
+  out->valid = p.valid ? 1 : 0;
+  out->markers_seen = p.markers_seen;
+  out->markers_used = p.markers_used;
+  out->points_used = p.points_used;
+  const size_t n = std::min<size_t>(p.ids_used.size(), SVMS_MAX_REPORTED_MARKERS);
+  for (size_t i = 0; i < n; ++i) out->marker_ids[i] = p.ids_used[i];
+  out->rms_px = p.rms_px;
+  out->chi2 = p.chi2;
+  out->dof = p.dof;
+  out->flags = (p.ambiguous ? SVMS_FLAG_AMBIGUOUS : 0u) |
+               (p.poorly_conditioned ? SVMS_FLAG_POORLY_CONDITIONED : 0u) |
+               (r.budget_exceeded ? SVMS_FLAG_BUDGET_EXCEEDED : 0u) |
+               (p.ids_rejected.empty() ? 0u : SVMS_FLAG_MARKER_REJECTED);
+  out->latency_ms = r.latency_ms;
+  if (!p.valid) return;
+  const svms::Pose& c = p.cam_from_object;
+  const Eigen::Quaterniond q(c.Rotation());
+  for (int i = 0; i < 3; ++i) {
+    out->rvec[i] = c.rvec[i];
+    out->tvec[i] = c.tvec[i];
+  }
+  out->quaternion[0] = q.w();
+  out->quaternion[1] = q.x();
+  out->quaternion[2] = q.y();
+  out->quaternion[3] = q.z();
+  for (int a = 0; a < 6; ++a)
+    for (int b = 0; b < 6; ++b) out->covariance[a * 6 + b] = p.covariance(a, b);
+}
+
+svms_status Process(svms_estimator* e, const void* pixels, int width, int height,
+                    ptrdiff_t stride, int bytes_per_pixel, double timestamp, svms_pose* out) {
+  if (!e || !pixels || !out)
+    return Fail(SVMS_ERR_NULL_ARGUMENT, std::string("svms_process_frame: ") +
+                                            (!e ? "estimator" : !pixels ? "pixels" : "out") +
+                                            " is NULL");
+  if (!IsLive(e) || e->magic != svms_estimator::kMagic || !e->impl)
+    return Fail(SVMS_ERR_BAD_HANDLE,
+                "svms_process_frame: the estimator is not one from svms_create, or was destroyed");
+  *out = svms_pose{};
+  out->timestamp = timestamp;
+  const svms::CameraModel& cam = e->impl->camera();
+  if (width != cam.width() || height != cam.height())
+    return Fail(SVMS_ERR_INVALID_ARGUMENT,
+                "svms_process_frame: frame is " + std::to_string(width) + "x" +
+                    std::to_string(height) + " pixels, the camera model " +
+                    std::to_string(cam.width()) + "x" + std::to_string(cam.height()));
+  if (stride < static_cast<ptrdiff_t>(width) * bytes_per_pixel || stride % bytes_per_pixel != 0)
+    return Fail(SVMS_ERR_INVALID_ARGUMENT,
+                "svms_process_frame: stride " + std::to_string(stride) + " bytes, expected at least " +
+                    std::to_string(static_cast<long long>(width) * bytes_per_pixel) +
+                    " and a multiple of " + std::to_string(bytes_per_pixel));
+  if (!std::isfinite(timestamp))
+    return Fail(SVMS_ERR_INVALID_ARGUMENT, "svms_process_frame: timestamp is not finite");
+  bool expected = false;
+  if (!e->busy.compare_exchange_strong(expected, true))
+    return Fail(SVMS_ERR_BUSY, "svms_process_frame: the estimator is in use by another thread");
+  svms_status status = SVMS_OK;
+  try {
+    // Zero-copy view of the caller's pixels.
+    const cv::Mat image(height, width, bytes_per_pixel == 1 ? CV_8UC1 : CV_16UC1,
+                        const_cast<void*>(pixels), static_cast<size_t>(stride));
+    e->impl->Estimate(image, timestamp, e->scratch);
+    Fill(*e->scratch, out);
+  } catch (const std::bad_alloc&) {
+    status = Fail(SVMS_ERR_INTERNAL, "svms_process_frame: out of memory");
+  } catch (const std::exception& ex) {
+    status = Fail(SVMS_ERR_INTERNAL, std::string("svms_process_frame: ") + ex.what());
+  } catch (...) {
+    status = Fail(SVMS_ERR_INTERNAL, "svms_process_frame: unknown failure");
+  }
+  e->busy.store(false);
+  return status;
+}
+
+}  // namespace
+
+extern "C" {
+
+void svms_options_default(svms_options* options) {
+  if (!options) return;
+  options->corner_sigma_px = svms::ObjectPoseOptions{}.corner_sigma_px;
+  options->budget_ms = 0;
+}
+
+svms_status svms_create(const char* camera_path, const char* layout_path,
+                        const svms_options* options, svms_estimator** out) {
+  if (!out) return Fail(SVMS_ERR_NULL_ARGUMENT, "svms_create: out is NULL");
+  *out = nullptr;
+  if (!camera_path || !layout_path)
+    return Fail(SVMS_ERR_NULL_ARGUMENT,
+                std::string("svms_create: ") + (!camera_path ? "camera_path" : "layout_path") +
+                    " is NULL");
+  try {
+    svms_options o;
+    svms_options_default(&o);
+    if (options) o = *options;
+    svms::PoseEstimatorOptions po;
+    po.fusion.corner_sigma_px = o.corner_sigma_px;
+    po.budget_ms = o.budget_ms;
+    if (!(o.corner_sigma_px > 0) || !std::isfinite(o.corner_sigma_px) || !(o.budget_ms >= 0) ||
+        !std::isfinite(o.budget_ms))
+      return Fail(SVMS_ERR_INVALID_ARGUMENT,
+                  "svms_create: options: expected corner_sigma_px > 0 and budget_ms >= 0, got " +
+                      std::to_string(o.corner_sigma_px) + " and " + std::to_string(o.budget_ms));
+    std::unique_ptr<svms::PoseEstimator> impl;
+    if (svms::Status s = svms::PoseEstimator::CreateFromFiles(camera_path, layout_path, po, &impl);
+        !s)
+      return Fail(SVMS_ERR_FILE, "svms_create: " + s.message());
+    auto e = std::make_unique<svms_estimator>();
+    e->impl = std::move(impl);
+    e->scratch = new svms::FrameResult;
+    {
+      std::lock_guard<std::mutex> lock(registry_mutex);
+      Live().insert(e.get());
+    }
+    *out = e.release();
+    return SVMS_OK;
+  } catch (const std::bad_alloc&) {
+    return Fail(SVMS_ERR_INTERNAL, "svms_create: out of memory");
+  } catch (const std::exception& ex) {
+    return Fail(SVMS_ERR_INTERNAL, std::string("svms_create: ") + ex.what());
+  } catch (...) {
+    return Fail(SVMS_ERR_INTERNAL, "svms_create: unknown failure");
+  }
+}
+
+svms_status svms_process_frame(svms_estimator* e, const uint8_t* pixels, int width, int height,
+                               ptrdiff_t stride, double timestamp, svms_pose* out) {
+  return Process(e, pixels, width, height, stride, 1, timestamp, out);
+}
+
+svms_status svms_process_frame_u16(svms_estimator* e, const uint16_t* pixels, int width,
+                                   int height, ptrdiff_t stride, double timestamp, svms_pose* out) {
+  return Process(e, pixels, width, height, stride, 2, timestamp, out);
+}
+
+svms_status svms_destroy(svms_estimator* e) {
+  if (!e) return SVMS_OK;
+  {
+    std::lock_guard<std::mutex> lock(registry_mutex);
+    if (!Live().erase(e))
+      return Fail(SVMS_ERR_BAD_HANDLE,
+                  "svms_destroy: the estimator is not one from svms_create, or was destroyed");
+  }
+  bool expected = false;
+  if (!e->busy.compare_exchange_strong(expected, true)) {
+    std::lock_guard<std::mutex> lock(registry_mutex);
+    Live().insert(e);
+    return Fail(SVMS_ERR_BUSY, "svms_destroy: the estimator is in use by another thread");
+  }
+  // Free everything but the shell (see the header): the address is never handed out again.
+  e->impl.reset();
+  delete e->scratch;
+  e->scratch = nullptr;
+  e->magic = 0;
+  return SVMS_OK;
+}
+
+const char* svms_last_error(void) { return last_error.c_str(); }
+
+const char* svms_status_string(svms_status s) {
+  switch (s) {
+    case SVMS_OK: return "SVMS_OK";
+    case SVMS_ERR_NULL_ARGUMENT: return "SVMS_ERR_NULL_ARGUMENT";
+    case SVMS_ERR_INVALID_ARGUMENT: return "SVMS_ERR_INVALID_ARGUMENT";
+    case SVMS_ERR_FILE: return "SVMS_ERR_FILE";
+    case SVMS_ERR_BAD_HANDLE: return "SVMS_ERR_BAD_HANDLE";
+    case SVMS_ERR_BUSY: return "SVMS_ERR_BUSY";
+    case SVMS_ERR_INTERNAL: return "SVMS_ERR_INTERNAL";
+  }
+  return "SVMS_ERR_UNKNOWN";
+}
+
+const char* svms_version(void) { return SVMS_VERSION_STRING; }
+
+}  // extern "C"

@@ -1,0 +1,46 @@
+// Writes what the C API tests need into DIR: true.cameramodel and true_layout.json of the
+// quick approach dataset, and two rendered frames as raw 8-bit pixels (frame_N.raw, width x
+// height bytes, row-major) with their true cam_from_object (frame_N.txt: rvec and tvec).
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include "svms/datasets.h"
+#include "svms/render.h"
+#include "svms/truth.h"
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    std::cerr << "usage: svms_capi_fixture DIR\n";
+    return 2;
+  }
+  const std::string dir = argv[1];
+  std::filesystem::create_directories(dir);
+  svms::Dataset d;
+  if (!svms::MakeDataset("approach", svms::DatasetOptions{1, true}, &d).ok()) return 1;
+  const svms::Scene& scene = d.scenes.at(0).second;
+  if (svms::Status s = scene.camera.Write(dir + "/true.cameramodel"); !s) {
+    std::cerr << s.message() << "\n";
+    return 1;
+  }
+  for (const auto& [name, text] : d.files)
+    if (name == "true_layout.json") std::ofstream(dir + "/" + name) << text;
+  std::unique_ptr<svms::Renderer> r;
+  if (!svms::Renderer::Create(scene, &r).ok()) return 1;
+  for (int view : {0, 11}) {
+    const cv::Mat img = r->Expose(r->RenderRadiance(view), view);
+    if (img.type() != CV_8UC1 || !img.isContinuous()) return 1;
+    const std::string base = dir + "/frame_" + std::to_string(view);
+    std::ofstream(base + ".raw", std::ios::binary)
+        .write(reinterpret_cast<const char*>(img.data), img.total());
+    const svms::ViewTruth t = svms::ComputeTruth(*r, view);
+    for (const auto& [object, pose] : t.cam_from_object)
+      if (object == "module") {
+        std::ofstream f(base + ".txt");
+        f.precision(17);
+        f << pose.rvec.transpose() << " " << pose.tvec.transpose() << "\n";
+      }
+  }
+  std::cout << "svms_capi_fixture: wrote " << dir << "\n";
+  return 0;
+}

@@ -1,0 +1,194 @@
+/* The C API from plain C99: a pose from a rendered frame against its truth, every error path,
+ * strides, 16-bit pixels, the time budget, calls after destroy, one handle per thread.
+ * Usage: svms_capi_c_test FIXTURE_DIR (written by svms_capi_fixture). */
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "svms/svms.h"
+
+static int failures = 0;
+#define CHECK(cond)                                                          \
+  do {                                                                       \
+    if (!(cond)) {                                                           \
+      fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
+      ++failures;                                                            \
+    }                                                                        \
+  } while (0)
+#define CHECK_STATUS(call, expected)                                                      \
+  do {                                                                                    \
+    svms_status s_ = (call);                                                              \
+    if (s_ != (expected)) {                                                               \
+      fprintf(stderr, "%s:%d: %s gave %s, expected %s (%s)\n", __FILE__, __LINE__, #call, \
+              svms_status_string(s_), svms_status_string(expected), svms_last_error());   \
+      ++failures;                                                                         \
+    }                                                                                     \
+  } while (0)
+
+enum { W = 1024, H = 1024 };
+static char camera_path[4096], layout_path[4096];
+static unsigned char* frame;
+
+static unsigned char* ReadRaw(const char* path, size_t n) {
+  FILE* f = fopen(path, "rb");
+  unsigned char* p = (unsigned char*)malloc(n);
+  if (!f || !p || fread(p, 1, n, f) != n) {
+    fprintf(stderr, "cannot read %s\n", path);
+    exit(2);
+  }
+  fclose(f);
+  return p;
+}
+
+typedef struct {
+  svms_pose pose;
+  svms_status status;
+} ThreadResult;
+
+static void* Worker(void* arg) {
+  ThreadResult* r = (ThreadResult*)arg;
+  svms_estimator* e = NULL;
+  r->status = svms_create(camera_path, layout_path, NULL, &e);
+  for (int i = 0; i < 3 && r->status == SVMS_OK; ++i)
+    r->status = svms_process_frame(e, frame, W, H, W, 1.5, &r->pose);
+  svms_destroy(e);
+  return NULL;
+}
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    fprintf(stderr, "usage: svms_capi_c_test FIXTURE_DIR\n");
+    return 2;
+  }
+  char path[4096];
+  snprintf(camera_path, sizeof camera_path, "%s/true.cameramodel", argv[1]);
+  snprintf(layout_path, sizeof layout_path, "%s/true_layout.json", argv[1]);
+  snprintf(path, sizeof path, "%s/frame_11.raw", argv[1]);
+  frame = ReadRaw(path, (size_t)W * H);
+  double truth[6];
+  snprintf(path, sizeof path, "%s/frame_11.txt", argv[1]);
+  FILE* tf = fopen(path, "r");
+  CHECK(tf && fscanf(tf, "%lf %lf %lf %lf %lf %lf", &truth[0], &truth[1], &truth[2], &truth[3],
+                     &truth[4], &truth[5]) == 6);
+  if (tf) fclose(tf);
+
+  CHECK(strlen(svms_version()) >= 5);
+  CHECK(strcmp(svms_status_string(SVMS_ERR_BAD_HANDLE), "SVMS_ERR_BAD_HANDLE") == 0);
+
+  /* Creation errors. */
+  svms_estimator* est = (svms_estimator*)0x1;
+  CHECK_STATUS(svms_create(camera_path, layout_path, NULL, NULL), SVMS_ERR_NULL_ARGUMENT);
+  CHECK_STATUS(svms_create(NULL, layout_path, NULL, &est), SVMS_ERR_NULL_ARGUMENT);
+  CHECK(est == NULL);
+  CHECK(strstr(svms_last_error(), "camera_path") != NULL);
+  CHECK_STATUS(svms_create("/nonexistent/cam.cameramodel", layout_path, NULL, &est), SVMS_ERR_FILE);
+  CHECK(strstr(svms_last_error(), "/nonexistent/cam.cameramodel") != NULL);
+  CHECK_STATUS(svms_create(camera_path, camera_path, NULL, &est), SVMS_ERR_FILE);
+  svms_options bad;
+  svms_options_default(&bad);
+  CHECK(bad.corner_sigma_px > 0 && bad.budget_ms == 0);
+  bad.corner_sigma_px = -1;
+  CHECK_STATUS(svms_create(camera_path, layout_path, &bad, &est), SVMS_ERR_INVALID_ARGUMENT);
+  bad.corner_sigma_px = 0.1;
+  bad.budget_ms = NAN;
+  CHECK_STATUS(svms_create(camera_path, layout_path, &bad, &est), SVMS_ERR_INVALID_ARGUMENT);
+
+  /* A pose against the truth. */
+  CHECK_STATUS(svms_create(camera_path, layout_path, NULL, &est), SVMS_OK);
+  svms_pose pose;
+  CHECK_STATUS(svms_process_frame(est, frame, W, H, W, 1.1, &pose), SVMS_OK);
+  CHECK(pose.valid == 1);
+  CHECK(pose.timestamp == 1.1);
+  CHECK(pose.markers_used >= 2 && pose.markers_used <= pose.markers_seen);
+  CHECK(pose.points_used >= 4 * pose.markers_used);
+  CHECK(pose.dof == 2 * pose.points_used - 6);
+  const double range = sqrt(truth[3] * truth[3] + truth[4] * truth[4] + truth[5] * truth[5]);
+  double dt = 0;
+  for (int i = 0; i < 3; ++i) dt += (pose.tvec[i] - truth[3 + i]) * (pose.tvec[i] - truth[3 + i]);
+  CHECK(sqrt(dt) < 0.005 * range);
+  const double a = sqrt(truth[0] * truth[0] + truth[1] * truth[1] + truth[2] * truth[2]);
+  const double qt[4] = {cos(a / 2), sin(a / 2) * truth[0] / a, sin(a / 2) * truth[1] / a,
+                        sin(a / 2) * truth[2] / a};
+  double dot = 0, qn = 0;
+  for (int i = 0; i < 4; ++i) dot += qt[i] * pose.quaternion[i], qn += pose.quaternion[i] * pose.quaternion[i];
+  CHECK(fabs(qn - 1) < 1e-9);
+  CHECK(2 * acos(fmin(1, fabs(dot))) < 0.3 * 3.14159265358979 / 180); /* within 0.3 degrees */
+  for (int r = 0; r < 6; ++r) {
+    CHECK(pose.covariance[r * 6 + r] > 0);
+    for (int c = 0; c < 6; ++c) CHECK(pose.covariance[r * 6 + c] == pose.covariance[c * 6 + r]);
+  }
+  CHECK(pose.latency_ms > 0);
+
+  /* The same pixels with padded rows, and as 16 bits. */
+  const ptrdiff_t stride = W + 77;
+  unsigned char* padded = (unsigned char*)calloc((size_t)stride * H, 1);
+  unsigned short* wide = (unsigned short*)malloc((size_t)W * H * 2);
+  for (int y = 0; y < H; ++y) {
+    memcpy(padded + y * stride, frame + y * W, W);
+    for (int x = 0; x < W; ++x) wide[y * W + x] = (unsigned short)(frame[y * W + x] * 257);
+  }
+  svms_pose p2;
+  CHECK_STATUS(svms_process_frame(est, padded, W, H, stride, 1.1, &p2), SVMS_OK);
+  CHECK(p2.valid && memcmp(p2.tvec, pose.tvec, sizeof pose.tvec) == 0);
+  CHECK_STATUS(svms_process_frame_u16(est, wide, W, H, 2 * W, 1.1, &p2), SVMS_OK);
+  CHECK(p2.valid && fabs(p2.tvec[2] - pose.tvec[2]) < 0.01);
+
+  /* Bad frames: defined errors, *out cleared. */
+  CHECK_STATUS(svms_process_frame(est, frame, W - 1, H, W, 0, &p2), SVMS_ERR_INVALID_ARGUMENT);
+  CHECK(p2.valid == 0);
+  CHECK(strstr(svms_last_error(), "1023x1024") != NULL);
+  CHECK_STATUS(svms_process_frame(est, frame, W, H, W - 1, 0, &p2), SVMS_ERR_INVALID_ARGUMENT);
+  CHECK_STATUS(svms_process_frame(est, frame, -5, H, W, 0, &p2), SVMS_ERR_INVALID_ARGUMENT);
+  CHECK_STATUS(svms_process_frame_u16(est, wide, W, H, 2 * W + 1, 0, &p2), SVMS_ERR_INVALID_ARGUMENT);
+  CHECK_STATUS(svms_process_frame(est, frame, W, H, W, NAN, &p2), SVMS_ERR_INVALID_ARGUMENT);
+  CHECK_STATUS(svms_process_frame(est, NULL, W, H, W, 0, &p2), SVMS_ERR_NULL_ARGUMENT);
+  CHECK_STATUS(svms_process_frame(est, frame, W, H, W, 0, NULL), SVMS_ERR_NULL_ARGUMENT);
+  CHECK_STATUS(svms_process_frame(NULL, frame, W, H, W, 0, &p2), SVMS_ERR_NULL_ARGUMENT);
+  /* Nothing to see: OK, no pose. */
+  unsigned char* black = (unsigned char*)calloc((size_t)W * H, 1);
+  CHECK_STATUS(svms_process_frame(est, black, W, H, W, 2, &p2), SVMS_OK);
+  CHECK(p2.valid == 0 && p2.markers_seen == 0 && p2.timestamp == 2);
+
+  /* A budget that cannot be met: flagged, never a crash. */
+  svms_options tight;
+  svms_options_default(&tight);
+  tight.budget_ms = 1e-6;
+  svms_estimator* hurried = NULL;
+  CHECK_STATUS(svms_create(camera_path, layout_path, &tight, &hurried), SVMS_OK);
+  CHECK_STATUS(svms_process_frame(hurried, frame, W, H, W, 3, &p2), SVMS_OK);
+  CHECK((p2.flags & SVMS_FLAG_BUDGET_EXCEEDED) != 0);
+  CHECK_STATUS(svms_destroy(hurried), SVMS_OK);
+
+  /* After destroy, and handles that never were. */
+  CHECK_STATUS(svms_destroy(est), SVMS_OK);
+  CHECK_STATUS(svms_process_frame(est, frame, W, H, W, 0, &p2), SVMS_ERR_BAD_HANDLE);
+  CHECK_STATUS(svms_destroy(est), SVMS_ERR_BAD_HANDLE);
+  CHECK_STATUS(svms_destroy(NULL), SVMS_OK);
+  double not_an_estimator[16] = {0};
+  CHECK_STATUS(svms_process_frame((svms_estimator*)not_an_estimator, frame, W, H, W, 0, &p2),
+               SVMS_ERR_BAD_HANDLE);
+
+  /* One handle per thread, two threads at once: the same answer as alone. */
+  pthread_t threads[2];
+  ThreadResult results[2];
+  for (int i = 0; i < 2; ++i) CHECK(pthread_create(&threads[i], NULL, Worker, &results[i]) == 0);
+  for (int i = 0; i < 2; ++i) pthread_join(threads[i], NULL);
+  for (int i = 0; i < 2; ++i) {
+    CHECK(results[i].status == SVMS_OK);
+    CHECK(results[i].pose.valid && memcmp(results[i].pose.tvec, pose.tvec, sizeof pose.tvec) == 0);
+  }
+
+  free(frame);
+  free(padded);
+  free(wide);
+  free(black);
+  if (failures) {
+    fprintf(stderr, "svms_capi_c_test: %d checks failed\n", failures);
+    return 1;
+  }
+  printf("svms_capi_c_test: all checks passed (pose within %.2f mm of the truth at %.2f m)\n",
+         1000 * sqrt(dt), range);
+  return 0;
+}

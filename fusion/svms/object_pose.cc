@@ -1,0 +1,368 @@
+#include "svms/object_pose.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <set>
+
+#include "svms/marker_pose.h"
+
+namespace svms {
+namespace {
+
+using Mat26 = Eigen::Matrix<double, 2, 6>;
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+
+Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d S;
+  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return S;
+}
+
+Eigen::Matrix3d Exp(const Eigen::Vector3d& w) {
+  const double a = w.norm();
+  if (a < 1e-300) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
+}
+
+// The standard normal quantile, by bisection on erfc (called a handful of times per solve).
+double NormalQuantile(double p) {
+  double lo = -10, hi = 10;
+  for (int i = 0; i < 80; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (0.5 * std::erfc(-mid / std::sqrt(2.0)) < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// Chi-square quantile with k dof (Wilson-Hilferty; within 1 % of the exact value for k >= 2
+// at the 99.9 % level, which is all a rejection threshold needs).
+double ChiSquareQuantile(double p, int k) {
+  const double z = NormalQuantile(p), h = 2.0 / (9.0 * k);
+  const double c = 1 - h + z * std::sqrt(h);
+  return k * c * c * c;
+}
+
+// One point of a marker: its position in the marker frame, its pixel and pixel sigma, and how
+// it moves with the post height (d point / d height, marker frame; zero for corners).
+struct Point {
+  Eigen::Vector3d in_marker;
+  Eigen::Vector2d px;
+  double sigma;
+  Eigen::Vector3d d_dheight = Eigen::Vector3d::Zero();
+};
+
+struct Block {
+  const MarkerObservation* obs;
+  std::vector<Point> points;
+  Eigen::Matrix3d R_om;  // object_from_marker rotation
+  Eigen::Vector3d t_om;
+  Eigen::MatrixXd L_inv;  // inverse Cholesky factor of the marker's residual covariance
+  double weight = 1;      // robust weight of the iteration
+  bool active = true;
+};
+
+// The marker's points at the current pose (the concave well's visible bottom depends on it).
+void UpdatePoints(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                  const ObjectPoseOptions& o) {
+  const MarkerObservation& m = *b->obs;
+  b->points.clear();
+  const auto corners = m.model.Corners();
+  for (int k = 0; k < 4; ++k) b->points.push_back({corners[k], m.corners[k], o.corner_sigma_px});
+  if (o.use_tips && m.tip && m.model.post) {
+    // Camera centre in the marker frame: marker_from_cam = (cam_from_object object_from_marker)^-1.
+    const Eigen::Matrix3d R_cm = R * b->R_om;
+    const Eigen::Vector3d t_cm = R * b->t_om + t;
+    const Eigen::Vector3d cam_in_marker = -R_cm.transpose() * t_cm;
+    double fraction = 0;
+    const Eigen::Vector3d tip = VisibleTipPoint(m.model, cam_in_marker, &fraction);
+    if (fraction > 0 || !m.model.post->concave()) {
+      Point p{tip, m.tip->pixel, std::max(o.min_tip_sigma_px, m.tip->sigma_px)};
+      p.d_dheight = Eigen::Vector3d::UnitZ();
+      b->points.push_back(p);
+    }
+  }
+}
+
+// Residuals (pixels) and Jacobians d residual / d [rotation, translation] of the object pose
+// (left perturbation, camera axes) for one marker; also d pixel / d layout (the marker's
+// object_from_marker, left perturbation in object axes, then the post height: 7 columns).
+bool Evaluate(const CameraModel& camera, const Block& b, const Eigen::Matrix3d& R,
+              const Eigen::Vector3d& t, Eigen::VectorXd* r, Eigen::MatrixXd* J,
+              Eigen::MatrixXd* J_layout) {
+  const int n = static_cast<int>(b.points.size());
+  r->resize(2 * n);
+  J->resize(2 * n, 6);
+  if (J_layout) J_layout->resize(2 * n, 7);
+  for (int i = 0; i < n; ++i) {
+    const Point& p = b.points[i];
+    const Eigen::Vector3d in_object_rotated = b.R_om * p.in_marker;
+    const Eigen::Vector3d p_obj = in_object_rotated + b.t_om;
+    const Eigen::Vector3d p_cam = R * p_obj + t;
+    Eigen::Vector2d q;
+    Eigen::Matrix<double, 2, 3> dq_dp;
+    if (!camera.Project(p_cam, &q, &dq_dp)) return false;
+    r->segment<2>(2 * i) = q - p.px;
+    J->block<2, 3>(2 * i, 0) = -dq_dp * Skew(R * p_obj);
+    J->block<2, 3>(2 * i, 3) = dq_dp;
+    if (J_layout) {
+      J_layout->block<2, 3>(2 * i, 0) = -dq_dp * R * Skew(in_object_rotated);
+      J_layout->block<2, 3>(2 * i, 3) = dq_dp * R;
+      J_layout->block<2, 1>(2 * i, 6) = dq_dp * R * b.R_om * p.d_dheight;
+    }
+  }
+  return true;
+}
+
+// The whitening factor of one marker at the current pose: R_m = diag(sigma^2) + J_L S J_L^T.
+bool Whitening(const CameraModel& camera, Block* b, const Eigen::Matrix3d& R,
+               const Eigen::Vector3d& t, const ObjectPoseOptions& o) {
+  Eigen::VectorXd r;
+  Eigen::MatrixXd J, JL;
+  if (!Evaluate(camera, *b, R, t, &r, &J, &JL)) return false;
+  const int n = static_cast<int>(b->points.size());
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(2 * n, 2 * n);
+  for (int i = 0; i < n; ++i) C.block<2, 2>(2 * i, 2 * i).diagonal().setConstant(b->points[i].sigma * b->points[i].sigma);
+  if (o.use_layout_covariance) {
+    Eigen::Matrix<double, 7, 7> S = Eigen::Matrix<double, 7, 7>::Zero();
+    if (b->obs->layout_covariance) S.topLeftCorner<6, 6>() = *b->obs->layout_covariance;
+    if (b->obs->post_height_sigma) S(6, 6) = *b->obs->post_height_sigma * *b->obs->post_height_sigma;
+    C += JL * S * JL.transpose();
+  }
+  Eigen::LLT<Eigen::MatrixXd> llt(C);
+  if (llt.info() != Eigen::Success) return false;
+  b->L_inv = llt.matrixL().solve(Eigen::MatrixXd::Identity(2 * n, 2 * n));
+  return true;
+}
+
+// Whitened chi-square of one marker at (R, t).
+double MarkerChi2(const CameraModel& camera, const Block& b, const Eigen::Matrix3d& R,
+                  const Eigen::Vector3d& t) {
+  Eigen::VectorXd r;
+  Eigen::MatrixXd J;
+  if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) return std::numeric_limits<double>::infinity();
+  return (b.L_inv * r).squaredNorm();
+}
+
+}  // namespace
+
+std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Detection>& detections,
+                                                           const Layout& layout) {
+  std::vector<MarkerObservation> out;
+  // Outer markers first, so that a shared post's tip is the outer marker's (a bigger marker
+  // predicts it better).
+  std::vector<const Detection*> order;
+  for (const Detection& d : detections) order.push_back(&d);
+  std::stable_sort(order.begin(), order.end(), [](const Detection* a, const Detection* b) {
+    return (a->nested_in >= 0) < (b->nested_in >= 0);
+  });
+  for (const Detection* d : order) {
+    for (size_t e = 0; e < layout.markers.size(); ++e) {
+      const LayoutEntry& entry = layout.markers[e];
+      MarkerObservation o;
+      if (entry.marker.id == d->id) {
+        o.model = entry.marker;
+      } else if (entry.marker.inner && entry.marker.inner->id == d->id) {
+        std::optional<MarkerModel> inner = entry.marker.InnerModel();
+        if (!inner) continue;
+        o.model = *inner;
+      } else {
+        continue;
+      }
+      o.id = d->id;
+      o.object_from_marker = entry.object_from_marker;
+      o.layout_covariance = entry.covariance;
+      o.post_height_sigma = entry.post_height_sigma;
+      o.corners = d->corners;
+      o.cam_from_marker = d->cam_from_marker;
+      o.pose_ambiguous = d->pose_ambiguous;
+      // One tip per physical post: the inner marker of a dual shares the outer's post, whether
+      // the layout has them as one entry or (as the survey writes) as two.
+      if (d->tip && o.model.post) {
+        o.tip = d->tip;
+        const Eigen::Vector3d tip_in_object = o.object_from_marker * *o.model.PostTip();
+        for (const MarkerObservation& prev : out)
+          if (prev.tip && (prev.object_from_marker * *prev.model.PostTip() - tip_in_object).norm() < 1e-4)
+            o.tip.reset();
+      }
+      out.push_back(o);
+      break;
+    }
+  }
+  return out;
+}
+
+ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
+                           const ObjectPoseOptions& o) {
+  ObjectPose result;
+  result.markers_seen = static_cast<int>(obs.size());
+  if (obs.empty()) {
+    result.message = "no marker of the layout detected";
+    return result;
+  }
+  std::vector<Block> blocks(obs.size());
+  for (size_t i = 0; i < obs.size(); ++i) {
+    blocks[i].obs = &obs[i];
+    blocks[i].R_om = obs[i].object_from_marker.Rotation();
+    blocks[i].t_om = obs[i].object_from_marker.tvec;
+  }
+
+  // 1. Start: the per-marker candidate with the least robust cost over all markers.
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+  double best = std::numeric_limits<double>::infinity();
+  for (const MarkerObservation& m : obs) {
+    if (!m.cam_from_marker) continue;
+    const Pose candidate = *m.cam_from_marker * m.object_from_marker.Inverse();
+    const Eigen::Matrix3d Rc = candidate.Rotation();
+    double cost = 0;
+    for (Block& b : blocks) {
+      UpdatePoints(&b, Rc, candidate.tvec, o);
+      Eigen::VectorXd r;
+      Eigen::MatrixXd J;
+      if (!Evaluate(camera, b, Rc, candidate.tvec, &r, &J, nullptr)) {
+        cost += 1e6;
+        continue;
+      }
+      for (int i = 0; i < r.size(); i += 2) {
+        const double e = r.segment<2>(i).norm() / o.corner_sigma_px;  // Cauchy: robust to outliers
+        cost += std::log1p(e * e / 9);
+      }
+    }
+    if (cost < best) {
+      best = cost;
+      R = Rc;
+      t = candidate.tvec;
+    }
+  }
+  if (!std::isfinite(best)) {
+    result.message = "no detected marker has a single-marker pose to start from";
+    return result;
+  }
+
+  // 2. Gauss-Newton with per-marker whitening and Cauchy weights; 3. reject the worst marker
+  // while it is inconsistent, and solve again.
+  Mat6 H = Mat6::Zero();
+  for (;;) {
+    for (Block& b : blocks) {
+      if (!b.active) continue;
+      UpdatePoints(&b, R, t, o);
+      if (!Whitening(camera, &b, R, t, o)) b.active = false;
+    }
+    bool converged = false;
+    for (int iter = 0; iter < o.max_iterations && !converged; ++iter) {
+      H.setZero();
+      Vec6 g = Vec6::Zero();
+      int active = 0;
+      for (Block& b : blocks) {
+        if (!b.active) continue;
+        if (iter > 0 && iter % 3 == 0) {  // the well's visible bottom and R_m follow the pose
+          UpdatePoints(&b, R, t, o);
+          if (!Whitening(camera, &b, R, t, o)) { b.active = false; continue; }
+        }
+        Eigen::VectorXd r;
+        Eigen::MatrixXd J;
+        if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) { b.active = false; continue; }
+        const Eigen::VectorXd wr = b.L_inv * r;
+        const Eigen::MatrixXd wJ = b.L_inv * J;
+        const double dof = static_cast<double>(r.size());
+        const double norm = std::sqrt(wr.squaredNorm() / dof);
+        b.weight = 1.0 / (1.0 + (norm / o.robust_k) * (norm / o.robust_k));  // Cauchy
+        H += b.weight * wJ.transpose() * wJ;
+        g += b.weight * wJ.transpose() * wr;
+        ++active;
+      }
+      if (active == 0) break;
+      const Vec6 step = -H.ldlt().solve(g);
+      if (!step.allFinite()) break;
+      R = Exp(step.head<3>()) * R;
+      t += step.tail<3>();
+      converged = step.head<3>().norm() < 1e-10 && step.tail<3>().norm() < 1e-10 * (1 + t.norm());
+    }
+    // Rejection: the worst marker, if its chi-square is beyond the quantile and others remain.
+    int worst = -1, active = 0;
+    double worst_excess = 1;
+    for (size_t i = 0; i < blocks.size(); ++i) {
+      if (!blocks[i].active) continue;
+      ++active;
+      const double chi2 = MarkerChi2(camera, blocks[i], R, t);
+      const double limit = ChiSquareQuantile(o.reject_quantile, 2 * static_cast<int>(blocks[i].points.size()));
+      if (chi2 / limit > worst_excess) {
+        worst_excess = chi2 / limit;
+        worst = static_cast<int>(i);
+      }
+    }
+    if (worst < 0 || active <= 1) break;
+    blocks[worst].active = false;
+    result.ids_rejected.push_back(blocks[worst].obs->id);
+  }
+
+  // 4. The result: covariance from the unweighted information of the markers kept.
+  H.setZero();
+  double ss = 0, chi2 = 0;
+  int points = 0;
+  bool ambiguous_single = false;
+  for (Block& b : blocks) {
+    if (!b.active) continue;
+    UpdatePoints(&b, R, t, o);
+    if (!Whitening(camera, &b, R, t, o)) continue;
+    Eigen::VectorXd r;
+    Eigen::MatrixXd J;
+    if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) continue;
+    const Eigen::MatrixXd wJ = b.L_inv * J;
+    H += wJ.transpose() * wJ;
+    ss += r.squaredNorm();
+    chi2 += (b.L_inv * r).squaredNorm();
+    points += static_cast<int>(b.points.size());
+    result.ids_used.push_back(b.obs->id);
+    ambiguous_single = b.obs->pose_ambiguous;
+  }
+  result.markers_used = static_cast<int>(result.ids_used.size());
+  result.points_used = points;
+  if (result.markers_used == 0 || points < 3) {
+    result.message = "no marker left after rejection";
+    return result;
+  }
+  Eigen::FullPivLU<Mat6> lu(H);
+  if (lu.rank() < 6) {
+    result.message = "the pose is not determined (rank " + std::to_string(lu.rank()) + " of 6)";
+    return result;
+  }
+  result.covariance = lu.inverse();
+  result.covariance = 0.5 * (result.covariance + result.covariance.transpose()).eval();
+  result.cam_from_object = Pose::FromRotation(R, t);
+  result.rms_px = std::sqrt(ss / (2.0 * points));
+  result.chi2 = chi2;
+  result.dof = 2 * points - 6;
+  result.ambiguous = result.markers_used == 1 && ambiguous_single;
+  const double rot_sigma_deg =
+      std::sqrt(result.covariance.topLeftCorner<3, 3>().diagonal().maxCoeff()) * 180 / M_PI;
+  const double trans_sigma = std::sqrt(result.covariance.bottomRightCorner<3, 3>().trace());
+  result.poorly_conditioned = rot_sigma_deg > o.max_rotation_sigma_deg ||
+                              trans_sigma > o.max_translation_sigma_fraction * t.norm();
+  result.valid = result.covariance.allFinite() && result.cam_from_object.tvec.allFinite();
+  if (!result.valid) result.message = "the solve gave non-finite numbers";
+  return result;
+}
+
+Eigen::Matrix<double, 6, 1> PoseError(const Pose& truth, const Pose& estimate) {
+  Eigen::Matrix<double, 6, 1> e;
+  const Eigen::AngleAxisd aa(truth.Rotation() * estimate.Rotation().transpose());
+  e.head<3>() = aa.axis() * aa.angle();
+  e.tail<3>() = truth.tvec - estimate.tvec;
+  return e;
+}
+
+double Nees(const Pose& truth, const Pose& estimate, const PoseCovariance& covariance) {
+  const Eigen::Matrix<double, 6, 1> e = PoseError(truth, estimate);
+  Eigen::LDLT<PoseCovariance> ldlt(covariance);
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return std::nan("");
+  return e.dot(ldlt.solve(e));
+}
+
+}  // namespace svms

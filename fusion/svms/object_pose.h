@@ -1,0 +1,104 @@
+// One object pose from every visible marker at once.
+//
+// The unknown is cam_from_object (6 parameters). Every corner and post tip of every detected
+// marker of the layout is one observation of a known point of the object: its pixel is
+// predicted through the camera's mrcal lens model from the marker's surveyed object_from_marker
+// and compared with the detection. The fit is one weighted least-squares problem over all of
+// them (not an average of per-marker poses), solved by Gauss-Newton:
+//
+//   - Noise model per marker: the corners' and the tip's pixel noise (isotropic, per point)
+//     plus the layout's own uncertainty pushed into pixels to first order,
+//       R_m = diag(sigma_px^2) + J_layout Sigma_layout J_layout^T,
+//     a full (2k x 2k) covariance for the k points of marker m (its points move together when
+//     the marker's surveyed pose is off). The fit whitens each marker's residuals with R_m, so
+//     the pose covariance (J^T R^-1 J)^-1 includes both the image noise and the layout's.
+//     Cross-covariances between markers are not in a layout file and are taken as zero.
+//   - Robust: a marker whose whitened residual is large is down-weighted (Cauchy on its
+//     Mahalanobis norm per coordinate) during the iterations, and after convergence the worst marker is
+//     rejected and the fit redone while its chi-square exceeds the 99.9 % quantile.
+//   - Start: each marker's own pose (Detection::cam_from_marker) gives a candidate
+//     cam_from_object; the candidate with the least robust cost over all markers is refined.
+//
+// Frames and units (docs/conventions.md, docs/flight-interface.md): cam_from_object maps object
+// points (metres) into the camera frame; the covariance is ordered [rotation, translation], the
+// rotation a small angle about the camera axes (radians), the translation of tvec (metres):
+// cam_from_object_true = exp([d_rot]) R_est, t_est + d_trans.
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "svms/camera.h"
+#include "svms/detector.h"
+#include "svms/layout.h"
+#include "svms/pose.h"
+
+namespace svms {
+
+struct ObjectPoseOptions {
+  // Pixel noise of a refined corner, each axis (the detector's sub-pixel corners on the
+  // simulator's images: see docs/flight-interface.md for how it was measured).
+  double corner_sigma_px = 0.1;
+  double min_tip_sigma_px = 0.3;       // floor on the detector's own tip sigma
+  bool use_tips = true;                // post tips as observations
+  bool use_layout_covariance = true;   // add the layout's uncertainty to the noise model
+  // Robust weight of a marker per iteration: 1 / (1 + (n / robust_k)^2), n its whitened RMS
+  // residual per coordinate (Cauchy: a wrong marker's pull fades instead of staying).
+  double robust_k = 3;
+  double reject_quantile = 0.999;      // a marker is rejected when its chi-square exceeds this quantile
+  int max_iterations = 20;
+  // Flags (ObjectPose::poorly_conditioned): rotation sigma above this (degrees) or
+  // translation sigma above this fraction of the range.
+  double max_rotation_sigma_deg = 1.0;
+  double max_translation_sigma_fraction = 0.02;
+};
+
+// One marker's observations: which layout entry, the detection's corners and tip.
+struct MarkerObservation {
+  int id = -1;
+  Pose object_from_marker;   // from the layout
+  MarkerModel model;         // the detected marker's model (inner model for an inner marker)
+  std::optional<PoseCovariance> layout_covariance;  // object axes (layout.h)
+  std::optional<double> post_height_sigma;          // metres
+  std::array<Eigen::Vector2d, 4> corners;            // pixels, TL, TR, BR, BL
+  std::optional<TipObservation> tip;
+  std::optional<Pose> cam_from_marker;  // the detector's single-marker pose (a start)
+  bool pose_ambiguous = false;          // the detector could not tell its two planar poses apart
+};
+
+struct ObjectPose {
+  bool valid = false;
+  Pose cam_from_object;
+  PoseCovariance covariance = PoseCovariance::Zero();  // [rotation, translation], camera axes
+  int markers_seen = 0;   // observations given (markers of the layout detected)
+  int markers_used = 0;   // after rejection
+  int points_used = 0;    // corners and tips of the markers used
+  std::vector<int> ids_used, ids_rejected;
+  double rms_px = 0;      // RMS pixel residual (per coordinate) of the points used
+  double chi2 = 0;        // whitened residual sum of squares of the points used
+  int dof = 0;            // 2 * points_used - 6
+  bool ambiguous = false;           // one marker, and its planar pose could not be told apart
+  bool poorly_conditioned = false;  // sigmas above ObjectPoseOptions' limits
+  std::string message;              // why not valid
+};
+
+// Observations from detections: every detection whose ID is in the layout (as a marker, or
+// as the inner marker of a dual entry). A post seen by both markers of a dual gives one tip.
+std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Detection>& detections,
+                                                           const Layout& layout);
+
+// Solves cam_from_object. Returns an invalid pose with a message when there is nothing to fit
+// (no observation, the camera cannot project, a singular problem).
+ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
+                           const ObjectPoseOptions& options);
+
+// The error of `estimate` against `truth` in the covariance's coordinates:
+// [log(R_truth R_est^T), t_truth - t_est] (radians about camera axes, metres).
+Eigen::Matrix<double, 6, 1> PoseError(const Pose& truth, const Pose& estimate);
+// Normalised estimation error squared: e^T covariance^-1 e (chi-square with 6 dof when the
+// covariance is right). NaN if the covariance is singular.
+double Nees(const Pose& truth, const Pose& estimate, const PoseCovariance& covariance);
+
+}  // namespace svms

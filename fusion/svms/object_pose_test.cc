@@ -1,0 +1,221 @@
+#include "svms/object_pose.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <random>
+
+#include "svms/datasets.h"
+
+namespace svms {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+
+// Three markers on three faces of a 1 m box (0.2 m, 0.2 m concave-free, 0.1 m), seen from
+// 3 m at an oblique angle through the distorted camera of the datasets.
+struct Rig {
+  CameraModel camera = DistortedCamera();
+  Layout layout;
+  Pose cam_from_object;
+  Rig() {
+    const Vec3 half(0.5, 0.5, 1.0);
+    layout.markers.push_back({MarkerModel::Standard(1, 0.2, 0.05), OnBoxFace(half, 2, 1, 0, 0, 0),
+                              std::nullopt, std::nullopt});
+    layout.markers.push_back({MarkerModel::Standard(2, 0.2, 0.05),
+                              OnBoxFace(half, 0, 1, 0.1, 0.5, 0.2), std::nullopt, std::nullopt});
+    layout.markers.push_back({MarkerModel::Standard(3, 0.1, 0.025),
+                              OnBoxFace(half, 1, 1, -0.2, 0.4, 0), std::nullopt, std::nullopt});
+    cam_from_object = LookAt(Vec3(1.6, 1.3, 3.0), Vec3(0, 0, 0.8), Vec3(0, 0, 1));
+  }
+  // Exact pixels of one marker's corners and tip under `object_from_marker_seen` (the truth
+  // may differ from the layout's belief).
+  MarkerObservation Observe(int k, const Pose& object_from_marker_seen) const {
+    const LayoutEntry& e = layout.markers[k];
+    MarkerObservation o;
+    o.id = e.marker.id;
+    o.model = e.marker;
+    o.object_from_marker = e.object_from_marker;
+    o.layout_covariance = e.covariance;
+    o.post_height_sigma = e.post_height_sigma;
+    const Pose cam_from_marker = cam_from_object * object_from_marker_seen;
+    const auto corners = e.marker.Corners();
+    for (int c = 0; c < 4; ++c) EXPECT_TRUE(camera.Project(cam_from_marker * corners[c], &o.corners[c]));
+    TipObservation tip;
+    EXPECT_TRUE(camera.Project(cam_from_marker * *e.marker.PostTip(), &tip.pixel));
+    tip.sigma_px = 0.3;
+    o.tip = tip;
+    o.cam_from_marker = cam_from_marker;
+    return o;
+  }
+  std::vector<MarkerObservation> ObserveAll() const {
+    std::vector<MarkerObservation> obs;
+    for (size_t k = 0; k < layout.markers.size(); ++k)
+      obs.push_back(Observe(static_cast<int>(k), layout.markers[k].object_from_marker));
+    return obs;
+  }
+};
+
+void AddNoise(std::mt19937_64* rng, double sigma, double tip_sigma, MarkerObservation* o) {
+  std::normal_distribution<double> g(0, 1);
+  for (auto& c : o->corners) c += sigma * Eigen::Vector2d(g(*rng), g(*rng));
+  if (o->tip) o->tip->pixel += tip_sigma * Eigen::Vector2d(g(*rng), g(*rng));
+}
+
+TEST(ObjectPose, ExactObservationsGiveTheTruth) {
+  const Rig rig;
+  std::vector<MarkerObservation> obs = rig.ObserveAll();
+  // Start from a poor single-marker pose: the fit must still converge to the truth.
+  for (auto& o : obs) o.cam_from_marker->rvec += Vec3(0.05, -0.03, 0.02);
+  const ObjectPose p = SolveObjectPose(rig.camera, obs, ObjectPoseOptions{});
+  ASSERT_TRUE(p.valid) << p.message;
+  EXPECT_EQ(p.markers_used, 3);
+  EXPECT_EQ(p.points_used, 15);
+  EXPECT_EQ(p.dof, 24);
+  EXPECT_LT(PoseError(rig.cam_from_object, p.cam_from_object).norm(), 1e-9);
+  EXPECT_LT(p.rms_px, 1e-7);
+  EXPECT_FALSE(p.poorly_conditioned);
+  EXPECT_TRUE(p.ids_rejected.empty());
+}
+
+TEST(ObjectPose, NothingToFitIsInvalidWithAReason) {
+  const Rig rig;
+  const ObjectPose p = SolveObjectPose(rig.camera, {}, ObjectPoseOptions{});
+  EXPECT_FALSE(p.valid);
+  EXPECT_NE(p.message.find("no marker"), std::string::npos);
+  std::vector<MarkerObservation> obs = rig.ObserveAll();
+  for (auto& o : obs) o.cam_from_marker.reset();
+  EXPECT_FALSE(SolveObjectPose(rig.camera, obs, ObjectPoseOptions{}).valid);
+}
+
+// The covariance is honest when the noise is what the options say: NEES ~ chi-square(6).
+TEST(ObjectPose, MonteCarloNeesMatchesChiSquareSix) {
+  const Rig rig;
+  std::mt19937_64 rng(7);
+  ObjectPoseOptions o;
+  o.corner_sigma_px = 0.15;
+  o.min_tip_sigma_px = 0.3;
+  const int trials = 1000;
+  double sum = 0;
+  for (int i = 0; i < trials; ++i) {
+    std::vector<MarkerObservation> obs = rig.ObserveAll();
+    for (auto& m : obs) AddNoise(&rng, 0.15, 0.3, &m);
+    const ObjectPose p = SolveObjectPose(rig.camera, obs, o);
+    ASSERT_TRUE(p.valid);
+    sum += Nees(rig.cam_from_object, p.cam_from_object, p.covariance);
+  }
+  // Mean of 1000 chi-square(6) draws: 6 +- 0.077 (1 sigma); allow 4 sigma.
+  EXPECT_NEAR(sum / trials, 6.0, 0.31);
+}
+
+// A layout that is itself uncertain: the markers really sit off their surveyed poses by draws
+// from the layout covariance. Including it keeps NEES at 6; leaving it out is optimistic.
+TEST(ObjectPose, LayoutUncertaintyIsPropagated) {
+  Rig rig;
+  PoseCovariance S = PoseCovariance::Zero();
+  S.diagonal() << std::pow(0.002, 2), std::pow(0.002, 2), std::pow(0.002, 2), std::pow(0.001, 2),
+      std::pow(0.001, 2), std::pow(0.001, 2);
+  for (auto& e : rig.layout.markers) e.covariance = S;
+  const Eigen::LLT<PoseCovariance> llt(S);
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> g(0, 1);
+  ObjectPoseOptions with, without;
+  with.corner_sigma_px = without.corner_sigma_px = 0.1;
+  without.use_layout_covariance = false;
+  const int trials = 1000;
+  double nees_with = 0, nees_without = 0;
+  for (int i = 0; i < trials; ++i) {
+    std::vector<MarkerObservation> obs;
+    for (int k = 0; k < 3; ++k) {
+      Eigen::Matrix<double, 6, 1> d;
+      for (int j = 0; j < 6; ++j) d[j] = g(rng);
+      d = llt.matrixL() * d;
+      const Pose& belief = rig.layout.markers[k].object_from_marker;
+      // Left perturbation in object axes, as layout.h documents.
+      const Eigen::Matrix3d R = Eigen::AngleAxisd(d.head<3>().norm(), d.head<3>().normalized()).toRotationMatrix() * belief.Rotation();
+      MarkerObservation o = rig.Observe(k, Pose::FromRotation(R, belief.tvec + d.tail<3>()));
+      AddNoise(&rng, 0.1, 0.3, &o);
+      obs.push_back(o);
+    }
+    const ObjectPose a = SolveObjectPose(rig.camera, obs, with);
+    const ObjectPose b = SolveObjectPose(rig.camera, obs, without);
+    ASSERT_TRUE(a.valid && b.valid);
+    nees_with += Nees(rig.cam_from_object, a.cam_from_object, a.covariance);
+    nees_without += Nees(rig.cam_from_object, b.cam_from_object, b.covariance);
+  }
+  EXPECT_NEAR(nees_with / trials, 6.0, 0.35);
+  EXPECT_GT(nees_without / trials, 12.0);  // the layout's error dominates here
+}
+
+// More markers, more information: the fused covariance is below every single marker's.
+TEST(ObjectPose, FusedCovarianceIsBelowEachSingleMarkers) {
+  const Rig rig;
+  const std::vector<MarkerObservation> all = rig.ObserveAll();
+  const ObjectPose fused = SolveObjectPose(rig.camera, all, ObjectPoseOptions{});
+  ASSERT_TRUE(fused.valid);
+  for (const MarkerObservation& one : all) {
+    const ObjectPose single = SolveObjectPose(rig.camera, {one}, ObjectPoseOptions{});
+    ASSERT_TRUE(single.valid);
+    EXPECT_EQ(single.markers_used, 1);
+    // Loewner order: single - fused is positive semi-definite.
+    const Eigen::SelfAdjointEigenSolver<PoseCovariance> es(single.covariance - fused.covariance);
+    EXPECT_GT(es.eigenvalues().minCoeff(), -1e-12 * single.covariance.norm());
+    EXPECT_LT(fused.covariance.trace(), 0.8 * single.covariance.trace());
+  }
+}
+
+// One marker's observations are wrong (a wrong layout entry, a misdetection): it is rejected
+// and the others give the truth.
+TEST(ObjectPose, AnInconsistentMarkerIsRejected) {
+  const Rig rig;
+  std::vector<MarkerObservation> obs = rig.ObserveAll();
+  for (auto& c : obs[1].corners) c += Eigen::Vector2d(4, -3);
+  obs[1].tip->pixel += Eigen::Vector2d(4, -3);
+  const ObjectPose p = SolveObjectPose(rig.camera, obs, ObjectPoseOptions{});
+  ASSERT_TRUE(p.valid);
+  ASSERT_EQ(p.ids_rejected.size(), 1u);
+  EXPECT_EQ(p.ids_rejected[0], 2);
+  EXPECT_EQ(p.markers_used, 2);
+  EXPECT_LT(PoseError(rig.cam_from_object, p.cam_from_object).norm(), 1e-8);
+}
+
+TEST(ObjectPose, ObservationsFromDetectionsMatchTheLayoutAndShareADualsPost) {
+  Layout layout;
+  MarkerModel dual = MarkerModel::Standard(10, 0.432, 0.027);
+  dual.AddInner(11, 0.108);
+  layout.markers.push_back({dual, Pose{}, std::nullopt, std::nullopt});
+  layout.markers.push_back({MarkerModel::Standard(12, 0.2, 0.05), Pose{Vec3(0, 0, 0), Vec3(1, 0, 0)},
+                            std::nullopt, 0.001});
+  std::vector<Detection> dets(4);
+  dets[0].id = 11;  // the inner marker, listed first
+  dets[0].nested_in = 10;
+  dets[0].tip = TipObservation{Eigen::Vector2d(1, 2), 0.4};
+  dets[1].id = 10;
+  dets[1].tip = TipObservation{Eigen::Vector2d(1.1, 2), 0.3};
+  dets[2].id = 12;
+  dets[3].id = 99;  // not in the layout
+  const std::vector<MarkerObservation> obs = ObservationsFromDetections(dets, layout);
+  ASSERT_EQ(obs.size(), 3u);  // 99 is not in the layout
+  // Outer markers first: the shared tip is the outer marker's.
+  EXPECT_EQ(obs[0].id, 10);
+  ASSERT_TRUE(obs[0].tip.has_value());
+  EXPECT_EQ(obs[0].tip->pixel.x(), 1.1);
+  EXPECT_EQ(obs[1].id, 12);
+  EXPECT_EQ(obs[1].object_from_marker.tvec.x(), 1);
+  EXPECT_EQ(*obs[1].post_height_sigma, 0.001);
+  EXPECT_EQ(obs[2].id, 11);
+  EXPECT_FALSE(obs[2].tip.has_value());
+  EXPECT_NEAR(obs[2].model.size, 0.108, 1e-12);
+}
+
+TEST(ObjectPose, NeesOfAKnownErrorIsItsMahalanobisNorm) {
+  Pose truth{Vec3(0.1, 0.2, 0.3), Vec3(1, 2, 3)};
+  Pose est = truth;
+  est.tvec += Vec3(0.01, 0, 0);
+  PoseCovariance C = PoseCovariance::Identity() * 1e-4;
+  EXPECT_NEAR(Nees(truth, est, C), 1.0, 1e-9);
+  EXPECT_NEAR(PoseError(truth, est)[3], -0.01, 1e-15);
+}
+
+}  // namespace
+}  // namespace svms

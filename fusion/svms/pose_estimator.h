@@ -1,0 +1,65 @@
+// The product's end: where is the object, from one image. PoseEstimator detects every marker
+// (svms::Detector, no state between frames) and solves one cam_from_object from all of them
+// (object_pose.h), with its covariance, quality fields and a per-frame time budget.
+//
+// Built from a calibrated camera (mrcal .cameramodel) and a surveyed layout (svms survey's
+// LAYOUT.json: each marker's object_from_marker and covariance). One estimator per thread;
+// Estimate() is const apart from its reusable scratch, so do not share one between threads.
+#pragma once
+
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include "svms/camera.h"
+#include "svms/detector.h"
+#include "svms/layout.h"
+#include "svms/object_pose.h"
+#include "svms/status.h"
+
+namespace svms {
+
+struct PoseEstimatorOptions {
+  DetectorOptions detector;
+  ObjectPoseOptions fusion;
+  // Time budget per frame, milliseconds (0: none). When detection runs out of it, the markers
+  // found so far are used and ObjectPose is flagged budget_exceeded.
+  double budget_ms = 0;
+};
+
+struct FrameResult {
+  double timestamp = 0;  // seconds, as given
+  ObjectPose pose;
+  std::vector<Detection> detections;  // every marker found (layout or not)
+  bool budget_exceeded = false;
+  double latency_ms = 0;  // detection + fusion, wall clock
+  double detect_ms = 0;
+};
+
+class PoseEstimator {
+ public:
+  // Checks the camera (not empty) and the layout (Layout::Validate, at least one marker);
+  // errors name the file.
+  static Status Create(const CameraModel& camera, const Layout& layout,
+                       const PoseEstimatorOptions& options, std::unique_ptr<PoseEstimator>* out);
+  static Status CreateFromFiles(const std::string& camera_path, const std::string& layout_path,
+                                const PoseEstimatorOptions& options,
+                                std::unique_ptr<PoseEstimator>* out);
+
+  // One frame: 8-bit or 16-bit grey, or 8-bit colour. `timestamp` is passed through.
+  void Estimate(const cv::Mat& image, double timestamp, FrameResult* out) const;
+
+  const CameraModel& camera() const { return camera_; }
+  const Layout& layout() const { return layout_; }
+  const PoseEstimatorOptions& options() const { return options_; }
+
+ private:
+  PoseEstimator(const CameraModel& camera, const Layout& layout,
+                const PoseEstimatorOptions& options);
+  CameraModel camera_;
+  Layout layout_;
+  PoseEstimatorOptions options_;
+  Detector detector_;
+};
+
+}  // namespace svms

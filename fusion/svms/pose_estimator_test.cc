@@ -1,0 +1,124 @@
+#include "svms/pose_estimator.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "svms/datasets.h"
+#include "svms/model_io.h"
+#include "svms/render.h"
+#include "svms/truth.h"
+
+namespace svms {
+namespace {
+
+struct Approach {
+  Dataset dataset;
+  Layout layout;
+  std::unique_ptr<Renderer> renderer;
+  Approach() {
+    EXPECT_TRUE(MakeDataset("approach", DatasetOptions{1, true}, &dataset).ok());
+    for (const auto& [name, text] : dataset.files)
+      if (name == "true_layout.json") {
+        ModelFile f;
+        EXPECT_TRUE(ParseModelJson(text, name, &f).ok());
+        layout = f.layout;
+      }
+    EXPECT_TRUE(Renderer::Create(dataset.scenes[0].second, &renderer).ok());
+  }
+  const CameraModel& camera() const { return dataset.scenes[0].second.camera; }
+  cv::Mat Image(int view) const { return renderer->Expose(renderer->RenderRadiance(view), view); }
+  Pose Truth(int view) const {
+    const ViewTruth t = ComputeTruth(*renderer, view);
+    for (const auto& [name, pose] : t.cam_from_object)
+      if (name == "module") return pose;
+    ADD_FAILURE() << "no module in view " << view;
+    return {};
+  }
+};
+
+const Approach& Shared() {
+  static const Approach* a = new Approach;
+  return *a;
+}
+
+// End to end on rendered approach frames with the true layout: the fused pose is within a few
+// of its own sigmas of the truth, and the close frames use several markers.
+TEST(PoseEstimator, RenderedApproachFramesMatchTheTruthWithinTheirSigmas) {
+  const Approach& a = Shared();
+  ASSERT_EQ(a.layout.markers.size(), 8u);
+  std::unique_ptr<PoseEstimator> est;
+  PoseEstimatorOptions options;
+  options.fusion.corner_sigma_px = 0.1;
+  ASSERT_TRUE(PoseEstimator::Create(a.camera(), a.layout, options, &est).ok());
+  int several = 0;
+  for (int view : {0, 6, 11}) {
+    FrameResult r;
+    est->Estimate(a.Image(view), 0.1 * view, &r);
+    EXPECT_EQ(r.timestamp, 0.1 * view);
+    ASSERT_TRUE(r.pose.valid) << "view " << view << ": " << r.pose.message;
+    const Pose truth = a.Truth(view);
+    const Eigen::Matrix<double, 6, 1> e = PoseError(truth, r.pose.cam_from_object);
+    for (int k = 0; k < 6; ++k)
+      EXPECT_LT(std::abs(e[k]), 6 * std::sqrt(r.pose.covariance(k, k)) + (k < 3 ? 1e-5 : 1e-5))
+          << "view " << view << " component " << k;
+    // Absolute sanity: under 1 % of range and 0.5 degrees.
+    EXPECT_LT(e.tail<3>().norm(), 0.01 * truth.tvec.norm()) << "view " << view;
+    EXPECT_LT(e.head<3>().norm(), 0.5 * M_PI / 180) << "view " << view;
+    several += r.pose.markers_used >= 3;
+    EXPECT_GE(r.latency_ms, r.detect_ms);
+  }
+  EXPECT_GE(several, 1);
+}
+
+TEST(PoseEstimator, ABudgetTooSmallIsFlaggedAndNeverCrashes) {
+  const Approach& a = Shared();
+  std::unique_ptr<PoseEstimator> est;
+  PoseEstimatorOptions options;
+  options.budget_ms = 1e-6;
+  ASSERT_TRUE(PoseEstimator::Create(a.camera(), a.layout, options, &est).ok());
+  FrameResult r;
+  est->Estimate(a.Image(11), 1.1, &r);
+  EXPECT_TRUE(r.budget_exceeded);
+  EXPECT_FALSE(r.pose.valid);
+  EXPECT_FALSE(r.pose.message.empty());
+}
+
+TEST(PoseEstimator, BadInputsAreRejectedWithTheirNames) {
+  const Approach& a = Shared();
+  std::unique_ptr<PoseEstimator> est;
+  EXPECT_FALSE(PoseEstimator::Create(CameraModel(), a.layout, {}, &est).ok());
+  EXPECT_FALSE(PoseEstimator::Create(a.camera(), Layout{}, {}, &est).ok());
+  PoseEstimatorOptions bad;
+  bad.fusion.corner_sigma_px = std::nan("");
+  Status s = PoseEstimator::Create(a.camera(), a.layout, bad, &est);
+  EXPECT_NE(s.message().find("corner_sigma_px"), std::string::npos) << s.message();
+  bad = {};
+  bad.budget_ms = -1;
+  s = PoseEstimator::Create(a.camera(), a.layout, bad, &est);
+  EXPECT_NE(s.message().find("budget_ms"), std::string::npos) << s.message();
+
+  const std::string dir = ::testing::TempDir();
+  s = PoseEstimator::CreateFromFiles(dir + "/nope.cameramodel", dir + "/nope.json", {}, &est);
+  EXPECT_NE(s.message().find("nope.cameramodel"), std::string::npos) << s.message();
+  ASSERT_TRUE(a.camera().Write(dir + "/cam.cameramodel").ok());
+  {
+    std::ofstream f(dir + "/markers.json");
+    f << MarkerSetToJson({MarkerModel::Standard(3, 0.1, 0.02)});
+  }
+  s = PoseEstimator::CreateFromFiles(dir + "/cam.cameramodel", dir + "/markers.json", {}, &est);
+  EXPECT_NE(s.message().find("expected a layout"), std::string::npos) << s.message();
+
+  // A frame of nothing: no crash, invalid, says why.
+  ASSERT_TRUE(PoseEstimator::Create(a.camera(), a.layout, {}, &est).ok());
+  FrameResult r;
+  est->Estimate(cv::Mat(), 0, &r);
+  EXPECT_FALSE(r.pose.valid);
+  est->Estimate(cv::Mat(1, 1, CV_8UC1, cv::Scalar(0)), 0, &r);
+  EXPECT_FALSE(r.pose.valid);
+  EXPECT_NE(r.pose.message.find("no marker"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace svms
