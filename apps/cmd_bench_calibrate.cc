@@ -673,10 +673,12 @@ int RunBench(const BenchOptions& o) {
      << "centres of a " << kGrid << "x" << kGrid
      << " grid of cells over the image, after mapping through the solved board poses as "
         "mrcal's uncertainty does (`calib::AlignedProjectionError`). **Region**: the "
-     << region_cells << " cells that hold both SVMS board corners and chessboard corners "
-     << "(map below); the views do not reach the image corners, where "
+     << region_cells << " of the " << kGrid * kGrid
+     << " cells that hold both SVMS board corners and chessboard corners "
+     << "(map below); in the cells outside it "
         "a rational model only extrapolates, so the whole-image figures are given too but "
-        "judge extrapolation, not calibration (mrcal likewise evaluates where the data are: "
+        "judge that extrapolation as well as the calibration (mrcal likewise evaluates where "
+        "the data are: "
         "`valid_intrinsics_region`, `projection_diff`'s focus radius). \"Direct\" compares "
         "the two cameras over the whole image with no alignment. Predicted: each tool's own "
         "predicted standard deviation of that error, sqrt(trace(Var q)) (svms: propagated "
@@ -740,15 +742,14 @@ int RunBench(const BenchOptions& o) {
                   pdiff[k][0], pdiff[k][1], pdiff[k][2]);
     md << line;
   }
-  md << "\nOutside the region every tool extrapolates an 8-term rational model into image "
-        "corners no view reached, and the whole-image figures rank that extrapolation: OpenCV "
-        "and mrcal see identical corners and agree inside the region, and mrcal additionally "
-        "regularises the distortion terms (its optimisation_inputs: "
-        "`do_apply_regularization`), which biases the extrapolation without showing in its "
-        "predicted uncertainty. svms's prediction there comes from directions of the state the "
-        "data barely see (eigenvalues near the pseudo-inverse cutoff of 1e-15 of the largest): "
-        "it says 'unknown' (hundreds of px) or, when a direction falls below the cutoff, too "
-        "little; it means nothing outside the data.\n";
+  md << "\nOutside the region every tool extrapolates an 8-term rational model into cells "
+        "no view reached, and the whole-image figures rank that extrapolation too. OpenCV "
+        "and mrcal see identical corners; mrcal additionally regularises the distortion terms "
+        "(its optimisation_inputs: `do_apply_regularization`), which biases its solution "
+        "without showing in its predicted uncertainty. Where the data barely see a direction "
+        "of the state (eigenvalues near svms's pseudo-inverse cutoff of 1e-15 of the largest), "
+        "svms's prediction says 'unknown' (large) or, when a direction falls below the cutoff, "
+        "too little: it means little outside the data.\n";
   std::snprintf(line, sizeof line,
                 "\nsvms's corner noise: a-posteriori sigma %.4f px per axis (from the residuals "
                 "of the fit, what the prediction uses); the detected corners against the true "
@@ -808,7 +809,7 @@ void AddBenchCalibrate(CLI::App& bench, int* exit_code) {
       "calibrate", "Calibration accuracy vs the true camera: svms, mrcal and OpenCV side by side");
   cmd->add_option("--out", o->out, "Output directory (data/, CSV, JSON, plots, report.md)")
       ->required();
-  cmd->add_flag("--quick", o->quick, "12 views instead of 40 (smoke test)");
+  cmd->add_flag("--quick", o->quick, "The first 12 views only (smoke test)");
   cmd->add_option("--threads", o->threads, "Rendering and detection threads")
       ->check(CLI::Range(1, 256));
   cmd->footer("Example:\n  svms bench calibrate --out out/bench/calibrate");

@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "commands.h"
+#include "gnuplot.h"
 #include "svms/compare_metrics.h"
 #include "svms/compare_scenes.h"
 #include "svms/datasets.h"
@@ -157,21 +158,17 @@ struct Tally {
   }
 };
 
-// Writes `script` (gnuplot, with the terminal lines left to us) as NAME.gp and draws NAME.png
-// and NAME.svg. False (with a message) if gnuplot fails.
+// Draws NAME.png and NAME.svg in `dir` from `script` (gnuplot, terminal lines left to Gnuplot())
+// after the settings every compare plot shares. False (with a message) if gnuplot fails.
 bool Plot(const fs::path& dir, const std::string& name, const std::string& script,
           const std::string& size = "900,560") {
-  const fs::path gp = dir / (name + ".gp");
-  std::ofstream(gp) << "# drawn by svms bench compare; run in this directory\n"
-                    << "set datafile separator ','\nset key outside right top\nset grid\n"
-                    << "set terminal pngcairo noenhanced size " << size
-                    << " font ',10'\nset output '" << name << ".png'\n"
-                    << script << "\nset terminal svg noenhanced size " << size
-                    << " font 'sans,10'\nset output '" << name << ".svg'\nreplot\n";
-  const std::string cmd =
-      "cd '" + dir.string() + "' && gnuplot '" + gp.filename().string() + "' 2>&1";
-  if (std::system(cmd.c_str()) != 0) {
-    std::cerr << "svms bench compare: gnuplot failed on " << gp.string() << "\n";
+  const std::string body =
+      "# drawn by svms bench compare; run in this directory\n"
+      "set termoption noenhanced\nset datafile separator ','\nset key outside right top\n"
+      "set grid\n" +
+      script;
+  if (Status s = Gnuplot(dir.string(), name, body, size); !s) {
+    std::cerr << "svms bench compare: " << s.message() << "\n";
     return false;
   }
   return true;

@@ -5,6 +5,7 @@
 
 #include "calibrate_run.h"
 #include "commands.h"
+#include "image_inputs.h"
 #include "svms/model_io.h"
 
 namespace svms::cli {

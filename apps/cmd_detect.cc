@@ -1,6 +1,4 @@
 // svms detect: markers in images, one JSON line per image.
-#include <glob.h>
-
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
@@ -14,6 +12,7 @@
 #include <thread>
 
 #include "commands.h"
+#include "image_inputs.h"
 #include "overlay.h"
 #include "svms/detector.h"
 #include "svms/model_io.h"
@@ -31,41 +30,6 @@ struct DetectOptions {
   bool quiet = false;
   bool json = true;
 };
-
-bool IsImageFile(const fs::path& p) {
-  std::string e = p.extension().string();
-  for (auto& c : e) c = static_cast<char>(std::tolower(c));
-  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".tif" || e == ".tiff" || e == ".bmp" ||
-         e == ".pgm" || e == ".ppm";
-}
-
-}  // namespace
-
-std::vector<std::string> ExpandImageInputs(const std::vector<std::string>& inputs) {
-  std::vector<std::string> out;
-  for (const std::string& in : inputs) {
-    std::error_code ec;
-    if (fs::is_directory(in, ec)) {
-      std::vector<std::string> files;
-      for (const auto& e : fs::directory_iterator(in, ec))
-        if (e.is_regular_file() && IsImageFile(e.path())) files.push_back(e.path().string());
-      std::sort(files.begin(), files.end());
-      out.insert(out.end(), files.begin(), files.end());
-    } else if (in.find_first_of("*?[") != std::string::npos) {
-      glob_t g;
-      if (glob(in.c_str(), 0, nullptr, &g) == 0)
-        for (size_t i = 0; i < g.gl_pathc; ++i) out.push_back(g.gl_pathv[i]);
-      else
-        out.push_back(in);
-      globfree(&g);
-    } else {
-      out.push_back(in);
-    }
-  }
-  return out;
-}
-
-namespace {
 
 nlohmann::json DetectionJson(const Detection& d) {
   nlohmann::json c = nlohmann::json::array();

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "commands.h"
+#include "image_inputs.h"
 #include "overlay.h"
 #include "svms/pose_estimator.h"
 

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "commands.h"
+#include "image_inputs.h"
 #include "svms/detector.h"
 #include "svms/model_io.h"
 #include "svms/survey.h"
@@ -28,29 +29,6 @@ struct SurveyCliOptions {
   double corner_sigma = 0.1;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 };
-
-// IMAGE or DIR (its .png/.jpg/.tif/.bmp/.pgm files, sorted).
-std::vector<std::string> ExpandImages(const std::vector<std::string>& inputs) {
-  std::vector<std::string> out;
-  for (const std::string& in : inputs) {
-    std::error_code ec;
-    if (!fs::is_directory(in, ec)) {
-      out.push_back(in);
-      continue;
-    }
-    std::vector<std::string> files;
-    for (const auto& e : fs::directory_iterator(in, ec)) {
-      std::string x = e.path().extension().string();
-      for (auto& c : x) c = static_cast<char>(std::tolower(c));
-      if (e.is_regular_file() && (x == ".png" || x == ".jpg" || x == ".jpeg" || x == ".tif" ||
-                                  x == ".tiff" || x == ".bmp" || x == ".pgm"))
-        files.push_back(e.path().string());
-    }
-    std::sort(files.begin(), files.end());
-    out.insert(out.end(), files.begin(), files.end());
-  }
-  return out;
-}
 
 std::vector<std::string> Split(const std::string& s, char sep) {
   std::vector<std::string> out;
@@ -137,7 +115,7 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
   if (Status s = config.Check(); !s) return bad_input(s.message());
 
   // Detect.
-  const std::vector<std::string> files = ExpandImages(o.inputs);
+  const std::vector<std::string> files = ExpandImageInputs(o.inputs);
   if (files.empty()) return bad_input("no images given");
   const Detector detector(DetectorOptions{}, camera, models.markers);
   std::vector<bundle::SurveyImage> images(files.size());
@@ -206,7 +184,7 @@ void AddSurveyCommands(CLI::App& app, int* exit_code) {
   auto o = std::make_shared<SurveyCliOptions>();
   CLI::App* cmd = app.add_subcommand(
       "survey", "Survey where several markers sit on one object, from many images of it");
-  cmd->add_option("IMAGES", o->inputs, "Image files or directories")->required();
+  cmd->add_option("IMAGES", o->inputs, "Image files, directories or globs")->required();
   cmd->add_option("--camera", o->camera, "mrcal .cameramodel of the images")->required();
   cmd->add_option("--markers", o->markers, "Marker models (svms.markers or svms.layout)")
       ->required();

@@ -36,10 +36,6 @@ void AddBenchCompare(CLI::App& bench, int* exit_code);
 void AddBenchSurvey(CLI::App& bench, int* exit_code);
 void AddBenchPose(CLI::App& bench, int* exit_code);
 
-// Image inputs: IMAGE | DIR (its image files, sorted) | GLOB; unmatched names are kept (and fail
-// to read later).
-std::vector<std::string> ExpandImageInputs(const std::vector<std::string>& inputs);
-
 // One frame of `svms pose` as its JSON line (cmd_pose.cc; docs/flight-interface.md).
 nlohmann::json FrameJson(const FrameResult& frame);
 

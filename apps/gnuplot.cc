@@ -5,14 +5,15 @@
 
 namespace svms::cli {
 
-Status Gnuplot(const std::string& dir, const std::string& name, const std::string& body) {
+Status Gnuplot(const std::string& dir, const std::string& name, const std::string& body,
+               const std::string& size) {
   const std::string script = dir + "/" + name + ".gp";
   {
     std::ofstream f(script);
-    f << "set terminal pngcairo size 900,700 font 'DejaVu Sans,10'\nset output '" << name
+    f << "set terminal pngcairo size " << size << " font 'DejaVu Sans,10'\nset output '" << name
       << ".png'\n"
-      << body << "\nset terminal svg size 900,700 font 'DejaVu Sans,10'\nset output '" << name
-      << ".svg'\n"
+      << body << "\nset terminal svg size " << size << " font 'DejaVu Sans,10'\nset output '"
+      << name << ".svg'\n"
       << body << "\n";
     if (!f) return Status::Error(script + ": cannot write");
   }

@@ -4,7 +4,6 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
-#include <Eigen/Sparse>
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -128,7 +127,21 @@ class Solver {
   void EvaluatePoints();
   void RejectOutliers();
   Status ComputeCovariance();
-  std::string RankDeficiency();
+  // The parameters other than the camera poses, in the order of the reduced system.
+  struct ReducedParam {
+    const double* block;
+    int size;
+    std::string name;
+  };
+  // The reduced (camera-eliminated) system: see RankDeficiency().
+  struct ReducedSystem {
+    std::vector<ReducedParam> params;
+    std::map<const double*, int> offset;  // block -> first row in the reduced system
+    // (J^T J)^-1 restricted to `params`, in the residuals' sigma units (not yet scaled by the
+    // variance factor); empty when the system is rank deficient.
+    Eigen::MatrixXd covariance;
+  };
+  std::string RankDeficiency(ReducedSystem* reduced);
   void FillResult();
   bool Resolve(const NamedPoint& p, int* marker, double** h, Eigen::Vector3d* in_marker,
                std::string* why);
@@ -599,28 +612,42 @@ Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
 }
 
 Status Solver::ComputeCovariance() {
-  ceres::Covariance::Options co;
-  co.algorithm_type = ceres::SPARSE_QR;
-  if (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE))
-    co.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
-  co.num_threads = options_.num_threads;
-  ceres::Covariance covariance(co);
-  std::vector<std::pair<const double*, const double*>> blocks;
-  for (auto& [id, b] : object_from_marker_)
-    if (problem_->HasParameterBlock(b.data()) && !problem_->IsParameterBlockConstant(b.data()))
-      blocks.emplace_back(b.data(), b.data());
-  for (auto& [id, h] : post_height_)
-    if (problem_->HasParameterBlock(&h) && !problem_->IsParameterBlockConstant(&h))
-      blocks.emplace_back(&h, &h);
   // SuiteSparseQR's numerical rank does not always see a gauge freedom (parameters in metres
-  // and radians, poorly scaled), so the reduced normal matrix is checked first.
-  if (const std::string undetermined = RankDeficiency(); !undetermined.empty())
+  // and radians, poorly scaled), so the reduced normal matrix is checked first; with the
+  // Schur-complement algorithm its inverse is the covariance.
+  ReducedSystem reduced;
+  if (const std::string undetermined = RankDeficiency(&reduced); !undetermined.empty())
     return Fail("the problem is rank deficient: " + undetermined);
-  if (!covariance.Compute(blocks, problem_.get()))
-    return Fail(
-        "the problem is rank deficient: ceres::Covariance::Compute failed (its numerical rank "
-        "is below the number of parameters; no single undetermined direction was found at a "
-        "relative tolerance of 1e-9: check the gauge and the geometry)");
+  using Algorithm = SurveyOptions::CovarianceAlgorithm;
+  std::unique_ptr<ceres::Covariance> covariance;
+  if (options_.covariance_algorithm != Algorithm::kSchurComplement) {
+    ceres::Covariance::Options co;
+    co.algorithm_type =
+        options_.covariance_algorithm == Algorithm::kDenseSvd ? ceres::DENSE_SVD : ceres::SPARSE_QR;
+    if (co.algorithm_type == ceres::SPARSE_QR &&
+        ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE))
+      co.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+    co.num_threads = options_.num_threads;
+    covariance = std::make_unique<ceres::Covariance>(co);
+    std::vector<std::pair<const double*, const double*>> blocks;
+    for (const ReducedParam& p : reduced.params)
+      if (p.block != intrinsics_.data()) blocks.emplace_back(p.block, p.block);
+    if (!covariance->Compute(blocks, problem_.get()))
+      return Fail(
+          "the problem is rank deficient: ceres::Covariance::Compute failed (its numerical rank "
+          "is below the number of parameters; no single undetermined direction was found at a "
+          "relative tolerance of 1e-9: check the gauge and the geometry)");
+  }
+  // The covariance block (size x size, row-major) of a non-constant parameter block.
+  auto get = [&](const double* block, int size, double* out) {
+    if (covariance) {
+      covariance->GetCovarianceBlock(block, block, out);
+      return;
+    }
+    const int o = reduced.offset.at(block);
+    for (int r = 0; r < size; ++r)
+      for (int c = 0; c < size; ++c) out[r * size + c] = reduced.covariance(o + r, o + c);
+  };
   const double factor = options_.scale_covariance ? S_.variance_factor : 1.0;
   S_.covariance_scaled = options_.scale_covariance;
   for (LayoutEntry& e : R_.layout.markers) {
@@ -628,7 +655,7 @@ Status Solver::ComputeCovariance() {
     PoseCovariance c = PoseCovariance::Zero();
     if (!problem_->IsParameterBlockConstant(b.data())) {
       double raw[36];
-      covariance.GetCovarianceBlock(b.data(), b.data(), raw);
+      get(b.data(), 6, raw);
       const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov_params(raw);
       Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Identity();
       J.topLeftCorner<3, 3>() = LeftJacobianSO3(Eigen::Vector3d(b[0], b[1], b[2]));
@@ -640,7 +667,7 @@ Status Solver::ComputeCovariance() {
     if (owner >= 0 && post_height_.count(owner)) {
       double var = 0;
       if (!problem_->IsParameterBlockConstant(&post_height_.at(owner)))
-        covariance.GetCovarianceBlock(&post_height_.at(owner), &post_height_.at(owner), &var);
+        get(&post_height_.at(owner), 1, &var);
       e.post_height_sigma = std::sqrt(std::max(0.0, factor * var));
     }
   }
@@ -651,13 +678,10 @@ Status Solver::ComputeCovariance() {
 // Which parameters the observations leave undetermined: the Gauss-Newton matrix J^T J with
 // the camera poses eliminated (Schur complement onto markers, posts and intrinsics),
 // normalised by its diagonal; its near-null eigenvectors name the parameters they move.
-// Empty when every parameter is determined.
-std::string Solver::RankDeficiency() {
-  struct Param {
-    const double* block;
-    int size;
-    std::string name;
-  };
+// Empty when every parameter is determined; then reduced->covariance is the inverse of the
+// reduced matrix, which is the markers', posts' and intrinsics' block of (J^T J)^-1.
+std::string Solver::RankDeficiency(ReducedSystem* reduced) {
+  using Param = ReducedParam;
   std::vector<Param> cams, rest;
   for (size_t i = 0; i < cam_from_object_.size(); ++i)
     if (problem_->HasParameterBlock(cam_from_object_[i].data()))
@@ -670,33 +694,73 @@ std::string Solver::RankDeficiency() {
       rest.push_back({&h, 1, "post height of marker " + std::to_string(id)});
   if (config_.refine_intrinsics)
     rest.push_back({intrinsics_.data(), static_cast<int>(intrinsics_.size()), "intrinsics"});
+  reduced->params = rest;
+  reduced->offset.clear();
+  reduced->covariance.resize(0, 0);
+  {
+    int o = 0;
+    for (const Param& p : rest) {
+      reduced->offset[p.block] = o;
+      o += p.size;
+    }
+  }
   ceres::Problem::EvaluateOptions eo;
   for (const Param& p : cams) eo.parameter_blocks.push_back(const_cast<double*>(p.block));
   for (const Param& p : rest) eo.parameter_blocks.push_back(const_cast<double*>(p.block));
   ceres::CRSMatrix crs;
   if (!problem_->Evaluate(eo, nullptr, nullptr, nullptr, &crs))
     return "(the Jacobian could not be evaluated at the solution: a point does not project)";
-  Eigen::SparseMatrix<double, Eigen::RowMajor> J(crs.num_rows, crs.num_cols);
-  std::vector<Eigen::Triplet<double>> t;
-  for (int r = 0; r < crs.num_rows; ++r)
-    for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k)
-      t.emplace_back(r, crs.cols[k], crs.values[k]);
-  J.setFromTriplets(t.begin(), t.end());
-  const Eigen::SparseMatrix<double> H = (J.transpose() * J).pruned();
+  // J^T J reduced onto the non-camera parameters, accumulated row by row from the Jacobian
+  // (every residual touches at most one camera): H_cc per camera, the coupling H_rc of each
+  // camera to the reduced rows it touches, and H_rr (dense, small). Forming the whole J^T J
+  // as a sparse product instead took most of the 2000 x 40 covariance step.
   const int nc = 6 * static_cast<int>(cams.size());
   const int nr = crs.num_cols - nc;
-  Eigen::MatrixXd S = Eigen::MatrixXd(H.bottomRightCorner(nr, nr));
+  using Row6 = Eigen::Matrix<double, 1, 6>;
+  std::vector<Eigen::Matrix<double, 6, 6>> Hcc(cams.size(), Eigen::Matrix<double, 6, 6>::Zero());
+  std::vector<std::map<int, Row6>> Hrc(cams.size());  // reduced row -> H(row, camera block)
+  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(nr, nr);
+  std::vector<std::pair<int, double>> cam_entries, rest_entries;
+  for (int r = 0; r < crs.num_rows; ++r) {
+    cam_entries.clear();
+    rest_entries.clear();
+    int cam = -1;
+    for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
+      const int col = crs.cols[k];
+      if (col < nc) {
+        cam = col / 6;
+        cam_entries.emplace_back(col % 6, crs.values[k]);
+      } else {
+        rest_entries.emplace_back(col - nc, crs.values[k]);
+      }
+    }
+    for (const auto& [a, va] : rest_entries)
+      for (const auto& [b, vb] : rest_entries) S(a, b) += va * vb;
+    if (cam < 0) continue;
+    for (const auto& [a, va] : cam_entries)
+      for (const auto& [b, vb] : cam_entries) Hcc[cam](a, b) += va * vb;
+    for (const auto& [a, va] : rest_entries) {
+      Row6& h = Hrc[cam].try_emplace(a, Row6::Zero()).first->second;
+      for (const auto& [b, vb] : cam_entries) h(b) += va * vb;
+    }
+  }
   std::vector<std::string> found;
   for (size_t c = 0; c < cams.size(); ++c) {
-    const int o = 6 * static_cast<int>(c);
-    const Eigen::Matrix<double, 6, 6> Hcc = Eigen::MatrixXd(H.block(o, o, 6, 6));
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(Hcc);
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(Hcc[c]);
     if (es.eigenvalues()(0) <= 1e-12 * std::max(1.0, es.eigenvalues()(5))) {
       found.push_back(cams[c].name + " (camera pose)");
       continue;
     }
-    const Eigen::MatrixXd Hrc = Eigen::MatrixXd(H.block(nc, o, nr, 6));
-    S -= Hrc * Hcc.inverse() * Hrc.transpose();
+    // S -= H_rc H_cc^-1 H_cr, over the reduced rows this camera touches only.
+    std::vector<int> rows;
+    Eigen::MatrixXd B(Hrc[c].size(), 6);
+    for (const auto& [row, v] : Hrc[c]) {
+      B.row(static_cast<Eigen::Index>(rows.size())) = v;
+      rows.push_back(row);
+    }
+    const Eigen::MatrixXd update = B * Hcc[c].inverse() * B.transpose();
+    for (size_t a = 0; a < rows.size(); ++a)
+      for (size_t b = 0; b < rows.size(); ++b) S(rows[a], rows[b]) -= update(a, b);
   }
   Eigen::VectorXd d = S.diagonal().cwiseMax(0).cwiseSqrt();
   // Parameter k is component `what[k]` of block `block_of[k]`.
@@ -740,7 +804,15 @@ std::string Solver::RankDeficiency() {
     if (moved.size() > 10) dir += ", ... (" + std::to_string(moved.size()) + " blocks in all)";
     found.push_back("direction " + std::to_string(null_dims) + " moves " + dir);
   }
-  if (found.empty()) return "";
+  if (found.empty()) {
+    // S^-1 = D^-1 Sn^-1 D^-1, Sn^-1 from its eigen-decomposition (all eigenvalues > 1e-9 top).
+    const Eigen::MatrixXd& V = es.eigenvectors();
+    const Eigen::MatrixXd Sn_inv =
+        V * es.eigenvalues().cwiseInverse().asDiagonal() * V.transpose();
+    const Eigen::VectorXd dinv = d.cwiseInverse();
+    reduced->covariance = dinv.asDiagonal() * Sn_inv * dinv.asDiagonal();
+    return "";
+  }
   std::string s = "not determined: ";
   for (size_t i = 0; i < found.size(); ++i) s += (i ? "; " : "") + found[i];
   return s + " (fix the gauge or add observations that constrain them)";

@@ -11,9 +11,10 @@
 //      initial layout is moved onto them (Kabsch).
 //   4. Bundle adjustment with Ceres (SPARSE_SCHUR, cameras eliminated first) under a robust
 //      loss; outlier rejection; a second, least-squares solve.
-//   5. Covariance of every marker pose and post height with ceres::Covariance, scaled by the
-//      a-posteriori variance factor; a rank-deficient problem is reported with the
-//      parameters that are not determined.
+//   5. Covariance of every marker pose and post height: the Gauss-Newton matrix with the
+//      camera poses eliminated (Schur complement), inverted (or ceres::Covariance, see
+//      SurveyOptions::covariance_algorithm), scaled by the a-posteriori variance factor; a
+//      rank-deficient problem is reported with the parameters that are not determined.
 // Frames: object_from_marker, cam_from_object (docs/conventions.md). A dual marker's inner
 // marker is surveyed as a marker of its own; the shared post belongs to the outer marker.
 #pragma once

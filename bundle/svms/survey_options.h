@@ -55,6 +55,16 @@ struct SurveyOptions {
   int num_threads = 1;
 
   bool compute_covariance = true;
+  // How the covariance is computed (the same numbers either way, to rounding):
+  //  kSchurComplement: the Gauss-Newton matrix J^T J with the camera poses eliminated (the
+  //    reduced system the rank check builds anyway: markers, posts, intrinsics), inverted. Its
+  //    inverse is exactly the marker/post/intrinsics block of the full inverse, and its size
+  //    does not grow with the number of images (2000 images x 40 markers: about 300 x 300).
+  //  kSparseQr: ceres::Covariance with SPARSE_QR (SuiteSparseQR) on the whole Jacobian.
+  //  kDenseSvd: ceres::Covariance with DENSE_SVD: cubic in all parameters, cameras included;
+  //    for small problems and checks only.
+  enum class CovarianceAlgorithm { kSchurComplement, kSparseQr, kDenseSvd };
+  CovarianceAlgorithm covariance_algorithm = CovarianceAlgorithm::kSchurComplement;
   // Scale covariances by the a-posteriori variance factor 2 cost / (m - n) (noise not known
   // a priori). false: covariances assume the sigmas above are right.
   bool scale_covariance = true;

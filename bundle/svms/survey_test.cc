@@ -305,6 +305,55 @@ TEST(Survey, RankDeficiencyNamesTheUndeterminedParameters) {
   EXPECT_FALSE(r.summary.covariance_ok);
 }
 
+TEST(Survey, CovarianceAlgorithmsAgree) {
+  // The Schur complement (cameras eliminated, the reduced system inverted) gives the same
+  // marker and post covariances as ceres::Covariance on the whole Jacobian, SPARSE_QR and
+  // DENSE_SVD, on a problem small enough for the dense SVD; with control points too, so that
+  // no marker is held and the control-point residuals are in the reduced system.
+  TestObject m = MakeTestObject(30);
+  const std::vector<SurveyImage> images =
+      SynthesiseImages(m.truth, m.camera, m.cam_from_object, SyntheticOptions{}, 4);
+  SurveyConfig control;
+  control.gauge = SurveyConfig::Gauge::kControlPoints;
+  for (const char* name : {"100.tl", "100.br", "101", "105"}) {
+    ControlPoint cp;
+    ASSERT_TRUE(ParseNamedPoint(name, &cp.point));
+    const LayoutEntry* e = m.truth.Find(cp.point.marker_id);
+    Eigen::Vector3d in_marker;
+    ASSERT_TRUE(NamedPointInMarker(cp.point, e->marker, &in_marker));
+    cp.point_in_object = e->object_from_marker * in_marker;
+    control.control_points.push_back(cp);
+  }
+  using Algorithm = SurveyOptions::CovarianceAlgorithm;
+  for (const SurveyConfig& config : {ReferenceConfig(100), control}) {
+    std::vector<SurveyResult> r(3);
+    const Algorithm algorithms[3] = {Algorithm::kSchurComplement, Algorithm::kSparseQr,
+                                     Algorithm::kDenseSvd};
+    for (int a = 0; a < 3; ++a) {
+      SurveyOptions o;
+      o.covariance_algorithm = algorithms[a];
+      const Status s = RunSurvey(images, m.models, m.camera, o, config, &r[a]);
+      ASSERT_TRUE(s) << s.message();
+      ASSERT_TRUE(r[a].summary.covariance_ok);
+    }
+    for (int a = 1; a < 3; ++a) {
+      ASSERT_EQ(r[a].layout.markers.size(), r[0].layout.markers.size());
+      for (size_t i = 0; i < r[0].layout.markers.size(); ++i) {
+        const LayoutEntry& x = r[0].layout.markers[i];
+        const LayoutEntry& y = r[a].layout.markers[i];
+        ASSERT_TRUE(x.covariance && y.covariance) << x.marker.id;
+        const double scale = std::max(1e-30, y.covariance->norm());
+        EXPECT_LT((*x.covariance - *y.covariance).norm() / scale, 1e-6)
+            << "marker " << x.marker.id << ", algorithm " << a;
+        ASSERT_EQ(x.post_height_sigma.has_value(), y.post_height_sigma.has_value());
+        if (x.post_height_sigma)
+          EXPECT_NEAR(*x.post_height_sigma / *y.post_height_sigma, 1, 1e-6)
+              << "marker " << x.marker.id << ", algorithm " << a;
+      }
+    }
+  }
+}
+
 TEST(Survey, BadInputIsNamed) {
   TestObject m = MakeTestObject(20);
   const std::vector<SurveyImage> images =

@@ -382,6 +382,25 @@ Dataset Calibration(const DatasetOptions& o) {
     const Pose turn{Vec3(0.16 * u(rng), 0.16 * u(rng), 0), Vec3::Zero()};
     base.views.push_back(View{Name("calib_", i), turn * look});
   }
+  // Then eight views that put the board into the image corners (issue 6: the views above never
+  // reach them, so a lens model fitted to them only extrapolates there): 2.2 and 2.7 m away,
+  // 20 degrees off the board's normal, the camera turned by 0.27 / 0.30 rad about its x and y
+  // axes toward each corner. The whole board and the whole chessboard stay in view, their
+  // outermost marker corners and squares 40-70 px from the image corner (checked with
+  // mrcal.project through this camera).
+  if (!o.quick) {
+    int k = n;
+    for (const double D : {2.2, 2.7})
+      for (const int su : {-1, 1})
+        for (const int sv : {-1, 1}) {
+          const double tilt = 20 * kDeg, az = std::atan2(-sv, -su), th = D < 2.5 ? 0.27 : 0.30;
+          const Vec3 eye = D * Vec3(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az),
+                                    std::cos(tilt));
+          const Pose look = LookAt(eye, Vec3::Zero(), Vec3(0, 1, 0));
+          const Pose turn{Vec3(-sv * th, su * th, 0), Vec3::Zero()};
+          base.views.push_back(View{Name("calib_", k++), turn * look});
+        }
+  }
   Scene with_board = base, with_chess = base;
   with_board.objects = {board};
   with_chess.objects = {chess};
@@ -543,7 +562,7 @@ std::string DatasetDescription(const std::string& name) {
     return "the mockup module approached from 12 m to 1.3 m, 35 degrees off its docking face's "
            "normal, 500 frames at 10 Hz, true layout";
   if (name == "calibration")
-    return "a 6x5 marker board and a 10x8 chessboard, same 40 views, OPENCV8 camera";
+    return "a 6x5 marker board and a 10x8 chessboard, same 48 views (8 with the board in the image corners), OPENCV8 camera";
   if (name == "clutter")
     return "60 patterned boxes and planes (checker, stripes, grid, text, noise), no markers";
   if (name == "gallery")
