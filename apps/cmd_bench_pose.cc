@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "commands.h"
+#include "bench_util.h"
 #include "gnuplot.h"
 #include "svms/model_io.h"
 #include "svms/pose_estimator.h"
@@ -36,27 +37,7 @@ struct BenchPoseOptions {
   bool size_model = false;
 };
 
-std::string F(double v, int digits) {
-  std::ostringstream s;
-  s.setf(std::ios::fixed);
-  s.precision(digits);
-  s << v;
-  return s.str();
-}
-
-double Percentile(std::vector<double> v, double p) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  const double k = p * (v.size() - 1);
-  const size_t i = static_cast<size_t>(k);
-  return i + 1 < v.size() ? v[i] + (k - i) * (v[i + 1] - v[i]) : v[i];
-}
-
-double Mean(const std::vector<double>& v) {
-  double s = 0;
-  for (double x : v) s += x;
-  return v.empty() ? std::nan("") : s / v.size();
-}
+std::string F(double v, int digits) { return Fixed(v, digits); }
 
 // Resident set size of this process, MiB.
 double RssMiB() {
@@ -135,9 +116,9 @@ int RunBenchPose(const BenchPoseOptions& o) {
     return kExitBadInput;
   }
   ModelFile truth_layout;
-  std::string truth_text;
+  std::vector<std::pair<std::string, Pose>> truth;
   for (Status s : {ReadModelFile(D + "/true_layout.json", &truth_layout),
-                   ReadTextFile(D + "/truth.json", &truth_text)})
+                   ReadTruthPoses(D + "/truth.json", "module", &truth)})
     if (!s) {
       std::cerr << "svms bench pose: " << s.message() << "\n";
       return kExitBadInput;
@@ -153,22 +134,7 @@ int RunBenchPose(const BenchPoseOptions& o) {
   }
   const Pose module_from_object =
       ref->object_from_marker * ref_in_layout->object_from_marker.Inverse();
-  std::vector<std::pair<std::string, Pose>> truth;
-  try {
-    const nlohmann::json tj = nlohmann::json::parse(truth_text);
-    for (const auto& v : tj.at("views")) {
-      const auto& p = v.at("cam_from_object").at("module");
-      Pose pose;
-      for (int i = 0; i < 3; ++i) {
-        pose.rvec[i] = p.at("rvec")[i].get<double>();
-        pose.tvec[i] = p.at("tvec")[i].get<double>();
-      }
-      truth.emplace_back(v.at("name").get<std::string>(), pose * module_from_object);
-    }
-  } catch (const std::exception& e) {
-    std::cerr << "svms bench pose: " << D << "/truth.json: " << e.what() << "\n";
-    return kExitBadInput;
-  }
+  for (auto& [name, pose] : truth) pose = pose * module_from_object;
 
   // 2. Every frame once, in order, on this thread: fused pose, truth, best single marker.
   std::vector<cv::Mat> images;

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <thread>
 
+#include "bench_util.h"
 #include "commands.h"
 #include "gnuplot.h"
 #include "svms/detector.h"
@@ -36,13 +37,7 @@ struct BenchSurveyOptions {
   int threads = 2;
 };
 
-std::string F(double v, int digits) {
-  std::ostringstream s;
-  s.setf(std::ios::fixed);
-  s.precision(digits);
-  s << v;
-  return s.str();
-}
+std::string F(double v, int digits) { return Fixed(v, digits); }
 
 // Chi-square quantile (Wilson-Hilferty; accurate to < 0.1 % for k >= 100).
 double ChiSquareQuantile(double k, double z) {
@@ -142,32 +137,16 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
   }
   CameraModel camera;
   ModelFile models, truth_file;
-  std::string truth_text;
+  std::vector<std::pair<std::string, Pose>> cam_from_object;
   for (Status s : {CameraModel::Read(D + "/true.cameramodel", &camera),
                    ReadModelFile(D + "/markers.json", &models),
                    ReadModelFile(D + "/true_layout.json", &truth_file),
-                   ReadTextFile(D + "/truth.json", &truth_text)})
+                   ReadTruthPoses(D + "/truth.json", "module", &cam_from_object)})
     if (!s) {
       std::cerr << "svms bench survey: " << s.message() << "\n";
       return kExitBadInput;
     }
   const Layout& truth = truth_file.layout;
-  const nlohmann::json tj = nlohmann::json::parse(truth_text, nullptr, false);
-  std::vector<std::pair<std::string, Pose>> cam_from_object;
-  try {
-    for (const auto& v : tj.at("views")) {
-      const auto& p = v.at("cam_from_object").at("module");
-      Pose pose;
-      for (int i = 0; i < 3; ++i) {
-        pose.rvec[i] = p.at("rvec")[i].get<double>();
-        pose.tvec[i] = p.at("tvec")[i].get<double>();
-      }
-      cam_from_object.emplace_back(v.at("name").get<std::string>(), pose);
-    }
-  } catch (const std::exception& e) {
-    std::cerr << "svms bench survey: " << D << "/truth.json: " << e.what() << "\n";
-    return kExitBadInput;
-  }
 
   // 2. Detect every image.
   const Detector detector(DetectorOptions{}, camera, models.markers);

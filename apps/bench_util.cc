@@ -1,0 +1,57 @@
+#include "bench_util.h"
+
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "svms/model_io.h"
+
+namespace svms::cli {
+
+std::string Fixed(double v, int digits) {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(digits);
+  s << v;
+  return s.str();
+}
+
+double Percentile(std::vector<double> v, double p) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const double k = p * (v.size() - 1);
+  const size_t i = static_cast<size_t>(k);
+  return i + 1 < v.size() ? v[i] + (k - i) * (v[i + 1] - v[i]) : v[i];
+}
+
+double Mean(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x;
+  return v.empty() ? std::nan("") : s / v.size();
+}
+
+Status ReadTruthPoses(const std::string& truth_json, const std::string& object,
+                      std::vector<std::pair<std::string, Pose>>* out) {
+  std::string text;
+  if (Status s = ReadTextFile(truth_json, &text); !s) return s;
+  out->clear();
+  try {
+    const nlohmann::json tj = nlohmann::json::parse(text);
+    for (const auto& v : tj.at("views")) {
+      const auto& p = v.at("cam_from_object").at(object);
+      Pose pose;
+      for (int i = 0; i < 3; ++i) {
+        pose.rvec[i] = p.at("rvec").at(i).get<double>();
+        pose.tvec[i] = p.at("tvec").at(i).get<double>();
+      }
+      out->emplace_back(v.at("name").get<std::string>(), pose);
+    }
+  } catch (const std::exception& e) {
+    return Status::Error(truth_json + ": expected views with a name and cam_from_object." +
+                         object + " {rvec, tvec}: " + e.what());
+  }
+  return Status::Ok();
+}
+
+}  // namespace svms::cli

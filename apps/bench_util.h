@@ -1,0 +1,26 @@
+// Small pieces the `svms bench` reports share: number formatting, summary statistics, and the
+// true poses of a rendered dataset.
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "svms/pose.h"
+#include "svms/status.h"
+
+namespace svms::cli {
+
+// `v` with `digits` decimals, fixed-point ("0.021").
+std::string Fixed(double v, int digits);
+// The p-quantile (p in [0, 1]) of `v`, linear between order statistics; NaN when empty.
+double Percentile(std::vector<double> v, double p);
+// The mean of `v`; NaN when empty.
+double Mean(const std::vector<double>& v);
+
+// From a truth.json (docs/simulator.md): every view's name and the cam_from_object of the
+// object named `object`. Errors name the file and what is missing.
+Status ReadTruthPoses(const std::string& truth_json, const std::string& object,
+                      std::vector<std::pair<std::string, Pose>>* out);
+
+}  // namespace svms::cli
