@@ -346,6 +346,17 @@ Status CameraModel::Create(const std::string& lensmodel, const std::vector<doubl
       return Status::Error(e);
     }
   }
+  // A lens model with a core (fx, fy, cx, cy first) needs positive focal lengths: zero divides
+  // by zero when unprojecting, a negative one mirrors the image.
+  if (mrcal_lensmodel_metadata(&m).has_core) {
+    for (int i = 0; i < 2; ++i) {
+      if (!(intrinsics[i] > 0)) {
+        return Status::Error("intrinsics[" + std::to_string(i) + "]: expected a positive focal " +
+                             "length " + (i == 0 ? "fx" : "fy") + " (pixels), got " +
+                             FormatDouble(intrinsics[i]));
+      }
+    }
+  }
   if (width <= 0 || height <= 0) {
     return Status::Error("imagersize: expected a positive width and height (pixels), got " +
                          std::to_string(width) + "x" + std::to_string(height));
@@ -384,10 +395,17 @@ Status CameraModel::Read(const std::string& path, CameraModel* out) {
   if (!file) {
     return Status::Error(path + ": cannot open the file for reading: " + std::strerror(errno));
   }
-  std::ostringstream buffer;
-  buffer << file.rdbuf();
+  // In pieces up to a limit: /dev/zero or a runaway pipe must not exhaust memory.
+  constexpr std::size_t kMaxBytes = std::size_t{64} << 20;
+  std::string text;
+  char chunk[1 << 16];
+  while (file.read(chunk, sizeof chunk) || file.gcount() > 0) {
+    text.append(chunk, static_cast<std::size_t>(file.gcount()));
+    if (text.size() > kMaxBytes) {
+      return Status::Error(path + ": more than 64 MiB; " + kExpectedFile);
+    }
+  }
   if (file.bad()) return Status::Error(path + ": cannot read the file");
-  const std::string text = buffer.str();
   if (text.find('\0') != std::string::npos) {
     return Status::Error(path + ": contains a NUL byte; " + kExpectedFile);
   }

@@ -534,6 +534,18 @@ TEST(CameraModelErrors, ReadNonFiniteIntrinsics) {
                   {"extrinsics[5]: expected a finite number, got 'inf'"});
 }
 
+TEST(CameraModelErrors, ReadBadFocalLength) {
+  ExpectReadError("zero_f.cameramodel", ModelText("LENSMODEL_PINHOLE", "[0, 1000, 511.5, 383.5]"),
+                  {"intrinsics[0]: expected a positive focal length fx (pixels), got 0"});
+  ExpectReadError("negative_f.cameramodel",
+                  ModelText("LENSMODEL_PINHOLE", "[1000, -1000, 511.5, 383.5]"),
+                  {"intrinsics[1]: expected a positive focal length fy (pixels), got -1000"});
+  ExpectReadError("inf_extrinsics.cameramodel",
+                  ModelText("LENSMODEL_PINHOLE", "[1000, 1000, 511.5, 383.5]", "[1024, 768]",
+                            "[0, 0, 0, 0, 1e400, 0]"),
+                  {"extrinsics[4]: expected a finite number"});
+}
+
 TEST(CameraModelErrors, ReadBadImageSize) {
   ExpectReadError("zero.cameramodel",
                   ModelText("LENSMODEL_PINHOLE", "[1000, 1000, 511.5, 383.5]", "[0, 768]"),
@@ -553,6 +565,10 @@ TEST(CameraModelErrors, CreateChecksEverything) {
               "intrinsics[2]: ", {"expected a finite number, got inf"});
   ExpectError(CameraModel::Create("LENSMODEL_PINHOLE", {std::nan(""), 1, 1, 1}, 4, 3, &cam),
               "intrinsics[0]: ", {"expected a finite number, got nan"});
+  ExpectError(CameraModel::Create("LENSMODEL_PINHOLE", {0, 1, 1, 1}, 4, 3, &cam),
+              "intrinsics[0]: ", {"expected a positive focal length fx (pixels), got 0"});
+  ExpectError(CameraModel::Create("LENSMODEL_OPENCV4", {500, -500, 1, 1, 0, 0, 0, 0}, 4, 3, &cam),
+              "intrinsics[1]: ", {"expected a positive focal length fy (pixels), got -500"});
   ExpectError(CameraModel::Create("LENSMODEL_PINHOLE", {1, 1, 1, 1}, 0, 3, &cam),
               "imagersize: ", {"expected a positive width and height", "got 0x3"});
   ExpectError(CameraModel::Create("LENSMODEL_PINHOLE", {1, 1, 1, 1}, 4, -3, &cam),
