@@ -1,5 +1,6 @@
 // libFuzzer target: Detector::Detect on arbitrary pixels. Input: width (1 byte, 1..256), height
-// (1 byte, 1..256), type (1 byte: 8-bit grey, 16-bit grey, 8-bit colour), then pixel bytes
+// (1 byte, 1..256), type (1 byte: 8-bit grey, 16-bit grey, 8-bit colour, and the odd ones a
+// caller could pass: 2 channels, float, 16-bit colour with alpha, double), then pixel bytes
 // (repeated to fill the image, zeros if none). Two detectors: without a camera, and with a
 // pinhole camera of the image's size and marker models (poses, post tips, nesting).
 #include <cstdint>
@@ -11,8 +12,8 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 3) return 0;
   const int w = data[0] + 1, h = data[1] + 1;
-  const int types[3] = {CV_8UC1, CV_16UC1, CV_8UC3};
-  const int type = types[data[2] % 3];
+  const int types[7] = {CV_8UC1, CV_16UC1, CV_8UC3, CV_8UC2, CV_32FC1, CV_16UC4, CV_64FC3};
+  const int type = types[data[2] % 7];
   const uint8_t* px = data + 3;
   const size_t n = size - 3;
   cv::Mat img(h, w, type);

@@ -95,6 +95,11 @@ expect 2 "$tmp/negsize.cameramodel: imagersize: expected a positive width and he
 cam infext "[500, 500, 319.5, 239.5]" "[640, 480]" "[0, 0, 0, 0, 0, inf]"
 expect 2 "$tmp/infext.cameramodel: extrinsics[5]: expected a finite number" "$svms" detect "$tmp/m17.png" --camera "$tmp/infext.cameramodel"
 expect 2 "/dev/zero: more than 64 MiB" "$svms" detect "$tmp/m17.png" --camera /dev/zero
+# Truncated inside a string: mrcal 2.2 read past its buffer and svms crashed (found by fuzzing).
+printf "{ 'lensmodel': 'LENSMODEL_PINHOLE', 'intrinsics': [1,1,1,1], 'extrinsics': [0,0,0,0,0,0], 'imagersiz" > "$tmp/cut.cameramodel"
+expect 2 "$tmp/cut.cameramodel: the string opened on line 1 is not closed before the end of the file" "$svms" detect "$tmp/m17.png" --camera "$tmp/cut.cameramodel"
+printf "# a comment without its newline" > "$tmp/comment.cameramodel"
+expect 2 "$tmp/comment.cameramodel: " "$svms" detect "$tmp/m17.png" --camera "$tmp/comment.cameramodel"
 : > "$tmp/empty.cameramodel"
 expect 2 "$tmp/empty.cameramodel: the file is empty" "$svms" detect "$tmp/m17.png" --camera "$tmp/empty.cameramodel"
 

@@ -304,6 +304,36 @@ std::string Diagnose(const std::string& text) {
   return std::string("mrcal cannot parse the file (its reason is on stderr); ") + kExpectedFile;
 }
 
+// mrcal 2.2's scanner reads past the end of its buffer (and crashes, or reads whatever memory
+// follows) when the text ends inside a quoted string or inside a comment: found by fuzzing
+// (fuzz/fuzz_camera.cc; docs/reliability.md). Returns why `text` ends inside a string, or "".
+// Backslash escapes are honoured, so this is at least as strict as mrcal about where a string
+// ends. (A comment at the end is made safe by appending a newline.)
+std::string UnclosedString(const std::string& text) {
+  std::size_t line = 1;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') {
+      ++line;
+    } else if (c == '#') {
+      while (i + 1 < text.size() && text[i + 1] != '\n') ++i;
+    } else if (c == '\'' || c == '"') {
+      const std::size_t start_line = line;
+      std::size_t k = i + 1;
+      while (k < text.size() && text[k] != c) {
+        if (text[k] == '\n') ++line;
+        k += text[k] == '\\' ? 2 : 1;
+      }
+      if (k >= text.size()) {
+        return "the string opened on line " + std::to_string(start_line) +
+               " is not closed before the end of the file (truncated?)";
+      }
+      i = k;
+    }
+  }
+  return "";
+}
+
 // ---------------------------------------------------------------------------------------------
 
 struct MrcalCameraModelDeleter {
@@ -409,6 +439,10 @@ Status CameraModel::Read(const std::string& path, CameraModel* out) {
   if (text.find('\0') != std::string::npos) {
     return Status::Error(path + ": contains a NUL byte; " + kExpectedFile);
   }
+  if (std::string e = UnclosedString(text); !e.empty()) {
+    return Status::Error(path + ": " + e + "; " + kExpectedFile);
+  }
+  if (!text.empty() && text.back() != '\n') text += '\n';  // see UnclosedString
 
   // We hand mrcal the bytes we read (rather than the path) so that a failure is explained from
   // exactly what mrcal saw. len = 0: the text ends at its terminating NUL.

@@ -75,7 +75,8 @@ class Detector {
   Detector(const DetectorOptions& options, const CameraModel& camera,
            const std::vector<MarkerModel>& models);
 
-  // All markers in `image` (CV_8UC1, CV_16UC1 or 3-channel 8-bit; any size >= 1x1).
+  // All markers in `image` (CV_8UC1, CV_16UC1 or 3-channel 8-bit; any size >= 1x1; other
+  // depths are converted and saturated to 8 bits; 1, 3 or 4 channels, none for other counts).
   std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats = nullptr) const;
 
   const DetectorOptions& options() const { return options_; }
