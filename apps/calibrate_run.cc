@@ -16,6 +16,7 @@
 #include "commands.h"
 #include "gnuplot.h"
 #include "svms/detector.h"
+#include "svms/image_io.h"
 #include "svms/observations.h"
 
 namespace svms::cli {
@@ -226,9 +227,9 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
     std::mutex io;
     auto worker = [&] {
       for (size_t i; (i = next++) < n;) {
-        const cv::Mat img = cv::imread(files[i], cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
-        if (img.empty()) {
-          errors[i] = files[i] + ": cannot read as an image";
+        cv::Mat img;
+        if (Status s = LoadImage(files[i], kDefaultMaxImagePixels, &img); !s) {
+          errors[i] = s.message();
         } else {
           sizes[i] = img.size();
           all[i] = calib::ObservationsFromDetections(detector.Detect(img), o.layout, files[i],

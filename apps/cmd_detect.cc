@@ -1,6 +1,7 @@
 // svms detect: markers in images, one JSON line per image.
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -15,6 +16,7 @@
 #include "image_inputs.h"
 #include "overlay.h"
 #include "svms/detector.h"
+#include "svms/image_io.h"
 #include "svms/model_io.h"
 
 namespace svms::cli {
@@ -26,7 +28,7 @@ struct DetectOptions {
   std::vector<std::string> inputs;
   std::string camera, markers, overlay, debug;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  double max_megapixels = 100;
+  double max_megapixels = kDefaultMaxImagePixels / 1e6;
   bool quiet = false;
   bool json = true;
 };
@@ -77,25 +79,32 @@ int RunDetect(const DetectOptions& o) {
       return kExitBadInput;
     }
   }
-  // Refuse absurd images before decoding them (OpenCV reads this once, at its first use).
-  const std::string limit = std::to_string(static_cast<long long>(o.max_megapixels * 1e6));
-  setenv("OPENCV_IO_MAX_IMAGE_PIXELS", limit.c_str(), 1);
+  // LoadImage refuses absurd images from their headers before decoding them; OpenCV's own limit
+  // (read once, at its first use) is a second line.
+  const auto max_pixels = static_cast<int64_t>(std::llround(o.max_megapixels * 1e6));
+  setenv("OPENCV_IO_MAX_IMAGE_PIXELS", std::to_string(max_pixels).c_str(), 1);
 
   DetectorOptions dopt;
   dopt.debug_dir = o.debug;
   const Detector detector(dopt, camera, models);
   const std::vector<std::string> files = ExpandImageInputs(o.inputs);
+  if (files.empty()) {
+    std::cerr << "svms detect: no image files in the inputs (directories are searched for .png, "
+                 ".jpg, .jpeg, .tif, .tiff, .bmp, .pgm, .ppm)\n";
+    return kExitBadInput;
+  }
   std::vector<std::string> lines(files.size()), errors(files.size());
+  std::vector<bool> ready(files.size(), false);
+  size_t printed = 0;
   std::atomic<size_t> next{0}, done{0};
   std::mutex io;
   auto worker = [&] {
     for (size_t i; (i = next++) < files.size();) {
       const std::string& f = files[i];
       nlohmann::json j = {{"image", f}};
-      const cv::Mat img = cv::imread(f, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
-      if (img.empty()) {
-        errors[i] = f + ": cannot read as an image (missing, not an image, or over " +
-                    std::to_string(o.max_megapixels) + " megapixels)";
+      cv::Mat img;
+      if (Status s = LoadImage(f, max_pixels, &img); !s) {
+        errors[i] = s.message();
       } else if (img.cols < 16 || img.rows < 16) {
         errors[i] = f + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
                     " pixels is too small to hold a marker (at least 16x16 expected)";
@@ -124,8 +133,15 @@ int RunDetect(const DetectOptions& o) {
       } else {
         j["error"] = errors[i];
       }
-      lines[i] = j.dump();
       std::lock_guard<std::mutex> lock(io);
+      // Lines go out in input order as soon as every earlier image is done, so that memory does
+      // not grow with the batch (only the errors are kept for the summary).
+      lines[i] = j.dump();
+      ready[i] = true;
+      for (; printed < files.size() && ready[printed]; ++printed) {
+        std::cout << lines[printed] << "\n";
+        std::string().swap(lines[printed]);
+      }
       const size_t d = ++done;
       if (!o.quiet && files.size() > 1)
         std::cerr << "\rsvms detect: " << d << "/" << files.size() << " images" << std::flush;
@@ -136,7 +152,7 @@ int RunDetect(const DetectOptions& o) {
     pool.emplace_back(worker);
   for (auto& t : pool) t.join();
   if (!o.quiet && files.size() > 1) std::cerr << "\n";
-  for (const std::string& l : lines) std::cout << l << "\n";
+  std::cout << std::flush;
   int failed = 0;
   for (const std::string& e : errors)
     if (!e.empty()) {
@@ -163,8 +179,9 @@ void AddDetectCommands(CLI::App& app, int* exit_code) {
   det->add_option("--threads", o->threads, "Images processed in parallel")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
-  det->add_option("--max-megapixels", o->max_megapixels, "Refuse larger images")
-      ->check(CLI::PositiveNumber)
+  det->add_option("--max-megapixels", o->max_megapixels,
+                  "Refuse larger images (checked from the file header, before decoding)")
+      ->check(CLI::Range(1e-6, 1e5))
       ->capture_default_str();
   det->add_option("--debug", o->debug,
                   "Write each step's picture of the last image to this directory");

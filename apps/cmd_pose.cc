@@ -12,6 +12,7 @@
 #include "commands.h"
 #include "image_inputs.h"
 #include "overlay.h"
+#include "svms/image_io.h"
 #include "svms/pose_estimator.h"
 
 namespace svms::cli {
@@ -91,7 +92,9 @@ int RunPose(const PoseCliOptions& o) {
       return kExitBadInput;
     }
   }
-  const std::string limit = std::to_string(static_cast<long long>(o.max_megapixels * 1e6));
+  // LoadImage refuses absurd images from their headers; OpenCV's own limit is a second line.
+  const int64_t max_pixels = static_cast<int64_t>(o.max_megapixels * 1e6);
+  const std::string limit = std::to_string(max_pixels);
   setenv("OPENCV_IO_MAX_IMAGE_PIXELS", limit.c_str(), 1);
   const CameraModel& camera = est->camera();
 
@@ -104,10 +107,9 @@ int RunPose(const PoseCliOptions& o) {
   auto frame = [&](const std::string& path, double timestamp) {
     nlohmann::json j;
     std::string error;
-    const cv::Mat img = cv::imread(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
-    if (img.empty())
-      error = path + ": cannot read as an image (missing, not an image, or over " +
-              std::to_string(o.max_megapixels) + " megapixels)";
+    cv::Mat img;
+    if (Status s = LoadImage(path, max_pixels, &img); !s)
+      error = s.message();
     else if (img.cols != camera.width() || img.rows != camera.height())
       error = path + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
               " pixels, but the camera model is " + std::to_string(camera.width()) + "x" +

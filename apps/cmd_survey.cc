@@ -11,6 +11,7 @@
 #include "commands.h"
 #include "image_inputs.h"
 #include "svms/detector.h"
+#include "svms/image_io.h"
 #include "svms/model_io.h"
 #include "svms/survey.h"
 #include "svms/survey_report.h"
@@ -125,9 +126,9 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
   auto worker = [&] {
     for (size_t i; (i = next++) < files.size();) {
       images[i].name = fs::path(files[i]).stem().string();
-      const cv::Mat img = cv::imread(files[i], cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
-      if (img.empty())
-        errors[i] = files[i] + ": cannot read as an image";
+      cv::Mat img;
+      if (Status s = LoadImage(files[i], kDefaultMaxImagePixels, &img); !s)
+        errors[i] = s.message();
       else if (img.cols != camera.width() || img.rows != camera.height())
         errors[i] = files[i] + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
                     " pixels, but the camera model is " + std::to_string(camera.width()) + "x" +

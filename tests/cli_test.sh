@@ -121,11 +121,11 @@ assert len(ids[3]["corners"]) == 4 and "cam_from_marker" not in ids[3]
 PY
 printf 'not an image' > "$tmp/det/junk.png"
 python3 -c "open('$tmp/det/tiny.pgm','wb').write(b'P5 1 1 255 ' + bytes([7]))"
-expect 1 "junk.png: cannot read as an image" "$svms" detect "$tmp/det" --quiet
+expect 1 "junk.png: not an image of a supported format" "$svms" detect "$tmp/det" --quiet
 expect 1 "tiny.pgm: 1x1 pixels is too small" "$svms" detect "$tmp/det" --quiet
 expect 1 "2 of 4 images failed" "$svms" detect "$tmp/det" --quiet
 [ "$("$svms" detect "$tmp/det" --quiet 2>/dev/null | wc -l)" -eq 4 ] && pass || fail "detect: one JSON line per image, bad ones included"
-expect 1 "/nonexistent.png: cannot read as an image" "$svms" detect /nonexistent.png --quiet
+expect 1 "/nonexistent.png: no such file" "$svms" detect /nonexistent.png --quiet
 expect 2 "/nonexistent.cameramodel" "$svms" detect "$tmp/det/a.png" --camera /nonexistent.cameramodel
 
 # generate board + calibrate: bad inputs (the full run is `svms bench calibrate --quick`)
@@ -140,7 +140,7 @@ expect 0 "Examples:" "$svms" calibrate --help
 expect 2 "/nonexistent.json: cannot open for reading" "$svms" calibrate "$tmp/det/a.png" --board /nonexistent.json --out "$tmp/c.cameramodel"
 expect 2 "expected a layout" "$svms" calibrate "$tmp/det/a.png" --board "$tmp/m17.json" --out "$tmp/c.cameramodel"
 expect 2 "the images show markers 1234 but none of the board's" "$svms" calibrate "$tmp/det/a.png" --board "$tmp/board.json" --out "$tmp/c.cameramodel" --quiet
-expect 2 "junk.png: cannot read as an image" "$svms" calibrate "$tmp/det/junk.png" --board "$tmp/board.json" --out "$tmp/c.cameramodel" --quiet
+expect 2 "junk.png: not an image of a supported format" "$svms" calibrate "$tmp/det/junk.png" --board "$tmp/board.json" --out "$tmp/c.cameramodel" --quiet
 # The board's own artwork as the images: twice is too few views; three times, all
 # fronto-parallel, is degenerate. No model either time.
 for i in 1 2; do cp "$tmp/board.png" "$tmp/board_view$i.png"; done
@@ -175,7 +175,7 @@ for i, j in enumerate(lines):
 PY
 else fail "svms pose --stdin exited $?"; fi
 printf '%s 12.5\n/nonexistent.png 13\n' "$(head -1 "$tmp/frames.txt")" > "$tmp/frames2.txt"
-expect 1 "/nonexistent.png: cannot read" "$svms" pose --stdin --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json" --quiet < "$tmp/frames2.txt"
+expect 1 "/nonexistent.png: no such file" "$svms" pose --stdin --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json" --quiet < "$tmp/frames2.txt"
 if out=$("$svms" pose --stdin --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json" --quiet < "$tmp/frames2.txt" 2>/dev/null); then fail "bad frame: exit 0"
 else grep -q '"timestamp":12.5' <<<"$out" && grep -q '"error"' <<<"$out" && pass || fail "bad frame lines: $out"; fi
 expect 2 "/nonexistent.cameramodel" "$svms" pose "$tmp/range" --camera /nonexistent.cameramodel --layout "$tmp/range_layout.json"

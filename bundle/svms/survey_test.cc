@@ -25,9 +25,11 @@ struct TestObject {
 TestObject MakeTestObject(int views = 150) {
   TestObject m;
   SyntheticScene s = MakeSyntheticScene(8, views, 1);
-  MarkerModel dual = MarkerModel::Standard(100, 0.3, 0.25 * 0.075);
-  dual.AddInner(150, 0.075);
-  dual.post->radius = dual.post->tip_radius = 0.075 / 20;
+  // 0.2 m (printed 0.4 m) so that it stays clear of marker 105 on the same face whatever their
+  // spins (Layout::Validate refuses overlapping markers).
+  MarkerModel dual = MarkerModel::Standard(100, 0.2, 0.25 * 0.05);
+  dual.AddInner(150, 0.05);
+  dual.post->radius = dual.post->tip_radius = 0.05 / 20;
   s.layout.markers[0].marker = dual;
   m.truth = s.layout;
   m.cam_from_object = s.cam_from_object;

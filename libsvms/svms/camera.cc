@@ -304,6 +304,36 @@ std::string Diagnose(const std::string& text) {
   return std::string("mrcal cannot parse the file (its reason is on stderr); ") + kExpectedFile;
 }
 
+// mrcal 2.2's scanner reads past the end of its buffer (and crashes, or reads whatever memory
+// follows) when the text ends inside a quoted string or inside a comment: found by fuzzing
+// (fuzz/fuzz_camera.cc; docs/reliability.md). Returns why `text` ends inside a string, or "".
+// Backslash escapes are honoured, so this is at least as strict as mrcal about where a string
+// ends. (A comment at the end is made safe by appending a newline.)
+std::string UnclosedString(const std::string& text) {
+  std::size_t line = 1;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') {
+      ++line;
+    } else if (c == '#') {
+      while (i + 1 < text.size() && text[i + 1] != '\n') ++i;
+    } else if (c == '\'' || c == '"') {
+      const std::size_t start_line = line;
+      std::size_t k = i + 1;
+      while (k < text.size() && text[k] != c) {
+        if (text[k] == '\n') ++line;
+        k += text[k] == '\\' ? 2 : 1;
+      }
+      if (k >= text.size()) {
+        return "the string opened on line " + std::to_string(start_line) +
+               " is not closed before the end of the file (truncated?)";
+      }
+      i = k;
+    }
+  }
+  return "";
+}
+
 // ---------------------------------------------------------------------------------------------
 
 struct MrcalCameraModelDeleter {
@@ -346,6 +376,17 @@ Status CameraModel::Create(const std::string& lensmodel, const std::vector<doubl
       return Status::Error(e);
     }
   }
+  // A lens model with a core (fx, fy, cx, cy first) needs positive focal lengths: zero divides
+  // by zero when unprojecting, a negative one mirrors the image.
+  if (mrcal_lensmodel_metadata(&m).has_core) {
+    for (int i = 0; i < 2; ++i) {
+      if (!(intrinsics[i] > 0)) {
+        return Status::Error("intrinsics[" + std::to_string(i) + "]: expected a positive focal " +
+                             "length " + (i == 0 ? "fx" : "fy") + " (pixels), got " +
+                             FormatDouble(intrinsics[i]));
+      }
+    }
+  }
   if (width <= 0 || height <= 0) {
     return Status::Error("imagersize: expected a positive width and height (pixels), got " +
                          std::to_string(width) + "x" + std::to_string(height));
@@ -384,13 +425,24 @@ Status CameraModel::Read(const std::string& path, CameraModel* out) {
   if (!file) {
     return Status::Error(path + ": cannot open the file for reading: " + std::strerror(errno));
   }
-  std::ostringstream buffer;
-  buffer << file.rdbuf();
+  // In pieces up to a limit: /dev/zero or a runaway pipe must not exhaust memory.
+  constexpr std::size_t kMaxBytes = std::size_t{64} << 20;
+  std::string text;
+  char chunk[1 << 16];
+  while (file.read(chunk, sizeof chunk) || file.gcount() > 0) {
+    text.append(chunk, static_cast<std::size_t>(file.gcount()));
+    if (text.size() > kMaxBytes) {
+      return Status::Error(path + ": more than 64 MiB; " + kExpectedFile);
+    }
+  }
   if (file.bad()) return Status::Error(path + ": cannot read the file");
-  const std::string text = buffer.str();
   if (text.find('\0') != std::string::npos) {
     return Status::Error(path + ": contains a NUL byte; " + kExpectedFile);
   }
+  if (std::string e = UnclosedString(text); !e.empty()) {
+    return Status::Error(path + ": " + e + "; " + kExpectedFile);
+  }
+  if (!text.empty() && text.back() != '\n') text += '\n';  // see UnclosedString
 
   // We hand mrcal the bytes we read (rather than the path) so that a failure is explained from
   // exactly what mrcal saw. len = 0: the text ends at its terminating NUL.

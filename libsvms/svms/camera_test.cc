@@ -534,6 +534,44 @@ TEST(CameraModelErrors, ReadNonFiniteIntrinsics) {
                   {"extrinsics[5]: expected a finite number, got 'inf'"});
 }
 
+// Regression (found by fuzz/fuzz_camera.cc): mrcal 2.2 read past the end of its buffer, and
+// svms crashed, on a file that ends inside a quoted string or a comment. Every prefix of a good
+// file must now give an error (or, for the whole file, the model).
+TEST(CameraModelErrors, ReadTruncatedAtEveryByte) {
+  const std::string text = "# a comment\n" +
+                           ModelText("LENSMODEL_OPENCV4", "[500, 500, 319.5, 239.5, 0, 0, 0, 0]") +
+                           "# trailing comment";
+  const std::string path = TempPath("truncated.cameramodel");
+  for (std::size_t n = 0; n <= text.size(); ++n) {
+    SCOPED_TRACE(n);
+    WriteText(path, text.substr(0, n));
+    CameraModel cam;
+    const Status s = CameraModel::Read(path, &cam);
+    if (n == text.size()) {
+      EXPECT_TRUE(s.ok()) << s.message();
+    } else if (!s.ok()) {
+      EXPECT_EQ(s.message().rfind(path + ": ", 0), 0u) << s.message();
+    }
+  }
+  ExpectReadError("unclosed.cameramodel", "{\n  'lensmodel': 'LENSMODEL_PIN",
+                  {"the string opened on line 2 is not closed before the end of the file"});
+  ExpectReadError("unclosed_key.cameramodel",
+                  ModelText("LENSMODEL_PINHOLE", "[1, 1, 1, 1]").substr(0, 100) + "'imagersiz",
+                  {"is not closed before the end of the file"});
+}
+
+TEST(CameraModelErrors, ReadBadFocalLength) {
+  ExpectReadError("zero_f.cameramodel", ModelText("LENSMODEL_PINHOLE", "[0, 1000, 511.5, 383.5]"),
+                  {"intrinsics[0]: expected a positive focal length fx (pixels), got 0"});
+  ExpectReadError("negative_f.cameramodel",
+                  ModelText("LENSMODEL_PINHOLE", "[1000, -1000, 511.5, 383.5]"),
+                  {"intrinsics[1]: expected a positive focal length fy (pixels), got -1000"});
+  ExpectReadError("inf_extrinsics.cameramodel",
+                  ModelText("LENSMODEL_PINHOLE", "[1000, 1000, 511.5, 383.5]", "[1024, 768]",
+                            "[0, 0, 0, 0, 1e400, 0]"),
+                  {"extrinsics[4]: expected a finite number"});
+}
+
 TEST(CameraModelErrors, ReadBadImageSize) {
   ExpectReadError("zero.cameramodel",
                   ModelText("LENSMODEL_PINHOLE", "[1000, 1000, 511.5, 383.5]", "[0, 768]"),
@@ -553,6 +591,10 @@ TEST(CameraModelErrors, CreateChecksEverything) {
               "intrinsics[2]: ", {"expected a finite number, got inf"});
   ExpectError(CameraModel::Create("LENSMODEL_PINHOLE", {std::nan(""), 1, 1, 1}, 4, 3, &cam),
               "intrinsics[0]: ", {"expected a finite number, got nan"});
+  ExpectError(CameraModel::Create("LENSMODEL_PINHOLE", {0, 1, 1, 1}, 4, 3, &cam),
+              "intrinsics[0]: ", {"expected a positive focal length fx (pixels), got 0"});
+  ExpectError(CameraModel::Create("LENSMODEL_OPENCV4", {500, -500, 1, 1, 0, 0, 0, 0}, 4, 3, &cam),
+              "intrinsics[1]: ", {"expected a positive focal length fy (pixels), got -500"});
   ExpectError(CameraModel::Create("LENSMODEL_PINHOLE", {1, 1, 1, 1}, 0, 3, &cam),
               "imagersize: ", {"expected a positive width and height", "got 0x3"});
   ExpectError(CameraModel::Create("LENSMODEL_PINHOLE", {1, 1, 1, 1}, 4, -3, &cam),

@@ -65,15 +65,20 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
   DetectionStats stats;
   const DetectorOptions& o = options_;
   std::vector<Detection> out;
-  if (input.empty()) return out;
-  // 0. One 8-bit grey image (16-bit scaled to its used range, colour converted).
-  cv::Mat gray;
-  if (input.channels() == 3) {
-    cv::cvtColor(input, gray, cv::COLOR_BGR2GRAY);
-  } else if (input.channels() == 4) {
-    cv::cvtColor(input, gray, cv::COLOR_BGRA2GRAY);
+  // Other channel counts (2, 5+) are not images we know how to read: no detections.
+  if (input.empty() || (input.channels() != 1 && input.channels() != 3 && input.channels() != 4))
+    return out;
+  // 0. One 8-bit grey image (16-bit scaled to its used range, colour converted; other depths
+  // through 32-bit float, which cvtColor accepts, then saturated to 8 bits).
+  cv::Mat gray, source = input;
+  if (input.depth() != CV_8U && input.depth() != CV_16U && input.depth() != CV_32F)
+    input.convertTo(source, CV_32F);
+  if (source.channels() == 3) {
+    cv::cvtColor(source, gray, cv::COLOR_BGR2GRAY);
+  } else if (source.channels() == 4) {
+    cv::cvtColor(source, gray, cv::COLOR_BGRA2GRAY);
   } else {
-    gray = input;
+    gray = source;
   }
   if (gray.depth() == CV_16U) {
     double mx;

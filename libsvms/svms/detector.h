@@ -79,7 +79,8 @@ class Detector {
   Detector(const DetectorOptions& options, const CameraModel& camera,
            const std::vector<MarkerModel>& models);
 
-  // All markers in `image` (CV_8UC1, CV_16UC1 or 3-channel 8-bit; any size >= 1x1).
+  // All markers in `image` (CV_8UC1, CV_16UC1 or 3-channel 8-bit; any size >= 1x1; other
+  // depths are converted and saturated to 8 bits; 1, 3 or 4 channels, none for other counts).
   std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats = nullptr) const;
   // The same under a deadline: steps 5-10 stop once it has passed (steps 1-4 cost what the
   // image size says and are not interrupted), stats->budget_exceeded is set, and only the

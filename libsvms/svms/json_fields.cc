@@ -1,5 +1,7 @@
 #include "svms/json_fields.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 
 namespace svms::json_fields {
@@ -7,6 +9,10 @@ namespace svms::json_fields {
 std::string TypeName(const json& j) {
   if (j.is_null()) return "null";
   if (j.is_boolean()) return "a boolean";
+  // nlohmann reads a literal beyond the range of a double (1e400) as infinity (and dumps it as
+  // null); JSON itself has no NaN or infinity.
+  if (j.is_number_float() && !std::isfinite(j.get<double>()))
+    return "a number beyond the range of a double";
   if (j.is_number()) return "the number " + j.dump();
   if (j.is_string()) return "the string " + j.dump();
   if (j.is_array()) return "an array of " + std::to_string(j.size());
@@ -42,6 +48,7 @@ const json& Required(const json& obj, const std::string& path, const std::string
 double Number(const json& obj, const std::string& path, const std::string& key) {
   const json& v = Required(obj, path, key);
   if (!v.is_number()) Fail(Join(path, key), "a number", v);
+  if (!std::isfinite(v.get<double>())) Fail(Join(path, key), "a finite number", v);
   return v.get<double>();
 }
 
@@ -117,6 +124,37 @@ bool ParseText(const std::string& text, const std::string& source, json* out, st
     if (colon != std::string::npos) what = what.substr(colon + 2);
     *error = source + ": line " + std::to_string(line) + ", column " + std::to_string(col) +
              ": not valid JSON: " + what;
+    return false;
+  } catch (const json::out_of_range& e) {
+    // nlohmann 3.11 refuses a number literal beyond a double's range ("1e400") with
+    // out_of_range 406, which carries the literal but not its place: find it in the text.
+    std::string what = e.what();
+    const size_t open = what.find('\''), close = what.rfind('\'');
+    std::string where;
+    if (open != std::string::npos && close > open + 1) {
+      const std::string literal = what.substr(open + 1, close - open - 1);
+      const size_t at = text.find(literal);
+      if (at != std::string::npos) {
+        const size_t line = 1 + std::count(text.begin(), text.begin() + at, '\n');
+        const size_t bol = text.rfind('\n', at);
+        const size_t col = at - (bol == std::string::npos ? 0 : bol + 1) + 1;
+        where = ": line " + std::to_string(line) + ", column " + std::to_string(col);
+        // The nearest key before it ("tvec" for "tvec": [0, 1e400, 0]).
+        const size_t colon = text.rfind("\":", at);
+        const size_t quote = colon == std::string::npos || colon == 0
+                                 ? std::string::npos
+                                 : text.rfind('"', colon - 1);
+        if (quote != std::string::npos && colon - quote - 1 < 64)
+          where += ": " + text.substr(quote + 1, colon - quote - 1);
+      }
+      *error = source + where + ": the number " + literal +
+               " is beyond the range of a double; expected a finite number";
+    } else {
+      *error = source + ": not valid JSON: " + what;
+    }
+    return false;
+  } catch (const json::exception& e) {
+    *error = source + ": not valid JSON: " + e.what();
     return false;
   }
 }

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -26,6 +27,7 @@ std::string TypeName(const json& j);
 void CheckKeys(const json& obj, const std::string& path, const std::set<std::string>& allowed);
 std::string Join(const std::string& path, const std::string& key);
 const json& Required(const json& obj, const std::string& path, const std::string& key);
+// A finite number (a literal beyond the range of a double, read as infinity, is an error).
 double Number(const json& obj, const std::string& path, const std::string& key);
 // A number in [lo, hi], named in the message.
 double NumberIn(const json& obj, const std::string& path, const std::string& key, double lo,
@@ -34,6 +36,7 @@ int Integer(const json& obj, const std::string& path, const std::string& key);
 bool Boolean(const json& obj, const std::string& path, const std::string& key);
 std::string String(const json& obj, const std::string& path, const std::string& key);
 
+// An array of exactly N finite numbers.
 template <int N>
 Eigen::Matrix<double, N, 1> Vector(const json& obj, const std::string& path,
                                    const std::string& key) {
@@ -42,7 +45,8 @@ Eigen::Matrix<double, N, 1> Vector(const json& obj, const std::string& path,
     Fail(Join(path, key), "an array of " + std::to_string(N) + " numbers", v);
   Eigen::Matrix<double, N, 1> out;
   for (int i = 0; i < N; ++i) {
-    if (!v[i].is_number()) Fail(Join(path, key) + "[" + std::to_string(i) + "]", "a number", v[i]);
+    if (!v[i].is_number() || !std::isfinite(v[i].get<double>()))
+      Fail(Join(path, key) + "[" + std::to_string(i) + "]", "a finite number", v[i]);
     out(i) = v[i].get<double>();
   }
   return out;

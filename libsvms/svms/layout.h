@@ -22,12 +22,28 @@ struct LayoutEntry {
   std::optional<double> post_height_sigma;  // metres, from the survey
 };
 
+// Tolerances of the overlap rule in Layout::Validate.
+constexpr double kLayoutCoplanarDegrees = 5;
+constexpr double kLayoutCoplanarDistance = 0.05;  // fraction of the smaller printed side
+constexpr double kLayoutOverlapMargin = 0.01;     // fraction of a printed side, per edge
+
 struct Layout {
   std::string name;
   std::vector<LayoutEntry> markers;
 
   // Every marker valid; IDs (outer and inner) unique; poses finite; covariances symmetric
-  // positive semi-definite and finite.
+  // positive semi-definite and finite; no two markers overlapping. A marker nested in another
+  // (on its plane, its printed square inside the other's black square: the two markers of a
+  // dual written as two entries, as `svms survey` does) is fine. Otherwise two markers overlap
+  // when
+  //  - their centres are closer than half the smaller black square's side (whatever their
+  //    orientations: two markers cannot share a spot), or
+  //  - they lie on one plane (normals within kLayoutCoplanarDegrees, each centre within
+  //    kLayoutCoplanarDistance x the smaller printed side of the other's plane) and their
+  //    printed squares (to the outer edge of the bit ring, side 2 * half_extent()), each
+  //    shrunk by kLayoutOverlapMargin of its side on every edge, intersect.
+  // The margin lets markers touch (a board with no gap) and absorbs survey noise; markers on
+  // different faces of an object (normals apart) may come close at the edges.
   Status Validate() const;
   // The entry whose outer or inner marker has this ID, or nullptr.
   const LayoutEntry* Find(int id) const;

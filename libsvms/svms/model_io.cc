@@ -133,10 +133,18 @@ std::string LayoutToJson(const Layout& layout) {
 Status ReadTextFile(const std::string& path, std::string* text) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return Status::Error(path + ": cannot open for reading");
-  std::ostringstream ss;
-  ss << in.rdbuf();
+  // Read in pieces up to the limit, so that /dev/zero or a runaway pipe cannot exhaust memory.
+  std::string out;
+  char buf[1 << 16];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
+    out.append(buf, static_cast<size_t>(in.gcount()));
+    if (out.size() > kMaxTextFileBytes) {
+      return Status::Error(path + ": more than " + std::to_string(kMaxTextFileBytes >> 20) +
+                           " MiB; expected a text file of a sensible size");
+    }
+  }
   if (in.bad()) return Status::Error(path + ": read error");
-  *text = ss.str();
+  *text = std::move(out);
   return Status::Ok();
 }
 

@@ -30,7 +30,9 @@ std::string MarkerModelToJson(const MarkerModel& model);
 std::string MarkerSetToJson(const std::vector<MarkerModel>& models);
 std::string LayoutToJson(const Layout& layout);
 
-// Whole-file helpers; errors name the path.
+// Whole-file helpers; errors name the path. ReadTextFile refuses files (or pipes, or devices)
+// longer than kMaxTextFileBytes.
+constexpr size_t kMaxTextFileBytes = size_t{64} << 20;
 Status ReadTextFile(const std::string& path, std::string* text);
 Status WriteTextFile(const std::string& path, const std::string& text);
 

@@ -59,6 +59,7 @@ TEST(ModelIo, LayoutRoundTripsWithCovariance) {
   e.post_height_sigma = 1e-4;
   l.markers.push_back(e);
   e.marker = MarkerModel::Standard(2, 0.2, -0.03);
+  e.object_from_marker.tvec = Eigen::Vector3d(1, 2, 4);  // apart from marker 1
   e.covariance.reset();
   e.post_height_sigma.reset();
   l.markers.push_back(e);
@@ -199,6 +200,80 @@ TEST(ModelIo, LayoutErrorsAreNamed) {
   e["marker"]["size"] = -1;
   l["markers"] = {e};
   ExpectError(l, {"markers[0].marker.size: expected a positive"});
+}
+
+// Parses `j` with the number 12345.678 replaced by `literal` in its text (JSON objects cannot
+// hold infinity, but a file can hold a literal that overflows a double).
+void ExpectTextError(const json& j, const std::string& literal,
+                     std::initializer_list<std::string> parts) {
+  std::string text = j.dump();
+  const size_t at = text.find("12345.678");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, 9, literal);
+  ModelFile f;
+  const Status s = ParseModelJson(text, "bad.json", &f);
+  ASSERT_FALSE(s.ok()) << text;
+  EXPECT_EQ(s.message().find('\n'), std::string::npos) << s.message();
+  for (const std::string& p : parts)
+    EXPECT_NE(s.message().find(p), std::string::npos) << s.message();
+}
+
+TEST(ModelIo, NumbersBeyondADoubleAreNamed) {
+  json m = GoodMarker();
+  m["size"] = 12345.678;
+  // nlohmann refuses the literal while parsing: the message gives its place and value.
+  ExpectTextError(m, "1e400",
+                  {"bad.json: line 1, column ", ": size: the number 1e400 is beyond the range of a "
+                   "double; expected a finite number"});
+  ExpectTextError(m, "-1e400", {"bad.json: line 1", "the number -1e400 is beyond"});
+  ExpectTextError(m, "NaN", {"bad.json: line 1", "not valid JSON"});
+  ExpectTextError(m, "Infinity", {"not valid JSON"});
+  m = GoodMarker();
+  m["post"]["height"] = 12345.678;
+  ExpectTextError(m, "1e999", {"height: the number 1e999 is beyond the range of a double"});
+  json inner = GoodMarker();
+  inner.erase("type");
+  inner["stripe_width"] = 12345.678;
+  ExpectTextError(json{{"type", "svms.markers"}, {"markers", {inner}}}, "1e400",
+                  {"the number 1e400 is beyond"});
+  json entry = {{"marker", inner},
+                {"object_from_marker", {{"rvec", {0, 0, 0}}, {"tvec", {0, 0, 1}}}}};
+  entry["marker"]["stripe_width"] = GoodMarker()["stripe_width"];
+  json l = {{"type", "svms.layout"}, {"name", "x"}, {"markers", {entry}}};
+  l["markers"][0]["object_from_marker"]["tvec"][1] = 12345.678;
+  ExpectTextError(l, "1e400", {"tvec: the number 1e400 is beyond"});
+  l["markers"][0]["object_from_marker"]["tvec"][1] = 0;
+  std::vector<double> cov(36, 0.0);
+  cov[7] = 12345.678;
+  l["markers"][0]["covariance"] = cov;
+  ExpectTextError(l, "-1e400", {"covariance: the number -1e400 is beyond"});
+  l["markers"][0].erase("covariance");
+  l["markers"][0]["post_height_sigma"] = 12345.678;
+  ExpectTextError(l, "1e400", {"post_height_sigma: the number 1e400 is beyond"});
+}
+
+TEST(ModelIo, LayoutOverlapsAndDuplicatesAreNamed) {
+  json m = GoodMarker();  // size 0.2: printed side 0.4 m
+  m.erase("type");
+  auto entry = [&](int id, double x, double z) {
+    json e = {{"marker", m},
+              {"object_from_marker", {{"rvec", {0, 0, 0}}, {"tvec", {x, 0, z}}}}};
+    e["marker"]["id"] = id;
+    return e;
+  };
+  json l = {{"type", "svms.layout"}, {"name", "x"}, {"markers", {entry(1, 0, 0), entry(2, 0.4, 0)}}};
+  ModelFile f;
+  const Status ok = ParseModelJson(l.dump(), "l.json", &f);
+  EXPECT_TRUE(ok.ok()) << "touching markers are fine: " << ok.message();
+  l["markers"] = {entry(1, 0, 0), entry(2, 0.3, 0.001)};
+  ExpectError(l, {"markers[1].object_from_marker: marker 2 overlaps markers[0]", "same plane"});
+  l["markers"] = {entry(1, 0, 0), entry(2, 0.05, 0.05)};
+  ExpectError(l, {"markers[1].object_from_marker: marker 2 overlaps markers[0]",
+                  "closer than half the smaller black square (0.1 m)"});
+  l["markers"] = {entry(1, 0, 0), entry(2, 1, 0), entry(1, 2, 0)};
+  ExpectError(l, {"markers[2].marker.id: ID 1 appears twice (also in markers[0])"});
+  json set = {{"type", "svms.markers"}, {"markers", {m, m}}};
+  ExpectError(set, {"markers[1].id: ID 17 appears twice"});
 }
 
 TEST(MarkerModel, GeometryFollowsTheConventions) {

@@ -317,6 +317,37 @@ TEST(SceneFile, ErrorsNameTheField) {
       "\"objects\": [], \"views\": [{\"name\": \"a\", \"cam_from_world\": {\"rvec\": [0,0,0], "
       "\"tvec\": [0,0,1]}}]",
       "\"objects\": [], \"views\": []", "views: expected a non-empty array");
+  // Bad numbers: a literal beyond a double's range (read as infinity), zero and negative sizes,
+  // impossible cameras.
+  expect("\"tvec\": [0,0,1]", "\"tvec\": [0,0,1e400]",
+         ": tvec: the number 1e400 is beyond the range of a double; expected a finite number");
+  expect("[500, 500, 99.5, 99.5]", "[500, 500, -1e999, 99.5]",
+         "intrinsics: the number -1e999 is beyond");
+  expect("[500, 500, 99.5, 99.5]", "[0, 500, 99.5, 99.5]",
+         "camera: intrinsics[0]: expected a positive focal length fx");
+  expect("\"width\": 200", "\"width\": 2000000",
+         "camera: 2000000x200 pixels; expected at most 100 megapixels");
+  expect("\"views\": [",
+         "\"light\": {\"sun\": {\"to_sun\": [0,0,1], \"irradiance\": 1e400}}, \"views\": [",
+         "irradiance: the number 1e400 is beyond");
+  const std::string plate =
+      "\"objects\": [{\"name\": \"p\", \"shape\": \"plane\", \"size\": [1, SIZE, 0], "
+      "\"reflectance\": 0.5, \"world_from_object\": {\"rvec\": [0,0,0], \"tvec\": [0,0,0]}}]";
+  auto with_size = [&](const std::string& v) {
+    std::string t = plate;
+    t.replace(t.find("SIZE"), 4, v);
+    return t;
+  };
+  expect("\"objects\": []", with_size("0"), "objects[0].size: expected positive extents");
+  expect("\"objects\": []", with_size("-2"), "objects[0].size: expected positive extents");
+  expect("\"objects\": []", with_size("1e308e"), "not valid JSON");
+  {
+    std::string text = good;
+    text.replace(text.find("\"objects\": []"), 13, with_size("1"));
+    Scene ok;
+    const Status st = ParseSceneJson(text, "s.json", "", &ok);
+    EXPECT_TRUE(st.ok()) << "the plate itself is fine: " << st.message();
+  }
 }
 
 TEST(Render, SunDirectionsFromCodeAreNormalised) {

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <set>
 
+#include "svms/image_io.h"
 #include "svms/json_fields.h"
 #include "svms/model_io.h"
 
@@ -160,6 +161,11 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
   if (!seed.is_number_unsigned()) Fail("seed", "a non-negative integer", seed);
   scene->seed = seed.get<uint64_t>();
   scene->camera = ParseCamera(Required(root, "", "camera"), "camera", base_dir);
+  if (int64_t{scene->camera.width()} * scene->camera.height() > kDefaultMaxImagePixels) {
+    throw FieldError{"camera: " + std::to_string(scene->camera.width()) + "x" +
+                     std::to_string(scene->camera.height()) + " pixels; expected at most " +
+                     std::to_string(kDefaultMaxImagePixels / 1000000) + " megapixels"};
+  }
 
   if (root.contains("sensor")) {
     const json& j = root["sensor"];

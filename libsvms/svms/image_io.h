@@ -1,0 +1,45 @@
+// Reading camera images from files, with the checks a batch over files from many hands needs:
+// the size is read from the file's header and refused beyond a pixel limit before anything is
+// decoded (so a 20000 x 20000 or a forged header cannot make us allocate gigabytes), truncated
+// PNG and JPEG files are recognised before the decoder sees them (libjpeg would otherwise fill
+// the missing part with grey and say nothing), and only 8- and 16-bit grey results come out.
+// See docs/reliability.md.
+#pragma once
+
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "svms/status.h"
+
+namespace svms {
+
+// The default limit on width x height (pixels) of an image we decode or render: 100 megapixels,
+// i.e. 100 MB as 8-bit grey, 200 MB as 16-bit. `svms detect --max-megapixels` changes it.
+constexpr int64_t kDefaultMaxImagePixels = 100'000'000;
+
+// What a file's first bytes say about it.
+struct ImageHeader {
+  std::string format;  // "PNG", "JPEG", "PNM", "BMP" or "TIFF"
+  int64_t width = 0;   // pixels, as the header states them
+  int64_t height = 0;
+};
+
+// Reads the format and the size from the bytes of an image file (the whole file, or at least its
+// header). Returns "" on success, or why the bytes are not a readable image of a supported
+// format (PNG, JPEG, PNM P1-P6, BMP, classic TIFF), without a file name. When `data` is the
+// whole file (`complete`), also checks that it is not truncated: PNG up to its IEND chunk, JPEG
+// up to its end-of-image marker after the scan, binary PNM and uncompressed BMP up to the last
+// pixel.
+std::string ReadImageHeader(const unsigned char* data, size_t size, bool complete,
+                            ImageHeader* out);
+
+// Loads an image file as one grey channel, 8- or 16-bit (CV_8UC1 or CV_16UC1; colour is turned
+// to grey with OpenCV's weights, 16-bit stays 16-bit). Refuses, with a one-line message that
+// starts with the path and says what was expected: a missing file, a directory, an empty file,
+// an unsupported or corrupt format, a truncated file, an image of zero size or of more than
+// `max_pixels` pixels (checked from the header, before decoding), and other pixel depths
+// (float or 32-bit). Reads the whole file into memory first (at most 8 * max_pixels + 16 MB).
+Status LoadImage(const std::string& path, int64_t max_pixels, cv::Mat* out);
+
+}  // namespace svms
