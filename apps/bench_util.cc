@@ -48,8 +48,8 @@ Status ReadTruthPoses(const std::string& truth_json, const std::string& object,
       out->emplace_back(v.at("name").get<std::string>(), pose);
     }
   } catch (const std::exception& e) {
-    return Status::Error(truth_json + ": expected views with a name and cam_from_object." +
-                         object + " {rvec, tvec}: " + e.what());
+    return Status::Error(truth_json + ": expected views with a name and cam_from_object." + object +
+                         " {rvec, tvec}: " + e.what());
   }
   return Status::Ok();
 }

@@ -13,8 +13,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
-#include "commands.h"
 #include "bench_util.h"
+#include "commands.h"
 #include "gnuplot.h"
 #include "svms/model_io.h"
 #include "svms/pose_estimator.h"
@@ -96,8 +96,8 @@ int RunBenchPose(const BenchPoseOptions& o) {
     }
     layout_path = (fs::path(o.out) / "layout.json").string();
     const std::string survey_camera = o.camera.empty() ? M + "/true.cameramodel" : o.camera;
-    if (Run("'" + exe + "' survey '" + M + "' --camera '" + survey_camera + "' --markers '" +
-            M + "/markers.json' --reference 10 --out '" + layout_path + "' --quiet" + threads) != 0) {
+    if (Run("'" + exe + "' survey '" + M + "' --camera '" + survey_camera + "' --markers '" + M +
+            "/markers.json' --reference 10 --out '" + layout_path + "' --quiet" + threads) != 0) {
       std::cerr << "svms bench pose: the survey failed\n";
       return kExitFailed;
     }
@@ -110,8 +110,7 @@ int RunBenchPose(const BenchPoseOptions& o) {
   options.fusion.corner_sigma_from_fit = !o.size_model;
   std::unique_ptr<PoseEstimator> est;
   const std::string camera_path = o.camera.empty() ? D + "/true.cameramodel" : o.camera;
-  if (Status s = PoseEstimator::CreateFromFiles(camera_path, layout_path, options, &est);
-      !s) {
+  if (Status s = PoseEstimator::CreateFromFiles(camera_path, layout_path, options, &est); !s) {
     std::cerr << "svms bench pose: " << s.message() << "\n";
     return kExitBadInput;
   }
@@ -183,7 +182,8 @@ int RunBenchPose(const BenchPoseOptions& o) {
       }
     }
     rows.push_back(row);
-    if ((i + 1) % 50 == 0) std::cerr << "svms bench pose: " << i + 1 << "/" << images.size() << " frames\n";
+    if ((i + 1) % 50 == 0)
+      std::cerr << "svms bench pose: " << i + 1 << "/" << images.size() << " frames\n";
   }
 
   // 3. The long run: the approach again and again, latency and resident memory.
@@ -260,27 +260,26 @@ int RunBenchPose(const BenchPoseOptions& o) {
   double rss_max = 0;
   for (const auto& [n, m] : rss) rss_max = std::max(rss_max, m);
 
-  nlohmann::json summary = {
-      {"frames", rows.size()},
-      {"valid", valid},
-      {"corner_sigma_px", o.corner_sigma_px},
-      {"nees_mean", nees_mean},
-      {"nees_bounds", {6 - half, 6 + half}},
-      {"nees_median", Percentile(nees, 0.5)},
-      {"chi2_per_dof_mean", Mean(chi2_per_dof)},
-      {"position_error_mm_median", Percentile(pos, 0.5)},
-      {"position_error_mm_p95", Percentile(pos, 0.95)},
-      {"orientation_error_deg_median", Percentile(ori, 0.5)},
-      {"orientation_error_deg_p95", Percentile(ori, 0.95)},
-      {"single_position_error_mm_median", Percentile(single_pos, 0.5)},
-      {"single_orientation_error_deg_median", Percentile(single_ori, 0.5)},
-      {"flips", flips},
-      {"latency_ms_median", lat_median},
-      {"latency_ms_p99", lat_p99},
-      {"long_run_frames", latency.size()},
-      {"rss_mib_after_first_100", rss_first},
-      {"rss_mib_end", rss_last},
-      {"rss_mib_max", rss_max}};
+  nlohmann::json summary = {{"frames", rows.size()},
+                            {"valid", valid},
+                            {"corner_sigma_px", o.corner_sigma_px},
+                            {"nees_mean", nees_mean},
+                            {"nees_bounds", {6 - half, 6 + half}},
+                            {"nees_median", Percentile(nees, 0.5)},
+                            {"chi2_per_dof_mean", Mean(chi2_per_dof)},
+                            {"position_error_mm_median", Percentile(pos, 0.5)},
+                            {"position_error_mm_p95", Percentile(pos, 0.95)},
+                            {"orientation_error_deg_median", Percentile(ori, 0.5)},
+                            {"orientation_error_deg_p95", Percentile(ori, 0.95)},
+                            {"single_position_error_mm_median", Percentile(single_pos, 0.5)},
+                            {"single_orientation_error_deg_median", Percentile(single_ori, 0.5)},
+                            {"flips", flips},
+                            {"latency_ms_median", lat_median},
+                            {"latency_ms_p99", lat_p99},
+                            {"long_run_frames", latency.size()},
+                            {"rss_mib_after_first_100", rss_first},
+                            {"rss_mib_end", rss_last},
+                            {"rss_mib_max", rss_max}};
   std::ofstream(fs::path(o.out) / "summary.json") << summary.dump(2) << "\n";
 
   Status plot = Gnuplot(
@@ -299,12 +298,13 @@ int RunBenchPose(const BenchPoseOptions& o) {
       "1:(3*column(12+k)*180/pi) w l lc rgb 'red' t '+3 sigma', '' u "
       "1:(-3*column(12+k)*180/pi) w l lc rgb 'red' t '-3 sigma'\n  set ylabel 'mm'\n}\n"
       "unset multiplot\n");
-  if (plot) plot = Gnuplot(o.out, "pose_nees",
-                           "set datafile separator ','\nset key autotitle columnhead\nset grid\n"
-                           "set logscale y\nset xlabel 'frame (12 m -> 1.3 m)'\nset ylabel 'NEES'\n"
-                           "set title 'NEES per frame (chi-square 6: median 5.35, 95 % below 12.6)'\n"
-                           "plot 'frames.csv' u 1:19 w p pt 7 ps 0.4 t 'NEES', 12.59 w l lc rgb "
-                           "'red' t 'chi2(6) 95 %', 5.35 w l lc rgb 'gray' t 'chi2(6) median'\n");
+  if (plot)
+    plot = Gnuplot(o.out, "pose_nees",
+                   "set datafile separator ','\nset key autotitle columnhead\nset grid\n"
+                   "set logscale y\nset xlabel 'frame (12 m -> 1.3 m)'\nset ylabel 'NEES'\n"
+                   "set title 'NEES per frame (chi-square 6: median 5.35, 95 % below 12.6)'\n"
+                   "plot 'frames.csv' u 1:19 w p pt 7 ps 0.4 t 'NEES', 12.59 w l lc rgb "
+                   "'red' t 'chi2(6) 95 %', 5.35 w l lc rgb 'gray' t 'chi2(6) median'\n");
   if (plot)
     plot = Gnuplot(o.out, "pose_single_vs_fused",
                    "set datafile separator ','\nset key autotitle columnhead\nset grid\nset "
@@ -334,10 +334,12 @@ int RunBenchPose(const BenchPoseOptions& o) {
      << (o.layout.empty() ? "svms survey` of the rendered `mockup` dataset (reference marker 10)"
                           : o.layout + "`")
      << "; corner sigma: "
-     << (o.size_model ? "" : "the detector's line-fit sigma times " + F(o.corner_fit_scale, 2) +
-                                 " (where refined), else ")
+     << (o.size_model ? ""
+                      : "the detector's line-fit sigma times " + F(o.corner_fit_scale, 2) +
+                            " (where refined), else ")
      << o.corner_sigma_px << " px at 30 px scaled by (30 / shortest side)^"
-     << o.corner_sigma_exponent << ", variance prior dof " << o.variance_prior_dof << "; truth is the renderer's cam_from_module times module_from_object, the layout's "
+     << o.corner_sigma_exponent << ", variance prior dof " << o.variance_prior_dof
+     << "; truth is the renderer's cam_from_module times module_from_object, the layout's "
         "object frame placed through marker 10 (the survey's reference). Pose on one thread, "
         "images preloaded.\n\n"
      << "| measure | value | target |\n|---|---|---|\n"
@@ -360,13 +362,13 @@ int RunBenchPose(const BenchPoseOptions& o) {
      << "| latency median / 99 % (ms, " << latency.size() << " frames) | " << F(lat_median, 2)
      << " / " << F(lat_p99, 2) << " | median <= 15 " << (lat_median <= 15 ? "met" : "**not met**")
      << " |\n"
-     << "| resident memory after 100 frames / at the end / max (MiB) | " << F(rss_first, 1)
-     << " / " << F(rss_last, 1) << " / " << F(rss_max, 1) << " | flat |\n"
+     << "| resident memory after 100 frames / at the end / max (MiB) | " << F(rss_first, 1) << " / "
+     << F(rss_last, 1) << " / " << F(rss_max, 1) << " | flat |\n"
      << "| frames over a budget | " << budget << " (no budget set) | |\n\n";
   md << "NEES by the number of markers used:\n\n| markers | frames | mean NEES |\n|---|---|---|\n";
   for (const auto& [m, v] : nees_by_markers)
-    md << "| " << (m == 5 ? "5+" : std::to_string(m)) << " | " << v.size() << " | "
-       << F(Mean(v), 2) << " |\n";
+    md << "| " << (m == 5 ? "5+" : std::to_string(m)) << " | " << v.size() << " | " << F(Mean(v), 2)
+       << " |\n";
   md << "\n![error and 3-sigma](pose_error.png)\n\n![NEES](pose_nees.png)\n\n"
      << "![fused vs single](pose_single_vs_fused.png)\n\n![long run](pose_soak.png)\n\n"
      << "Files: frames.csv (per frame: errors, sigmas, NEES, single-marker errors, latency), "
@@ -381,7 +383,8 @@ int RunBenchPose(const BenchPoseOptions& o) {
 void AddBenchPose(CLI::App& bench, int* exit_code) {
   auto o = std::make_shared<BenchPoseOptions>();
   CLI::App* cmd = bench.add_subcommand(
-      "pose", "Fused pose along the rendered approach: error, NEES, single vs fused, latency, soak");
+      "pose",
+      "Fused pose along the rendered approach: error, NEES, single vs fused, latency, soak");
   cmd->add_option("--out", o->out, "Output directory (report.md, CSV, plots)")->required();
   cmd->add_flag("--quick", o->quick, "Quick approach (12 frames) and mockup (8 views), 2 passes");
   cmd->add_option("--data", o->data, "A rendered approach dataset to reuse");

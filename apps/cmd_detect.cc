@@ -38,7 +38,8 @@ nlohmann::json DetectionJson(const Detection& d) {
   for (const auto& p : d.corners) c.push_back({p.x(), p.y()});
   nlohmann::json j = {{"id", d.id}, {"corners", c}, {"bit_errors", d.bit_errors}};
   if (d.corner_sigma[0] > 0)
-    j["corner_sigma"] = {d.corner_sigma[0], d.corner_sigma[1], d.corner_sigma[2], d.corner_sigma[3]};
+    j["corner_sigma"] = {d.corner_sigma[0], d.corner_sigma[1], d.corner_sigma[2],
+                         d.corner_sigma[3]};
   j["tip"] = d.tip ? nlohmann::json{d.tip->pixel.x(), d.tip->pixel.y()} : nlohmann::json();
   if (d.cam_from_marker) {
     const Pose& p = *d.cam_from_marker;
@@ -190,7 +191,8 @@ void AddDetectCommands(CLI::App& app, int* exit_code) {
   det->footer(
       "Output: one JSON line per image: image, ms, detections (id, corners TL/TR/BR/BL as "
       "printed,\n"
-      "corner_sigma (each corner's sigma in px from its line fits), tip, bit_errors, cam_from_marker {rvec, tvec}, covariance (36 numbers, row-major,\n"
+      "corner_sigma (each corner's sigma in px from its line fits), tip, bit_errors, "
+      "cam_from_marker {rvec, tvec}, covariance (36 numbers, row-major,\n"
       "[rotation, translation] in camera axes), nested_in). Without --camera: IDs and corners "
       "only.\n"
       "A bad image gets an \"error\" field and a line on stderr; the batch goes on; exit code 1.\n"

@@ -123,7 +123,8 @@ int RunPose(const PoseCliOptions& o) {
         img.convertTo(eight, CV_8U, img.depth() == CV_16U ? 1.0 / 256 : 1.0);
         cv::cvtColor(eight, bgr, cv::COLOR_GRAY2BGR);
         DrawOverlay(bgr, r.detections);
-        const std::string out = (fs::path(o.overlay) / (fs::path(path).stem().string() + ".png")).string();
+        const std::string out =
+            (fs::path(o.overlay) / (fs::path(path).stem().string() + ".png")).string();
         if (!cv::imwrite(out, bgr)) error = out + ": cannot write the overlay";
       }
     }
@@ -166,8 +167,8 @@ int RunPose(const PoseCliOptions& o) {
     std::cerr << "svms pose: " << index << " frames, " << valid << " with a pose, " << failed
               << " unreadable\n";
   if (failed) {
-    std::cerr << "svms pose: " << failed << " of " << index << " frames failed (first: "
-              << first_error << ")\n";
+    std::cerr << "svms pose: " << failed << " of " << index
+              << " frames failed (first: " << first_error << ")\n";
     return kExitFailed;
   }
   return kExitOk;
@@ -201,7 +202,8 @@ void AddPoseCommands(CLI::App& app, int* exit_code) {
       "Output: one JSON line per frame, flushed: image, timestamp (given, or the frame index),\n"
       "valid, cam_from_object {rvec, tvec, quaternion [w, x, y, z]}, covariance (36 numbers,\n"
       "row-major, [rotation, translation], rotation about the camera axes), markers (IDs used),\n"
-      "markers_rejected, points_rejected, markers_seen, points, rms (px), chi2, dof, flags {ambiguous,\n"
+      "markers_rejected, points_rejected, markers_seen, points, rms (px), chi2, dof, flags "
+      "{ambiguous,\n"
       "poorly_conditioned, budget_exceeded}, latency_ms, detect_ms; message when not valid.\n"
       "An unreadable frame gets an \"error\" field and a line on stderr; the stream goes on;\n"
       "exit code 1 at the end. See docs/flight-interface.md.\n"

@@ -2,8 +2,6 @@
 // exception crosses into C. Handles are checked against a registry of live estimators, and a
 // destroyed estimator's shell is never freed, so that a call through it is detected rather than
 // undefined.
-#include "svms/svms.h"
-
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <atomic>
@@ -16,6 +14,7 @@
 #include <unordered_set>
 
 #include "svms/pose_estimator.h"
+#include "svms/svms.h"
 
 struct svms_estimator {
   static constexpr uint64_t kMagic = 0x53564d5345535431ull;  // "SVMSEST1"
@@ -82,11 +81,13 @@ void Fill(const svms::FrameResult& r, svms_pose* out) {
     for (int b = 0; b < 6; ++b) out->covariance[a * 6 + b] = p.covariance(a, b);
 }
 
-svms_status Process(svms_estimator* e, const void* pixels, int width, int height,
-                    ptrdiff_t stride, int bytes_per_pixel, double timestamp, svms_pose* out) {
+svms_status Process(svms_estimator* e, const void* pixels, int width, int height, ptrdiff_t stride,
+                    int bytes_per_pixel, double timestamp, svms_pose* out) {
   if (!e || !pixels || !out)
     return Fail(SVMS_ERR_NULL_ARGUMENT, std::string("svms_process_frame: ") +
-                                            (!e ? "estimator" : !pixels ? "pixels" : "out") +
+                                            (!e        ? "estimator"
+                                             : !pixels ? "pixels"
+                                                       : "out") +
                                             " is NULL");
   if (!IsLive(e) || e->magic != svms_estimator::kMagic || !e->impl)
     return Fail(SVMS_ERR_BAD_HANDLE,
@@ -101,7 +102,8 @@ svms_status Process(svms_estimator* e, const void* pixels, int width, int height
                     std::to_string(cam.width()) + "x" + std::to_string(cam.height()));
   if (stride < static_cast<ptrdiff_t>(width) * bytes_per_pixel || stride % bytes_per_pixel != 0)
     return Fail(SVMS_ERR_INVALID_ARGUMENT,
-                "svms_process_frame: stride " + std::to_string(stride) + " bytes, expected at least " +
+                "svms_process_frame: stride " + std::to_string(stride) +
+                    " bytes, expected at least " +
                     std::to_string(static_cast<long long>(width) * bytes_per_pixel) +
                     " and a multiple of " + std::to_string(bytes_per_pixel));
   if (!std::isfinite(timestamp))
@@ -142,9 +144,9 @@ svms_status svms_create(const char* camera_path, const char* layout_path,
   if (!out) return Fail(SVMS_ERR_NULL_ARGUMENT, "svms_create: out is NULL");
   *out = nullptr;
   if (!camera_path || !layout_path)
-    return Fail(SVMS_ERR_NULL_ARGUMENT,
-                std::string("svms_create: ") + (!camera_path ? "camera_path" : "layout_path") +
-                    " is NULL");
+    return Fail(
+        SVMS_ERR_NULL_ARGUMENT,
+        std::string("svms_create: ") + (!camera_path ? "camera_path" : "layout_path") + " is NULL");
   try {
     svms_options o;
     svms_options_default(&o);
@@ -184,8 +186,8 @@ svms_status svms_process_frame(svms_estimator* e, const uint8_t* pixels, int wid
   return Process(e, pixels, width, height, stride, 1, timestamp, out);
 }
 
-svms_status svms_process_frame_u16(svms_estimator* e, const uint16_t* pixels, int width,
-                                   int height, ptrdiff_t stride, double timestamp, svms_pose* out) {
+svms_status svms_process_frame_u16(svms_estimator* e, const uint16_t* pixels, int width, int height,
+                                   ptrdiff_t stride, double timestamp, svms_pose* out) {
   return Process(e, pixels, width, height, stride, 2, timestamp, out);
 }
 
@@ -215,13 +217,20 @@ const char* svms_last_error(void) { return last_error.c_str(); }
 
 const char* svms_status_string(svms_status s) {
   switch (s) {
-    case SVMS_OK: return "SVMS_OK";
-    case SVMS_ERR_NULL_ARGUMENT: return "SVMS_ERR_NULL_ARGUMENT";
-    case SVMS_ERR_INVALID_ARGUMENT: return "SVMS_ERR_INVALID_ARGUMENT";
-    case SVMS_ERR_FILE: return "SVMS_ERR_FILE";
-    case SVMS_ERR_BAD_HANDLE: return "SVMS_ERR_BAD_HANDLE";
-    case SVMS_ERR_BUSY: return "SVMS_ERR_BUSY";
-    case SVMS_ERR_INTERNAL: return "SVMS_ERR_INTERNAL";
+    case SVMS_OK:
+      return "SVMS_OK";
+    case SVMS_ERR_NULL_ARGUMENT:
+      return "SVMS_ERR_NULL_ARGUMENT";
+    case SVMS_ERR_INVALID_ARGUMENT:
+      return "SVMS_ERR_INVALID_ARGUMENT";
+    case SVMS_ERR_FILE:
+      return "SVMS_ERR_FILE";
+    case SVMS_ERR_BAD_HANDLE:
+      return "SVMS_ERR_BAD_HANDLE";
+    case SVMS_ERR_BUSY:
+      return "SVMS_ERR_BUSY";
+    case SVMS_ERR_INTERNAL:
+      return "SVMS_ERR_INTERNAL";
   }
   return "SVMS_ERR_UNKNOWN";
 }

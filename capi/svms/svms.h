@@ -37,21 +37,22 @@ typedef enum svms_status {
 } svms_status;
 
 /* Flags of a pose (svms_pose.flags). */
-#define SVMS_FLAG_AMBIGUOUS 1u          /* one marker, and its two planar poses could not be told apart */
-#define SVMS_FLAG_POORLY_CONDITIONED 2u /* rotation sigma > 1 deg or position sigma > 2 % of range */
-#define SVMS_FLAG_BUDGET_EXCEEDED 4u    /* the time budget ran out: the markers found until then */
-#define SVMS_FLAG_MARKER_REJECTED 8u    /* a marker was inconsistent with the others and left out */
+#define SVMS_FLAG_AMBIGUOUS 1u /* one marker, and its two planar poses could not be told apart */
+#define SVMS_FLAG_POORLY_CONDITIONED \
+  2u                                 /* rotation sigma > 1 deg or position sigma > 2 % of range */
+#define SVMS_FLAG_BUDGET_EXCEEDED 4u /* the time budget ran out: the markers found until then */
+#define SVMS_FLAG_MARKER_REJECTED 8u /* a marker was inconsistent with the others and left out */
 
 #define SVMS_MAX_REPORTED_MARKERS 32
 
 typedef struct svms_options {
-  double corner_sigma_px;   /* pixel noise of a detected corner, each axis (default 0.1) */
-  double budget_ms;         /* time budget per frame, milliseconds; 0: none (default 0) */
+  double corner_sigma_px; /* pixel noise of a detected corner, each axis (default 0.1) */
+  double budget_ms;       /* time budget per frame, milliseconds; 0: none (default 0) */
 } svms_options;
 
 typedef struct svms_pose {
-  double timestamp;         /* as given to svms_process_frame */
-  int valid;                /* 1: the fields below hold a pose; 0: no pose this frame */
+  double timestamp; /* as given to svms_process_frame */
+  int valid;        /* 1: the fields below hold a pose; 0: no pose this frame */
   /* cam_from_object: p_cam = R p_object + t (metres). rvec: axis * angle (radians);
    * quaternion: [w, x, y, z] of the same rotation. */
   double rvec[3];
@@ -61,15 +62,15 @@ typedef struct svms_pose {
    * camera axes (rad^2), the translation of tvec (m^2). Includes image noise and the layout's
    * own uncertainty. */
   double covariance[36];
-  int markers_seen;         /* markers of the layout detected */
-  int markers_used;         /* after rejection */
-  int points_used;          /* corners and post tips in the fit */
+  int markers_seen;                          /* markers of the layout detected */
+  int markers_used;                          /* after rejection */
+  int points_used;                           /* corners and post tips in the fit */
   int marker_ids[SVMS_MAX_REPORTED_MARKERS]; /* IDs used (the first SVMS_MAX_REPORTED_MARKERS) */
-  double rms_px;            /* RMS pixel residual, per coordinate */
-  double chi2;              /* whitened residual sum of squares */
-  int dof;                  /* 2 * points_used - 6 */
-  uint32_t flags;           /* SVMS_FLAG_* */
-  double latency_ms;        /* detection and fusion, wall clock */
+  double rms_px;                             /* RMS pixel residual, per coordinate */
+  double chi2;                               /* whitened residual sum of squares */
+  int dof;                                   /* 2 * points_used - 6 */
+  uint32_t flags;                            /* SVMS_FLAG_* */
+  double latency_ms;                         /* detection and fusion, wall clock */
 } svms_pose;
 
 typedef struct svms_estimator svms_estimator;

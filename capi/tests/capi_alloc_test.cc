@@ -74,8 +74,8 @@ int main(int argc, char** argv) {
   std::ifstream(dir + "/frame_11.raw", std::ios::binary)
       .read(reinterpret_cast<char*>(frame.data()), frame.size());
   svms_estimator* e = nullptr;
-  if (svms_create((dir + "/true.cameramodel").c_str(), (dir + "/true_layout.json").c_str(),
-                  nullptr, &e) != SVMS_OK) {
+  if (svms_create((dir + "/true.cameramodel").c_str(), (dir + "/true_layout.json").c_str(), nullptr,
+                  &e) != SVMS_OK) {
     std::fprintf(stderr, "svms_create: %s\n", svms_last_error());
     return 1;
   }
@@ -102,13 +102,17 @@ int main(int argc, char** argv) {
     hi = std::max(hi, per_frame[i]);
     leaked += unfreed[i];
   }
-  std::printf("svms_capi_alloc_test: %ld-%ld heap allocations per frame after warm-up, %ld not freed over 20 frames\n",
-              lo, hi, leaked);
+  std::printf(
+      "svms_capi_alloc_test: %ld-%ld heap allocations per frame after warm-up, %ld not freed over "
+      "20 frames\n",
+      lo, hi, leaked);
   // The recorded bound (see the header comment): fails if a change adds allocations per frame.
   const long kBound = SVMS_ALLOC_BOUND;
   int failed = 0;
-  if (hi != lo) std::fprintf(stderr, "FAIL: allocations differ between identical frames\n"), failed = 1;
+  if (hi != lo)
+    std::fprintf(stderr, "FAIL: allocations differ between identical frames\n"), failed = 1;
   if (leaked != 0) std::fprintf(stderr, "FAIL: %ld allocations not freed\n", leaked), failed = 1;
-  if (hi > kBound) std::fprintf(stderr, "FAIL: %ld allocations per frame, bound %ld\n", hi, kBound), failed = 1;
+  if (hi > kBound)
+    std::fprintf(stderr, "FAIL: %ld allocations per frame, bound %ld\n", hi, kBound), failed = 1;
   return failed;
 }

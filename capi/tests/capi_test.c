@@ -10,12 +10,12 @@
 #include "svms/svms.h"
 
 static int failures = 0;
-#define CHECK(cond)                                                          \
-  do {                                                                       \
-    if (!(cond)) {                                                           \
+#define CHECK(cond)                                                            \
+  do {                                                                         \
+    if (!(cond)) {                                                             \
       fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond); \
-      ++failures;                                                            \
-    }                                                                        \
+      ++failures;                                                              \
+    }                                                                          \
   } while (0)
 #define CHECK_STATUS(call, expected)                                                      \
   do {                                                                                    \
@@ -112,7 +112,8 @@ int main(int argc, char** argv) {
   const double qt[4] = {cos(a / 2), sin(a / 2) * truth[0] / a, sin(a / 2) * truth[1] / a,
                         sin(a / 2) * truth[2] / a};
   double dot = 0, qn = 0;
-  for (int i = 0; i < 4; ++i) dot += qt[i] * pose.quaternion[i], qn += pose.quaternion[i] * pose.quaternion[i];
+  for (int i = 0; i < 4; ++i)
+    dot += qt[i] * pose.quaternion[i], qn += pose.quaternion[i] * pose.quaternion[i];
   CHECK(fabs(qn - 1) < 1e-9);
   CHECK(2 * acos(fmin(1, fabs(dot))) < 0.3 * 3.14159265358979 / 180); /* within 0.3 degrees */
   for (int r = 0; r < 6; ++r) {
@@ -141,7 +142,8 @@ int main(int argc, char** argv) {
   CHECK(strstr(svms_last_error(), "1023x1024") != NULL);
   CHECK_STATUS(svms_process_frame(est, frame, W, H, W - 1, 0, &p2), SVMS_ERR_INVALID_ARGUMENT);
   CHECK_STATUS(svms_process_frame(est, frame, -5, H, W, 0, &p2), SVMS_ERR_INVALID_ARGUMENT);
-  CHECK_STATUS(svms_process_frame_u16(est, wide, W, H, 2 * W + 1, 0, &p2), SVMS_ERR_INVALID_ARGUMENT);
+  CHECK_STATUS(svms_process_frame_u16(est, wide, W, H, 2 * W + 1, 0, &p2),
+               SVMS_ERR_INVALID_ARGUMENT);
   CHECK_STATUS(svms_process_frame(est, frame, W, H, W, NAN, &p2), SVMS_ERR_INVALID_ARGUMENT);
   CHECK_STATUS(svms_process_frame(est, NULL, W, H, W, 0, &p2), SVMS_ERR_NULL_ARGUMENT);
   CHECK_STATUS(svms_process_frame(est, frame, W, H, W, 0, NULL), SVMS_ERR_NULL_ARGUMENT);

@@ -318,8 +318,10 @@ Dataset Approach(const DatasetOptions& o) {
     const Vec3 eye = face_centre + D * dir + wobble;
     aim_error = 0.9 * aim_error + 0.01 * Vec3(g(rng), g(rng), g(rng));
     const double roll = 0.4 * std::sin(2 * M_PI * f) + 0.02 * g(rng);
-    View v{Name("approach_", i),
-           LookAt(eye, face_centre + aim_error, Vec3(std::sin(roll), std::cos(roll), 0))};
+    View v;
+    v.name = Name("approach_", i);
+    v.cam_from_world =
+        LookAt(eye, face_centre + aim_error, Vec3(std::sin(roll), std::cos(roll), 0));
     s.views.push_back(v);
   }
   d.scenes.emplace_back("", s);
@@ -543,8 +545,8 @@ CameraModel DistortedCamera() {
 }
 
 std::vector<std::string> DatasetNames() {
-  return {"range",       "angle",   "sun",     "occlusion", "mockup",
-          "approach",    "calibration", "clutter", "gallery"};
+  return {"range",    "angle",       "sun",     "occlusion", "mockup",
+          "approach", "calibration", "clutter", "gallery"};
 }
 
 std::string DatasetDescription(const std::string& name) {
@@ -562,7 +564,8 @@ std::string DatasetDescription(const std::string& name) {
     return "the mockup module approached from 12 m to 1.3 m, 35 degrees off its docking face's "
            "normal, 500 frames at 10 Hz, true layout";
   if (name == "calibration")
-    return "a 6x5 marker board and a 10x8 chessboard, same 48 views (8 with the board in the image corners), OPENCV8 camera";
+    return "a 6x5 marker board and a 10x8 chessboard, same 48 views (8 with the board in the image "
+           "corners), OPENCV8 camera";
   if (name == "clutter")
     return "60 patterned boxes and planes (checker, stripes, grid, text, noise), no markers";
   if (name == "gallery")

@@ -63,9 +63,9 @@ struct Block {
   std::vector<Point> points;
   Eigen::Matrix3d R_om;  // object_from_marker rotation
   Eigen::Vector3d t_om;
-  Eigen::MatrixXd L_inv;  // inverse Cholesky factor of the marker's residual covariance
+  Eigen::MatrixXd L_inv;            // inverse Cholesky factor of the marker's residual covariance
   std::vector<double> total_sigma;  // per point: pixel and layout noise, RMS per axis
-  double weight = 1;      // robust weight of the iteration
+  double weight = 1;                // robust weight of the iteration
   bool active = true;
   std::array<bool, 5> dropped{};  // points left out as outliers (corners 0-3, tip 4)
 };
@@ -79,9 +79,10 @@ void UpdatePoints(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
   const double size_sigma = CornerSigma(o, m.side_px);
   for (int k = 0; k < 4; ++k) {
     if (b->dropped[k]) continue;
-    const double sigma = o.corner_sigma_from_fit && m.corner_sigma[k] > 0
-                             ? std::max(o.min_corner_sigma_px, o.corner_fit_scale * m.corner_sigma[k])
-                             : size_sigma;
+    const double sigma =
+        o.corner_sigma_from_fit && m.corner_sigma[k] > 0
+            ? std::max(o.min_corner_sigma_px, o.corner_fit_scale * m.corner_sigma[k])
+            : size_sigma;
     b->points.push_back({corners[k], m.corners[k], sigma, Eigen::Vector3d::Zero(), k});
   }
   if (o.use_tips && m.tip && m.model.post && !b->dropped[4]) {
@@ -138,15 +139,18 @@ bool Whitening(const CameraModel& camera, Block* b, const Eigen::Matrix3d& R,
   if (!Evaluate(camera, *b, R, t, &r, &J, &JL)) return false;
   const int n = static_cast<int>(b->points.size());
   Eigen::MatrixXd C = Eigen::MatrixXd::Zero(2 * n, 2 * n);
-  for (int i = 0; i < n; ++i) C.block<2, 2>(2 * i, 2 * i).diagonal().setConstant(b->points[i].sigma * b->points[i].sigma);
+  for (int i = 0; i < n; ++i)
+    C.block<2, 2>(2 * i, 2 * i).diagonal().setConstant(b->points[i].sigma * b->points[i].sigma);
   if (o.use_layout_covariance) {
     Eigen::Matrix<double, 7, 7> S = Eigen::Matrix<double, 7, 7>::Zero();
     if (b->obs->layout_covariance) S.topLeftCorner<6, 6>() = *b->obs->layout_covariance;
-    if (b->obs->post_height_sigma) S(6, 6) = *b->obs->post_height_sigma * *b->obs->post_height_sigma;
+    if (b->obs->post_height_sigma)
+      S(6, 6) = *b->obs->post_height_sigma * *b->obs->post_height_sigma;
     C += JL * S * JL.transpose();
   }
   b->total_sigma.resize(n);
-  for (int i = 0; i < n; ++i) b->total_sigma[i] = std::sqrt(0.5 * C.block<2, 2>(2 * i, 2 * i).trace());
+  for (int i = 0; i < n; ++i)
+    b->total_sigma[i] = std::sqrt(0.5 * C.block<2, 2>(2 * i, 2 * i).trace());
   Eigen::LLT<Eigen::MatrixXd> llt(C);
   if (llt.info() != Eigen::Success) return false;
   b->L_inv = llt.matrixL().solve(Eigen::MatrixXd::Identity(2 * n, 2 * n));
@@ -162,7 +166,7 @@ double CornerSigma(const ObjectPoseOptions& o, double side_px) {
 }
 
 std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Detection>& detections,
-                                                           const Layout& layout) {
+                                                          const Layout& layout) {
   std::vector<MarkerObservation> out;
   // Outer markers first, so that a shared post's tip is the outer marker's (a bigger marker
   // predicts it better).
@@ -203,7 +207,8 @@ std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Dete
         o.tip = d->tip;
         const Eigen::Vector3d tip_in_object = o.object_from_marker * *o.model.PostTip();
         for (const MarkerObservation& prev : out)
-          if (prev.tip && (prev.object_from_marker * *prev.model.PostTip() - tip_in_object).norm() < 1e-4)
+          if (prev.tip &&
+              (prev.object_from_marker * *prev.model.PostTip() - tip_in_object).norm() < 1e-4)
             o.tip.reset();
       }
       out.push_back(o);
@@ -277,11 +282,17 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
         if (!b.active) continue;
         if (iter > 0 && iter % 3 == 0) {  // the well's visible bottom and R_m follow the pose
           UpdatePoints(&b, R, t, o);
-          if (!Whitening(camera, &b, R, t, o)) { b.active = false; continue; }
+          if (!Whitening(camera, &b, R, t, o)) {
+            b.active = false;
+            continue;
+          }
         }
         Eigen::VectorXd r;
         Eigen::MatrixXd J;
-        if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) { b.active = false; continue; }
+        if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) {
+          b.active = false;
+          continue;
+        }
         const Eigen::VectorXd wr = b.L_inv * r;
         const Eigen::MatrixXd wJ = b.L_inv * J;
         const double norm = std::sqrt(wr.squaredNorm() / static_cast<double>(r.size()));
@@ -412,9 +423,9 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
   // The frame's own evidence on the noise level: the variance factor's posterior mean under a
   // prior worth variance_prior_dof degrees of freedom at 1 (the nominal noise model).
   const int dof = 2 * points - 6;
-  result.variance_factor = o.variance_prior_dof > 0
-                               ? (o.variance_prior_dof + chi2) / (o.variance_prior_dof + std::max(0, dof))
-                               : 1.0;
+  result.variance_factor = o.variance_prior_dof > 0 ? (o.variance_prior_dof + chi2) /
+                                                          (o.variance_prior_dof + std::max(0, dof))
+                                                    : 1.0;
   result.covariance *= result.variance_factor;
   result.cam_from_object = Pose::FromRotation(R, t);
   result.rms_px = std::sqrt(ss / (2.0 * points));

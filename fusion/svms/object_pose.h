@@ -52,13 +52,13 @@ struct ObjectPoseOptions {
   // 1.04 makes the mean NEES 6 on the simulator's mockup survey images (1.0: 6.45).
   bool corner_sigma_from_fit = true;
   double corner_fit_scale = 1.04;
-  double min_tip_sigma_px = 0.3;       // floor on the detector's own tip sigma
-  bool use_tips = true;                // post tips as observations
-  bool use_layout_covariance = true;   // add the layout's uncertainty to the noise model
+  double min_tip_sigma_px = 0.3;      // floor on the detector's own tip sigma
+  bool use_tips = true;               // post tips as observations
+  bool use_layout_covariance = true;  // add the layout's uncertainty to the noise model
   // Robust weight of a marker per iteration: 1 / (1 + (n / robust_k)^2), n its whitened RMS
   // residual per coordinate (Cauchy: a wrong marker's pull fades instead of staying).
   double robust_k = 3;
-  double reject_quantile = 0.999;      // a marker is rejected when its chi-square exceeds this quantile
+  double reject_quantile = 0.999;  // a marker is rejected when its chi-square exceeds this quantile
   // A single corner or tip is left out when its residual exceeds this many of its sigmas
   // (pixel noise and layout uncertainty; per axis) and its marker keeps 3 points or more.
   double point_reject_sigma = 5;
@@ -76,12 +76,12 @@ struct ObjectPoseOptions {
 // One marker's observations: which layout entry, the detection's corners and tip.
 struct MarkerObservation {
   int id = -1;
-  Pose object_from_marker;   // from the layout
-  MarkerModel model;         // the detected marker's model (inner model for an inner marker)
+  Pose object_from_marker;  // from the layout
+  MarkerModel model;        // the detected marker's model (inner model for an inner marker)
   std::optional<PoseCovariance> layout_covariance;  // object axes (layout.h)
   std::optional<double> post_height_sigma;          // metres
-  std::array<Eigen::Vector2d, 4> corners;            // pixels, TL, TR, BR, BL
-  double side_px = 30;  // shortest side of the square in the image, pixels
+  std::array<Eigen::Vector2d, 4> corners;           // pixels, TL, TR, BR, BL
+  double side_px = 30;                   // shortest side of the square in the image, pixels
   std::array<double, 4> corner_sigma{};  // from the detector's line fits, px (0: unknown)
   std::optional<TipObservation> tip;
   std::optional<Pose> cam_from_marker;  // the detector's single-marker pose (a start)
@@ -92,15 +92,15 @@ struct ObjectPose {
   bool valid = false;
   Pose cam_from_object;
   PoseCovariance covariance = PoseCovariance::Zero();  // [rotation, translation], camera axes
-  int markers_seen = 0;   // observations given (markers of the layout detected)
-  int markers_used = 0;   // after rejection
-  int points_used = 0;    // corners and tips of the markers used
+  int markers_seen = 0;     // observations given (markers of the layout detected)
+  int markers_used = 0;     // after rejection
+  int points_used = 0;      // corners and tips of the markers used
   int points_rejected = 0;  // single corners or tips left out as outliers
   std::vector<int> ids_used, ids_rejected;
-  double rms_px = 0;      // RMS pixel residual (per coordinate) of the points used
-  double chi2 = 0;        // whitened residual sum of squares of the points used
-  int dof = 0;            // 2 * points_used - 6
-  double variance_factor = 1;  // the scale applied to the covariance (variance_prior_dof)
+  double rms_px = 0;                // RMS pixel residual (per coordinate) of the points used
+  double chi2 = 0;                  // whitened residual sum of squares of the points used
+  int dof = 0;                      // 2 * points_used - 6
+  double variance_factor = 1;       // the scale applied to the covariance (variance_prior_dof)
   bool ambiguous = false;           // one marker, and its planar pose could not be told apart
   bool poorly_conditioned = false;  // sigmas above ObjectPoseOptions' limits
   std::string message;              // why not valid
@@ -109,7 +109,7 @@ struct ObjectPose {
 // Observations from detections: every detection whose ID is in the layout (as a marker, or
 // as the inner marker of a dual entry). A post seen by both markers of a dual gives one tip.
 std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Detection>& detections,
-                                                           const Layout& layout);
+                                                          const Layout& layout);
 
 // The corner sigma the size model gives a marker of `side_px` pixels.
 double CornerSigma(const ObjectPoseOptions& options, double side_px);

@@ -40,7 +40,8 @@ struct Rig {
     o.post_height_sigma = e.post_height_sigma;
     const Pose cam_from_marker = cam_from_object * object_from_marker_seen;
     const auto corners = e.marker.Corners();
-    for (int c = 0; c < 4; ++c) EXPECT_TRUE(camera.Project(cam_from_marker * corners[c], &o.corners[c]));
+    for (int c = 0; c < 4; ++c)
+      EXPECT_TRUE(camera.Project(cam_from_marker * corners[c], &o.corners[c]));
     TipObservation tip;
     EXPECT_TRUE(camera.Project(cam_from_marker * *e.marker.PostTip(), &tip.pixel));
     tip.sigma_px = 0.3;
@@ -132,7 +133,9 @@ TEST(ObjectPose, LayoutUncertaintyIsPropagated) {
       d = llt.matrixL() * d;
       const Pose& belief = rig.layout.markers[k].object_from_marker;
       // Left perturbation in object axes, as layout.h documents.
-      const Eigen::Matrix3d R = Eigen::AngleAxisd(d.head<3>().norm(), d.head<3>().normalized()).toRotationMatrix() * belief.Rotation();
+      const Eigen::Matrix3d R =
+          Eigen::AngleAxisd(d.head<3>().norm(), d.head<3>().normalized()).toRotationMatrix() *
+          belief.Rotation();
       MarkerObservation o = rig.Observe(k, Pose::FromRotation(R, belief.tvec + d.tail<3>()));
       AddNoise(&rng, 0.1, 0.3, &o);
       obs.push_back(o);
@@ -208,8 +211,8 @@ TEST(ObjectPose, ObservationsFromDetectionsMatchTheLayoutAndShareADualsPost) {
   MarkerModel dual = MarkerModel::Standard(10, 0.432, 0.027);
   dual.AddInner(11, 0.108);
   layout.markers.push_back({dual, Pose{}, std::nullopt, std::nullopt});
-  layout.markers.push_back({MarkerModel::Standard(12, 0.2, 0.05), Pose{Vec3(0, 0, 0), Vec3(1, 0, 0)},
-                            std::nullopt, 0.001});
+  layout.markers.push_back({MarkerModel::Standard(12, 0.2, 0.05),
+                            Pose{Vec3(0, 0, 0), Vec3(1, 0, 0)}, std::nullopt, 0.001});
   std::vector<Detection> dets(4);
   dets[0].id = 11;  // the inner marker, listed first
   dets[0].nested_in = 10;

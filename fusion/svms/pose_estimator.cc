@@ -64,10 +64,11 @@ void PoseEstimator::Estimate(const cv::Mat& image, double timestamp, FrameResult
   const auto t0 = Clock::now();
   out->timestamp = timestamp;
   DetectionStats stats;
-  const auto deadline = options_.budget_ms > 0
-                            ? t0 + std::chrono::duration_cast<Clock::duration>(
-                                       std::chrono::duration<double, std::milli>(options_.budget_ms))
-                            : Clock::time_point::max();
+  const auto deadline =
+      options_.budget_ms > 0
+          ? t0 + std::chrono::duration_cast<Clock::duration>(
+                     std::chrono::duration<double, std::milli>(options_.budget_ms))
+          : Clock::time_point::max();
   out->detections = detector_.Detect(image, &stats, deadline);
   const auto t1 = Clock::now();
   out->detect_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();

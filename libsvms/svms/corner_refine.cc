@@ -145,8 +145,8 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       perp[k] = out.side_rms[k] * std::sqrt((1 + 3 / (f * f)) / std::max(1, out.side_points[k]));
     for (int k = 0; k < 4; ++k) {
       const int j = (k + 3) % 4;
-      const double sin_angle = std::max(
-          0.2, std::abs(lines[j].x() * lines[k].y() - lines[j].y() * lines[k].x()));
+      const double sin_angle =
+          std::max(0.2, std::abs(lines[j].x() * lines[k].y() - lines[j].y() * lines[k].x()));
       out.corner_sigma[k] = std::sqrt(0.5 * (perp[j] * perp[j] + perp[k] * perp[k])) / sin_angle;
     }
     for (int k = 0; k < 4; ++k) {

@@ -36,10 +36,10 @@ struct Detection {
   int id = -1;
   int rotation = 0;    // which marker corner the quad's first corner was (svms44.h)
   int bit_errors = 0;  // corrected bits
-  std::array<Eigen::Vector2d, 4> corners;              // TL, TR, BR, BL as printed; pixels
+  std::array<Eigen::Vector2d, 4> corners;  // TL, TR, BR, BL as printed; pixels
   std::array<double, 4> corner_sigma{};  // each corner's sigma from its line fits (px); 0: unknown
-  std::optional<TipObservation> tip;                   // the post tip, when found
-  std::optional<Pose> cam_from_marker;                 // with a camera and the marker's model
+  std::optional<TipObservation> tip;     // the post tip, when found
+  std::optional<Pose> cam_from_marker;   // with a camera and the marker's model
   PoseCovariance covariance = PoseCovariance::Zero();  // [rotation, translation], camera axes
   bool pose_ambiguous = false;                         // two planar poses and no tip to choose
   double pose_rms_px = 0;
