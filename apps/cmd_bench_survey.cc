@@ -420,11 +420,12 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
      << F(result.summary.seconds_first + result.summary.seconds_second, 2) << " | "
      << F(result.summary.seconds_covariance, 2) << " | " << F(solve_s, 2) << " |\n";
   for (const Timing& t : timings)
-    md << "| synthetic" << (t.covariance_algorithm == "Schur complement"
-                               ? ""
-                               : ", covariance by " + t.covariance_algorithm)
-       << (t.ok ? "" : " (failed)") << " | " << t.images << " | " << t.markers
-       << " | " << t.detections << " | " << F(t.init, 2) << " | " << F(t.solve, 2) << " | "
+    md << "| synthetic"
+       << (t.covariance_algorithm == "Schur complement"
+               ? ""
+               : ", covariance by " + t.covariance_algorithm)
+       << (t.ok ? "" : " (failed)") << " | " << t.images << " | " << t.markers << " | "
+       << t.detections << " | " << F(t.init, 2) << " | " << F(t.solve, 2) << " | "
        << F(t.covariance, 2) << " | " << F(t.total, 2) << " |\n";
   // The issue's targets, judged on this run's numbers.
   {
@@ -438,8 +439,8 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
       if (mean(v) >= lo && mean(v) <= hi) ++nees_in;
     md << "\nTargets of the issue, on this run";
     if (!result.summary.left_out.empty())
-      md << " (over the " << ba.size() << " markers surveyed; "
-         << result.summary.left_out.size() << " left out)";
+      md << " (over the " << ba.size() << " markers surveyed; " << result.summary.left_out.size()
+         << " left out)";
     md << ":\n\n";
     md << "- Marker position error <= 0.2 mm RMS: " << met(st && pos_rms <= 0.2) << " ("
        << F(pos_rms, 3) << " mm).\n";
@@ -451,9 +452,9 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
        << " Monte-Carlo surveys: " << met(!nees.empty() && nees_in == static_cast<int>(nees.size()))
        << " (" << nees_in << " of " << nees.size() << " markers).\n";
     if (timings.size() >= 2) {
-      md << "- " << timings[0].images << " images x 8 markers in <= 5 s: "
-         << met(timings[0].ok && timings[0].total <= 5) << " (" << F(timings[0].total, 2)
-         << " s).\n";
+      md << "- " << timings[0].images
+         << " images x 8 markers in <= 5 s: " << met(timings[0].ok && timings[0].total <= 5) << " ("
+         << F(timings[0].total, 2) << " s).\n";
       md << "- " << timings[1].images << " images x 40 markers in <= 60 s: "
          << (o.quick ? std::string("not judged with --quick")
                      : met(timings[1].ok && timings[1].total <= 60))

@@ -71,7 +71,8 @@ int RunDataset(const DatasetCliOptions& o) {
 void AddDatasetCommands(CLI::App& app, int* exit_code) {
   auto o = std::make_shared<DatasetCliOptions>();
   CLI::App* ds = app.add_subcommand("dataset", "Write and render a standard simulated dataset");
-  ds->add_option("NAME", o->name, "range, angle, sun, occlusion, mockup, approach, calibration, clutter or gallery");
+  ds->add_option("NAME", o->name,
+                 "range, angle, sun, occlusion, mockup, approach, calibration, clutter or gallery");
   ds->add_option("--out", o->out, "Output directory");
   ds->add_option("--seed", o->seed, "Seed (everything is deterministic from it)")
       ->capture_default_str();

@@ -807,8 +807,7 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
   if (found.empty()) {
     // S^-1 = D^-1 Sn^-1 D^-1, Sn^-1 from its eigen-decomposition (all eigenvalues > 1e-9 top).
     const Eigen::MatrixXd& V = es.eigenvectors();
-    const Eigen::MatrixXd Sn_inv =
-        V * es.eigenvalues().cwiseInverse().asDiagonal() * V.transpose();
+    const Eigen::MatrixXd Sn_inv = V * es.eigenvalues().cwiseInverse().asDiagonal() * V.transpose();
     const Eigen::VectorXd dinv = d.cwiseInverse();
     reduced->covariance = dinv.asDiagonal() * Sn_inv * dinv.asDiagonal();
     return "";

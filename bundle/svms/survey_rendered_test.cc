@@ -74,9 +74,8 @@ RenderedSurvey RenderAndDetect() {
   }
   s.objects.push_back(box);
   const std::vector<Vec3> directions = {
-      {0.2, 0.2, 1},   {0.7, 0.2, 1},  {0.2, 0.7, 1},  {0.8, 0.8, 1},
-      {1, 0.3, 0.7},   {0.3, 1, 0.7},  {1, 0.9, 0.8},  {-0.2, 0.3, 1},
-      {0.3, -0.2, 1},  {1, 0.5, 1.1},  {0.5, 1, 1.1},  {0.6, 0.6, 1}};
+      {0.2, 0.2, 1}, {0.7, 0.2, 1},  {0.2, 0.7, 1},  {0.8, 0.8, 1}, {1, 0.3, 0.7}, {0.3, 1, 0.7},
+      {1, 0.9, 0.8}, {-0.2, 0.3, 1}, {0.3, -0.2, 1}, {1, 0.5, 1.1}, {0.5, 1, 1.1}, {0.6, 0.6, 1}};
   for (size_t i = 0; i < directions.size(); ++i) {
     const double D = 1.6 + 0.5 * static_cast<double>(i % 4) / 3;
     const Vec3 eye = D * directions[i].normalized();
@@ -124,16 +123,17 @@ TEST(SurveyRendered, SmallRenderedSceneRecoversTheTruthWithinItsSigmas) {
   EXPECT_TRUE(r.summary.covariance_ok);
   EXPECT_EQ(r.summary.markers_surveyed, 5);
   EXPECT_LT(r.summary.rms_px, 0.3) << "rendered corners are good to a small fraction of a pixel";
-  std::printf("survey: %d images, %d detections, RMS %.3f px, variance factor %.3f, %zu points "
-              "rejected\n",
-              r.summary.images_used, r.summary.detections_used, r.summary.rms_px,
-              r.summary.variance_factor, r.summary.rejected.size());
+  std::printf(
+      "survey: %d images, %d detections, RMS %.3f px, variance factor %.3f, %zu points "
+      "rejected\n",
+      r.summary.images_used, r.summary.detections_used, r.summary.rms_px, r.summary.variance_factor,
+      r.summary.rejected.size());
 
   // The gauge as the survey fixes it: the reference marker's frame. The truth in that frame:
   const Pose ref_from_object = rs.truth.Find(ref)->object_from_marker.Inverse();
-  constexpr double kPositionFloor = 5e-5;                // metres
+  constexpr double kPositionFloor = 5e-5;                   // metres
   constexpr double kOrientationFloor = 0.005 * M_PI / 180;  // radians
-  constexpr double kPostFloor = 5e-5;                    // metres
+  constexpr double kPostFloor = 5e-5;                       // metres
   int checked = 0;
   for (const LayoutEntry& e : r.layout.markers) {
     if (e.marker.id == ref) continue;
@@ -155,11 +155,11 @@ TEST(SurveyRendered, SmallRenderedSceneRecoversTheTruthWithinItsSigmas) {
     EXPECT_LT(rot_err.norm(), 4 * SigmaAlong(C_rot, rot_err) + kOrientationFloor)
         << "marker " << e.marker.id << ": orientation error " << aa.angle() * 180 / M_PI
         << " deg, sigma along it " << SigmaAlong(C_rot, rot_err) * 180 / M_PI << " deg";
-    std::printf("marker %d: %d detections, position error %.4f mm (sigma along it %.4f mm), "
-                "orientation error %.4f deg (sigma along it %.4f deg)\n",
-                e.marker.id, seen[e.marker.id], 1000 * pos_err.norm(),
-                1000 * SigmaAlong(C_pos, pos_err), aa.angle() * 180 / M_PI,
-                SigmaAlong(C_rot, rot_err) * 180 / M_PI);
+    std::printf(
+        "marker %d: %d detections, position error %.4f mm (sigma along it %.4f mm), "
+        "orientation error %.4f deg (sigma along it %.4f deg)\n",
+        e.marker.id, seen[e.marker.id], 1000 * pos_err.norm(), 1000 * SigmaAlong(C_pos, pos_err),
+        aa.angle() * 180 / M_PI, SigmaAlong(C_rot, rot_err) * 180 / M_PI);
     if (e.marker.post && !e.marker.post->concave() && e.post_height_sigma) {
       const double h_err = e.marker.post->height - t->marker.post->height;
       EXPECT_LT(std::abs(h_err), 4 * *e.post_height_sigma + kPostFloor)

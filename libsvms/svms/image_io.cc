@@ -218,8 +218,9 @@ Status LoadImage(const std::string& path, int64_t max_pixels, cv::Mat* out) {
   const uintmax_t max_bytes =
       8 * static_cast<uintmax_t>(std::max<int64_t>(max_pixels, 0)) + (uintmax_t{16} << 20);
   if (size > max_bytes) {
-    return Status::Error(path + ": " + std::to_string(size) + " bytes, more than any image within " +
-                         "the limit of " + Megapixels(max_pixels) + " megapixels");
+    return Status::Error(path + ": " + std::to_string(size) +
+                         " bytes, more than any image within " + "the limit of " +
+                         Megapixels(max_pixels) + " megapixels");
   }
   std::vector<unsigned char> bytes(static_cast<size_t>(size));
   std::ifstream in(path, std::ios::binary);

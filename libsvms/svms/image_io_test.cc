@@ -24,7 +24,8 @@ fs::path Dir() {
 std::string Write(const std::string& name, const std::vector<unsigned char>& bytes) {
   const std::string path = (Dir() / name).string();
   std::ofstream(path, std::ios::binary)
-      .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+      .write(reinterpret_cast<const char*>(bytes.data()),
+             static_cast<std::streamsize>(bytes.size()));
   return path;
 }
 
@@ -40,7 +41,8 @@ cv::Mat Pattern(int w, int h, int type) {
   return m;
 }
 
-void ExpectError(const Status& s, const std::string& path, std::initializer_list<std::string> parts) {
+void ExpectError(const Status& s, const std::string& path,
+                 std::initializer_list<std::string> parts) {
   ASSERT_FALSE(s.ok()) << path;
   EXPECT_EQ(s.message().rfind(path + ": ", 0), 0u) << s.message();
   EXPECT_EQ(s.message().find('\n'), std::string::npos) << s.message();
@@ -56,11 +58,11 @@ TEST(ImageIo, ReadsGreySixteenBitAndColour) {
     cv::Mat img;
     int type;
   };
-  for (const Case& c : {Case{"g.png", grey, CV_8UC1}, Case{"d.png", deep, CV_16UC1},
-                        Case{"c.png", colour, CV_8UC1}, Case{"g.pgm", grey, CV_8UC1},
-                        Case{"d.pgm", deep, CV_16UC1}, Case{"c.ppm", colour, CV_8UC1},
-                        Case{"g.bmp", grey, CV_8UC1}, Case{"c.bmp", colour, CV_8UC1},
-                        Case{"d.tif", deep, CV_16UC1}, Case{"g.jpg", grey, CV_8UC1}}) {
+  for (const Case& c :
+       {Case{"g.png", grey, CV_8UC1}, Case{"d.png", deep, CV_16UC1}, Case{"c.png", colour, CV_8UC1},
+        Case{"g.pgm", grey, CV_8UC1}, Case{"d.pgm", deep, CV_16UC1}, Case{"c.ppm", colour, CV_8UC1},
+        Case{"g.bmp", grey, CV_8UC1}, Case{"c.bmp", colour, CV_8UC1}, Case{"d.tif", deep, CV_16UC1},
+        Case{"g.jpg", grey, CV_8UC1}}) {
     SCOPED_TRACE(c.name);
     const std::string path = Write(c.name, Encode(fs::path(c.name).extension().string(), c.img));
     cv::Mat got;

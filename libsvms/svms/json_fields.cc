@@ -141,9 +141,8 @@ bool ParseText(const std::string& text, const std::string& source, json* out, st
         where = ": line " + std::to_string(line) + ", column " + std::to_string(col);
         // The nearest key before it ("tvec" for "tvec": [0, 1e400, 0]).
         const size_t colon = text.rfind("\":", at);
-        const size_t quote = colon == std::string::npos || colon == 0
-                                 ? std::string::npos
-                                 : text.rfind('"', colon - 1);
+        const size_t quote = colon == std::string::npos || colon == 0 ? std::string::npos
+                                                                      : text.rfind('"', colon - 1);
         if (quote != std::string::npos && colon - quote - 1 < 64)
           where += ": " + text.substr(quote + 1, colon - quote - 1);
       }

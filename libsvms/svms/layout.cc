@@ -74,11 +74,10 @@ bool NestedIn(const LayoutEntry& inner, const Footprint& fi, const LayoutEntry& 
 std::string Overlap(const LayoutEntry& a, const LayoutEntry& b) {
   const Footprint fa = FootprintOf(a), fb = FootprintOf(b);
   const double min_side = std::min(fa.side, fb.side);
-  const bool coplanar = fa.normal.dot(fb.normal) > std::cos(kLayoutCoplanarDegrees * M_PI / 180) &&
-                        std::abs(fa.normal.dot(fb.centre - fa.centre)) <=
-                            kLayoutCoplanarDistance * min_side &&
-                        std::abs(fb.normal.dot(fa.centre - fb.centre)) <=
-                            kLayoutCoplanarDistance * min_side;
+  const bool coplanar =
+      fa.normal.dot(fb.normal) > std::cos(kLayoutCoplanarDegrees * M_PI / 180) &&
+      std::abs(fa.normal.dot(fb.centre - fa.centre)) <= kLayoutCoplanarDistance * min_side &&
+      std::abs(fb.normal.dot(fa.centre - fb.centre)) <= kLayoutCoplanarDistance * min_side;
   if (coplanar && (NestedIn(a, fa, b) || NestedIn(b, fb, a))) return "";
   const double smaller = std::min(a.marker.size, b.marker.size);
   const double distance = (a.object_from_marker.tvec - b.object_from_marker.tvec).norm();

@@ -81,8 +81,7 @@ TEST(LayoutOverlap, ASmallMarkerOnABigOnesRingIsRejected) {
 
 TEST(LayoutOverlap, CentresTooCloseAreRejectedWhateverTheOrientation) {
   Layout l;
-  l.markers = {At(1, 0.1, {0, 0, 0}),
-               At(2, 0.2, {0.03, 0, 0.02}, Eigen::Vector3d(M_PI / 2, 0, 0))};
+  l.markers = {At(1, 0.1, {0, 0, 0}), At(2, 0.2, {0.03, 0, 0.02}, Eigen::Vector3d(M_PI / 2, 0, 0))};
   ExpectError(l, {"marker 2 overlaps markers[0]", "its centre is 0.03606 m from that of marker 1",
                   "closer than half the smaller black square (0.05 m)"});
 }

@@ -223,7 +223,8 @@ TEST(ModelIo, NumbersBeyondADoubleAreNamed) {
   m["size"] = 12345.678;
   // nlohmann refuses the literal while parsing: the message gives its place and value.
   ExpectTextError(m, "1e400",
-                  {"bad.json: line 1, column ", ": size: the number 1e400 is beyond the range of a "
+                  {"bad.json: line 1, column ",
+                   ": size: the number 1e400 is beyond the range of a "
                    "double; expected a finite number"});
   ExpectTextError(m, "-1e400", {"bad.json: line 1", "the number -1e400 is beyond"});
   ExpectTextError(m, "NaN", {"bad.json: line 1", "not valid JSON"});
@@ -256,12 +257,12 @@ TEST(ModelIo, LayoutOverlapsAndDuplicatesAreNamed) {
   json m = GoodMarker();  // size 0.2: printed side 0.4 m
   m.erase("type");
   auto entry = [&](int id, double x, double z) {
-    json e = {{"marker", m},
-              {"object_from_marker", {{"rvec", {0, 0, 0}}, {"tvec", {x, 0, z}}}}};
+    json e = {{"marker", m}, {"object_from_marker", {{"rvec", {0, 0, 0}}, {"tvec", {x, 0, z}}}}};
     e["marker"]["id"] = id;
     return e;
   };
-  json l = {{"type", "svms.layout"}, {"name", "x"}, {"markers", {entry(1, 0, 0), entry(2, 0.4, 0)}}};
+  json l = {
+      {"type", "svms.layout"}, {"name", "x"}, {"markers", {entry(1, 0, 0), entry(2, 0.4, 0)}}};
   ModelFile f;
   const Status ok = ParseModelJson(l.dump(), "l.json", &f);
   EXPECT_TRUE(ok.ok()) << "touching markers are fine: " << ok.message();
