@@ -45,8 +45,8 @@ class CameraModel {
   // ...) and its intrinsics. Checks the name (and for splined models a configuration mrcal can
   // evaluate: order 2 or 3, Nx and Ny >= order + 1, 0 < fov_x_deg < 360), the number of
   // intrinsics (mrcal_lensmodel_num_params), that they are finite, fx and fy > 0 (models with
-  // a core), and width, height > 0 (pixels). Errors start with "lensmodel", "intrinsics" or "imagersize". cam_from_ref is the
-  // identity. On error *out is unchanged.
+  // a core), and width, height > 0 (pixels). Errors start with "lensmodel", "intrinsics" or
+  // "imagersize". cam_from_ref is the identity. On error *out is unchanged.
   static Status Create(const std::string& lensmodel, const std::vector<double>& intrinsics,
                        int width, int height, CameraModel* out);
 
