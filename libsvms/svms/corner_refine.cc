@@ -2,6 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <vector>
@@ -46,10 +47,83 @@ struct Plane {
   }
 };
 
+// A side's line in the fitting plane, a x + b y + c = 0 with (a, b) a unit normal.
+struct LineFit {
+  Eigen::Vector3d line = Eigen::Vector3d::Zero();
+  int inliers = 0;
+  double rms_px = 0;  // RMS distance of the inliers to the line, pixels (approximately)
+};
+
+// Weighted total least squares line through `pts`, refitted without the points farther from it
+// than max(trim_sigmas x the robust sigma of the residuals, trim_floor_px): whatever crosses a
+// side -- the post's silhouette at grazing angles, a shadow, an occluder -- moves its edge
+// points off the line by pixels, and one such stretch biases an unweighted fit by tenths of a
+// pixel at the corners. The robust sigma is 1.4826 x the median absolute residual.
+LineFit FitLineRobust(const std::vector<Eigen::Vector2d>& pts, const std::vector<double>& weights,
+                      const Plane& plane, const CornerRefineOptions& o) {
+  std::vector<char> use(pts.size(), 1);
+  LineFit fit;
+  double px_per_unit = 1;
+  for (int pass = 0; pass <= o.trim_passes; ++pass) {
+    double wsum = 0;
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    for (size_t i = 0; i < pts.size(); ++i) {
+      if (!use[i]) continue;
+      mean += weights[i] * pts[i];
+      wsum += weights[i];
+    }
+    mean /= wsum;
+    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+    for (size_t i = 0; i < pts.size(); ++i)
+      if (use[i]) cov += weights[i] * (pts[i] - mean) * (pts[i] - mean).transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(cov);
+    const Eigen::Vector2d nrm = es.eigenvectors().col(0);
+    fit.line = Eigen::Vector3d(nrm.x(), nrm.y(), -nrm.dot(mean));
+    if (pass == 0 && plane.camera) {
+      Eigen::Vector2d p0, p1;
+      if (plane.ToPixel(mean, &p0) && plane.ToPixel(mean + 1e-3 * nrm, &p1))
+        px_per_unit = (p1 - p0).norm() / 1e-3;
+    }
+    std::vector<double> r(pts.size()), abs_in;
+    double ss = 0;
+    fit.inliers = 0;
+    for (size_t i = 0; i < pts.size(); ++i) {
+      r[i] = px_per_unit * std::abs(nrm.dot(pts[i] - mean));
+      if (!use[i]) continue;
+      abs_in.push_back(r[i]);
+      ss += r[i] * r[i];
+      ++fit.inliers;
+    }
+    fit.rms_px = std::sqrt(ss / std::max(1, fit.inliers));
+    if (pass == o.trim_passes) break;
+    std::nth_element(abs_in.begin(), abs_in.begin() + abs_in.size() / 2, abs_in.end());
+    const double sigma = 1.4826 * abs_in[abs_in.size() / 2];
+    const double cut = std::max(o.trim_sigmas * sigma, o.trim_floor_px);
+    bool changed = false;
+    int kept = 0;
+    for (size_t i = 0; i < pts.size(); ++i) kept += r[i] <= cut;
+    if (kept < 3) break;  // keep the last fit rather than fit a line to two points
+    for (size_t i = 0; i < pts.size(); ++i) {
+      const char u = r[i] <= cut;
+      changed |= u != use[i];
+      use[i] = u;
+    }
+    if (!changed) break;
+  }
+  return fit;
+}
 }  // namespace
 
+bool ExcludedRegion::Contains(const Eigen::Vector2d& p) const {
+  const Eigen::Vector2d d = b - a;
+  const double len2 = d.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return (p - (a + t * d)).norm() < radius;
+}
+
 RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2d, 4>& in,
-                             const CameraModel* camera, const CornerRefineOptions& o) {
+                             const CameraModel* camera, const CornerRefineOptions& o,
+                             const std::vector<ExcludedRegion>& excluded) {
   RefinedCorners out;
   out.corners = in;
   const Plane plane{camera};
@@ -65,6 +139,11 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       for (int i = 0; i < m; ++i) {
         const double t = o.end_margin + (1 - 2 * o.end_margin) * (i + 0.5) / m;
         const Eigen::Vector2d p = a + t * (b - a);
+        if (std::any_of(excluded.begin(), excluded.end(),
+                        [&](const ExcludedRegion& e) { return e.Contains(p); })) {
+          if (it == o.iterations - 1) ++out.excluded_points;
+          continue;
+        }
         // Derivative of intensity along the outward normal, at 0.5 px steps.
         const int steps = static_cast<int>(std::ceil(o.search_px / 0.5));
         double best = 0;
@@ -110,31 +189,11 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
         weights.push_back(best);
       }
       if (pts.size() < 3) return out;  // not refined: keep what we had, ok = false
-      // Weighted total least squares line.
-      double wsum = 0;
-      Eigen::Vector2d mean = Eigen::Vector2d::Zero();
-      for (size_t i = 0; i < pts.size(); ++i) {
-        mean += weights[i] * pts[i];
-        wsum += weights[i];
-      }
-      mean /= wsum;
-      Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
-      for (size_t i = 0; i < pts.size(); ++i)
-        cov += weights[i] * (pts[i] - mean) * (pts[i] - mean).transpose();
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(cov);
-      const Eigen::Vector2d nrm = es.eigenvectors().col(0);
-      lines[k] = Eigen::Vector3d(nrm.x(), nrm.y(), -nrm.dot(mean));
-      out.side_points[k] = static_cast<int>(pts.size());
-      // Residual RMS in pixels (approximately: scale plane distances by the local pixel size).
-      double ss = 0;
-      for (const auto& q : pts) ss += std::pow(nrm.dot(q - mean), 2);
-      double scale = 1;
-      if (camera) {
-        Eigen::Vector2d p0, p1;
-        if (plane.ToPixel(mean, &p0) && plane.ToPixel(mean + 1e-3 * nrm, &p1))
-          scale = (p1 - p0).norm() / 1e-3;
-      }
-      out.side_rms[k] = scale * std::sqrt(ss / pts.size());
+      const LineFit fit = FitLineRobust(pts, weights, plane, o);
+      if (fit.inliers < 3) return out;
+      lines[k] = fit.line;
+      out.side_points[k] = fit.inliers;
+      out.side_rms[k] = fit.rms_px;
     }
     // A line fitted to n points spread evenly over a fraction f of a side, residual RMS s: its
     // offset at the middle has variance s^2 / n and its slope s^2 / (n (f L)^2 / 12); at the

@@ -1,14 +1,17 @@
 // Detector step 8: sub-pixel corners. Along each side of a quad, the edge is located across
-// the side (the peak of the intensity derivative along the normal, interpolated by a parabola),
-// a line is fitted to those edge points -- in the undistorted image plane when a lens model
-// is given, so that the curved image of a straight side is handled exactly -- and the corners
-// are the intersections of consecutive lines, projected back to pixels.
+// the side (near the peak of the intensity derivative along the normal, then from the area
+// under the normalised profile around it),
+// a line is fitted to those edge points (robustly: points off the line are dropped) -- in the
+// undistorted image plane when a lens model is given, so that the curved image of a straight side
+// is handled exactly -- and the corners are the intersections of consecutive lines, projected back
+// to pixels.
 #pragma once
 
 #include <Eigen/Core>
 #include <array>
 #include <opencv2/core.hpp>
 #include <optional>
+#include <vector>
 
 #include "svms/camera.h"
 
@@ -19,6 +22,19 @@ struct CornerRefineOptions {
   double search_px = 2.5;    // half-width of the search across each side, pixels
   double end_margin = 0.12;  // fraction of each side left out next to the corners
   int max_points = 64;       // edge points per side
+  // Each side's line is refitted without the edge points farther from it than
+  // max(trim_sigmas x robust sigma, trim_floor_px), trim_passes times (0: plain fit).
+  int trim_passes = 2;
+  double trim_sigmas = 3.0;
+  double trim_floor_px = 0.05;
+};
+
+// Part of the image whose edges are not the marker's sides: the post's silhouette, which
+// crosses a side at grazing views. The points within `radius` of the segment a-b (pixels).
+struct ExcludedRegion {
+  Eigen::Vector2d a, b;
+  double radius = 0;
+  bool Contains(const Eigen::Vector2d& p) const;
 };
 
 struct RefinedCorners {
@@ -29,13 +45,16 @@ struct RefinedCorners {
   // fits: each line's offset and slope from its edge points' scatter (side_rms, side_points),
   // evaluated at the corner, then the intersection at the lines' angle.
   std::array<double, 4> corner_sigma{};
+  int excluded_points = 0;  // edge points left out because they fell in an ExcludedRegion
   bool ok = false;
 };
 
 // `corners` go clockwise on screen around a dark quad on a brighter surround. `image` is
-// CV_8UC1 or CV_16UC1. `camera` may be null (lines fitted in pixels).
+// CV_8UC1 or CV_16UC1. `camera` may be null (lines fitted in pixels). No edge point is taken
+// inside `excluded` (may be empty).
 RefinedCorners RefineCorners(const cv::Mat& image, const std::array<Eigen::Vector2d, 4>& corners,
-                             const CameraModel* camera, const CornerRefineOptions& options);
+                             const CameraModel* camera, const CornerRefineOptions& options,
+                             const std::vector<ExcludedRegion>& excluded = {});
 
 // Bilinear sample at pixel-centre coordinates (clamped to the image).
 double SampleImage(const cv::Mat& image, double u, double v);

@@ -169,6 +169,27 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
         d.tip = mp.tip;
         d.pose_ambiguous = mp.ambiguous;
         d.pose_rms_px = mp.rms_px;
+        // 10b. At grazing views the post's silhouette crosses a side and moves the edge points
+        // there by pixels: refit the sides without them and solve the pose again.
+        std::optional<ExcludedRegion> post;
+        if (o.refine_corners && o.post_silhouette_margin_px > 0)
+          post =
+              PostSilhouette(it->second, camera_, mp.cam_from_marker, o.post_silhouette_margin_px);
+        if (post && RegionTouchesSides(*post, d.corners)) {
+          const RefinedCorners r = RefineCorners(gray, d.corners, cam, o.refine, {*post});
+          MarkerPose again;
+          if (r.ok && r.excluded_points > 0 &&
+              EstimateMarkerPose(gray, r.corners, it->second, camera_, d.black, d.white, o.pose,
+                                 &again)) {
+            d.corners = r.corners;
+            d.corner_sigma = r.corner_sigma;
+            d.cam_from_marker = again.cam_from_marker;
+            d.covariance = again.covariance;
+            d.tip = again.tip;
+            d.pose_ambiguous = again.ambiguous;
+            d.pose_rms_px = again.rms_px;
+          }
+        }
       }
     }
     if (d.bit_errors > o.max_unsupported_corrections) {

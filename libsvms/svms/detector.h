@@ -8,6 +8,7 @@
 //   7    svms44 decoding with graded acceptance        (svms44.h)
 //   8    sub-pixel corners                             (corner_refine.h)
 //   9-10 post tip and pose                             (marker_pose.h)
+//   10b  sides refitted clear of the post's silhouette, pose again (grazing views)
 //   11   nesting of dual markers, duplicates removed
 // Safe to use one Detector per thread; Detect() is const and allocates only its own results.
 #pragma once
@@ -59,6 +60,9 @@ struct DetectorOptions {
   bool known_ids_only = true;           // with marker models: report only their IDs
   double min_contrast = 5;  // white - black, grey levels (a marker in deep shadow: about 10)
   bool refine_corners = true;
+  // Step 10b: when the post's silhouette (grown by this margin, pixels) reaches a side, that
+  // side is refitted without the edge points under it and the pose solved again. <= 0: off.
+  double post_silhouette_margin_px = 2.5;
   std::string debug_dir;  // if set, each step writes a picture there
 };
 

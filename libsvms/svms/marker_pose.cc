@@ -273,4 +273,49 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
   return true;
 }
 
+std::optional<ExcludedRegion> PostSilhouette(const MarkerModel& model, const CameraModel& camera,
+                                             const Pose& cam_from_marker, double margin_px) {
+  if (!model.post || model.post->concave()) return std::nullopt;
+  const Eigen::Vector3d base = cam_from_marker * Eigen::Vector3d::Zero();
+  const Eigen::Vector3d top = cam_from_marker * Eigen::Vector3d(0, 0, model.post->height);
+  const double r = std::max(model.post->radius, model.post->tip_radius);
+  ExcludedRegion region;
+  Eigen::Vector2d px, py;
+  if (!camera.Project(base, &region.a) || !camera.Project(top, &region.b) ||
+      !camera.Project(top + Eigen::Vector3d(r, 0, 0), &px) ||
+      !camera.Project(top + Eigen::Vector3d(0, r, 0), &py))
+    return std::nullopt;
+  region.radius = std::max((px - region.b).norm(), (py - region.b).norm()) + margin_px;
+  return region;
+}
+
+namespace {
+double PointSegmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
+                            const Eigen::Vector2d& b) {
+  const Eigen::Vector2d d = b - a;
+  const double len2 = d.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return (p - (a + t * d)).norm();
+}
+double Cross(const Eigen::Vector2d& u, const Eigen::Vector2d& v) {
+  return u.x() * v.y() - u.y() * v.x();
+}
+}  // namespace
+
+bool RegionTouchesSides(const ExcludedRegion& region,
+                        const std::array<Eigen::Vector2d, 4>& corners) {
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d &p = corners[k], &q = corners[(k + 1) % 4];
+    const Eigen::Vector2d &a = region.a, &b = region.b;
+    // Proper crossing of the two segments, else the nearest end point.
+    const double d1 = Cross(q - p, a - p), d2 = Cross(q - p, b - p);
+    const double d3 = Cross(b - a, p - a), d4 = Cross(b - a, q - a);
+    if (d1 * d2 < 0 && d3 * d4 < 0) return true;
+    const double d = std::min({PointSegmentDistance(a, p, q), PointSegmentDistance(b, p, q),
+                               PointSegmentDistance(p, a, b), PointSegmentDistance(q, a, b)});
+    if (d < region.radius) return true;
+  }
+  return false;
+}
+
 }  // namespace svms

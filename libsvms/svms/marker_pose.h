@@ -18,6 +18,7 @@
 #include <optional>
 
 #include "svms/camera.h"
+#include "svms/corner_refine.h"
 #include "svms/marker_model.h"
 #include "svms/pose.h"
 
@@ -65,6 +66,16 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
 // `visible_fraction` says how much of the bottom is seen (0 when none).
 Eigen::Vector3d VisibleTipPoint(const MarkerModel& model, const Eigen::Vector3d& cam_in_marker,
                                 double* visible_fraction);
+
+// The image of a protruding post at `cam_from_marker`: its axis from the marker's centre to
+// the top, widened by the larger of its radius and its top's, plus `margin_px`. nullopt
+// without a post, for a concave well (it never crosses a side) or if a point does not project.
+std::optional<ExcludedRegion> PostSilhouette(const MarkerModel& model, const CameraModel& camera,
+                                             const Pose& cam_from_marker, double margin_px);
+
+// Whether `region` reaches any side of the quad `corners` (pixels).
+bool RegionTouchesSides(const ExcludedRegion& region,
+                        const std::array<Eigen::Vector2d, 4>& corners);
 
 // Gauss-Newton refinement of cam_from_marker over `points_in_marker` observed at `pixels`
 // with per-point sigmas; fills the covariance. Exposed for tests.

@@ -1,0 +1,141 @@
+#include "svms/corner_refine.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "svms/marker_pose.h"
+
+namespace svms {
+namespace {
+
+constexpr int kSuper = 16;  // supersampling of the synthetic images
+
+// A dark quad (grey 20) on a bright surround (grey 200), plus dark convex `extra` polygons:
+// each pixel's grey from the fraction of its kSuper x kSuper sub-pixel centres inside (what a
+// perfect step edge gives through square pixels). Vertices in pixel-centre coordinates, the
+// polygons clockwise on screen. (cv::fillPoly counts boundary pixels in, which would grow the
+// quad by a fraction of a sub-pixel.)
+cv::Mat Draw(const std::array<Eigen::Vector2d, 4>& quad,
+             const std::vector<std::vector<Eigen::Vector2d>>& extra = {}) {
+  std::vector<std::vector<Eigen::Vector2d>> polys = extra;
+  polys.emplace_back(quad.begin(), quad.end());
+  auto inside = [&](const Eigen::Vector2d& p) {
+    for (const auto& poly : polys) {
+      bool in = true;
+      for (size_t k = 0; k < poly.size() && in; ++k) {
+        const Eigen::Vector2d e = poly[(k + 1) % poly.size()] - poly[k], d = p - poly[k];
+        in = e.x() * d.y() - e.y() * d.x() > 0;  // right of each edge (y down)
+      }
+      if (in) return true;
+    }
+    return false;
+  };
+  cv::Mat img(120, 120, CV_8UC1);
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x) {
+      int dark = 0;
+      for (int j = 0; j < kSuper; ++j)
+        for (int i = 0; i < kSuper; ++i)
+          dark +=
+              inside(Eigen::Vector2d(x - 0.5 + (i + 0.5) / kSuper, y - 0.5 + (j + 0.5) / kSuper));
+      img.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(200 - 180.0 * dark / (kSuper * kSuper));
+    }
+  return img;
+}
+
+// Clockwise on screen (y down), a little rotated and not square.
+const std::array<Eigen::Vector2d, 4> kTruth = {
+    Eigen::Vector2d(30.3, 25.7), Eigen::Vector2d(88.1, 31.2), Eigen::Vector2d(83.6, 90.4),
+    Eigen::Vector2d(26.9, 84.8)};
+
+std::array<Eigen::Vector2d, 4> Perturbed() {
+  std::array<Eigen::Vector2d, 4> c = kTruth;
+  c[0] += Eigen::Vector2d(0.6, -0.4);
+  c[1] += Eigen::Vector2d(-0.5, 0.7);
+  c[2] += Eigen::Vector2d(0.3, 0.5);
+  c[3] += Eigen::Vector2d(-0.7, -0.2);
+  return c;
+}
+
+double WorstError(const RefinedCorners& r) {
+  double worst = 0;
+  for (int k = 0; k < 4; ++k) worst = std::max(worst, (r.corners[k] - kTruth[k]).norm());
+  return worst;
+}
+
+// A post's dark body leaning out across the side from corner 1 to corner 2, 4 px wide and
+// reaching 1.5 px beyond it.
+double Cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
+
+std::vector<Eigen::Vector2d> Bump() {
+  const Eigen::Vector2d a = kTruth[1], b = kTruth[2];
+  const Eigen::Vector2d u = (b - a).normalized(), out(-u.y(), u.x());
+  const Eigen::Vector2d m = a + 0.35 * (b - a);
+  const Eigen::Vector2d n = (out.dot(Eigen::Vector2d(1, 0)) > 0 ? 1 : -1) * out;
+  std::vector<Eigen::Vector2d> p = {m - 2 * u - 3 * n, m + 2 * u - 3 * n, m + 2 * u + 1.5 * n,
+                                    m - 2 * u + 1.5 * n};
+  if (Cross2(p[1] - p[0], p[2] - p[1]) < 0) std::reverse(p.begin(), p.end());  // clockwise
+  return p;
+}
+
+TEST(RefineCorners, AStepEdgeQuadToAHundredthOfAPixel) {
+  const RefinedCorners r = RefineCorners(Draw(kTruth), Perturbed(), nullptr, {});
+  ASSERT_TRUE(r.ok);
+  EXPECT_LT(WorstError(r), 0.02);
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_GT(r.side_points[k], 20);
+    EXPECT_LT(r.side_rms[k], 0.05);
+    EXPECT_GT(r.corner_sigma[k], 0);
+    EXPECT_LT(r.corner_sigma[k], 0.05);
+  }
+  EXPECT_EQ(r.excluded_points, 0);
+}
+
+TEST(RefineCorners, SomethingAcrossASideIsTrimmedOrExcluded) {
+  const cv::Mat img = Draw(kTruth, {Bump()});
+  CornerRefineOptions plain;
+  plain.trim_passes = 0;
+  const RefinedCorners biased = RefineCorners(img, Perturbed(), nullptr, plain);
+  ASSERT_TRUE(biased.ok);
+  EXPECT_GT(WorstError(biased), 0.1) << "the bump should bias a plain fit";
+  EXPECT_GT(biased.side_rms[1], 0.3);
+
+  const RefinedCorners trimmed = RefineCorners(img, Perturbed(), nullptr, {});
+  ASSERT_TRUE(trimmed.ok);
+  EXPECT_LT(WorstError(trimmed), 0.03);
+  EXPECT_LT(trimmed.side_points[1], biased.side_points[1]);
+
+  const std::vector<Eigen::Vector2d> b = Bump();
+  ExcludedRegion post{0.5 * (b[0] + b[1]), 0.5 * (b[2] + b[3]), 2 + 2.5};
+  const RefinedCorners excluded = RefineCorners(img, Perturbed(), nullptr, plain, {post});
+  ASSERT_TRUE(excluded.ok);
+  EXPECT_GT(excluded.excluded_points, 0);
+  EXPECT_LT(WorstError(excluded), 0.03);
+}
+
+TEST(RefineCorners, TooFewEdgePointsLeavesTheCornersAndSaysSo) {
+  const cv::Mat flat(120, 120, CV_8UC1, cv::Scalar(128));
+  const RefinedCorners r = RefineCorners(flat, kTruth, nullptr, {});
+  EXPECT_FALSE(r.ok);
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(r.corners[k], kTruth[k]);
+}
+
+TEST(ExcludedRegion, ContainsAndTouchesSides) {
+  const ExcludedRegion crossing{Eigen::Vector2d(55, 55), Eigen::Vector2d(95, 60), 1};
+  const ExcludedRegion inside{Eigen::Vector2d(55, 55), Eigen::Vector2d(60, 58), 2};
+  const ExcludedRegion near_outside{Eigen::Vector2d(90, 60), Eigen::Vector2d(100, 60), 5};
+  const ExcludedRegion far_outside{Eigen::Vector2d(100, 60), Eigen::Vector2d(110, 60), 5};
+  EXPECT_TRUE(RegionTouchesSides(crossing, kTruth));
+  EXPECT_FALSE(RegionTouchesSides(inside, kTruth));
+  EXPECT_TRUE(RegionTouchesSides(near_outside, kTruth));
+  EXPECT_FALSE(RegionTouchesSides(far_outside, kTruth));
+  EXPECT_TRUE(inside.Contains(Eigen::Vector2d(58, 57)));
+  EXPECT_TRUE(inside.Contains(Eigen::Vector2d(54, 54)));  // round end cap
+  EXPECT_FALSE(inside.Contains(Eigen::Vector2d(53, 53)));
+}
+
+}  // namespace
+}  // namespace svms
