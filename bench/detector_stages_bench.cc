@@ -3,7 +3,7 @@
 // fixed rendered 1024 x 1024 image (three markers of about 30, 60 and 120 px on a noise-
 // textured plate, the earth behind, sun, shot noise; seed fixed). BM_DetectSteps runs the
 // whole detector and reports its own per-step timings (DetectionStats) as counters, to check
-// the stage benchmarks add up to what the pipeline spends.
+// the stage benchmarks add up to what the pipeline spends. One core (OpenCV on one thread).
 // Run: build/bin/svms_bench_detector_stages --benchmark_repetitions=9
 // --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
@@ -34,6 +34,7 @@ struct Fixture {
 };
 
 const Fixture& Get() {
+  cv::setNumThreads(1);  // one core: OpenCV's Sobel and Canny would otherwise use a thread pool
   static const Fixture fx = [] {
     Fixture f;
     const int w = 1024, h = 1024;

@@ -9,19 +9,49 @@
 
 namespace svms {
 
-double SampleImage(const cv::Mat& img, double u, double v) {
-  u = std::clamp(u, 0.0, img.cols - 1.0);
-  v = std::clamp(v, 0.0, img.rows - 1.0);
-  const int x0 = std::min(static_cast<int>(u), img.cols - 2 < 0 ? 0 : img.cols - 2);
-  const int y0 = std::min(static_cast<int>(v), img.rows - 2 < 0 ? 0 : img.rows - 2);
-  const int x1 = std::min(x0 + 1, img.cols - 1), y1 = std::min(y0 + 1, img.rows - 1);
-  const double fx = u - x0, fy = v - y0;
-  auto at = [&](int y, int x) -> double {
-    return img.depth() == CV_16U ? img.at<uint16_t>(y, x) : img.at<uint8_t>(y, x);
-  };
-  return (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x1)) +
-         fy * ((1 - fx) * at(y1, x0) + fx * at(y1, x1));
-}
+namespace {
+
+// Bilinear samples of one 8- or 16-bit image: the row pointer and depth resolved once, the
+// clamping only near the border (RefineCorners takes about 10^4 samples per marker).
+class Sampler {
+ public:
+  explicit Sampler(const cv::Mat& img)
+      : img_(img), wide_(img.depth() == CV_16U), max_u_(img.cols - 1.0), max_v_(img.rows - 1.0) {}
+  double operator()(double u, double v) const {
+    if (!(u >= 0 && v >= 0 && u < max_u_ - 1e-9 && v < max_v_ - 1e-9)) return Clamped(u, v);
+    const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
+    const double fx = u - x0, fy = v - y0;
+    return wide_ ? Blend<uint16_t>(x0, y0, fx, fy) : Blend<uint8_t>(x0, y0, fx, fy);
+  }
+
+ private:
+  template <typename T>
+  double Blend(int x0, int y0, double fx, double fy) const {
+    const T* r0 = img_.ptr<T>(y0) + x0;
+    const T* r1 = img_.ptr<T>(y0 + 1) + x0;
+    return (1 - fy) * ((1 - fx) * r0[0] + fx * r0[1]) + fy * ((1 - fx) * r1[0] + fx * r1[1]);
+  }
+  double Clamped(double u, double v) const {
+    u = std::clamp(std::isnan(u) ? 0.0 : u, 0.0, max_u_);
+    v = std::clamp(std::isnan(v) ? 0.0 : v, 0.0, max_v_);
+    const int x0 = std::min(static_cast<int>(u), std::max(img_.cols - 2, 0));
+    const int y0 = std::min(static_cast<int>(v), std::max(img_.rows - 2, 0));
+    const int x1 = std::min(x0 + 1, img_.cols - 1), y1 = std::min(y0 + 1, img_.rows - 1);
+    const double fx = u - x0, fy = v - y0;
+    auto at = [&](int y, int x) -> double {
+      return wide_ ? img_.at<uint16_t>(y, x) : img_.at<uint8_t>(y, x);
+    };
+    return (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x1)) +
+           fy * ((1 - fx) * at(y1, x0) + fx * at(y1, x1));
+  }
+  const cv::Mat& img_;
+  const bool wide_;
+  const double max_u_, max_v_;
+};
+
+}  // namespace
+
+double SampleImage(const cv::Mat& img, double u, double v) { return Sampler(img)(u, v); }
 
 namespace {
 
@@ -126,7 +156,14 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
                              const std::vector<ExcludedRegion>& excluded) {
   RefinedCorners out;
   out.corners = in;
-  const Plane plane{camera};
+  const Sampler sample(img);
+  const int steps = static_cast<int>(std::ceil(o.search_px / 0.5));
+  std::vector<double> line(2 * steps + 3);
+  std::vector<Eigen::Vector2d> pts;
+  std::vector<double> weights;
+  // A pinhole camera maps straight sides to straight lines: fit in pixels, no unprojection.
+  const bool pinhole = camera && camera->lensmodel() == "LENSMODEL_PINHOLE";
+  const Plane plane{pinhole ? nullptr : camera};
   for (int it = 0; it < o.iterations; ++it) {
     std::array<Eigen::Vector3d, 4> lines;  // in the fitting plane
     for (int k = 0; k < 4; ++k) {
@@ -134,8 +171,8 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       const double len = (b - a).norm();
       const Eigen::Vector2d u = (b - a) / len, outward(u.y(), -u.x());  // dark is screen-right
       const int m = std::clamp(static_cast<int>(len / 1.5), 4, o.max_points);
-      std::vector<Eigen::Vector2d> pts;
-      std::vector<double> weights;
+      pts.clear();
+      weights.clear();
       for (int i = 0; i < m; ++i) {
         const double t = o.end_margin + (1 - 2 * o.end_margin) * (i + 0.5) / m;
         const Eigen::Vector2d p = a + t * (b - a);
@@ -144,19 +181,18 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
           if (it == o.iterations - 1) ++out.excluded_points;
           continue;
         }
-        // Derivative of intensity along the outward normal, at 0.5 px steps.
-        const int steps = static_cast<int>(std::ceil(o.search_px / 0.5));
+        // Derivative of intensity along the outward normal at 0.5 px steps s: the difference
+        // of the samples 0.5 px either side, I(s + 1) - I(s - 1) on the half-pixel grid.
         double best = 0;
         int best_s = 0;
-        std::vector<double> deriv(2 * steps + 1);
-        for (int s = -steps; s <= steps; ++s) {
-          const Eigen::Vector2d q = p + 0.5 * s * outward;
-          const Eigen::Vector2d f = q + 0.5 * outward, r = q - 0.5 * outward;
-          deriv[s + steps] = SampleImage(img, f.x(), f.y()) - SampleImage(img, r.x(), r.y());
+        for (int j = 0; j < 2 * steps + 3; ++j) {
+          const Eigen::Vector2d q = p + 0.5 * (j - steps - 1) * outward;
+          line[j] = sample(q.x(), q.y());
         }
         for (int s = -steps + 1; s < steps; ++s) {
-          if (deriv[s + steps] > best) {
-            best = deriv[s + steps];
+          const double deriv = line[s + steps + 2] - line[s + steps];
+          if (deriv > best) {
+            best = deriv;
             best_s = s;
           }
         }
@@ -172,7 +208,7 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
         std::array<double, 17> prof{};
         for (int i = 0; i <= ns; ++i) {
           const Eigen::Vector2d q = centre + (-W + i * h) * outward;
-          prof[i] = SampleImage(img, q.x(), q.y());
+          prof[i] = sample(q.x(), q.y());
         }
         for (int i = 0; i < 3; ++i) {
           dark += prof[i] / 3;
