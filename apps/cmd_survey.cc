@@ -27,7 +27,7 @@ struct SurveyCliOptions {
   int reference = -1;
   std::vector<std::string> scale_bars, control_points;
   bool refine_intrinsics = false, drop_disconnected = false, quiet = false;
-  double corner_sigma = 0.1;
+  double corner_sigma = 0;  // 0: each corner's own, from the detector's side fits
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 };
 
@@ -89,7 +89,10 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
   ModelFile models;
   if (Status s = ReadModelFile(o.markers, &models); !s) return bad_input(s.message());
   bundle::SurveyOptions options;
-  options.corner_sigma_px = o.corner_sigma;
+  if (o.corner_sigma != 0) {
+    options.corner_sigma_px = o.corner_sigma;
+    options.corner_sigma_from_fit = false;
+  }
   options.num_threads = o.threads;
   bundle::SurveyConfig config;
   config.reference_id = o.reference;
@@ -199,8 +202,9 @@ void AddSurveyCommands(CLI::App& app, int* exit_code) {
   cmd->add_flag("--refine-intrinsics", o->refine_intrinsics, "Refine the camera's intrinsics too");
   cmd->add_flag("--drop-disconnected", o->drop_disconnected,
                 "Survey only the reference's group when the view graph is disconnected");
-  cmd->add_option("--corner-sigma", o->corner_sigma, "Standard deviation of a corner (px)")
-      ->capture_default_str();
+  cmd->add_option("--corner-sigma", o->corner_sigma,
+                  "Standard deviation of every corner (px); by default each corner's own, from "
+                  "the detector's line fits (x 1.04)");
   cmd->add_option("--out", o->out, "The layout JSON to write (svms.layout, with covariances)")
       ->required();
   cmd->add_option("--report", o->report, "Write report.md, tables and pictures to this directory");

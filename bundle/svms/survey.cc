@@ -317,7 +317,10 @@ Status Solver::CollectObservations() {
         p.detection = detection;
         p.point = k;
         p.px = d.corners[k];
-        p.sigma = options_.corner_sigma_px;
+        p.sigma = options_.corner_sigma_from_fit && d.corner_sigma[k] > 0
+                      ? std::max(options_.min_corner_sigma_px,
+                                 options_.corner_fit_scale * d.corner_sigma[k])
+                      : options_.corner_sigma_px;
         points_.push_back(p);
       }
       if (d.tip && info.post_owner >= 0 && surveyed_.count(info.post_owner) &&

@@ -23,6 +23,9 @@ Status SurveyOptions::Check() const {
                          Num(got));
   };
   if (!Positive(corner_sigma_px)) return bad("corner_sigma_px", "> 0 pixels", corner_sigma_px);
+  if (!Positive(corner_fit_scale)) return bad("corner_fit_scale", "> 0", corner_fit_scale);
+  if (!Positive(min_corner_sigma_px))
+    return bad("min_corner_sigma_px", "> 0 pixels", min_corner_sigma_px);
   if (!Positive(min_tip_sigma_px)) return bad("min_tip_sigma_px", "> 0 pixels", min_tip_sigma_px);
   if (!Positive(post_height_prior_sigma))
     return bad("post_height_prior_sigma", "> 0 metres", post_height_prior_sigma);

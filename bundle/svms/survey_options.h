@@ -21,9 +21,15 @@ namespace svms::bundle {
 
 // Tuning knobs. Defaults suit the SVMS detector's corners (0.1 px) and tips.
 struct SurveyOptions {
-  // Standard deviation of a detected corner, each axis (pixels). The detector's own figure
-  // (MarkerPoseOptions::corner_sigma_px).
+  // Standard deviation of a detected corner, each axis (pixels): corner_fit_scale x the sigma
+  // the detector's side fits give (Detection::corner_sigma), at least min_corner_sigma_px,
+  // when corner_sigma_from_fit and the detection has one; corner_sigma_px otherwise. Each
+  // corner is then weighted by its own noise (a side at a grazing angle, a small marker, a
+  // corner by a shadow's edge) instead of all alike. The scale is fusion's (ObjectPoseOptions).
   double corner_sigma_px = 0.1;
+  bool corner_sigma_from_fit = true;
+  double corner_fit_scale = 1.04;
+  double min_corner_sigma_px = 0.01;
   // Floor on a post tip's standard deviation (pixels); the detector's TipObservation::sigma_px
   // is used when larger.
   double min_tip_sigma_px = 0.3;
