@@ -34,6 +34,7 @@ struct BenchPoseOptions {
   double corner_sigma_exponent = ObjectPoseOptions{}.corner_sigma_exponent;
   double variance_prior_dof = ObjectPoseOptions{}.variance_prior_dof;
   double corner_fit_scale = ObjectPoseOptions{}.corner_fit_scale;
+  double min_corner_sigma_px = ObjectPoseOptions{}.min_corner_sigma_px;
   bool size_model = false;
 };
 
@@ -107,6 +108,7 @@ int RunBenchPose(const BenchPoseOptions& o) {
   options.fusion.corner_sigma_exponent = o.corner_sigma_exponent;
   options.fusion.variance_prior_dof = o.variance_prior_dof;
   options.fusion.corner_fit_scale = o.corner_fit_scale;
+  options.fusion.min_corner_sigma_px = o.min_corner_sigma_px;
   options.fusion.corner_sigma_from_fit = !o.size_model;
   std::unique_ptr<PoseEstimator> est;
   const std::string camera_path = o.camera.empty() ? D + "/true.cameramodel" : o.camera;
@@ -263,6 +265,7 @@ int RunBenchPose(const BenchPoseOptions& o) {
   nlohmann::json summary = {{"frames", rows.size()},
                             {"valid", valid},
                             {"corner_sigma_px", o.corner_sigma_px},
+                            {"min_corner_sigma_px", o.min_corner_sigma_px},
                             {"nees_mean", nees_mean},
                             {"nees_bounds", {6 - half, 6 + half}},
                             {"nees_median", Percentile(nees, 0.5)},
@@ -338,7 +341,8 @@ int RunBenchPose(const BenchPoseOptions& o) {
                       : "the detector's line-fit sigma times " + F(o.corner_fit_scale, 2) +
                             " (where refined), else ")
      << o.corner_sigma_px << " px at 30 px scaled by (30 / shortest side)^"
-     << o.corner_sigma_exponent << ", variance prior dof " << o.variance_prior_dof
+     << o.corner_sigma_exponent << ", at least " << o.min_corner_sigma_px
+     << " px; variance prior dof " << o.variance_prior_dof
      << "; truth is the renderer's cam_from_module times module_from_object, the layout's "
         "object frame placed through marker 10 (the survey's reference). Pose on one thread, "
         "images preloaded.\n\n"
@@ -406,6 +410,9 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
       ->capture_default_str();
   cmd->add_option("--corner-fit-scale", o->corner_fit_scale,
                   "Corner sigma = this times the detector's line-fit sigma")
+      ->capture_default_str();
+  cmd->add_option("--min-corner-sigma", o->min_corner_sigma_px,
+                  "No corner sigma below this (px)")
       ->capture_default_str();
   cmd->add_flag("--size-model", o->size_model,
                 "Corner sigma from the marker's size only (--corner-sigma, exponent)");

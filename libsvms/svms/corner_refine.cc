@@ -132,7 +132,8 @@ LineFit FitLineRobust(const std::vector<Eigen::Vector2d>& pts, const std::vector
     bool changed = false;
     int kept = 0;
     for (size_t i = 0; i < pts.size(); ++i) kept += r[i] <= cut;
-    if (kept < 3) break;  // keep the last fit rather than fit a line to two points
+    // Too few points left to trust a line more than the untrimmed one: keep the last fit.
+    if (kept < std::max(o.trim_min_points, static_cast<int>(std::ceil(0.5 * pts.size())))) break;
     for (size_t i = 0; i < pts.size(); ++i) {
       const char u = r[i] <= cut;
       changed |= u != use[i];

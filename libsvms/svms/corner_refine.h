@@ -27,6 +27,10 @@ struct CornerRefineOptions {
   int trim_passes = 2;
   double trim_sigmas = 3.0;
   double trim_floor_px = 0.05;
+  // A trim that would leave fewer than this many points, or fewer than half of the side's, is
+  // not made: on a short side (a small marker at a grazing angle) a line through the few
+  // points left extrapolates to corners pixels off.
+  int trim_min_points = 6;
 };
 
 // Part of the image whose edges are not the marker's sides: the post's silhouette, which

@@ -163,7 +163,8 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
     auto it = models_.find(d.id);
     if (cam && it != models_.end()) {
       MarkerPose mp;
-      if (EstimateMarkerPose(gray, d.corners, it->second, camera_, d.black, d.white, o.pose, &mp)) {
+      if (EstimateMarkerPose(gray, d.corners, it->second, camera_, d.black, d.white, o.pose, &mp,
+                             d.corner_sigma)) {
         d.cam_from_marker = mp.cam_from_marker;
         d.covariance = mp.covariance;
         d.tip = mp.tip;
@@ -178,9 +179,15 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
         if (post && RegionTouchesSides(*post, d.corners)) {
           const RefinedCorners r = RefineCorners(gray, d.corners, cam, o.refine, {*post});
           MarkerPose again;
-          if (r.ok && r.excluded_points > 0 &&
+          // Kept only if the sides fit better without those points: on a short side (a small
+          // marker at a grazing angle) the post may hide most of it, and the few points left
+          // say less than all of them did.
+          auto sum2 = [](const std::array<double, 4>& s) {
+            return s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + s[3] * s[3];
+          };
+          if (r.ok && r.excluded_points > 0 && sum2(r.corner_sigma) < sum2(d.corner_sigma) &&
               EstimateMarkerPose(gray, r.corners, it->second, camera_, d.black, d.white, o.pose,
-                                 &again)) {
+                                 &again, r.corner_sigma)) {
             d.corners = r.corners;
             d.corner_sigma = r.corner_sigma;
             d.cam_from_marker = again.cam_from_marker;

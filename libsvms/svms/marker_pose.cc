@@ -160,7 +160,8 @@ bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X
 
 bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 4>& corners,
                         const MarkerModel& model, const CameraModel& camera, double black,
-                        double white, const MarkerPoseOptions& o, MarkerPose* out) {
+                        double white, const MarkerPoseOptions& o, MarkerPose* out,
+                        const std::array<double, 4>& corner_sigma) {
   // Both planar solutions, from the undistorted corners (identity intrinsics).
   std::vector<cv::Point2d> normalized;
   for (const auto& c : corners) {
@@ -226,7 +227,9 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
   for (int k = 0; k < 4; ++k) {
     X.push_back(model.Corners()[k]);
     px.push_back(corners[k]);
-    sig.push_back(o.corner_sigma_px);
+    sig.push_back(corner_sigma[k] > 0
+                      ? std::max(o.min_corner_sigma_px, o.corner_fit_scale * corner_sigma[k])
+                      : o.corner_sigma_px);
   }
   double fraction = 1;
   if (have_tip) {

@@ -30,7 +30,13 @@ struct TipObservation {
 };
 
 struct MarkerPoseOptions {
-  double corner_sigma_px = 0.1;       // standard deviation of a refined corner, each axis
+  // Standard deviation of a refined corner, each axis, pixels: corner_fit_scale x the sigma
+  // its side fits give (RefinedCorners::corner_sigma), at least min_corner_sigma_px; where
+  // that is not known (0), corner_sigma_px. The scale is fusion's (ObjectPoseOptions), measured
+  // on the simulator's mockup survey images.
+  double corner_sigma_px = 0.1;
+  double corner_fit_scale = 1.04;
+  double min_corner_sigma_px = 0.01;
   double tip_search_fraction = 0.25;  // search radius, as a fraction of the square's side
   double tip_min_contrast = 0.35;     // tip brighter than black by this fraction of white - black
   // A white top smaller than this in the image (radius, pixels) is not looked for: a blob of
@@ -54,11 +60,13 @@ std::optional<TipObservation> FindTip(const cv::Mat& image, const Eigen::Vector2
                                       double radius, double black, double white,
                                       double min_contrast);
 
-// Pose of a marker from its corners (marker order: TL, TR, BR, BL as printed, pixels).
+// Pose of a marker from its corners (marker order: TL, TR, BR, BL as printed, pixels), each
+// with its sigma from the side fits (pixels; 0: not known, see MarkerPoseOptions).
 // False if the camera cannot unproject the corners or no solution is valid.
 bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 4>& corners,
                         const MarkerModel& model, const CameraModel& camera, double black,
-                        double white, const MarkerPoseOptions& options, MarkerPose* out);
+                        double white, const MarkerPoseOptions& options, MarkerPose* out,
+                        const std::array<double, 4>& corner_sigma = {});
 
 // The marker-frame point whose image is the centroid of what the camera at `cam_in_marker`
 // sees of the white tip. For a post, the centre of its top. For a concave well, the part of

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "svms/camera.h"
@@ -122,6 +123,13 @@ struct Background {
 };
 
 struct View {
+  View() = default;
+  View(std::string name, const Pose& cam_from_world, std::optional<Sun> sun = std::nullopt,
+       std::optional<std::vector<Occluder>> occluders = std::nullopt)
+      : name(std::move(name)),
+        cam_from_world(cam_from_world),
+        sun(std::move(sun)),
+        occluders(std::move(occluders)) {}
   std::string name;
   Pose cam_from_world;
   std::optional<Sun> sun;                          // overrides the scene's sun
