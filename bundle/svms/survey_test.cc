@@ -348,9 +348,10 @@ TEST(Survey, CovarianceAlgorithmsAgree) {
         EXPECT_LT((*x.covariance - *y.covariance).norm() / scale, 1e-6)
             << "marker " << x.marker.id << ", algorithm " << a;
         ASSERT_EQ(x.post_height_sigma.has_value(), y.post_height_sigma.has_value());
-        if (x.post_height_sigma)
+        if (x.post_height_sigma) {
           EXPECT_NEAR(*x.post_height_sigma / *y.post_height_sigma, 1, 1e-6)
               << "marker " << x.marker.id << ", algorithm " << a;
+        }
       }
     }
   }

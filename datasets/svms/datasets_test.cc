@@ -58,9 +58,11 @@ TEST(Datasets, MockupHasEightMarkersOfThreeSizesWithADualAndAConcave) {
     n.cwiseAbs().maxCoeff(&axis);
     EXPECT_NEAR(std::abs(n[axis]), 1, 1e-12);
     EXPECT_NEAR(c[axis], n[axis] * half[axis], 1e-12);
-    for (int k = 0; k < 3; ++k)
-      if (k != axis)
+    for (int k = 0; k < 3; ++k) {
+      if (k != axis) {
         EXPECT_LE(std::abs(c[k]) + m.model.half_extent(), half[k] + 1e-9) << m.model.id;
+      }
+    }
   }
   EXPECT_EQ(sizes.size(), 3u);
   EXPECT_EQ(duals, 1);
