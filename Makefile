@@ -4,7 +4,7 @@ BUILD ?= build
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 CMAKE_FLAGS ?=
 
-.PHONY: all deps configure build test demo bench clean test-asan fuzz
+.PHONY: all deps configure build test demo bench clean sanitize-build test-asan fuzz test-sanitize
 
 all: build
 
@@ -22,24 +22,40 @@ build: configure
 test: build
 	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
 
-# The unit tests (ctest label "unit") under AddressSanitizer + UndefinedBehaviorSanitizer, in
-# their own build directory; docs/reliability.md. The exhaustive sweep of every ID with two
-# flipped bits (pure integer decoding, ~5 min per rotation under ASan) runs only in `make test`.
-ASAN_BUILD ?= build-asan
-test-asan: deps
-	cmake -S . -B $(ASAN_BUILD) -DSVMS_SANITIZE=ON -DSVMS_BUILD_BENCHMARKS=OFF $(CMAKE_FLAGS)
-	cmake --build $(ASAN_BUILD) -j $(JOBS) --target unit_tests
-	LSAN_OPTIONS=suppressions=$(CURDIR)/cmake/lsan.supp UBSAN_OPTIONS=print_stacktrace=1 \
-	  ctest --test-dir $(ASAN_BUILD) -L unit -E EveryIdTwoFlips --output-on-failure -j $(JOBS)
+# Hardening (docs/reliability.md), all in ONE clang build directory, SANITIZE_BUILD: the library
+# with AddressSanitizer + UndefinedBehaviorSanitizer and libFuzzer's coverage, the gtest
+# executables with ASan + UBSan, the fuzz targets with libFuzzer.
+#   make test-sanitize  what .ci/run runs after `make test`: test-asan, then fuzz
+#   make test-asan      the unit tests (ctest label "unit") under ASan + UBSan. The exhaustive
+#                       sweep of every ID with two flipped bits (pure integer decoding, ~5 min
+#                       per rotation under ASan) runs only in `make test`.
+#   make fuzz           each libFuzzer target of fuzz/ for FUZZ_SECONDS from its seeds
+# Stack traces need file and line only: line tables instead of full debug info (of Eigen, Ceres
+# and OpenCV templates) keep the build shorter.
+SANITIZE_BUILD ?= build-sanitize
+FUZZ_SECONDS ?= 15
+SANITIZE_ENV = LSAN_OPTIONS=suppressions=$(CURDIR)/cmake/lsan.supp UBSAN_OPTIONS=print_stacktrace=1
+SANITIZE_UNIT = $(SANITIZE_ENV) ctest --test-dir $(SANITIZE_BUILD) -L unit -E EveryIdTwoFlips \
+  --output-on-failure -j $(JOBS)
+SANITIZE_FUZZ = $(SANITIZE_ENV) scripts/run_fuzz $(SANITIZE_BUILD) $(FUZZ_SECONDS)
 
-# The libFuzzer targets (clang) built in FUZZ_BUILD, each run FUZZ_SECONDS from its seeds.
-FUZZ_BUILD ?= build-fuzz
-FUZZ_SECONDS ?= 10
-fuzz: deps
-	cmake -S . -B $(FUZZ_BUILD) -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
-	  -DSVMS_FUZZ=ON -DSVMS_BUILD_TESTS=OFF -DSVMS_BUILD_BENCHMARKS=OFF
-	cmake --build $(FUZZ_BUILD) -j $(JOBS) --target fuzz_targets
-	scripts/run_fuzz $(FUZZ_BUILD) $(FUZZ_SECONDS)
+sanitize-build: deps
+	cmake -S . -B $(SANITIZE_BUILD) -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+	  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -gline-tables-only -DNDEBUG" \
+	  -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -gline-tables-only -DNDEBUG" \
+	  -DSVMS_SANITIZE=ON -DSVMS_FUZZ=ON -DSVMS_BUILD_BENCHMARKS=OFF $(CMAKE_FLAGS)
+	cmake --build $(SANITIZE_BUILD) -j $(JOBS) --target unit_tests fuzz_targets
+
+test-asan: sanitize-build
+	$(SANITIZE_UNIT)
+
+fuzz: sanitize-build
+	$(SANITIZE_FUZZ)
+
+# One after the other (also under make -j), the unit tests first.
+test-sanitize: sanitize-build
+	$(SANITIZE_UNIT)
+	$(SANITIZE_FUZZ)
 
 demo: build
 	scripts/demo $(BUILD)/bin/svms out/demo
@@ -48,4 +64,4 @@ bench: build
 	scripts/update_benchmarks $(BUILD)
 
 clean:
-	rm -rf $(BUILD) $(ASAN_BUILD) $(FUZZ_BUILD) out
+	rm -rf $(BUILD) $(SANITIZE_BUILD) out

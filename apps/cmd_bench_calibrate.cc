@@ -24,6 +24,7 @@
 #include "gnuplot.h"
 #include "svms/datasets.h"
 #include "svms/model_io.h"
+#include "svms/random_draws.h"
 
 namespace svms::cli {
 namespace {
@@ -513,7 +514,8 @@ int RunBench(const BenchOptions& o) {
               !truth.Project(a0.true_cam_from_frame[v] * pts[i].point_in_board, &q))
             continue;
           calib::PointObservation p = pts[i];
-          p.pixel = q + a0.r.noise_sigma_px * Eigen::Vector2d(gauss(rng), gauss(rng));
+          // y drawn first, whatever the compiler (random_draws.h).
+          p.pixel = q + a0.r.noise_sigma_px * DrawVector2(gauss, rng);
           w.points.push_back(p);
         }
         syn.push_back(std::move(w));

@@ -30,8 +30,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   Eigen::Vector2d px;
   Eigen::Matrix<double, 2, 3> dpx_dp;
   Eigen::Matrix<double, 2, Eigen::Dynamic> dpx_di;
-  for (const Eigen::Vector3d p : {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0.3, -0.2, 1),
-                                  Eigen::Vector3d(-1, 1, 0.1), Eigen::Vector3d(0, 0, -1)}) {
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0.3, -0.2, 1),
+                                   Eigen::Vector3d(-1, 1, 0.1), Eigen::Vector3d(0, 0, -1)}) {
     cam.Project(p, &px);
     cam.Project(p, &px, &dpx_dp, &dpx_di);
   }

@@ -6,6 +6,7 @@
 
 #include "svms/datasets.h"
 #include "svms/model_io.h"
+#include "svms/random_draws.h"
 #include "svms/synthetic.h"
 #include "svms/view_graph.h"
 
@@ -381,8 +382,8 @@ TEST(ViewGraph, RobustAverageIgnoresABadSample) {
   std::normal_distribution<double> g(0, 1);
   const Pose truth{Eigen::Vector3d(0.1, 0.2, 0.3), Eigen::Vector3d(0.5, 0, 0.1)};
   for (int i = 0; i < 9; ++i)
-    samples.push_back(Pose{truth.rvec + 1e-3 * Eigen::Vector3d(g(rng), g(rng), g(rng)),
-                           truth.tvec + 1e-3 * Eigen::Vector3d(g(rng), g(rng), g(rng))});
+    samples.push_back(
+        Pose{truth.rvec + 1e-3 * DrawVector3(g, rng), truth.tvec + 1e-3 * DrawVector3(g, rng)});
   samples.push_back(Pose{truth.rvec + Eigen::Vector3d(0.5, 0, 0), truth.tvec});  // a flip
   const RelativePoseAverage a = RobustAverage(samples, 3 * M_PI / 180, 0.05);
   EXPECT_EQ(a.inliers, 9);

@@ -5,6 +5,7 @@
 #include <random>
 
 #include "svms/marker_pose.h"
+#include "svms/random_draws.h"
 
 namespace svms::bundle {
 namespace {
@@ -74,7 +75,8 @@ std::vector<SurveyImage> SynthesiseImages(
         d.corners[k] = px;
       }
       if (!ok || (!only_ids && d.side_px() < o.min_side_px)) continue;
-      for (auto& p : d.corners) p += o.corner_sigma_px * Eigen::Vector2d(g(rng), g(rng));
+      // Vectors of draws through DrawVector*: a fixed order whatever the compiler.
+      for (auto& p : d.corners) p += o.corner_sigma_px * DrawVector2(g, rng);
       const std::array<Eigen::Vector3d, 4> corners = c.model.Corners();
       std::vector<Eigen::Vector3d> X(corners.begin(), corners.end());
       std::vector<Eigen::Vector2d> px(d.corners.begin(), d.corners.end());
@@ -87,8 +89,7 @@ std::vector<SurveyImage> SynthesiseImages(
         const Eigen::Vector3d tip = VisibleTipPoint(c.model, cam_in_marker, &fraction);
         Eigen::Vector2d t;
         if ((fraction >= 0.25 || with_tip) && camera.Project(cam_from_marker * tip, &t)) {
-          d.tip =
-              TipObservation{t + o.tip_sigma_px * Eigen::Vector2d(g(rng), g(rng)), o.tip_sigma_px};
+          d.tip = TipObservation{t + o.tip_sigma_px * DrawVector2(g, rng), o.tip_sigma_px};
           X.push_back(tip);
           px.push_back(d.tip->pixel);
           sig.push_back(o.tip_sigma_px);
@@ -145,8 +146,9 @@ SyntheticScene MakeSyntheticScene(int markers, int images, uint64_t seed) {
   for (int i = 0; i < images; ++i) {
     Eigen::Vector3d d, eye, target;
     do {
-      d = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized();
-      target = Eigen::Vector3d(0.3 * u(rng), 0.3 * u(rng), 0.5 + 0.5 * u(rng));
+      d = DrawVector3(u, rng).normalized();  // a fixed order whatever the compiler
+      const Eigen::Vector3d t = DrawVector3(u, rng);
+      target = Eigen::Vector3d(0.3 * t.x(), 0.3 * t.y(), 0.5 + 0.5 * t.z());
       const double dist = 1.5 + 1.25 * (u(rng) + 1);
       eye = target + dist * d;
     } while (d.z() < 0.4 || (eye.cwiseAbs() - half).maxCoeff() < 0.3);

@@ -10,6 +10,7 @@
 
 #include "svms/board.h"
 #include "svms/datasets.h"
+#include "svms/random_draws.h"
 
 namespace svms::calib {
 namespace {
@@ -56,8 +57,7 @@ std::vector<ViewObservations> Synthesise(const BoardViews& s, const CameraModel&
         Eigen::Vector2d q;
         if (!cam.Project(s.cam_from_board[v] * warped, &q)) break;
         if (q.x() < 0 || q.y() < 0 || q.x() > cam.width() - 1 || q.y() > cam.height() - 1) break;
-        pts.push_back(
-            PointObservation{pb, q + noise * Eigen::Vector2d(g(rng), g(rng)), 0.1, e.marker.id, k});
+        pts.push_back(PointObservation{pb, q + noise * DrawVector2(g, rng), 0.1, e.marker.id, k});
       }
       if (pts.size() == 4) {
         view.points.insert(view.points.end(), pts.begin(), pts.end());

@@ -6,6 +6,7 @@
 #include <set>
 
 #include "svms/model_io.h"
+#include "svms/random_draws.h"
 #include "svms/svms44.h"
 
 namespace svms {
@@ -105,8 +106,11 @@ Dataset Range(const DatasetOptions& o) {
       const double tilt = 5 * kDeg * std::abs(u(rng)), az = M_PI * u(rng);
       const Vec3 eye =
           D * Vec3(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az), std::cos(tilt));
-      const Vec3 target = Vec3(u(rng), u(rng), 0) * 0.05 * std::min(D, 4.0);
-      const Vec3 up(std::sin(0.3 * u(rng)), std::cos(0.3 * u(rng)), 0);
+      // Vectors of draws through DrawVector*: a fixed order whatever the compiler.
+      const Eigen::Vector2d t = DrawVector2(u, rng);
+      const Vec3 target = Vec3(t.x(), t.y(), 0) * 0.05 * std::min(D, 4.0);
+      const Eigen::Vector2d w = DrawVector2(u, rng);
+      const Vec3 up(std::sin(0.3 * w.x()), std::cos(0.3 * w.y()), 0);
       s.views.push_back(View{Name("range_", k++), LookAt(eye, target, up)});
     }
   }
@@ -209,7 +213,8 @@ Dataset Occlusion(const DatasetOptions& o) {
         patches.push_back(p);
       }
       std::uniform_real_distribution<double> u(-1, 1);
-      const Vec3 eye(0.3 * u(rng), 0.3 * u(rng), 1.6 + 0.4 * u(rng));
+      const Vec3 e = DrawVector3(u, rng);
+      const Vec3 eye(0.3 * e.x(), 0.3 * e.y(), 1.6 + 0.4 * e.z());
       View v{Name("occl_", k++), LookAt(eye, Vec3::Zero(), Vec3(u(rng), 1, 0))};
       v.occluders = patches;
       s.views.push_back(v);
@@ -282,9 +287,11 @@ Dataset Mockup(const DatasetOptions& o) {
     const Vec3 centre(0, 0, 0.3);
     const Vec3 eye =
         centre + D * Vec3(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
-    const Vec3 target = centre + 0.15 * Vec3(u(rng), u(rng), u(rng));
-    View v{Name("mockup_", i), LookAt(eye, target, Vec3(0.3 * u(rng), 0.3 * u(rng), 1))};
-    v.sun = Sunlight(25 + 30 * u01(rng), 360 * u01(rng)).sun;
+    const Vec3 target = centre + 0.15 * DrawVector3(u, rng);
+    const Eigen::Vector2d w = DrawVector2(u, rng);
+    View v{Name("mockup_", i), LookAt(eye, target, Vec3(0.3 * w.x(), 0.3 * w.y(), 1))};
+    const Eigen::Vector2d sun = DrawVector2(u01, rng);  // elevation, azimuth
+    v.sun = Sunlight(25 + 30 * sun.x(), 360 * sun.y()).sun;
     s.views.push_back(v);
   }
   d.scenes.emplace_back("", s);
@@ -316,7 +323,7 @@ Dataset Approach(const DatasetOptions& o) {
     const Vec3 side1 = dir.cross(Vec3::UnitY()).normalized(), side2 = dir.cross(side1);
     const Vec3 wobble = 0.08 * D * (std::cos(spiral) * side1 + std::sin(spiral) * side2);
     const Vec3 eye = face_centre + D * dir + wobble;
-    aim_error = 0.9 * aim_error + 0.01 * Vec3(g(rng), g(rng), g(rng));
+    aim_error = 0.9 * aim_error + 0.01 * DrawVector3(g, rng);
     const double roll = 0.4 * std::sin(2 * M_PI * f) + 0.02 * g(rng);
     View v;
     v.name = Name("approach_", i);
@@ -381,7 +388,8 @@ Dataset Calibration(const DatasetOptions& o) {
         D * Vec3(std::sin(tilt) * std::cos(az), std::sin(tilt) * std::sin(az), std::cos(tilt));
     const Pose look = LookAt(eye, Vec3::Zero(), Vec3(u(rng), 1, 0));
     // Then turn the camera so the board lands off-centre (toward the image corners).
-    const Pose turn{Vec3(0.16 * u(rng), 0.16 * u(rng), 0), Vec3::Zero()};
+    const Eigen::Vector2d t = DrawVector2(u, rng);
+    const Pose turn{Vec3(0.16 * t.x(), 0.16 * t.y(), 0), Vec3::Zero()};
     base.views.push_back(View{Name("calib_", i), turn * look});
   }
   // Then eight views that put the board into the image corners (issue 6: the views above never
@@ -428,9 +436,10 @@ Dataset Clutter(const DatasetOptions& o) {
     SceneObject ob;
     ob.name = Name("clutter_", i);
     ob.shape = u01(rng) < 0.5 ? SceneObject::Shape::kBox : SceneObject::Shape::kPlane;
-    ob.size = Vec3(0.1 + 0.7 * u01(rng), 0.1 + 0.7 * u01(rng), 0.05 + 0.5 * u01(rng));
-    ob.world_from_object.tvec = Vec3(2.5 * u(rng), 2.5 * u(rng), 0.8 * u(rng));
-    ob.world_from_object.rvec = Vec3(0.6 * u(rng), 0.6 * u(rng), M_PI * u(rng));
+    const Vec3 size = DrawVector3(u01, rng), t = DrawVector3(u, rng), r = DrawVector3(u, rng);
+    ob.size = Vec3(0.1 + 0.7 * size.x(), 0.1 + 0.7 * size.y(), 0.05 + 0.5 * size.z());
+    ob.world_from_object.tvec = Vec3(2.5 * t.x(), 2.5 * t.y(), 0.8 * t.z());
+    ob.world_from_object.rvec = Vec3(0.6 * r.x(), 0.6 * r.y(), M_PI * r.z());
     ob.material.reflectance = 0.05 + 0.8 * u01(rng);
     Pattern& p = ob.material.pattern;
     p.kind = kinds[i % 6];
@@ -444,9 +453,11 @@ Dataset Clutter(const DatasetOptions& o) {
   }
   const int n = o.quick ? 5 : 50;
   for (int i = 0; i < n; ++i) {
-    const Vec3 target(2 * u(rng), 2 * u(rng), 0.3 * u(rng));
+    const Vec3 t = DrawVector3(u, rng);
+    const Vec3 target(2 * t.x(), 2 * t.y(), 0.3 * t.z());
     const double D = 1.5 + 3 * u01(rng);
-    const Vec3 eye = target + D * Vec3(0.5 * u(rng), 0.5 * u(rng), 1).normalized();
+    const Eigen::Vector2d e = DrawVector2(u, rng);
+    const Vec3 eye = target + D * Vec3(0.5 * e.x(), 0.5 * e.y(), 1).normalized();
     s.views.push_back(View{Name("clutter_", i), LookAt(eye, target, Vec3(u(rng), 1, 0))});
   }
   d.scenes.emplace_back("", s);

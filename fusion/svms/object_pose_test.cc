@@ -6,6 +6,7 @@
 #include <random>
 
 #include "svms/datasets.h"
+#include "svms/random_draws.h"
 
 namespace svms {
 namespace {
@@ -59,8 +60,8 @@ struct Rig {
 
 void AddNoise(std::mt19937_64* rng, double sigma, double tip_sigma, MarkerObservation* o) {
   std::normal_distribution<double> g(0, 1);
-  for (auto& c : o->corners) c += sigma * Eigen::Vector2d(g(*rng), g(*rng));
-  if (o->tip) o->tip->pixel += tip_sigma * Eigen::Vector2d(g(*rng), g(*rng));
+  for (auto& c : o->corners) c += sigma * DrawVector2(g, *rng);  // fixed order (random_draws.h)
+  if (o->tip) o->tip->pixel += tip_sigma * DrawVector2(g, *rng);
 }
 
 TEST(ObjectPose, ExactObservationsGiveTheTruth) {

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <random>
 
+#include "svms/random_draws.h"
+
 namespace svms {
 namespace {
 
@@ -47,8 +49,8 @@ TEST(LayoutOverlap, SurveyNoiseOnATouchingBoardIsTolerated) {
   std::mt19937 rng(3);
   std::normal_distribution<double> mm(0, 3e-4), rad(0, 1e-3);
   for (LayoutEntry& e : l.markers) {
-    e.object_from_marker.tvec += Eigen::Vector3d(mm(rng), mm(rng), mm(rng));
-    e.object_from_marker.rvec += Eigen::Vector3d(rad(rng), rad(rng), rad(rng));
+    e.object_from_marker.tvec += DrawVector3(mm, rng);  // fixed order (random_draws.h)
+    e.object_from_marker.rvec += DrawVector3(rad, rng);
   }
   const Status s = l.Validate();
   EXPECT_TRUE(s.ok()) << s.message();

@@ -180,25 +180,27 @@ TEST(ModelIo, LayoutErrorsAreNamed) {
   ExpectError(l, {"markers: expected a non-empty array"});
   json e = entry;
   e["object_from_marker"]["tvec"] = {0, 0};
-  l["markers"] = {e};
+  // json::array, not `= {e}`: clang takes a one-element braced list for a copy of e (an object),
+  // gcc for an array of it, so the cases below tested "not an array" under clang.
+  l["markers"] = json::array({e});
   ExpectError(l, {"markers[0].object_from_marker.tvec: expected an array of 3 numbers"});
   e = entry;
   e["covariance"] = std::vector<double>(35, 0.0);
-  l["markers"] = {e};
+  l["markers"] = json::array({e});
   ExpectError(l, {"markers[0].covariance: expected an array of 36 numbers"});
   std::vector<double> cov(36, 0.0);
   cov[0] = -1;
   e["covariance"] = cov;
-  l["markers"] = {e};
+  l["markers"] = json::array({e});
   ExpectError(l, {"markers[0].covariance: expected a positive semi-definite"});
   cov[0] = 1;
   cov[1] = 0.5;
   e["covariance"] = cov;
-  l["markers"] = {e};
+  l["markers"] = json::array({e});
   ExpectError(l, {"markers[0].covariance: expected a symmetric"});
   e = entry;
   e["marker"]["size"] = -1;
-  l["markers"] = {e};
+  l["markers"] = json::array({e});
   ExpectError(l, {"markers[0].marker.size: expected a positive"});
 }
 

@@ -6,6 +6,7 @@
 
 #include "svms/datasets.h"
 #include "svms/peer_tags.h"
+#include "svms/random_draws.h"
 
 namespace svms {
 namespace {
@@ -81,8 +82,12 @@ std::vector<CompareSweep> MakeCompareSweeps(const CompareOptions& o) {
     const int per = o.quick ? 1 : 8;
     for (int p : px)
       for (int k = 0; k < per; ++k) {
-        const Pose cam = Viewpoint(f * s / p, 20 * kDeg * u01(rng), M_PI * u(rng), M_PI * u(rng),
-                                   Eigen::Vector2d(300 * u(rng), 300 * u(rng)), f);
+        // Draws in a fixed order whatever the compiler (random_draws.h): offset, roll, azimuth,
+        // tilt.
+        const Eigen::Vector2d offset = 300 * DrawVector2(u, rng);
+        const Eigen::Vector2d az_roll = M_PI * DrawVector2(u, rng);
+        const double tilt = 20 * kDeg * u01(rng);
+        const Pose cam = Viewpoint(f * s / p, tilt, az_roll.x(), az_roll.y(), offset, f);
         w.scene.views.push_back(View{Name("size_%03.0fpx_%02d", p, k), cam});
       }
     w.description = "black square (peer: outer black edge) " + std::to_string(px.front()) + " to " +
@@ -98,8 +103,9 @@ std::vector<CompareSweep> MakeCompareSweeps(const CompareOptions& o) {
     const int per = o.quick ? 1 : 6;
     for (int a : angles)
       for (int k = 0; k < per; ++k) {
-        const Pose cam = Viewpoint(f * s / 50, a * kDeg, M_PI * u(rng), M_PI * u(rng),
-                                   Eigen::Vector2d(200 * u(rng), 200 * u(rng)), f);
+        const Eigen::Vector2d offset = 200 * DrawVector2(u, rng);  // fixed order, as above
+        const Eigen::Vector2d az_roll = M_PI * DrawVector2(u, rng);
+        const Pose cam = Viewpoint(f * s / 50, a * kDeg, az_roll.x(), az_roll.y(), offset, f);
         w.scene.views.push_back(View{Name("angle_%02.0fdeg_%02d", a, k), cam});
       }
     w.description = "50 px head-on, 0 to " + std::to_string(angles.back()) +
@@ -110,8 +116,10 @@ std::vector<CompareSweep> MakeCompareSweeps(const CompareOptions& o) {
     CompareSweep w{"occlusion", "", Base(o, 3)};
     const int n = o.quick ? 4 : 80;
     for (int k = 0; k < n; ++k) {
-      const Pose cam = Viewpoint(f * s / 60, 15 * kDeg * u01(rng), M_PI * u(rng), M_PI * u(rng),
-                                 Eigen::Vector2d(150 * u(rng), 150 * u(rng)), f);
+      const Eigen::Vector2d offset = 150 * DrawVector2(u, rng);  // fixed order, as above
+      const Eigen::Vector2d az_roll = M_PI * DrawVector2(u, rng);
+      const double tilt = 15 * kDeg * u01(rng);
+      const Pose cam = Viewpoint(f * s / 60, tilt, az_roll.x(), az_roll.y(), offset, f);
       View v{Name("occl_%.0f_%04d", 60, k), cam};
       std::vector<Occluder> occ;
       if (k % 5 != 0) {  // every fifth view unoccluded
@@ -119,7 +127,8 @@ std::vector<CompareSweep> MakeCompareSweeps(const CompareOptions& o) {
         ball.shape = Occluder::Shape::kBlob;
         const double r = s * (0.1 + 0.4 * u01(rng));
         ball.size = Vec3(r, r, r);
-        ball.world_from_occluder.tvec = Vec3(s * u(rng), s * u(rng), r + 0.0025);
+        const Eigen::Vector2d c = s * DrawVector2(u, rng);
+        ball.world_from_occluder.tvec = Vec3(c.x(), c.y(), r + 0.0025);
         ball.reflectance = 0.3;
         occ.push_back(ball);
       }
