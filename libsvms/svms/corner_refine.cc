@@ -87,7 +87,7 @@ struct LineFit {
 // Weighted total least squares line through `pts`, refitted without the points farther from it
 // than max(trim_sigmas x the robust sigma of the residuals, trim_floor_px): whatever crosses a
 // side -- the post's silhouette at grazing angles, a shadow, an occluder -- moves its edge
-// points off the line by pixels, and one such stretch biases an unweighted fit by tenths of a
+// points off the line by pixels, and one such stretch biases a plain fit by tenths of a
 // pixel at the corners. The robust sigma is 1.4826 x the median absolute residual.
 LineFit FitLineRobust(const std::vector<Eigen::Vector2d>& pts, const std::vector<double>& weights,
                       const Plane& plane, const CornerRefineOptions& o) {
