@@ -6,13 +6,13 @@
 #include <utility>
 #include <vector>
 
+#include "svms/format.h"
 #include "svms/pose.h"
 #include "svms/status.h"
 
 namespace svms::cli {
 
-// `v` with `digits` decimals, fixed-point ("0.021").
-std::string Fixed(double v, int digits);
+using svms::Fixed;  // `v` with `digits` decimals (svms/format.h)
 // The p-quantile (p in [0, 1]) of `v`, linear between order statistics; NaN when empty.
 double Percentile(std::vector<double> v, double p);
 // The mean of `v`; NaN when empty.

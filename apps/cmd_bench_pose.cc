@@ -412,6 +412,7 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
                   "Corner sigma = this times the detector's line-fit sigma")
       ->capture_default_str();
   cmd->add_option("--min-corner-sigma", o->min_corner_sigma_px, "No corner sigma below this (px)")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_flag("--size-model", o->size_model,
                 "Corner sigma from the marker's size only (--corner-sigma, exponent)");

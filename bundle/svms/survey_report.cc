@@ -8,6 +8,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "svms/format.h"
+
 namespace svms::bundle {
 namespace {
 
@@ -19,14 +21,6 @@ Status Write(const std::string& path, const std::string& text) {
   f.close();
   if (!f) return Status::Error(path + ": cannot write");
   return Status::Ok();
-}
-
-std::string Fixed(double v, int digits) {
-  std::ostringstream s;
-  s.setf(std::ios::fixed);
-  s.precision(digits);
-  s << v;
-  return s.str();
 }
 
 }  // namespace
