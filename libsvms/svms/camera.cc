@@ -551,6 +551,75 @@ bool CameraModel::Project(const Eigen::Vector3d& p_cam, Eigen::Vector2d* px,
   return true;
 }
 
+namespace {
+
+// Unprojects one pixel by Newton's method on mrcal_project, in the stereographic
+// parametrisation of directions (unit focal length: u = 2 tan(theta / 2) (x, y) / |(x, y)|),
+// which covers every direction but straight back, so that wide lenses converge as well as
+// narrow ones. It starts from the stereographic unprojection through the model's core (fx,
+// fy, cx, cy), or from the optical axis for models without one.
+//
+// Why not mrcal_unproject: mrcal 2.2 runs a dogleg solver per point that allocates on the
+// heap five times per pixel, and the detector unprojects about a thousand edge points per
+// frame through non-pinhole models; the C API promises no allocation per frame. This solve
+// needs only mrcal_project's own gradient and stack memory. Returns false when it does not
+// reach max_residual_px (pixels) in 40 iterations; callers then ask mrcal_unproject.
+bool NewtonUnproject(const mrcal_lensmodel_t& lm, bool has_core, const double* intrinsics,
+                     const Eigen::Vector2d& px, double max_residual_px, Eigen::Vector3d* v_out) {
+  static const double kUnitCore[4] = {1, 1, 0, 0};
+  mrcal_point2_t u{{0, 0}};
+  if (has_core) {
+    const mrcal_point2_t q{{px.x(), px.y()}};
+    mrcal_point3_t v0;
+    mrcal_unproject_stereographic(&v0, nullptr, &q, 1, intrinsics);
+    mrcal_project_stereographic(&u, nullptr, &v0, 1, kUnitCore);
+  }
+  // Pixel residual and its Jacobian d q / d u (2x2) at u.
+  auto evaluate = [&](const mrcal_point2_t& at, mrcal_point3_t* v, Eigen::Vector2d* r,
+                      Eigen::Matrix2d* J) {
+    mrcal_point2_t dv_du[3];
+    mrcal_unproject_stereographic(v, J ? dv_du : nullptr, &at, 1, kUnitCore);
+    mrcal_point2_t q;
+    mrcal_point3_t dq_dv[2];
+    if (!mrcal_project(&q, J ? dq_dv : nullptr, nullptr, v, 1, &lm, intrinsics)) return false;
+    *r = Eigen::Vector2d(q.x - px.x(), q.y - px.y());
+    if (J) {
+      for (int i = 0; i < 2; ++i)
+        for (int j = 0; j < 2; ++j)
+          (*J)(i, j) = dq_dv[i].xyz[0] * dv_du[0].xy[j] + dq_dv[i].xyz[1] * dv_du[1].xy[j] +
+                       dq_dv[i].xyz[2] * dv_du[2].xy[j];
+    }
+    return r->allFinite() && (!J || J->allFinite());
+  };
+  mrcal_point3_t v;
+  Eigen::Vector2d r;
+  Eigen::Matrix2d J;
+  if (!evaluate(u, &v, &r, &J)) return false;
+  for (int iter = 0; iter < 40 && r.norm() > 1e-3 * max_residual_px; ++iter) {
+    const double det = J.determinant();
+    if (!(std::abs(det) > 0)) return false;
+    const Eigen::Vector2d step = -J.inverse() * r;
+    // Backtracking: halve the step until the residual shrinks.
+    double scale = 1;
+    bool improved = false;
+    for (int k = 0; k < 20 && !improved; ++k, scale *= 0.5) {
+      const mrcal_point2_t trial{{u.x + scale * step.x(), u.y + scale * step.y()}};
+      mrcal_point3_t v_trial;
+      Eigen::Vector2d r_trial;
+      if (evaluate(trial, &v_trial, &r_trial, nullptr) && r_trial.norm() < r.norm()) {
+        u = trial;
+        improved = true;
+      }
+    }
+    if (!improved || !evaluate(u, &v, &r, &J)) break;
+  }
+  if (!(r.norm() <= max_residual_px)) return false;
+  *v_out = Eigen::Vector3d(v.x, v.y, v.z);
+  return true;
+}
+
+}  // namespace
+
 bool CameraModel::UnprojectMany(const std::vector<Eigen::Vector2d>& px,
                                 std::vector<Eigen::Vector3d>* directions) const {
   assert(directions != nullptr);
@@ -559,58 +628,39 @@ bool CameraModel::UnprojectMany(const std::vector<Eigen::Vector2d>& px,
   directions->assign(count, kFailed);
   if (count == 0) return !empty();
   if (empty() || count > static_cast<std::size_t>(INT_MAX)) return false;
-  const mrcal_lensmodel_t lm = LoadLensModel(mrcal_lensmodel_.data());
-  // mrcal 2.2 cannot unproject CAHVORE (and says so on stderr at every call).
-  if (lm.type == MRCAL_LENSMODEL_CAHVORE) return false;
-  const bool can_look_back = mrcal_lensmodel_metadata(&lm).can_project_behind_camera;
-
-  // Non-finite pixels are not handed to mrcal's solver; (0, 0) stands in and is marked failed.
-  std::vector<mrcal_point2_t> q(count);
-  std::vector<bool> ok(count);
-  for (std::size_t i = 0; i < count; ++i) {
-    ok[i] = px[i].allFinite();
-    q[i].x = ok[i] ? px[i].x() : 0.0;
-    q[i].y = ok[i] ? px[i].y() : 0.0;
-  }
-  std::vector<mrcal_point3_t> v(count);
-  if (!mrcal_unproject(v.data(), q.data(), static_cast<int>(count), &lm, intrinsics_.data())) {
-    return false;
-  }
-  // mrcal 2.2 signals a solve that did not converge with NaN in v (and still returns true).
-  // A finite answer is accepted only if it projects back onto the pixel.
-  for (std::size_t i = 0; i < count; ++i) {
-    const Eigen::Vector3d d(v[i].x, v[i].y, v[i].z);
-    const double norm = d.norm();
-    if (!std::isfinite(norm) || norm == 0 || (!can_look_back && !(d.z() > 0))) ok[i] = false;
-    if (ok[i]) {
-      const Eigen::Vector3d unit = d / norm;
-      v[i] = mrcal_point3_t{{unit.x(), unit.y(), unit.z()}};
-    } else {
-      v[i] = mrcal_point3_t{{0.0, 0.0, 1.0}};  // harmless input for the check below
-    }
-  }
-  std::vector<mrcal_point2_t> back(count);
-  if (!mrcal_project(back.data(), nullptr, nullptr, v.data(), static_cast<int>(count), &lm,
-                     intrinsics_.data())) {
-    return false;
-  }
   bool all_ok = true;
   for (std::size_t i = 0; i < count; ++i) {
-    const double err = std::hypot(back[i].x - q[i].x, back[i].y - q[i].y);
-    if (ok[i] && err <= kUnprojectTolerancePx) {
-      (*directions)[i] = Eigen::Vector3d(v[i].x, v[i].y, v[i].z);
-    } else {
-      all_ok = false;
-    }
+    if (!Unproject(px[i], &(*directions)[i])) all_ok = false;
   }
   return all_ok;
 }
 
 bool CameraModel::Unproject(const Eigen::Vector2d& px, Eigen::Vector3d* direction) const {
   assert(direction != nullptr);
-  std::vector<Eigen::Vector3d> d;
-  if (!UnprojectMany({px}, &d)) return false;
-  *direction = d[0];
+  if (empty() || !px.allFinite()) return false;
+  const mrcal_lensmodel_t lm = LoadLensModel(mrcal_lensmodel_.data());
+  // mrcal 2.2 cannot unproject CAHVORE (and says so on stderr at every call).
+  if (lm.type == MRCAL_LENSMODEL_CAHVORE) return false;
+  const mrcal_lensmodel_metadata_t meta = mrcal_lensmodel_metadata(&lm);
+  Eigen::Vector3d d;
+  // Newton first (no heap), mrcal's dogleg for what it leaves.
+  if (!NewtonUnproject(lm, meta.has_core, intrinsics_.data(), px, 1e-6, &d)) {
+    const mrcal_point2_t q{{px.x(), px.y()}};
+    mrcal_point3_t v;
+    // mrcal 2.2 signals a solve that did not converge with NaN in v (and still returns true).
+    if (!mrcal_unproject(&v, &q, 1, &lm, intrinsics_.data())) return false;
+    d = Eigen::Vector3d(v.x, v.y, v.z);
+  }
+  const double norm = d.norm();
+  if (!std::isfinite(norm) || norm == 0 || (!meta.can_project_behind_camera && !(d.z() > 0)))
+    return false;
+  const Eigen::Vector3d unit = d / norm;
+  // A finite answer is accepted only if it projects back onto the pixel.
+  const mrcal_point3_t p{{unit.x(), unit.y(), unit.z()}};
+  mrcal_point2_t back;
+  if (!mrcal_project(&back, nullptr, nullptr, &p, 1, &lm, intrinsics_.data())) return false;
+  if (!(std::hypot(back.x - px.x(), back.y - px.y()) <= kUnprojectTolerancePx)) return false;
+  *direction = unit;
   return true;
 }
 

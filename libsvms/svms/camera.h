@@ -79,14 +79,15 @@ class CameraModel {
                Eigen::Matrix<double, 2, 3>* dpx_dp = nullptr,
                Eigen::Matrix<double, 2, Eigen::Dynamic>* dpx_dintrinsics = nullptr) const;
 
-  // Unprojects a pixel to a unit-length direction in the camera frame (mrcal_unproject, an
-  // iterative solve; no gradients). Returns false (output untouched) for an empty model, a
-  // non-finite pixel, CAHVORE (mrcal 2.2 cannot unproject it), or when mrcal's solve fails:
-  // mrcal 2.2 reports that by returning NaN rather than false, and we also require the
-  // direction to project back to within kUnprojectTolerancePx of the pixel.
+  // Unprojects a pixel to a unit-length direction in the camera frame: Newton's method on
+  // mrcal_project (its own gradients, no heap allocation), with mrcal_unproject for the rare
+  // pixel where that does not converge. Returns false (output untouched) for an empty model, a
+  // non-finite pixel, CAHVORE (mrcal 2.2 cannot unproject it), a direction behind a camera
+  // that cannot see there, or when no solve gets back to within kUnprojectTolerancePx of the
+  // pixel (pixels).
   bool Unproject(const Eigen::Vector2d& px, Eigen::Vector3d* direction) const;
 
-  // Unprojects many pixels in one mrcal call (directions normalized, as Unproject). Returns
+  // Unproject for each pixel (the same directions, bit for bit). Returns
   // false if any pixel fails; *directions always gets px.size() entries, NaN where one failed.
   bool UnprojectMany(const std::vector<Eigen::Vector2d>& px,
                      std::vector<Eigen::Vector3d>* directions) const;
