@@ -2,9 +2,8 @@
 // executable (operator new goes through malloc in libstdc++, OpenCV's fastMalloc through
 // posix_memalign or malloc). Usage: svms_capi_alloc_test FIXTURE_DIR.
 //
-// What it checks (issue 8 asks for no allocation at all after the first frames; see
-// docs/flight-interface.md for where that stands): after warm-up, every frame makes the same
-// number of allocations and frees them all (no growth, no leak), within the recorded bound.
+// What it checks (issue 8: no allocation at all after the first frames): after warm-up on a
+// fixture frame, 8-bit and 16-bit, every svms_process_frame makes no heap allocation at all.
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
@@ -79,14 +78,21 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "svms_create: %s\n", svms_last_error());
     return 1;
   }
+  // The same frame as 16-bit (scaled to 12 bits, as a machine-vision camera's).
+  std::vector<uint16_t> frame16(frame.size());
+  for (size_t i = 0; i < frame.size(); ++i) frame16[i] = static_cast<uint16_t>(frame[i] * 16);
   svms_pose pose;
-  for (int i = 0; i < 5; ++i) svms_process_frame(e, frame.data(), 1024, 1024, 1024, i, &pose);
+  auto process = [&](int i) {
+    return i % 2 == 0 ? svms_process_frame(e, frame.data(), 1024, 1024, 1024, i, &pose)
+                      : svms_process_frame_u16(e, frame16.data(), 1024, 1024, 2048, i, &pose);
+  };
+  for (int i = 0; i < 6; ++i) process(i);
   std::vector<long> per_frame, unfreed;
   for (int i = 0; i < 20; ++i) {
     allocations = 0;
     frees = 0;
     counting = true;
-    const svms_status s = svms_process_frame(e, frame.data(), 1024, 1024, 1024, i, &pose);
+    const svms_status s = process(i);
     counting = false;
     if (s != SVMS_OK || !pose.valid) {
       std::fprintf(stderr, "frame %d: %s %s\n", i, svms_status_string(s), svms_last_error());
@@ -103,16 +109,11 @@ int main(int argc, char** argv) {
     leaked += unfreed[i];
   }
   std::printf(
-      "svms_capi_alloc_test: %ld-%ld heap allocations per frame after warm-up, %ld not freed over "
-      "20 frames\n",
+      "svms_capi_alloc_test: %ld-%ld heap allocations per frame after warm-up (8- and 16-bit), "
+      "%ld not freed over 20 frames\n",
       lo, hi, leaked);
-  // The recorded bound (see the header comment): fails if a change adds allocations per frame.
-  const long kBound = SVMS_ALLOC_BOUND;
   int failed = 0;
-  if (hi != lo)
-    std::fprintf(stderr, "FAIL: allocations differ between identical frames\n"), failed = 1;
   if (leaked != 0) std::fprintf(stderr, "FAIL: %ld allocations not freed\n", leaked), failed = 1;
-  if (hi > kBound)
-    std::fprintf(stderr, "FAIL: %ld allocations per frame, bound %ld\n", hi, kBound), failed = 1;
+  if (hi > 0) std::fprintf(stderr, "FAIL: up to %ld heap allocations per frame\n", hi), failed = 1;
   return failed;
 }

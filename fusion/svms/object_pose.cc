@@ -14,9 +14,15 @@
 namespace svms {
 namespace {
 
-using Mat26 = Eigen::Matrix<double, 2, 6>;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 using Mat6 = Eigen::Matrix<double, 6, 6>;
+// A marker has at most 5 points (4 corners and a tip), 10 residuals: every per-marker matrix
+// has that bound at compile time and lives on the stack (no heap allocation per frame).
+constexpr int kMaxPoints = 5, kMaxRows = 2 * kMaxPoints;
+using VecR = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxRows, 1>;
+using MatR6 = Eigen::Matrix<double, Eigen::Dynamic, 6, 0, kMaxRows, 6>;
+using MatR7 = Eigen::Matrix<double, Eigen::Dynamic, 7, 0, kMaxRows, 7>;
+using MatRR = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxRows, kMaxRows>;
 
 Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
   Eigen::Matrix3d S;
@@ -58,14 +64,24 @@ struct Point {
   int index = 0;  // 0-3 the corners, 4 the tip
 };
 
+// The points of one marker (at most kMaxPoints), in a fixed array.
+struct Points {
+  std::array<Point, kMaxPoints> p;
+  int n = 0;
+  size_t size() const { return static_cast<size_t>(n); }
+  void clear() { n = 0; }
+  void push_back(const Point& q) { p[n++] = q; }
+  const Point& operator[](size_t i) const { return p[i]; }
+};
+
 struct Block {
-  const MarkerObservation* obs;
-  std::vector<Point> points;
-  Eigen::Matrix3d R_om;  // object_from_marker rotation
-  Eigen::Vector3d t_om;
-  Eigen::MatrixXd L_inv;            // inverse Cholesky factor of the marker's residual covariance
-  std::vector<double> total_sigma;  // per point: pixel and layout noise, RMS per axis
-  double weight = 1;                // robust weight of the iteration
+  const MarkerObservation* obs = nullptr;
+  Points points;
+  Eigen::Matrix3d R_om = Eigen::Matrix3d::Identity();  // object_from_marker rotation
+  Eigen::Vector3d t_om = Eigen::Vector3d::Zero();
+  MatRR L_inv;  // inverse Cholesky factor of the marker's residual covariance
+  std::array<double, kMaxPoints> total_sigma{};  // per point: pixel and layout noise, RMS per axis
+  double weight = 1;                             // robust weight of the iteration
   bool active = true;
   std::array<bool, 5> dropped{};  // points left out as outliers (corners 0-3, tip 4)
 };
@@ -105,8 +121,7 @@ void UpdatePoints(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
 // (left perturbation, camera axes) for one marker; also d pixel / d layout (the marker's
 // object_from_marker, left perturbation in object axes, then the post height: 7 columns).
 bool Evaluate(const CameraModel& camera, const Block& b, const Eigen::Matrix3d& R,
-              const Eigen::Vector3d& t, Eigen::VectorXd* r, Eigen::MatrixXd* J,
-              Eigen::MatrixXd* J_layout) {
+              const Eigen::Vector3d& t, VecR* r, MatR6* J, MatR7* J_layout) {
   const int n = static_cast<int>(b.points.size());
   r->resize(2 * n);
   J->resize(2 * n, 6);
@@ -134,11 +149,12 @@ bool Evaluate(const CameraModel& camera, const Block& b, const Eigen::Matrix3d& 
 // The whitening factor of one marker at the current pose: R_m = diag(sigma^2) + J_L S J_L^T.
 bool Whitening(const CameraModel& camera, Block* b, const Eigen::Matrix3d& R,
                const Eigen::Vector3d& t, const ObjectPoseOptions& o) {
-  Eigen::VectorXd r;
-  Eigen::MatrixXd J, JL;
+  VecR r;
+  MatR6 J;
+  MatR7 JL;
   if (!Evaluate(camera, *b, R, t, &r, &J, &JL)) return false;
   const int n = static_cast<int>(b->points.size());
-  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(2 * n, 2 * n);
+  MatRR C = MatRR::Zero(2 * n, 2 * n);
   for (int i = 0; i < n; ++i)
     C.block<2, 2>(2 * i, 2 * i).diagonal().setConstant(b->points[i].sigma * b->points[i].sigma);
   if (o.use_layout_covariance) {
@@ -148,12 +164,11 @@ bool Whitening(const CameraModel& camera, Block* b, const Eigen::Matrix3d& R,
       S(6, 6) = *b->obs->post_height_sigma * *b->obs->post_height_sigma;
     C += JL * S * JL.transpose();
   }
-  b->total_sigma.resize(n);
   for (int i = 0; i < n; ++i)
     b->total_sigma[i] = std::sqrt(0.5 * C.block<2, 2>(2 * i, 2 * i).trace());
-  Eigen::LLT<Eigen::MatrixXd> llt(C);
+  Eigen::LLT<MatRR> llt(C);
   if (llt.info() != Eigen::Success) return false;
-  b->L_inv = llt.matrixL().solve(Eigen::MatrixXd::Identity(2 * n, 2 * n));
+  b->L_inv = llt.matrixL().solve(MatRR::Identity(2 * n, 2 * n));
   return true;
 }
 
@@ -168,13 +183,23 @@ double CornerSigma(const ObjectPoseOptions& o, double side_px) {
 std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Detection>& detections,
                                                           const Layout& layout) {
   std::vector<MarkerObservation> out;
+  ObservationsFromDetections(detections, layout, &out);
+  return out;
+}
+
+void ObservationsFromDetections(const std::vector<Detection>& detections, const Layout& layout,
+                                std::vector<MarkerObservation>* observations) {
+  std::vector<MarkerObservation>& out = *observations;
+  out.clear();
   // Outer markers first, so that a shared post's tip is the outer marker's (a bigger marker
   // predicts it better).
-  std::vector<const Detection*> order;
-  for (const Detection& d : detections) order.push_back(&d);
-  std::stable_sort(order.begin(), order.end(), [](const Detection* a, const Detection* b) {
-    return (a->nested_in >= 0) < (b->nested_in >= 0);
-  });
+  thread_local std::vector<const Detection*> order;
+  order.clear();
+  // (Two passes rather than std::stable_sort, which allocates a buffer on every call.)
+  for (const Detection& d : detections)
+    if (d.nested_in < 0) order.push_back(&d);
+  for (const Detection& d : detections)
+    if (d.nested_in >= 0) order.push_back(&d);
   for (const Detection* d : order) {
     for (size_t e = 0; e < layout.markers.size(); ++e) {
       const LayoutEntry& entry = layout.markers[e];
@@ -215,18 +240,37 @@ std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Dete
       break;
     }
   }
-  return out;
 }
 
 ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
                            const ObjectPoseOptions& o) {
   ObjectPose result;
+  SolveObjectPose(camera, obs, o, &result);
+  return result;
+}
+
+void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
+                     const ObjectPoseOptions& o, ObjectPose* out) {
+  // A fresh result that keeps the capacity of *out's vectors and message.
+  std::vector<int> ids_used = std::move(out->ids_used), ids_rejected = std::move(out->ids_rejected);
+  std::string message = std::move(out->message);
+  *out = ObjectPose{};
+  ObjectPose& result = *out;
+  result.ids_used = std::move(ids_used);
+  result.ids_used.clear();
+  result.ids_rejected = std::move(ids_rejected);
+  result.ids_rejected.clear();
+  result.message = std::move(message);
+  result.message.clear();
+
   result.markers_seen = static_cast<int>(obs.size());
   if (obs.empty()) {
     result.message = "no marker of the layout detected";
-    return result;
+    return;
   }
-  std::vector<Block> blocks(obs.size());
+  thread_local std::vector<Block> blocks, trial;
+  blocks.resize(obs.size());
+  for (Block& b : blocks) b = Block{};
   for (size_t i = 0; i < obs.size(); ++i) {
     blocks[i].obs = &obs[i];
     blocks[i].R_om = obs[i].object_from_marker.Rotation();
@@ -244,8 +288,8 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
     double cost = 0;
     for (Block& b : blocks) {
       UpdatePoints(&b, Rc, candidate.tvec, o);
-      Eigen::VectorXd r;
-      Eigen::MatrixXd J;
+      VecR r;
+      MatR6 J;
       if (!Evaluate(camera, b, Rc, candidate.tvec, &r, &J, nullptr)) {
         cost += 1e6;
         continue;
@@ -263,7 +307,7 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
   }
   if (!std::isfinite(best)) {
     result.message = "no detected marker has a single-marker pose to start from";
-    return result;
+    return;
   }
 
   // 2. Gauss-Newton with per-marker whitening and Cauchy weights.
@@ -287,14 +331,14 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
             continue;
           }
         }
-        Eigen::VectorXd r;
-        Eigen::MatrixXd J;
+        VecR r;
+        MatR6 J;
         if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) {
           b.active = false;
           continue;
         }
-        const Eigen::VectorXd wr = b.L_inv * r;
-        const Eigen::MatrixXd wJ = b.L_inv * J;
+        const VecR wr = b.L_inv * r;
+        const MatR6 wJ = b.L_inv * J;
         const double norm = std::sqrt(wr.squaredNorm() / static_cast<double>(r.size()));
         b.weight = 1.0 / (1.0 + (norm / o.robust_k) * (norm / o.robust_k));  // Cauchy
         H += b.weight * wJ.transpose() * wJ;
@@ -312,8 +356,8 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
   // Chi-square of a block over its quantile (> 1: inconsistent), and its worst point in sigmas.
   auto excess = [&](const Block& b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
                     int* worst_point, double* worst_norm) {
-    Eigen::VectorXd r;
-    Eigen::MatrixXd J;
+    VecR r;
+    MatR6 J;
     *worst_point = -1;
     *worst_norm = 0;
     if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) return std::numeric_limits<double>::infinity();
@@ -360,7 +404,7 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
       double norm;
       excess(b, R, t, &point, &norm);
       if (b.points.size() > 3 && point >= 0) {
-        std::vector<Block> trial = blocks;
+        trial = blocks;
         trial[worst_marker].dropped[point] = true;
         Eigen::Matrix3d R2 = R;
         Eigen::Vector3d t2 = t;
@@ -396,10 +440,10 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
     if (!b.active) continue;
     UpdatePoints(&b, R, t, o);
     if (!Whitening(camera, &b, R, t, o)) continue;
-    Eigen::VectorXd r;
-    Eigen::MatrixXd J;
+    VecR r;
+    MatR6 J;
     if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) continue;
-    const Eigen::MatrixXd wJ = b.L_inv * J;
+    const MatR6 wJ = b.L_inv * J;
     H += wJ.transpose() * wJ;
     ss += r.squaredNorm();
     chi2 += (b.L_inv * r).squaredNorm();
@@ -411,12 +455,12 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
   result.points_used = points;
   if (result.markers_used == 0 || points < 3) {
     result.message = "no marker left after rejection";
-    return result;
+    return;
   }
   Eigen::FullPivLU<Mat6> lu(H);
   if (lu.rank() < 6) {
     result.message = "the pose is not determined (rank " + std::to_string(lu.rank()) + " of 6)";
-    return result;
+    return;
   }
   result.covariance = lu.inverse();
   result.covariance = 0.5 * (result.covariance + result.covariance.transpose()).eval();
@@ -439,7 +483,6 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
                               trans_sigma > o.max_translation_sigma_fraction * t.norm();
   result.valid = result.covariance.allFinite() && result.cam_from_object.tvec.allFinite();
   if (!result.valid) result.message = "the solve gave non-finite numbers";
-  return result;
 }
 
 Eigen::Matrix<double, 6, 1> PoseError(const Pose& truth, const Pose& estimate) {

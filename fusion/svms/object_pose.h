@@ -110,6 +110,9 @@ struct ObjectPose {
 // as the inner marker of a dual entry). A post seen by both markers of a dual gives one tip.
 std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Detection>& detections,
                                                           const Layout& layout);
+// The same into *observations (replaced; its capacity is reused, no allocation once grown).
+void ObservationsFromDetections(const std::vector<Detection>& detections, const Layout& layout,
+                                std::vector<MarkerObservation>* observations);
 
 // The corner sigma the size model gives a marker of `side_px` pixels.
 double CornerSigma(const ObjectPoseOptions& options, double side_px);
@@ -118,6 +121,11 @@ double CornerSigma(const ObjectPoseOptions& options, double side_px);
 // (no observation, the camera cannot project, a singular problem).
 ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
                            const ObjectPoseOptions& options);
+// The same into *pose (replaced). The capacity of its vectors and message is reused, and the
+// solver's own buffers are kept per thread, so that a warmed-up call on a valid frame makes no
+// heap allocation.
+void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
+                     const ObjectPoseOptions& options, ObjectPose* pose);
 
 // The error of `estimate` against `truth` in the covariance's coordinates:
 // [log(R_truth R_est^T), t_truth - t_est] (radians about camera axes, metres).

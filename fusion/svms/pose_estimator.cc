@@ -69,12 +69,13 @@ void PoseEstimator::Estimate(const cv::Mat& image, double timestamp, FrameResult
           ? t0 + std::chrono::duration_cast<Clock::duration>(
                      std::chrono::duration<double, std::milli>(options_.budget_ms))
           : Clock::time_point::max();
-  out->detections = detector_.Detect(image, &stats, deadline);
+  detector_.Detect(image, &stats, deadline, &out->detections);
   const auto t1 = Clock::now();
   out->detect_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
   out->budget_exceeded = stats.budget_exceeded;
-  const std::vector<MarkerObservation> obs = ObservationsFromDetections(out->detections, layout_);
-  out->pose = SolveObjectPose(camera_, obs, options_.fusion);
+  thread_local std::vector<MarkerObservation> obs;  // no allocation per frame once grown
+  ObservationsFromDetections(out->detections, layout_, &obs);
+  SolveObjectPose(camera_, obs, options_.fusion, &out->pose);
   out->latency_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 

@@ -77,6 +77,17 @@ struct Plane {
   }
 };
 
+// Buffers of RefineCorners, kept per thread between calls (no allocation once grown).
+struct RefineScratch {
+  std::vector<double> line, weights, residual, abs_inliers;
+  std::vector<Eigen::Vector2d> pts;
+  std::vector<char> use;
+};
+RefineScratch& Scratch() {
+  thread_local RefineScratch scratch;
+  return scratch;
+}
+
 // A side's line in the fitting plane, a x + b y + c = 0 with (a, b) a unit normal.
 struct LineFit {
   Eigen::Vector3d line = Eigen::Vector3d::Zero();
@@ -91,7 +102,9 @@ struct LineFit {
 // pixel at the corners. The robust sigma is 1.4826 x the median absolute residual.
 LineFit FitLineRobust(const std::vector<Eigen::Vector2d>& pts, const std::vector<double>& weights,
                       const Plane& plane, const CornerRefineOptions& o) {
-  std::vector<char> use(pts.size(), 1);
+  RefineScratch& sc = Scratch();
+  std::vector<char>& use = sc.use;
+  use.assign(pts.size(), 1);
   LineFit fit;
   double px_per_unit = 1;
   for (int pass = 0; pass <= o.trim_passes; ++pass) {
@@ -114,7 +127,9 @@ LineFit FitLineRobust(const std::vector<Eigen::Vector2d>& pts, const std::vector
       if (plane.ToPixel(mean, &p0) && plane.ToPixel(mean + 1e-3 * nrm, &p1))
         px_per_unit = (p1 - p0).norm() / 1e-3;
     }
-    std::vector<double> r(pts.size()), abs_in;
+    std::vector<double>&r = sc.residual, &abs_in = sc.abs_inliers;
+    r.resize(pts.size());
+    abs_in.clear();
     double ss = 0;
     fit.inliers = 0;
     for (size_t i = 0; i < pts.size(); ++i) {
@@ -159,9 +174,11 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
   out.corners = in;
   const Sampler sample(img);
   const int steps = static_cast<int>(std::ceil(o.search_px / 0.5));
-  std::vector<double> line(2 * steps + 3);
-  std::vector<Eigen::Vector2d> pts;
-  std::vector<double> weights;
+  RefineScratch& sc = Scratch();
+  std::vector<double>& line = sc.line;
+  line.resize(2 * steps + 3);
+  std::vector<Eigen::Vector2d>& pts = sc.pts;
+  std::vector<double>& weights = sc.weights;
   // A pinhole camera maps straight sides to straight lines: fit in pixels, no unprojection.
   const bool pinhole = camera && camera->lensmodel() == "LENSMODEL_PINHOLE";
   const Plane plane{pinhole ? nullptr : camera};

@@ -17,16 +17,34 @@ double Ms(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
 }
 
-// The homography from the marker plane of a unit marker (black square of side 1) to pixels.
+// The homography from the marker plane of a unit marker (black square of side 1) to pixels,
+// with h33 = 1: the 8x8 system cv::getPerspectiveTransform solves, solved here on the stack
+// (OpenCV's allocates its matrices on the heap, 16 times a frame).
 Eigen::Matrix3d UnitHomography(const std::array<Eigen::Vector2d, 4>& q) {
-  std::vector<cv::Point2f> src{{-0.5f, 0.5f}, {0.5f, 0.5f}, {0.5f, -0.5f}, {-0.5f, -0.5f}}, dst;
-  for (const auto& p : q) dst.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
-  const cv::Mat H = cv::getPerspectiveTransform(src, dst);
-  Eigen::Matrix3d h;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) h(i, j) = H.at<double>(i, j);
-  return h;
+  static const double src[4][2] = {{-0.5, 0.5}, {0.5, 0.5}, {0.5, -0.5}, {-0.5, -0.5}};
+  Eigen::Matrix<double, 8, 8> A = Eigen::Matrix<double, 8, 8>::Zero();
+  Eigen::Matrix<double, 8, 1> b;
+  for (int i = 0; i < 4; ++i) {
+    const double x = src[i][0], y = src[i][1], u = q[i].x(), v = q[i].y();
+    A.row(i) << x, y, 1, 0, 0, 0, -x * u, -y * u;
+    A.row(i + 4) << 0, 0, 0, x, y, 1, -x * v, -y * v;
+    b(i) = u;
+    b(i + 4) = v;
+  }
+  const Eigen::Matrix<double, 8, 1> h = A.partialPivLu().solve(b);
+  Eigen::Matrix3d H;
+  H << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), 1;
+  return H;
 }
+
+// Buffers of Detect, kept per thread between calls (no allocation once grown).
+struct DetectScratch {
+  cv::Mat gray, gray8, gx, gy;
+  std::vector<Segment> segments;
+  std::vector<Quad> quads;
+  std::vector<Detection> decoded, accepted;
+  std::vector<ExcludedRegion> excluded;
+};
 
 bool Inside(const Eigen::Vector2d& p, const std::array<Eigen::Vector2d, 4>& q) {
   for (int k = 0; k < 4; ++k) {
@@ -62,49 +80,67 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
 
 std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* stats_out,
                                         Clock::time_point deadline) const {
+  std::vector<Detection> result;
+  Detect(input, stats_out, deadline, &result);
+  return result;
+}
+
+void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::time_point deadline,
+                      std::vector<Detection>* detections) const {
+  thread_local DetectScratch sc;
   DetectionStats stats;
   const DetectorOptions& o = options_;
-  std::vector<Detection> out;
+  std::vector<Detection>& result = *detections;
+  result.clear();
+  std::vector<Detection>& out = sc.decoded;
+  out.clear();
+  if (stats_out) *stats_out = stats;
   // Other channel counts (2, 5+) are not images we know how to read: no detections.
   if (input.empty() || (input.channels() != 1 && input.channels() != 3 && input.channels() != 4))
-    return out;
+    return;
   // 0. One 8-bit grey image (16-bit scaled to its used range, colour converted; other depths
   // through 32-bit float, which cvtColor accepts, then saturated to 8 bits).
-  cv::Mat gray, source = input;
+  // An 8-bit grey image is used in place; conversions go to this thread's buffer.
+  cv::Mat gray = input, source = input;
   if (input.depth() != CV_8U && input.depth() != CV_16U && input.depth() != CV_32F)
     input.convertTo(source, CV_32F);
   if (source.channels() == 3) {
-    cv::cvtColor(source, gray, cv::COLOR_BGR2GRAY);
+    cv::cvtColor(source, sc.gray, cv::COLOR_BGR2GRAY);
+    gray = sc.gray;
   } else if (source.channels() == 4) {
-    cv::cvtColor(source, gray, cv::COLOR_BGRA2GRAY);
+    cv::cvtColor(source, sc.gray, cv::COLOR_BGRA2GRAY);
+    gray = sc.gray;
   } else {
     gray = source;
   }
   if (gray.depth() == CV_16U) {
     double mx;
     cv::minMaxLoc(gray, nullptr, &mx);
-    gray.convertTo(gray, CV_8U, mx > 0 ? 255.0 / mx : 1.0);
+    gray.convertTo(sc.gray8, CV_8U, mx > 0 ? 255.0 / mx : 1.0);
+    gray = sc.gray8;
   } else if (gray.depth() != CV_8U) {
-    gray.convertTo(gray, CV_8U);
+    gray.convertTo(sc.gray8, CV_8U);
+    gray = sc.gray8;
   }
-  if (gray.cols < 8 || gray.rows < 8) return out;
+  if (gray.cols < 8 || gray.rows < 8) return;
 
   // 1-3. Edges, chains, segments.
   auto t0 = Clock::now();
-  cv::Mat gx, gy;
-  const std::vector<Segment> segs = FindSegments(gray, o.segments, &gx, &gy);
+  std::vector<Segment>& segs = sc.segments;
+  FindSegments(gray, o.segments, &sc.gx, &sc.gy, &segs);
   stats.segments = static_cast<int>(segs.size());
   auto t1 = Clock::now();
   stats.ms[0] = Ms(t0, t1);
 
   // 4. Quads.
-  const std::vector<Quad> quads = FindQuads(segs, o.quads, gray.cols, gray.rows);
+  std::vector<Quad>& quads = sc.quads;
+  FindQuads(segs, o.quads, gray.cols, gray.rows, &quads);
   stats.quads = static_cast<int>(quads.size());
   auto t2 = Clock::now();
   stats.ms[1] = Ms(t1, t2);
 
   // 5-7. Homography, bits, decoding.
-  const MarkerModel unit = MarkerModel::Standard(0, 1.0, 0);
+  static const MarkerModel unit = MarkerModel::Standard(0, 1.0, 0);
   const bool has_deadline = deadline != Clock::time_point::max();
   auto out_of_time = [&](size_t i) {
     if (!has_deadline || i % 8 != 0 || Clock::now() < deadline) return false;
@@ -154,7 +190,8 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
   stats.ms[3] = Ms(t3, t4);
 
   // 9-10. Tip and pose; graded acceptance of large corrections.
-  std::vector<Detection> accepted;
+  std::vector<Detection>& accepted = sc.accepted;
+  accepted.clear();
   for (Detection& d : out) {
     if (has_deadline && Clock::now() >= deadline) {
       stats.budget_exceeded = true;  // only fully processed markers are reported
@@ -177,7 +214,8 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
           post =
               PostSilhouette(it->second, camera_, mp.cam_from_marker, o.post_silhouette_margin_px);
         if (post && RegionTouchesSides(*post, d.corners)) {
-          const RefinedCorners r = RefineCorners(gray, d.corners, cam, o.refine, {*post});
+          sc.excluded.assign(1, *post);
+          const RefinedCorners r = RefineCorners(gray, d.corners, cam, o.refine, sc.excluded);
           MarkerPose again;
           // Kept only if the sides fit better without those points: on a short side (a small
           // marker at a grazing angle) the post may hide most of it, and the few points left
@@ -215,7 +253,6 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
   stats.ms[4] = Ms(t4, t5);
 
   // 11. Duplicates (the same marker from two quads) and nesting.
-  std::vector<Detection> result;
   for (const Detection& d : accepted) {
     bool dup = false;
     for (Detection& r : result) {
@@ -258,7 +295,6 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
     cv::imwrite(o.debug_dir + "/2_quads.png", dbg);
   }
   if (stats_out) *stats_out = stats;
-  return result;
 }
 
 }  // namespace svms

@@ -10,7 +10,10 @@
 //   9-10 post tip and pose                             (marker_pose.h)
 //   10b  sides refitted clear of the post's silhouette, pose again (grazing views)
 //   11   nesting of dual markers, duplicates removed
-// Safe to use one Detector per thread; Detect() is const and allocates only its own results.
+// Safe to use one Detector per thread; Detect() is const. Its working buffers are kept per
+// thread (thread_local, grown to the largest image the thread has seen), so that the Detect
+// overload with an output vector allocates nothing on the heap once a thread has warmed up on
+// images of its size (docs/flight-interface.md; capi_alloc_test counts).
 #pragma once
 
 #include <Eigen/Core>
@@ -91,6 +94,13 @@ class Detector {
   // markers that went through every step before it are returned.
   std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats,
                                 std::chrono::steady_clock::time_point deadline) const;
+  // The same into *detections (replaced), whose capacity is reused: with one vector kept by
+  // the caller, an 8-bit single-channel image and a camera that is pinhole or one of mrcal's
+  // models with gradients, a warmed-up call makes no heap allocation (other depths and colour
+  // images are converted into a new buffer).
+  void Detect(const cv::Mat& image, DetectionStats* stats,
+              std::chrono::steady_clock::time_point deadline,
+              std::vector<Detection>* detections) const;
 
   const DetectorOptions& options() const { return options_; }
 

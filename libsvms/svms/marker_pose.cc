@@ -2,9 +2,10 @@
 
 #include <Eigen/Dense>
 #include <cmath>
-#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
 
 #include "svms/corner_refine.h"
+#include "svms/ippe.h"
 
 namespace svms {
 namespace {
@@ -13,6 +14,19 @@ Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
   Eigen::Matrix3d m;
   m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
   return m;
+}
+
+// Buffers kept per thread between calls (no allocation once grown; the C API's promise).
+struct PoseScratch {
+  std::vector<std::pair<int, int>> stack, blob;  // FindTip's flood fill
+  std::vector<uint8_t> seen;
+  std::vector<Eigen::Vector3d> X;  // EstimateMarkerPose's points, pixels and sigmas
+  std::vector<Eigen::Vector2d> px;
+  std::vector<double> sigma;
+};
+PoseScratch& Scratch() {
+  thread_local PoseScratch scratch;
+  return scratch;
 }
 
 }  // namespace
@@ -45,8 +59,12 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
     }
   if (bx < 0 || at(by, bx) - black < min_contrast * (white - black)) return std::nullopt;
   // Flood the connected bright region from the seed (bounded by the window).
-  std::vector<std::pair<int, int>> stack{{bx, by}}, blob;
-  std::vector<uint8_t> seen((x1 - x0 + 1) * (y1 - y0 + 1), 0);
+  PoseScratch& sc = Scratch();
+  std::vector<std::pair<int, int>>&stack = sc.stack, &blob = sc.blob;
+  stack.assign(1, {bx, by});
+  blob.clear();
+  std::vector<uint8_t>& seen = sc.seen;
+  seen.assign(static_cast<size_t>(x1 - x0 + 1) * (y1 - y0 + 1), 0);
   const double local_thr = std::min(thr, black + 0.5 * (at(by, bx) - black));
   while (!stack.empty()) {
     auto [x, y] = stack.back();
@@ -162,23 +180,16 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
                         const MarkerModel& model, const CameraModel& camera, double black,
                         double white, const MarkerPoseOptions& o, MarkerPose* out,
                         const std::array<double, 4>& corner_sigma) {
-  // Both planar solutions, from the undistorted corners (identity intrinsics).
-  std::vector<cv::Point2d> normalized;
-  for (const auto& c : corners) {
+  // Both planar solutions (IPPE, as OpenCV's SOLVEPNP_IPPE_SQUARE; ippe.h), from the corners
+  // on the z = 1 plane.
+  std::array<Eigen::Vector2d, 4> normalized;
+  for (int k = 0; k < 4; ++k) {
     Eigen::Vector3d d;
-    if (!camera.Unproject(c, &d) || d.z() <= 0) return false;
-    normalized.emplace_back(d.x() / d.z(), d.y() / d.z());
+    if (!camera.Unproject(corners[k], &d) || d.z() <= 0) return false;
+    normalized[k] = d.head<2>() / d.z();
   }
-  std::vector<cv::Point3d> object;
-  for (const auto& c : model.Corners()) object.emplace_back(c.x(), c.y(), c.z());
-  std::vector<cv::Mat> rvecs, tvecs;
-  try {
-    cv::solvePnPGeneric(object, normalized, cv::Matx33d::eye(), cv::noArray(), rvecs, tvecs, false,
-                        cv::SOLVEPNP_IPPE_SQUARE);
-  } catch (const cv::Exception&) {
-    return false;
-  }
-  if (rvecs.empty()) return false;
+  std::array<PlanarPoseCandidate, 2> ippe;
+  if (!SolveSquareIppe(normalized, model.size, &ippe)) return false;
   const double side_px =
       0.25 * ((corners[1] - corners[0]).norm() + (corners[2] - corners[1]).norm() +
               (corners[3] - corners[2]).norm() + (corners[0] - corners[3]).norm());
@@ -187,13 +198,18 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
     std::optional<TipObservation> tip;
     double tip_error = 1e300;
   };
-  std::vector<Candidate> cands;
-  for (size_t s = 0; s < rvecs.size(); ++s) {
+  // At most two candidates, in a fixed array (no allocation per frame).
+  struct Candidates {
+    std::array<Candidate, 2> c;
+    size_t n = 0;
+    size_t size() const { return n; }
+    bool empty() const { return n == 0; }
+    void push_back(const Candidate& x) { c[n++] = x; }
+    const Candidate& operator[](size_t i) const { return c[i]; }
+  } cands;
+  for (const PlanarPoseCandidate& solution : ippe) {
     Candidate c;
-    c.pose.rvec =
-        Eigen::Vector3d(rvecs[s].at<double>(0), rvecs[s].at<double>(1), rvecs[s].at<double>(2));
-    c.pose.tvec =
-        Eigen::Vector3d(tvecs[s].at<double>(0), tvecs[s].at<double>(1), tvecs[s].at<double>(2));
+    c.pose = Pose::FromRotation(solution.cam_from_marker_R, solution.cam_from_marker_t);
     if (c.pose.tvec.z() <= 0) continue;
     // The tip is looked for only where it can be told from the marker's own print: a white
     // top of at least tip_min_radius_px, searched no farther than 60 % of the way to the edge
@@ -221,9 +237,13 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
     if (cands[s].tip_error < cands[pick].tip_error) pick = s;
   const bool have_tip = cands[pick].tip.has_value();
   out->ambiguous = !have_tip && cands.size() > 1;
-  std::vector<Eigen::Vector3d> X;
-  std::vector<Eigen::Vector2d> px;
-  std::vector<double> sig;
+  PoseScratch& sc = Scratch();
+  std::vector<Eigen::Vector3d>& X = sc.X;
+  std::vector<Eigen::Vector2d>& px = sc.px;
+  std::vector<double>& sig = sc.sigma;
+  X.clear();
+  px.clear();
+  sig.clear();
   for (int k = 0; k < 4; ++k) {
     X.push_back(model.Corners()[k]);
     px.push_back(corners[k]);

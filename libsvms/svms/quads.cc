@@ -3,7 +3,8 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <unordered_map>
+#include <cstdint>
+#include <limits>
 
 namespace svms {
 namespace {
@@ -33,35 +34,58 @@ bool Intersect(const Eigen::Vector3d& l1, const Eigen::Vector3d& l2, Eigen::Vect
   return true;
 }
 
+namespace {
+
+// Buffers of FindQuads, kept per thread between calls (no allocation once grown).
+struct QuadScratch {
+  std::vector<std::pair<int64_t, int>> starts;  // (cell key, segment), sorted
+  struct Follow {
+    int next;                // a segment that may come after this one
+    Eigen::Vector2d corner;  // where they meet
+  };
+  std::vector<Follow> follows;  // segment i's: follows[follow_begin[i], follow_begin[i + 1])
+  std::vector<int> follow_begin;
+};
+
+}  // namespace
+
 std::vector<Quad> FindQuads(const std::vector<Segment>& segs, const QuadOptions& o, int width,
                             int height) {
+  std::vector<Quad> quads;
+  FindQuads(segs, o, width, height, &quads);
+  return quads;
+}
+
+void FindQuads(const std::vector<Segment>& segs, const QuadOptions& o, int width, int height,
+               std::vector<Quad>* quads_out) {
+  thread_local QuadScratch sc;
   const int n = static_cast<int>(segs.size());
   const double sin_min_turn = std::sin(o.min_turn_deg * M_PI / 180);
-  // Spatial hash of start points `a`, cells of `cell` pixels.
-  double max_len = 0;
-  for (const Segment& s : segs) max_len = std::max(max_len, s.length());
+  // Spatial hash of start points `a`, cells of `cell` pixels: a sorted array of cell keys.
   const double cell = std::max(8.0, o.join_min_px * 2);
-  std::unordered_multimap<int64_t, int> starts;
-  auto key = [&](double x, double y) {
-    return (static_cast<int64_t>(std::floor(x / cell)) << 32) ^
-           static_cast<int64_t>(std::floor(y / cell) + 1e6);
-  };
-  for (int i = 0; i < n; ++i) starts.emplace(key(segs[i].a.x(), segs[i].a.y()), i);
+  auto key = [](int64_t gx, int64_t gy) { return (gx << 32) ^ (gy + 1000000); };
+  auto cell_of = [&](double v) { return static_cast<int64_t>(std::floor(v / cell)); };
+  sc.starts.clear();
+  for (int i = 0; i < n; ++i)
+    sc.starts.emplace_back(key(cell_of(segs[i].a.x()), cell_of(segs[i].a.y())), i);
+  std::sort(sc.starts.begin(), sc.starts.end());
 
-  // follows[i]: segments j that may come after i, with the corner where they meet.
-  std::vector<std::vector<std::pair<int, Eigen::Vector2d>>> follows(n);
+  // Segments j that may come after i, with the corner where they meet.
+  sc.follows.clear();
+  sc.follow_begin.assign(1, 0);
   for (int i = 0; i < n; ++i) {
     const Segment& s = segs[i];
     const Eigen::Vector2d di = (s.b - s.a) / s.length();
     // Candidates: starts within the largest join radius of this end.
     const double reach = std::max(o.join_min_px, o.join_fraction * s.length());
     const int r = static_cast<int>(std::ceil(reach / cell));
-    const int64_t cx = static_cast<int64_t>(std::floor(s.b.x() / cell)),
-                  cy = static_cast<int64_t>(std::floor(s.b.y() / cell));
+    const int64_t cx = cell_of(s.b.x()), cy = cell_of(s.b.y());
     for (int64_t gx = cx - r; gx <= cx + r; ++gx) {
       for (int64_t gy = cy - r; gy <= cy + r; ++gy) {
-        auto range = starts.equal_range((gx << 32) ^ static_cast<int64_t>(gy + 1e6));
-        for (auto it = range.first; it != range.second; ++it) {
+        const int64_t k = key(gx, gy);
+        for (auto it = std::lower_bound(sc.starts.begin(), sc.starts.end(),
+                                        std::make_pair(k, std::numeric_limits<int>::min()));
+             it != sc.starts.end() && it->first == k; ++it) {
           const int j = it->second;
           if (j == i) continue;
           const Segment& t = segs[j];
@@ -76,23 +100,31 @@ std::vector<Quad> FindQuads(const std::vector<Segment>& segs, const QuadOptions&
           if ((corner - s.a).dot(di) < 0.5 * s.length() ||
               (t.b - corner).dot(dj) < 0.5 * t.length())
             continue;
-          follows[i].emplace_back(j, corner);
+          sc.follows.push_back({j, corner});
         }
       }
     }
+    sc.follow_begin.push_back(static_cast<int>(sc.follows.size()));
   }
-  std::vector<Quad> quads;
+  const QuadScratch::Follow* f = sc.follows.data();
+  auto begin = [&](int i) { return f + sc.follow_begin[i]; };
+  auto end = [&](int i) { return f + sc.follow_begin[i + 1]; };
+  std::vector<Quad>& quads = *quads_out;
+  quads.clear();
   for (int i = 0; i < n && static_cast<int>(quads.size()) < o.max_quads; ++i) {
-    for (const auto& [j, c1] : follows[i]) {
+    for (const auto* a = begin(i); a != end(i); ++a) {
+      const int j = a->next;
       if (j <= i) continue;  // i is the smallest index of its cycle
-      for (const auto& [k, c2] : follows[j]) {
+      for (const auto* b = begin(j); b != end(j); ++b) {
+        const int k = b->next;
         if (k <= i) continue;
-        for (const auto& [l, c3] : follows[k]) {
+        for (const auto* c = begin(k); c != end(k); ++c) {
+          const int l = c->next;
           if (l <= i || l == j) continue;
-          for (const auto& [m, c0] : follows[l]) {
-            if (m != i) continue;
+          for (const auto* d = begin(l); d != end(l); ++d) {
+            if (d->next != i) continue;
             Quad q;
-            q.corners = {c0, c1, c2, c3};
+            q.corners = {d->corner, a->corner, b->corner, c->corner};
             q.sides = {i, j, k, l};
             bool ok = q.min_side() >= o.min_side;
             for (int e = 0; e < 4 && ok; ++e) {
@@ -108,7 +140,6 @@ std::vector<Quad> FindQuads(const std::vector<Segment>& segs, const QuadOptions&
       }
     }
   }
-  return quads;
 }
 
 }  // namespace svms

@@ -24,15 +24,19 @@ struct Quad {
 };
 
 struct QuadOptions {
-  double min_side = 8;         // pixels
+  double min_side = 8;          // pixels
   double join_fraction = 0.45;  // an end may be this fraction of the shorter side from the corner
-  double join_min_px = 4;      // ... or this many pixels
-  double min_turn_deg = 20;    // consecutive sides turn right by this much at least
-  int max_quads = 2000;        // stop after this many (a safeguard on pathological images)
+  double join_min_px = 4;       // ... or this many pixels
+  double min_turn_deg = 20;     // consecutive sides turn right by this much at least
+  int max_quads = 2000;         // stop after this many (a safeguard on pathological images)
 };
 
 std::vector<Quad> FindQuads(const std::vector<Segment>& segments, const QuadOptions& options,
                             int width, int height);
+// The same into *quads (replaced); with *quads kept by the caller, and this thread's scratch
+// kept between calls, no allocation once they have grown.
+void FindQuads(const std::vector<Segment>& segments, const QuadOptions& options, int width,
+               int height, std::vector<Quad>* quads);
 
 // Intersection of two lines (nx, ny, c); false if they are parallel.
 bool Intersect(const Eigen::Vector3d& l1, const Eigen::Vector3d& l2, Eigen::Vector2d* p);

@@ -2,10 +2,13 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <opencv2/imgproc.hpp>
+
+#include "svms/canny.h"
 
 namespace svms {
 namespace {
@@ -23,11 +26,36 @@ int NextNonZero(const uint8_t* row, int x, int cols) {
   return x;
 }
 
+// Buffers of FindSegments, kept per thread between calls so that a thread's detector
+// allocates nothing once they have grown to its largest frame (the C API's promise).
+struct SegmentScratch {
+  cv::Mat stabilised, edges, visited;
+  CannyScratch canny;
+  // The chains, end to end: chain c is points[chain_begin[c], chain_begin[c + 1]).
+  std::vector<cv::Point> points, backward;
+  std::vector<int> chain_begin;
+  std::vector<std::pair<int, int>> pieces, merged;
+  // MergeCollinear
+  std::vector<int> order;
+  std::vector<char> gone;
+  std::vector<Segment> kept;
+};
+SegmentScratch& Scratch() {
+  thread_local SegmentScratch scratch;
+  return scratch;
+}
+
 // 8-connected chains of edge pixels: each pixel belongs to one chain; chains start at end
-// points (pixels with one neighbour) and then at whatever is left (closed loops).
-std::vector<std::vector<cv::Point>> LinkChains(const cv::Mat& edges) {
-  cv::Mat visited = cv::Mat::zeros(edges.size(), CV_8U);
-  std::vector<std::vector<cv::Point>> chains;
+// points (pixels with one neighbour) and then at whatever is left (closed loops). Chains of
+// fewer than 4 pixels are left out.
+void LinkChains(const cv::Mat& edges, SegmentScratch* sc) {
+  cv::Mat& visited = sc->visited;
+  visited.create(edges.size(), CV_8U);
+  for (int y = 0; y < visited.rows; ++y)  // not setTo(0): that allocates on every call
+    std::memset(visited.ptr<uint8_t>(y), 0, static_cast<size_t>(visited.cols));
+  std::vector<cv::Point>& points = sc->points;
+  points.clear();
+  sc->chain_begin.assign(1, 0);
   static const int dx[8] = {1, 0, -1, 0, 1, -1, -1, 1}, dy[8] = {0, 1, 0, -1, 1, 1, -1, -1};
   auto is_edge = [&](int x, int y) {
     return x >= 0 && y >= 0 && x < edges.cols && y < edges.rows && edges.at<uint8_t>(y, x) &&
@@ -52,16 +80,22 @@ std::vector<std::vector<cv::Point>> LinkChains(const cv::Mat& edges) {
     }
   };
   // A chain grows both ways from its first pixel: a start inside a closed curve (or at a
-  // junction) must not leave the curve's other half behind in shreds.
+  // junction) must not leave the curve's other half behind in shreds. The forward half is
+  // walked straight into `points`, the backward half into a buffer that is then put in front.
   auto follow = [&](int x, int y) {
     visited.at<uint8_t>(y, x) = 1;
-    std::vector<cv::Point> forward{{x, y}}, backward;
-    walk(x, y, &forward);
-    walk(x, y, &backward);
-    if (forward.size() + backward.size() < 4) return;
-    std::vector<cv::Point> chain(backward.rbegin(), backward.rend());
-    chain.insert(chain.end(), forward.begin(), forward.end());
-    chains.push_back(std::move(chain));
+    const size_t begin = points.size();
+    points.emplace_back(x, y);
+    walk(x, y, &points);
+    sc->backward.clear();
+    walk(x, y, &sc->backward);
+    if (points.size() - begin + sc->backward.size() < 4) {
+      points.resize(begin);
+      return;
+    }
+    points.insert(points.begin() + static_cast<std::ptrdiff_t>(begin), sc->backward.rbegin(),
+                  sc->backward.rend());
+    sc->chain_begin.push_back(static_cast<int>(points.size()));
   };
   for (int pass = 0; pass < 2; ++pass) {
     for (int y = 0; y < edges.rows; ++y) {
@@ -75,11 +109,10 @@ std::vector<std::vector<cv::Point>> LinkChains(const cv::Mat& edges) {
       }
     }
   }
-  return chains;
 }
 
 // Douglas-Peucker split of chain[lo..hi] into pieces within `tol` of their chords.
-void Split(const std::vector<cv::Point>& c, int lo, int hi, double tol, double rel,
+void Split(const cv::Point* c, int lo, int hi, double tol, double rel,
            std::vector<std::pair<int, int>>* out) {
   const Eigen::Vector2d a(c[lo].x, c[lo].y), b(c[hi].x, c[hi].y);
   const Eigen::Vector2d d = b - a;
@@ -104,7 +137,7 @@ void Split(const std::vector<cv::Point>& c, int lo, int hi, double tol, double r
 }
 
 // Largest distance of chain[lo..hi] from its total-least-squares line.
-double MaxLineResidual(const std::vector<cv::Point>& c, int lo, int hi) {
+double MaxLineResidual(const cv::Point* c, int lo, int hi) {
   Eigen::Vector2d mean = Eigen::Vector2d::Zero();
   for (int i = lo; i <= hi; ++i) mean += Eigen::Vector2d(c[i].x, c[i].y);
   mean /= hi - lo + 1;
@@ -125,9 +158,11 @@ double MaxLineResidual(const std::vector<cv::Point>& c, int lo, int hi) {
 // pixels stray up to a pixel from the true edge) into short pieces wherever its chord happens
 // to be off; neighbouring pieces whose union still fits one line within the tolerance are
 // joined again.
-void MergeAdjacent(const std::vector<cv::Point>& c, double tol, double rel,
-                   std::vector<std::pair<int, int>>* pieces) {
-  std::vector<std::pair<int, int>> out;
+void MergeAdjacent(const cv::Point* c, double tol, double rel,
+                   std::vector<std::pair<int, int>>* pieces,
+                   std::vector<std::pair<int, int>>* buffer) {
+  std::vector<std::pair<int, int>>& out = *buffer;
+  out.clear();
   for (const auto& p : *pieces) {
     if (!out.empty()) {
       const int lo = out.back().first, hi = p.second;
@@ -139,49 +174,65 @@ void MergeAdjacent(const std::vector<cv::Point>& c, double tol, double rel,
     }
     out.push_back(p);
   }
-  *pieces = std::move(out);
+  pieces->swap(out);
 }
 
 }  // namespace
 
 std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx,
                                   cv::Mat* gy) {
+  std::vector<Segment> out;
+  FindSegments(gray8, o, gx, gy, &out);
+  return out;
+}
+
+void FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv::Mat* gy,
+                  std::vector<Segment>* segments) {
+  SegmentScratch& sc = Scratch();
+  std::vector<Segment>& out = *segments;
+  out.clear();
   // Edges are found on 16 sqrt(grey): shot noise makes the noise grow as the square root of
   // the signal, so on this scale it is about one level everywhere, and a marker in shadow
   // (white at 15, black at 3) shows a step of 35 instead of 12: one pair of thresholds serves
   // sunlit and shadowed markers alike. Later steps measure on the image itself.
   const cv::Mat* edge_input = &gray8;
-  cv::Mat stabilised;
+  cv::Mat& stabilised = sc.stabilised;
   if (o.stabilise_variance) {
-    static const cv::Mat lut = [] {
-      cv::Mat t(1, 256, CV_8U);
-      for (int v = 0; v < 256; ++v)
-        t.at<uint8_t>(v) = cv::saturate_cast<uint8_t>(16 * std::sqrt(v));
+    static const std::array<uint8_t, 256> lut = [] {
+      std::array<uint8_t, 256> t{};
+      for (int v = 0; v < 256; ++v) t[v] = cv::saturate_cast<uint8_t>(16 * std::sqrt(v));
       return t;
     }();
-    cv::LUT(gray8, lut, stabilised);
+    // A plain loop, not cv::LUT: that one goes through parallel_for_, which allocates per call.
+    stabilised.create(gray8.size(), CV_8U);
+    for (int y = 0; y < gray8.rows; ++y) {
+      const uint8_t* in = gray8.ptr<uint8_t>(y);
+      uint8_t* o8 = stabilised.ptr<uint8_t>(y);
+      for (int x = 0; x < gray8.cols; ++x) o8[x] = lut[in[x]];
+    }
     edge_input = &stabilised;
   }
   // Both 3x3 Sobel derivatives in one pass (the same values as two cv::Sobel calls).
   cv::spatialGradient(*edge_input, *gx, *gy, 3);
-  cv::Mat edges;
-  cv::Canny(*gx, *gy, edges, o.canny_low * 8, o.canny_high * 8, true);  // Sobel is 8x the slope
-  std::vector<Segment> out;
-  std::vector<std::vector<cv::Point>> chains = LinkChains(edges);
-  for (std::vector<cv::Point>& chain : chains) {
-    std::vector<std::pair<int, int>> pieces;
+  // OpenCV's cv::Canny, reproduced without its per-call allocations (canny.h).
+  CannyFromDerivatives(*gx, *gy, o.canny_low * 8, o.canny_high * 8, true, &sc.canny,
+                       &sc.edges);  // Sobel is 8x the slope
+  LinkChains(sc.edges, &sc);
+  std::vector<std::pair<int, int>>& pieces = sc.pieces;
+  for (size_t c = 0; c + 1 < sc.chain_begin.size(); ++c) {
+    cv::Point* const chain = sc.points.data() + sc.chain_begin[c];
+    const int chain_size = sc.chain_begin[c + 1] - sc.chain_begin[c];
     auto split = [&] {
       pieces.clear();
-      Split(chain, 0, static_cast<int>(chain.size()) - 1, o.max_deviation, o.relative_deviation,
-            &pieces);
-      MergeAdjacent(chain, o.rejoin_deviation, o.relative_deviation, &pieces);
+      Split(chain, 0, chain_size - 1, o.max_deviation, o.relative_deviation, &pieces);
+      MergeAdjacent(chain, o.rejoin_deviation, o.relative_deviation, &pieces, &sc.merged);
     };
     split();
     // A closed curve's seam lies wherever the walk began, often just past a corner, which then
     // bends the first piece: start the curve again at its first corner and split once more.
-    const cv::Point gap = chain.front() - chain.back();
+    const cv::Point gap = chain[0] - chain[chain_size - 1];
     if (pieces.size() >= 2 && gap.dot(gap) <= 2) {
-      std::rotate(chain.begin(), chain.begin() + pieces[0].second, chain.end());
+      std::rotate(chain, chain + pieces[0].second, chain + chain_size);
       split();
     }
     for (const auto& [lo, hi] : pieces) {
@@ -220,10 +271,10 @@ std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& o,
     }
   }
   MergeCollinear(o, &out);
-  return out;
 }
 
 void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
+  SegmentScratch& sc = Scratch();
   const double cos_max = std::cos(o.merge_angle_deg * M_PI / 180);
   auto dist_to_line = [](const Segment& s, const Eigen::Vector2d& p) {
     return std::abs(s.line.head<2>().dot(p) + s.line.z());
@@ -234,10 +285,12 @@ void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
   while (merged) {
     merged = false;
     std::vector<Segment>& v = *segs;
-    std::vector<int> order(v.size());
+    std::vector<int>& order = sc.order;
+    order.resize(v.size());
     for (size_t i = 0; i < v.size(); ++i) order[i] = static_cast<int>(i);
     std::sort(order.begin(), order.end(), [&](int a, int b) { return v[a].a.x() < v[b].a.x(); });
-    std::vector<char> gone(v.size(), 0);
+    std::vector<char>& gone = sc.gone;
+    gone.assign(v.size(), 0);
     for (size_t i = 0; i < v.size(); ++i) {
       if (gone[i]) continue;
       const Segment& s = v[i];
@@ -290,10 +343,11 @@ void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
       }
     }
     if (merged) {
-      std::vector<Segment> kept;
+      std::vector<Segment>& kept = sc.kept;
+      kept.clear();
       for (size_t i = 0; i < v.size(); ++i)
         if (!gone[i]) kept.push_back(v[i]);
-      *segs = std::move(kept);
+      segs->swap(kept);
     }
   }
 }

@@ -1,10 +1,11 @@
 // Detector steps 1-3: edge points from the image gradient, edge chains, and straight
 // segments split and fitted from the chains.
 //
-// Edges come from OpenCV's Canny (hysteresis on the Sobel gradient, non-maximum suppressed);
-// chains are its 8-connected edge curves (cv::findContours on the edge map); each chain is
-// split where it stops being straight (Douglas-Peucker, cv::approxPolyDP) and every piece
-// gets a least-squares line. A segment knows its polarity: the side its dark region is on.
+// Edges come from Canny (hysteresis on the Sobel gradient of 16 sqrt(grey), non-maximum
+// suppressed; canny.h, OpenCV's algorithm without its allocations); chains are the edge map's
+// 8-connected curves; each chain is split where it stops being straight (Douglas-Peucker, then
+// neighbouring pieces that still fit one line are joined again) and every piece gets a
+// total-least-squares line. A segment knows its polarity: the side its dark region is on.
 #pragma once
 
 #include <Eigen/Core>
@@ -59,5 +60,10 @@ void MergeCollinear(const SegmentOptions& options, std::vector<Segment>* segment
 // computed here) are returned for later steps.
 std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& options,
                                   cv::Mat* gradient_x, cv::Mat* gradient_y);
+// The same into *segments (replaced). Its buffers, and this thread's scratch (kept between
+// calls, per thread), are reused: with *segments, gradient_x and gradient_y kept by the caller,
+// a call on an image no larger than earlier ones allocates nothing once they have grown.
+void FindSegments(const cv::Mat& gray8, const SegmentOptions& options, cv::Mat* gradient_x,
+                  cv::Mat* gradient_y, std::vector<Segment>* segments);
 
 }  // namespace svms

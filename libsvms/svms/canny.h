@@ -1,0 +1,61 @@
+// Canny hysteresis edges from precomputed Sobel derivatives, without a heap allocation per frame.
+//
+// Why this exists: cv::Canny allocates on every call (parallel_for_, cv::AutoBuffer magnitude
+// rows, the edge map, and std::deque stacks that grow by 64 pointers: on a 1024 x 1024 frame
+// some 30 heap allocations when it is nearly blank, about 110 on a typical detector frame,
+// thousands when edges are dense), while the C API promises that detection allocates nothing
+// per frame once warmed up. CannyFromDerivatives keeps every buffer in a caller-owned CannyScratch
+// that grows to the largest image seen and is then reused.
+//
+// It reproduces OpenCV 4.6's cv::Canny(dx, dy, edges, threshold1, threshold2, L2gradient)
+// (modules/imgproc/src/canny.cpp, the overload on CV_16SC1 derivatives) and returns the very
+// same edge map, pixel for pixel:
+//  - thresholds: swapped when low > high; with L2 each is clamped to at most 32767, squared
+//    when positive and compared with dx^2 + dy^2 (an int, wrapping like OpenCV's); with L1
+//    the magnitude is |dx| + |dy|; both thresholds are rounded down with cvFloor;
+//  - non-maximum suppression with OpenCV's integer direction test: tan(22.5 deg) as
+//    13573 / 2^15; horizontal when |dy| 2^15 < 13573 |dx|, vertical when |dy| 2^15 exceeds
+//    13573 |dx| + 2^16 |dx| (computed in 32 bits, wrapping as OpenCV's does for |dx| above
+//    about 25,000), diagonal otherwise; a pixel survives when its magnitude exceeds `low`, is
+//    greater than the neighbour "before" it and at least the one "after" it (greater than
+//    both on a diagonal);
+//  - borders: magnitudes outside the image count as 0, and nothing outside the image is an
+//    edge;
+//  - hysteresis: every surviving pixel above `high` is an edge, and so is every surviving
+//    pixel 8-connected to an edge through surviving pixels. The order in which the stack is
+//    worked off differs from OpenCV's (which splits the image into slices per thread) but the
+//    resulting map is the same, being the connected closure.
+// One known difference, only for values no 8-bit image's Sobel derivative reaches: with L1,
+// OpenCV's SIMD body takes |-32768| as -32768 (16-bit abs) while its scalar tail takes 32768,
+// so its result for dx or dy == -32768 depends on the column; here it is always 32768.
+//
+// Single-threaded by design (the detector runs one frame per thread).
+#pragma once
+
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <vector>
+
+namespace svms {
+
+// Buffers reused between calls. They grow to the largest image seen and never shrink, so
+// calls on images no larger than an earlier one allocate nothing. Not shared between threads.
+struct CannyScratch {
+  std::vector<int32_t> magnitude;  // 3 rows (ring buffer) of cols + 2 with zero pads
+  std::vector<uint8_t> map;        // (rows + 2) x (cols + 2): 0 candidate, 1 not edge, 2 edge
+  std::vector<int32_t> stack;      // hysteresis stack of map offsets, rows x cols at most
+};
+
+// Edges (CV_8UC1, 255 on edge pixels, 0 elsewhere; same as cv::Canny) from CV_16SC1 Sobel
+// derivatives `dx`, `dy` of equal size (continuous or not, e.g. ROIs). `low`, `high` and
+// `l2_gradient` mean what cv::Canny's threshold1, threshold2 and L2gradient do (see above).
+// `scratch` and `edges` must not be null. `edges` is (re)created with dx's size: its buffer is
+// reused when it already has that size and type CV_8UC1. Throws cv::Exception, as cv::Canny does,
+// on other types, sizes that differ, or a matrix that is not 2-D (an empty cv::Mat); a 0 x N input
+// gives an empty map. Allocates nothing when `scratch` has already served an image with at least as
+// many rows and at least as many columns, and `edges` already has dx's size and type CV_8UC1. The
+// scratch then holds about 5 bytes per pixel (map and stack) plus 3 rows of magnitudes.
+void CannyFromDerivatives(const cv::Mat& dx, const cv::Mat& dy, double low, double high,
+                          bool l2_gradient, CannyScratch* scratch, cv::Mat* edges);
+
+}  // namespace svms
