@@ -97,7 +97,8 @@ void UpdatePoints(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
     if (b->dropped[k]) continue;
     const double sigma =
         o.corner_sigma_from_fit && m.corner_sigma[k] > 0
-            ? std::max(o.min_corner_sigma_px, o.corner_fit_scale * m.corner_sigma[k])
+            ? std::max(o.min_corner_sigma_px, std::hypot(o.corner_fit_scale * m.corner_sigma[k],
+                                                         o.corner_sigma_systematic_px))
             : size_sigma;
     b->points.push_back({corners[k], m.corners[k], sigma, Eigen::Vector3d::Zero(), k});
   }
