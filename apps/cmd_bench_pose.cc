@@ -343,15 +343,16 @@ int RunBenchPose(const BenchPoseOptions& o) {
      << (o.layout.empty() ? "svms survey` of the rendered `mockup` dataset (reference marker 10)"
                           : o.layout + "`")
      << "; corner sigma: "
-     << (o.size_model ? ""
-                      : "the detector's line-fit sigma times " + F(o.corner_fit_scale, 2) +
-                            " plus " + F(o.corner_sigma_systematic_px, 3) +
-                            " px in quadrature (where refined), else ")
+     << (o.size_model
+             ? ""
+             : "the detector's line-fit sigma times " + F(o.corner_fit_scale, 2) + " plus " +
+                   F(o.corner_sigma_systematic_px, 3) + " px in quadrature (where refined), else ")
      << o.corner_sigma_px << " px at 30 px scaled by (30 / shortest side)^"
      << o.corner_sigma_exponent << ", at least " << o.min_corner_sigma_px
      << " px; variance prior dof " << o.variance_prior_dof
      << "; truth is the renderer's cam_from_module times module_from_object, the layout's "
-        "object frame placed through marker 10 (the survey's reference). Pose on one core (OpenCV's thread pool off), "
+        "object frame placed through marker 10 (the survey's reference). Pose on one core "
+        "(OpenCV's thread pool off), "
         "images preloaded.\n\n"
      << "| measure | value | target |\n|---|---|---|\n"
      << "| frames with a pose | " << valid << " / " << rows.size() << " | |\n"

@@ -140,6 +140,7 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   stats.ms[1] = Ms(t1, t2);
 
   // 5-7. Homography, bits, decoding.
+  const CameraModel* cam = camera_.empty() ? nullptr : &camera_;
   static const MarkerModel unit = MarkerModel::Standard(0, 1.0, 0);
   const bool has_deadline = deadline != Clock::time_point::max();
   auto out_of_time = [&](size_t i) {
@@ -149,11 +150,26 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   };
   for (size_t qi = 0; qi < quads.size(); ++qi) {
     if (out_of_time(qi)) break;
-    const Quad& q = quads[qi];
-    const Eigen::Matrix3d H = UnitHomography(q.corners);
-    const BitReading bits = SampleBits(gray, H, unit);
+    Quad q = quads[qi];
+    BitReading bits = SampleBits(gray, UnitHomography(q.corners), unit);
     if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) continue;
-    const CodeMatch m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
+    CodeMatch m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
+    // 7b. A small square's corners from the segments are off by tenths of a pixel, which at
+    // its bit cells (a sixth of its side, out to twice its half-side) misplaces the samples:
+    // refine the corners first and read again.
+    if (!m.accepted() && o.refine_corners && q.min_side() < o.small_quad_refine_px &&
+        bits.white - bits.black >= o.small_quad_min_contrast) {
+      // One iteration (step 8 runs its own on whatever decodes): most small quads here are
+      // texture, and this retry must stay cheap on a busy background.
+      CornerRefineOptions once = o.refine;
+      once.iterations = 1;
+      const RefinedCorners r = RefineCorners(gray, q.corners, cam, once);
+      if (!r.ok) continue;
+      q.corners = r.corners;
+      bits = SampleBits(gray, UnitHomography(q.corners), unit);
+      if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) continue;
+      m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
+    }
     if (!m.accepted()) continue;
     const bool known = models_.count(m.id) > 0;
     if (!models_.empty() && o.known_ids_only && !known) continue;
@@ -170,7 +186,6 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   stats.ms[2] = Ms(t2, t3);
 
   // 8. Sub-pixel corners (in the rotated order: clockwise on screen either way).
-  const CameraModel* cam = camera_.empty() ? nullptr : &camera_;
   if (o.refine_corners) {
     for (size_t i = 0; i < out.size(); ++i) {
       if (stats.budget_exceeded || (has_deadline && Clock::now() >= deadline)) {

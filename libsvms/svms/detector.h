@@ -63,6 +63,12 @@ struct DetectorOptions {
   bool known_ids_only = true;           // with marker models: report only their IDs
   double min_contrast = 5;  // white - black, grey levels (a marker in deep shadow: about 10)
   bool refine_corners = true;
+  // A quad whose shortest side is below small_quad_refine_px (pixels), whose stripe and square
+  // differ by small_quad_min_contrast grey levels at least, and whose bits do not decode gets
+  // its corners refined (one iteration of step 8's fit) and is read again (step 7b). The
+  // contrast bar keeps the retry off most of a busy background's small quads.
+  double small_quad_refine_px = 13;
+  double small_quad_min_contrast = 20;
   // Step 10b: when the post's silhouette (grown by this margin, pixels) reaches a side, that
   // side is refitted without the edge points under it and the pose solved again. <= 0: off.
   double post_silhouette_margin_px = 2.5;

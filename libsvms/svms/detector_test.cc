@@ -209,6 +209,37 @@ TEST(Detector, TheTipPicksTheRightPoseWhereThePlanarPoseIsAmbiguous) {
   EXPECT_TRUE(f2[0].pose_ambiguous);
 }
 
+// Markers whose black square is 8-11 px: the corners of such a small quad are off by tenths
+// of a pixel, and the bits are read right only after the corner fit (step 7b).
+TEST(Detector, TenPixelMarkersAreReadAfterTheirCornersAreRefined) {
+  std::vector<std::pair<MarkerModel, Pose>> markers;
+  for (int i = 0; i < 6; ++i) {
+    Pose p;
+    p.rvec = Eigen::Vector3d(0, 0, 0.25 * i);  // in-plane turns
+    p.tvec = Eigen::Vector3d(-0.6 + 0.25 * i, 0.12 * (i % 2), 0);
+    markers.push_back({MarkerModel::Standard(40 + i, 0.1, 0.025), p});
+  }
+  const CameraModel cam = CameraModel::Pinhole(600, 400, 200);
+  const Rendered r = Render(Base(cam, markers, Look({0.05, -0.3, 5.6}, {0, 0, 0})));
+  for (const MarkerTruth& t : r.truth.markers) ASSERT_LT(t.side_px, 11.5);
+  auto found_ids = [&](const DetectorOptions& o) {
+    std::vector<MarkerModel> models;
+    for (const auto& m : markers) models.push_back(m.first);
+    int right = 0, wrong = 0;
+    for (const Detection& d : Detector(o, cam, models).Detect(r.image))
+      (d.id >= 40 && d.id < 46 ? right : wrong)++;
+    EXPECT_EQ(wrong, 0);
+    return right;
+  };
+  DetectorOptions without;
+  without.small_quad_refine_px = 0;
+  const int with_7b = found_ids(DetectorOptions{}), without_7b = found_ids(without);
+  RecordProperty("found_with_7b", with_7b);
+  RecordProperty("found_without_7b", without_7b);
+  EXPECT_GE(with_7b, 5);
+  EXPECT_GT(with_7b, without_7b);
+}
+
 TEST(Detector, WithoutCameraOrModelsGivesIdsAndCornersOnly) {
   MarkerModel a = MarkerModel::Standard(321, 0.1, 0.025);
   const Rendered r = Render(

@@ -24,7 +24,7 @@ struct Quad {
 };
 
 struct QuadOptions {
-  double min_side = 8;          // pixels
+  double min_side = 6;          // pixels
   double join_fraction = 0.45;  // an end may be this fraction of the shorter side from the corner
   double join_min_px = 4;       // ... or this many pixels
   double min_turn_deg = 20;     // consecutive sides turn right by this much at least

@@ -282,6 +282,7 @@ void FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
     }
   }
   MergeCollinear(o, &out);
+  BridgeKinks(o, &out);
 }
 
 void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
@@ -359,6 +360,42 @@ void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
       for (size_t i = 0; i < v.size(); ++i)
         if (!gone[i]) kept.push_back(v[i]);
       segs->swap(kept);
+    }
+  }
+}
+
+void BridgeKinks(const SegmentOptions& o, std::vector<Segment>* segs) {
+  if (o.bridge_max_turn_deg <= 0) return;
+  SegmentScratch& sc = Scratch();
+  std::vector<Segment>& v = *segs;
+  const size_t n = v.size();
+  std::vector<int>& order = sc.order;
+  order.resize(n);
+  for (size_t i = 0; i < n; ++i) order[i] = static_cast<int>(i);
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return v[a].a.x() < v[b].a.x(); });
+  const double cos_max = std::cos(o.bridge_max_turn_deg * M_PI / 180);
+  for (size_t i = 0; i < n; ++i) {
+    const Segment s = v[i];  // a copy: v grows below
+    const Eigen::Vector2d di = (s.b - s.a) / s.length();
+    auto lo = std::lower_bound(order.begin(), order.end(), s.b.x() - o.bridge_gap_px,
+                               [&](int k, double x) { return v[k].a.x() < x; });
+    for (auto it = lo; it != order.end() && v[*it].a.x() <= s.b.x() + o.bridge_gap_px; ++it) {
+      const Segment& t = v[*it];
+      if (*it == static_cast<int>(i) || (t.a - s.b).norm() > o.bridge_gap_px) continue;
+      const Eigen::Vector2d dj = (t.b - t.a) / t.length();
+      const double c = di.dot(dj);
+      // A bend either way; corners (>= bridge_max_turn_deg) are left to the quad search.
+      if (c < cos_max) continue;
+      Segment m;
+      m.a = s.a;
+      m.b = t.b;
+      const Eigen::Vector2d mid =
+          (s.length() * 0.5 * (s.a + s.b) + t.length() * 0.5 * (t.a + t.b)) /
+          (s.length() + t.length());
+      const Eigen::Vector2d u = (m.b - m.a).normalized(), nrm(-u.y(), u.x());
+      m.line = Eigen::Vector3d(nrm.x(), nrm.y(), -nrm.dot(mid));
+      m.contrast = (s.contrast * s.length() + t.contrast * t.length()) / (s.length() + t.length());
+      v.push_back(m);
     }
   }
 }

@@ -31,7 +31,7 @@ struct SegmentOptions {
   // Find edges on 16 sqrt(grey) (noise about one level at every brightness; see segments.cc)
   // instead of on the grey levels; the thresholds above then apply on that scale.
   bool stabilise_variance = true;
-  double min_length = 6;  // pixels
+  double min_length = 4;  // pixels
   // A chain is split where it leaves its chord by more than max(max_deviation,
   // relative_deviation * chord length): lens distortion bows a marker's side by about 1 % of
   // its length, a corner by far more.
@@ -51,10 +51,18 @@ struct SegmentOptions {
   double merge_offset_px = 1.5;
   double merge_gap_fraction = 0.5;
   double merge_gap_px = 3;
+  // Step 3c: where one piece starts within bridge_gap_px of another's end and turns by less
+  // than bridge_max_turn_deg (too much to merge them), a segment spanning both is added and
+  // both are kept: a shadow or the post's shade across a small square's side bends its edge
+  // by 5-15 degrees halfway, and the quad search needs one segment per side. 0: off.
+  double bridge_max_turn_deg = 20;
+  double bridge_gap_px = 1.5;
 };
 
 // Step 3b: joins collinear pieces (see SegmentOptions); the result replaces `segments`.
 void MergeCollinear(const SegmentOptions& options, std::vector<Segment>* segments);
+// Step 3c: appends a segment over each pair of pieces joined by a small bend (SegmentOptions).
+void BridgeKinks(const SegmentOptions& options, std::vector<Segment>* segments);
 
 // Finds straight edge segments in an 8-bit image. `gradient_x`, `gradient_y` (CV_16S Sobel,
 // computed here) are returned for later steps.

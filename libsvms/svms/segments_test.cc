@@ -105,6 +105,45 @@ TEST(Segments, MergeJoinsPiecesOfOneEdgeButNotACorner) {
   EXPECT_EQ(w.size(), 3u);
 }
 
+// A side bent halfway by 7-14 degrees (a shadow across a small square's side) gets a segment
+// over both pieces, the pieces stay; a corner, a gap or pieces going the other way do not.
+TEST(Segments, BridgeSpansABentSideButNotACornerOrAGap) {
+  auto make = [](Eigen::Vector2d a, Eigen::Vector2d b) {
+    Segment s;
+    s.a = a;
+    s.b = b;
+    const Eigen::Vector2d u = (b - a).normalized(), n(-u.y(), u.x());
+    s.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(a));
+    s.contrast = 50;
+    return s;
+  };
+  // The 30 px case of the comparison's size sweep: 7 degrees at (505.3, 622.1).
+  std::vector<Segment> v = {make({499.7, 634.4}, {505.1, 622.0}),
+                            make({505.5, 622.3}, {514.0, 608.0})};
+  BridgeKinks(SegmentOptions{}, &v);
+  ASSERT_EQ(v.size(), 3u);
+  EXPECT_NEAR(v[2].a.x(), 499.7, 1e-9);
+  EXPECT_NEAR(v[2].b.y(), 608.0, 1e-9);
+  EXPECT_NEAR(v[2].line.head<2>().norm(), 1.0, 1e-12);
+  // Both ends lie within a pixel of the spanning line.
+  for (const Eigen::Vector2d& p : {v[0].a, v[1].b})
+    EXPECT_LT(std::abs(v[2].line.head<2>().dot(p) + v[2].line.z()), 1.0);
+  // A corner (90 degrees), a 3 px gap, and a piece that runs back: nothing added.
+  std::vector<Segment> corner = {make({0, 0}, {10, 0}), make({10, 0.5}, {10, 10})};
+  std::vector<Segment> gap = {make({0, 0}, {10, 0}), make({13, 0.5}, {23, 1.5})};
+  std::vector<Segment> back = {make({0, 0}, {10, 0}), make({10.5, 0.2}, {1, 0.5})};
+  for (std::vector<Segment>* w : {&corner, &gap, &back}) {
+    BridgeKinks(SegmentOptions{}, w);
+    EXPECT_EQ(w->size(), 2u);
+  }
+  // Off: nothing added.
+  SegmentOptions off;
+  off.bridge_max_turn_deg = 0;
+  std::vector<Segment> u = {make({0, 0}, {10, 0}), make({10.5, 0.2}, {20, 2})};
+  BridgeKinks(off, &u);
+  EXPECT_EQ(u.size(), 2u);
+}
+
 // Nested and adjacent squares do not hide one another: the white stripe of a marker on a dark
 // skin is a bright frame whose inner border is the black square's border seen the other way.
 TEST(Quads, NestedAndAdjacentSquaresAreAllFound) {
