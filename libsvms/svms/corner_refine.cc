@@ -49,9 +49,65 @@ class Sampler {
   const double max_u_, max_v_;
 };
 
+// The edge crossing `p` where the intensity rises along `outward` (unit, pixels), searched
+// over +-steps half-pixel steps; `line` has room for 2 steps + 3 samples. *strength: the
+// derivative's peak (grey levels per pixel). False where no rising edge stands out.
+bool LocateEdgeWith(const Sampler& sample, double* line, int steps, const Eigen::Vector2d& p,
+                    const Eigen::Vector2d& outward, Eigen::Vector2d* edge_out, double* strength) {
+  // Derivative of intensity along the outward normal at 0.5 px steps s: the difference
+  // of the samples 0.5 px either side, I(s + 1) - I(s - 1) on the half-pixel grid.
+  double best = 0;
+  int best_s = 0;
+  for (int j = 0; j < 2 * steps + 3; ++j) {
+    const Eigen::Vector2d q = p + 0.5 * (j - steps - 1) * outward;
+    line[j] = sample(q.x(), q.y());
+  }
+  for (int s = -steps + 1; s < steps; ++s) {
+    const double deriv = line[s + steps + 2] - line[s + steps];
+    if (deriv > best) {
+      best = deriv;
+      best_s = s;
+    }
+  }
+  if (best <= 0 || best_s == -steps + 1 || best_s == steps - 1) return false;
+  // The edge position from the area under the normalised profile, in a window centred on
+  // the derivative's peak: for a step seen through box-filtered pixels (and any
+  // symmetric blur) the bright length is the integral, whatever the pixel phase -- the
+  // peak of the derivative alone locks toward pixel centres on sharp edges.
+  const Eigen::Vector2d centre = p + 0.5 * best_s * outward;
+  const double W = 2.0, h = 0.25;
+  const int ns = static_cast<int>(2 * W / h);
+  double dark = 0, bright = 0, area = 0;
+  std::array<double, 17> prof{};
+  for (int i = 0; i <= ns; ++i) {
+    const Eigen::Vector2d q = centre + (-W + i * h) * outward;
+    prof[i] = sample(q.x(), q.y());
+  }
+  for (int i = 0; i < 3; ++i) {
+    dark += prof[i] / 3;
+    bright += prof[ns - i] / 3;
+  }
+  if (bright - dark < 0.3 * best) return false;
+  for (int i = 0; i < ns; ++i)
+    area += 0.5 * (prof[i] + prof[i + 1] - 2 * dark) / (bright - dark) * h;
+  const double offset = W - area;  // from the window's start: -W + (2W - area)
+  const Eigen::Vector2d edge = centre + std::clamp(offset, -W, W) * outward;
+  *edge_out = edge;
+  *strength = best;
+  return true;
+}
+
 }  // namespace
 
 double SampleImage(const cv::Mat& img, double u, double v) { return Sampler(img)(u, v); }
+
+bool LocateEdge(const cv::Mat& image, const Eigen::Vector2d& p,
+                const Eigen::Vector2d& dark_to_bright, double search_px, Eigen::Vector2d* edge,
+                double* strength) {
+  const int steps = std::clamp(static_cast<int>(std::ceil(search_px / 0.5)), 2, 30);
+  std::array<double, 2 * 30 + 3> line;
+  return LocateEdgeWith(Sampler(image), line.data(), steps, p, dark_to_bright, edge, strength);
+}
 
 namespace {
 
@@ -199,44 +255,9 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
           if (it == o.iterations - 1) ++out.excluded_points;
           continue;
         }
-        // Derivative of intensity along the outward normal at 0.5 px steps s: the difference
-        // of the samples 0.5 px either side, I(s + 1) - I(s - 1) on the half-pixel grid.
-        double best = 0;
-        int best_s = 0;
-        for (int j = 0; j < 2 * steps + 3; ++j) {
-          const Eigen::Vector2d q = p + 0.5 * (j - steps - 1) * outward;
-          line[j] = sample(q.x(), q.y());
-        }
-        for (int s = -steps + 1; s < steps; ++s) {
-          const double deriv = line[s + steps + 2] - line[s + steps];
-          if (deriv > best) {
-            best = deriv;
-            best_s = s;
-          }
-        }
-        if (best <= 0 || best_s == -steps + 1 || best_s == steps - 1) continue;
-        // The edge position from the area under the normalised profile, in a window centred on
-        // the derivative's peak: for a step seen through box-filtered pixels (and any
-        // symmetric blur) the bright length is the integral, whatever the pixel phase -- the
-        // peak of the derivative alone locks toward pixel centres on sharp edges.
-        const Eigen::Vector2d centre = p + 0.5 * best_s * outward;
-        const double W = 2.0, h = 0.25;
-        const int ns = static_cast<int>(2 * W / h);
-        double dark = 0, bright = 0, area = 0;
-        std::array<double, 17> prof{};
-        for (int i = 0; i <= ns; ++i) {
-          const Eigen::Vector2d q = centre + (-W + i * h) * outward;
-          prof[i] = sample(q.x(), q.y());
-        }
-        for (int i = 0; i < 3; ++i) {
-          dark += prof[i] / 3;
-          bright += prof[ns - i] / 3;
-        }
-        if (bright - dark < 0.3 * best) continue;
-        for (int i = 0; i < ns; ++i)
-          area += 0.5 * (prof[i] + prof[i + 1] - 2 * dark) / (bright - dark) * h;
-        const double offset = W - area;  // from the window's start: -W + (2W - area)
-        const Eigen::Vector2d edge = centre + std::clamp(offset, -W, W) * outward;
+        Eigen::Vector2d edge;
+        double best;
+        if (!LocateEdgeWith(sample, line.data(), steps, p, outward, &edge, &best)) continue;
         Eigen::Vector2d q;
         if (!plane.ToPlane(edge, &q)) continue;
         pts.push_back(q);

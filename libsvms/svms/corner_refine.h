@@ -63,4 +63,13 @@ RefinedCorners RefineCorners(const cv::Mat& image, const std::array<Eigen::Vecto
 // Bilinear sample at pixel-centre coordinates (clamped to the image).
 double SampleImage(const cv::Mat& image, double u, double v);
 
+// Step 8's edge locator on its own: the straight edge crossing `p` (pixels) across which the
+// intensity rises along `dark_to_bright` (unit vector, pixels), searched within +-search_px
+// (0.5 px steps) around p, then placed from the area under the normalised profile. *edge: the
+// edge point (pixels); *strength: the derivative's peak (grey levels per pixel). False where no
+// rising edge stands out (at the search's ends, or too little contrast across it).
+bool LocateEdge(const cv::Mat& image, const Eigen::Vector2d& p,
+                const Eigen::Vector2d& dark_to_bright, double search_px, Eigen::Vector2d* edge,
+                double* strength);
+
 }  // namespace svms

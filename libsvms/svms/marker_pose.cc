@@ -6,6 +6,7 @@
 
 #include "svms/corner_refine.h"
 #include "svms/ippe.h"
+#include "svms/svms44.h"
 
 namespace svms {
 namespace {
@@ -138,7 +139,8 @@ Eigen::Vector3d VisibleTipPoint(const MarkerModel& model, const Eigen::Vector3d&
 
 bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X,
                 const std::vector<Eigen::Vector2d>& px, const std::vector<double>& sigma,
-                Pose* pose, PoseCovariance* cov, double* rms) {
+                Pose* pose, PoseCovariance* cov, double* rms,
+                const std::vector<EdgeObservation>* edges) {
   Eigen::Matrix3d R = pose->Rotation();
   Eigen::Vector3d t = pose->tvec;
   Eigen::Matrix<double, 6, 6> JtWJ;
@@ -161,6 +163,25 @@ bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X
       JtWJ += w * J.transpose() * J;
       JtWr += w * J.transpose() * r;
     }
+    // Edge points: the distance across the edge's image (the normal at the model point's
+    // projection; its change with the pose is second order).
+    for (size_t i = 0; edges && i < edges->size(); ++i) {
+      const EdgeObservation& e = (*edges)[i];
+      const Eigen::Vector3d p = R * e.point + t;
+      Eigen::Vector2d q;
+      Eigen::Matrix<double, 2, 3> dq_dp;
+      if (!camera.Project(p, &q, &dq_dp)) return false;
+      const Eigen::Vector2d along = dq_dp * (R * e.direction);
+      if (!(along.norm() > 0)) return false;
+      const Eigen::Vector2d n = Eigen::Vector2d(-along.y(), along.x()).normalized();
+      const double r = n.dot(q - e.pixel);
+      Eigen::Matrix<double, 1, 6> J;
+      J.leftCols<3>() = -n.transpose() * dq_dp * Skew(R * e.point);
+      J.rightCols<3>() = n.transpose() * dq_dp;
+      const double w = 1.0 / (e.sigma_px * e.sigma_px);
+      JtWJ += w * J.transpose() * J;
+      JtWr += w * J.transpose() * r;
+    }
     const Eigen::Matrix<double, 6, 1> step = -JtWJ.ldlt().solve(JtWr);
     if (!step.allFinite()) return false;
     const double angle = step.head<3>().norm();
@@ -175,6 +196,108 @@ bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X
   *cov = lu.inverse();
   return cov->allFinite();
 }
+
+namespace {
+
+// The white stripe's outer edge where a black bit cell borders it: edge points found in the
+// image around `pose`, added to the fit over X (corners and tip), which is then redone. The
+// edge points' sigma is their own scatter about the fitted edges (one variance component for
+// the group, at least 0.03 px) times sqrt(3) for the three correlated points per cell; points
+// beyond 3 sigmas (at least 0.3 px) are dropped once, as an occluder or a glint at a cell
+// would place them. Leaves *pose and *cov as they were when
+// the cells are too small, too few edge points are found (12, on 3 sides), or a fit fails.
+void RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const CameraModel& camera,
+                          const MarkerPoseOptions& o, const std::vector<Eigen::Vector3d>& X,
+                          const std::vector<Eigen::Vector2d>& px, const std::vector<double>& sig,
+                          Pose* pose, PoseCovariance* cov) {
+  if (!o.use_stripe_edge || !(model.cell_size > 0) || model.id < 0) return;
+  thread_local std::vector<EdgeObservation> edges;
+  edges.clear();
+  const uint64_t code = Svms44::Codeword(model.id);
+  const double c = model.cell_size, h = 5 * c;  // the stripe's outer half-side: 5 cells
+  std::array<int, 4> per_side{};
+  for (int i = 0; i < 44; ++i) {
+    if ((code >> i) & 1) continue;  // a white cell merges with the stripe: no edge
+    const Eigen::Vector2d cc = model.BitCellCentre(i);
+    const bool on_x = std::abs(std::abs(cc.x()) - 5.5 * c) < 0.1 * c;  // left or right column
+    const bool on_y = std::abs(std::abs(cc.y()) - 5.5 * c) < 0.1 * c;  // top or bottom row
+    if (on_x == on_y) continue;  // a corner cell touches the stripe at a point only
+    // Along the edge (marker frame), and the way into the stripe (dark cell -> white stripe).
+    const Eigen::Vector3d along = on_y ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    const Eigen::Vector3d inward = on_y ? Eigen::Vector3d(0, cc.y() > 0 ? -1 : 1, 0)
+                                        : Eigen::Vector3d(cc.x() > 0 ? -1 : 1, 0, 0);
+    const int side = on_y ? (cc.y() > 0 ? 0 : 2) : (cc.x() > 0 ? 1 : 3);
+    for (double f : {-0.25, 0.0, 0.25}) {
+      const Eigen::Vector3d P = (on_y ? Eigen::Vector3d(cc.x() + f * c, cc.y() > 0 ? h : -h, 0)
+                                      : Eigen::Vector3d(cc.x() > 0 ? h : -h, cc.y() + f * c, 0));
+      Eigen::Vector2d q0, q1, q2;
+      if (!camera.Project(*pose * P, &q0) || !camera.Project(*pose * (P + 0.5 * c * inward), &q1) ||
+          !camera.Project(*pose * (P + 0.5 * c * along), &q2))
+        return;
+      const double cell_px = 2 * std::min((q1 - q0).norm(), (q2 - q0).norm());
+      if (cell_px < o.stripe_edge_min_cell_px) return;
+      // The search stays within the cell and the stripe (0.4 cell either way).
+      Eigen::Vector2d edge;
+      double strength;
+      if (!LocateEdge(image, q0, (q1 - q0).normalized(), std::min(2.5, 0.4 * cell_px), &edge,
+                      &strength))
+        continue;
+      edges.push_back({P, along, edge, 0.1});
+      ++per_side[side];
+    }
+  }
+  int sides = 0;
+  for (int n : per_side) sides += n >= 2;
+  if (edges.size() < 12 || sides < 3) return;
+  Pose p = *pose;
+  PoseCovariance C;
+  double rms;
+  auto residuals_rms = [&](const Pose& at, double* out_rms) {
+    double ss = 0;
+    for (const EdgeObservation& e : edges) {
+      Eigen::Vector2d q, q2;
+      if (!camera.Project(at * e.point, &q) ||
+          !camera.Project(at * (e.point + 1e-3 * e.direction), &q2))
+        return false;
+      const Eigen::Vector2d along = q2 - q;
+      const Eigen::Vector2d n = Eigen::Vector2d(-along.y(), along.x()).normalized();
+      const double r = n.dot(q - e.pixel);
+      ss += r * r;
+    }
+    *out_rms = std::sqrt(ss / edges.size());
+    return true;
+  };
+  for (int pass = 0; pass < 2; ++pass) {
+    if (!RefinePose(camera, X, px, sig, &p, &C, &rms, &edges)) return;
+    double e_rms;
+    if (!residuals_rms(p, &e_rms)) return;
+    // The group's own scatter (the pose takes few dof of so many points), times sqrt(3): the
+    // three points along one cell's edge lie within a cell of each other, closer than the
+    // edge locator's 4 px profile, and share their error (blur, pixel phase, the cell's own
+    // far edge); the independent measurements are the cells.
+    const double sigma = std::max(0.03, e_rms) * std::sqrt(3.0);
+    const double cut = std::max(3 * sigma, 0.3);
+    size_t kept = 0;
+    for (const EdgeObservation& e : edges) {
+      Eigen::Vector2d q, q2;
+      camera.Project(p * e.point, &q);
+      camera.Project(p * (e.point + 1e-3 * e.direction), &q2);
+      const Eigen::Vector2d along = q2 - q;
+      const double r = Eigen::Vector2d(-along.y(), along.x()).normalized().dot(q - e.pixel);
+      if (pass == 0 && std::abs(r) > cut) continue;
+      EdgeObservation kept_e = e;
+      kept_e.sigma_px = sigma;
+      edges[kept++] = kept_e;
+    }
+    edges.resize(kept);
+    if (edges.size() < 12) return;
+  }
+  if (!RefinePose(camera, X, px, sig, &p, &C, &rms, &edges)) return;
+  *pose = p;
+  *cov = C;
+}
+
+}  // namespace
 
 bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 4>& corners,
                         const MarkerModel& model, const CameraModel& camera, double black,
@@ -285,12 +408,14 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
       sig.pop_back();
       pose = cands[pick].pose;
       if (!RefinePose(camera, X, px, sig, &pose, &out->covariance, &out->rms_px)) return false;
+      RefineWithStripeEdge(image, model, camera, o, X, px, sig, &pose, &out->covariance);
       out->ambiguous = cands.size() > 1;
       out->cam_from_marker = pose;
       out->tip.reset();
       return true;
     }
   }
+  RefineWithStripeEdge(image, model, camera, o, X, px, sig, &pose, &out->covariance);
   out->cam_from_marker = pose;
   out->tip = have_tip ? cands[pick].tip : std::nullopt;
   return true;
