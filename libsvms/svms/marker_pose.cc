@@ -188,7 +188,10 @@ bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X
     if (angle > 1e-15) R = Eigen::AngleAxisd(angle, step.head<3>() / angle).toRotationMatrix() * R;
     t += step.tail<3>();
     *rms = std::sqrt(ss / X.size());
-    if (step.head<3>().norm() < 1e-12 && step.tail<3>().norm() < 1e-12 * (1 + t.norm())) break;
+    // With edge points the normal's change is left out of J, and the iteration converges
+    // linearly: stop at 1e-9 (radians, relative translation), far below any error.
+    const double tol = edges && !edges->empty() ? 1e-9 : 1e-12;
+    if (step.head<3>().norm() < tol && step.tail<3>().norm() < tol * (1 + t.norm())) break;
   }
   *pose = Pose::FromRotation(R, t);
   Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(JtWJ);
@@ -252,46 +255,34 @@ void RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const 
   Pose p = *pose;
   PoseCovariance C;
   double rms;
-  auto residuals_rms = [&](const Pose& at, double* out_rms) {
-    double ss = 0;
-    for (const EdgeObservation& e : edges) {
-      Eigen::Vector2d q, q2;
-      if (!camera.Project(at * e.point, &q) ||
-          !camera.Project(at * (e.point + 1e-3 * e.direction), &q2))
-        return false;
-      const Eigen::Vector2d along = q2 - q;
-      const Eigen::Vector2d n = Eigen::Vector2d(-along.y(), along.x()).normalized();
-      const double r = n.dot(q - e.pixel);
-      ss += r * r;
-    }
-    *out_rms = std::sqrt(ss / edges.size());
-    return true;
-  };
-  for (int pass = 0; pass < 2; ++pass) {
-    if (!RefinePose(camera, X, px, sig, &p, &C, &rms, &edges)) return;
-    double e_rms;
-    if (!residuals_rms(p, &e_rms)) return;
-    // The group's own scatter (the pose takes few dof of so many points), times sqrt(3): the
-    // three points along one cell's edge lie within a cell of each other, closer than the
-    // edge locator's 4 px profile, and share their error (blur, pixel phase, the cell's own
-    // far edge); the independent measurements are the cells.
-    const double sigma = std::max(0.03, e_rms) * std::sqrt(3.0);
-    const double cut = std::max(3 * sigma, 0.3);
-    size_t kept = 0;
-    for (const EdgeObservation& e : edges) {
-      Eigen::Vector2d q, q2;
-      camera.Project(p * e.point, &q);
-      camera.Project(p * (e.point + 1e-3 * e.direction), &q2);
-      const Eigen::Vector2d along = q2 - q;
-      const double r = Eigen::Vector2d(-along.y(), along.x()).normalized().dot(q - e.pixel);
-      if (pass == 0 && std::abs(r) > cut) continue;
-      EdgeObservation kept_e = e;
-      kept_e.sigma_px = sigma;
-      edges[kept++] = kept_e;
-    }
-    edges.resize(kept);
-    if (edges.size() < 12) return;
+  // First fit at a nominal 0.1 px, then the points' own scatter sets their sigma.
+  if (!RefinePose(camera, X, px, sig, &p, &C, &rms, &edges)) return;
+  thread_local std::vector<double> residual;
+  residual.clear();
+  double ss = 0;
+  for (const EdgeObservation& e : edges) {
+    Eigen::Vector2d q, q2;
+    if (!camera.Project(p * e.point, &q) ||
+        !camera.Project(p * (e.point + 1e-3 * e.direction), &q2))
+      return;
+    const Eigen::Vector2d along = q2 - q;
+    residual.push_back(Eigen::Vector2d(-along.y(), along.x()).normalized().dot(q - e.pixel));
+    ss += residual.back() * residual.back();
   }
+  // The group's own scatter (the pose takes few dof of so many points), times sqrt(3): the
+  // three points along one cell's edge lie within a cell of each other, closer than the
+  // edge locator's 4 px profile, and share their error (blur, pixel phase, the cell's own
+  // far edge); the independent measurements are the cells.
+  const double sigma = std::max(0.03, std::sqrt(ss / edges.size())) * std::sqrt(3.0);
+  const double cut = std::max(3 * sigma, 0.3);
+  size_t kept = 0;
+  for (size_t i = 0; i < edges.size(); ++i) {
+    if (std::abs(residual[i]) > cut) continue;
+    edges[kept] = edges[i];
+    edges[kept++].sigma_px = sigma;
+  }
+  edges.resize(kept);
+  if (edges.size() < 12) return;
   if (!RefinePose(camera, X, px, sig, &p, &C, &rms, &edges)) return;
   *pose = p;
   *cov = C;
