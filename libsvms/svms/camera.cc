@@ -515,6 +515,25 @@ bool CameraModel::Project(const Eigen::Vector3d& p_cam, Eigen::Vector2d* px,
   assert(px != nullptr);
   if (empty() || !p_cam.allFinite()) return false;
   const mrcal_lensmodel_t lm = LoadLensModel(mrcal_lensmodel_.data());
+  if (lm.type == MRCAL_LENSMODEL_PINHOLE) {
+    // mrcal's pinhole formula, inline: the detector and the fits project thousands of points
+    // per frame, and the call into mrcal (metadata, dispatch) cost more than the arithmetic.
+    if (!(p_cam.z() > 0)) return false;
+    const double fx = intrinsics_[0], fy = intrinsics_[1], cx = intrinsics_[2], cy = intrinsics_[3];
+    const double iz = 1 / p_cam.z(), x = p_cam.x() * iz, y = p_cam.y() * iz;
+    const Eigen::Vector2d q(fx * x + cx, fy * y + cy);
+    if (!q.allFinite()) return false;
+    if (dpx_dp != nullptr) {
+      *dpx_dp << fx * iz, 0, -fx * x * iz, 0, fy * iz, -fy * y * iz;
+      if (!dpx_dp->allFinite()) return false;
+    }
+    if (dpx_dintrinsics != nullptr) {
+      dpx_dintrinsics->resize(2, 4);
+      *dpx_dintrinsics << x, 0, 1, 0, 0, y, 0, 1;
+    }
+    *px = q;
+    return true;
+  }
   const mrcal_lensmodel_metadata_t meta = mrcal_lensmodel_metadata(&lm);
   if (!meta.can_project_behind_camera && !(p_cam.z() > 0)) return false;
   // CAHVORE: mrcal_project fails (and complains on stderr) if asked for gradients.
