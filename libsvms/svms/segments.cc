@@ -177,6 +177,20 @@ void MergeAdjacent(const cv::Point* c, double tol, double rel,
   pieces->swap(out);
 }
 
+// The segment from s.a to t.b: its line through the length-weighted middle of both pieces,
+// its contrast their length-weighted mean.
+Segment Joined(const Segment& s, const Segment& t) {
+  Segment m;
+  m.a = s.a;
+  m.b = t.b;
+  const Eigen::Vector2d mid =
+      (s.length() * 0.5 * (s.a + s.b) + t.length() * 0.5 * (t.a + t.b)) / (s.length() + t.length());
+  const Eigen::Vector2d u = (m.b - m.a).normalized(), n(-u.y(), u.x());
+  m.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(mid));
+  m.contrast = (s.contrast * s.length() + t.contrast * t.length()) / (s.length() + t.length());
+  return m;
+}
+
 }  // namespace
 
 std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx,
@@ -337,17 +351,7 @@ void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
             (dist_to_line(other, longer.a) > o.merge_offset_px ||
              dist_to_line(other, longer.b) > o.merge_offset_px))
           continue;
-        // Join: the line through the length-weighted end points.
-        Segment m;
-        m.a = s.a;
-        m.b = t.b;
-        const Eigen::Vector2d mid =
-            (s.length() * 0.5 * (s.a + s.b) + t.length() * 0.5 * (t.a + t.b)) /
-            (s.length() + t.length());
-        const Eigen::Vector2d u = (m.b - m.a).normalized(), n(-u.y(), u.x());
-        m.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(mid));
-        m.contrast =
-            (s.contrast * s.length() + t.contrast * t.length()) / (s.length() + t.length());
+        const Segment m = Joined(s, t);
         v[i] = m;
         gone[j] = 1;
         merged = true;
@@ -386,16 +390,7 @@ void BridgeKinks(const SegmentOptions& o, std::vector<Segment>* segs) {
       const double c = di.dot(dj);
       // A bend either way; corners (>= bridge_max_turn_deg) are left to the quad search.
       if (c < cos_max) continue;
-      Segment m;
-      m.a = s.a;
-      m.b = t.b;
-      const Eigen::Vector2d mid =
-          (s.length() * 0.5 * (s.a + s.b) + t.length() * 0.5 * (t.a + t.b)) /
-          (s.length() + t.length());
-      const Eigen::Vector2d u = (m.b - m.a).normalized(), nrm(-u.y(), u.x());
-      m.line = Eigen::Vector3d(nrm.x(), nrm.y(), -nrm.dot(mid));
-      m.contrast = (s.contrast * s.length() + t.contrast * t.length()) / (s.length() + t.length());
-      v.push_back(m);
+      v.push_back(Joined(s, t));
     }
   }
 }

@@ -82,16 +82,19 @@ TEST(Segments, EachSideOfASquareIsFoundWholeAtEveryRotation) {
   }
 }
 
+// A segment from a to b with its line and a contrast of 50.
+Segment MakeSegment(Eigen::Vector2d a, Eigen::Vector2d b) {
+  Segment s;
+  s.a = a;
+  s.b = b;
+  const Eigen::Vector2d u = (b - a).normalized(), n(-u.y(), u.x());
+  s.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(a));
+  s.contrast = 50;
+  return s;
+}
+
 TEST(Segments, MergeJoinsPiecesOfOneEdgeButNotACorner) {
-  auto make = [](Eigen::Vector2d a, Eigen::Vector2d b) {
-    Segment s;
-    s.a = a;
-    s.b = b;
-    const Eigen::Vector2d u = (b - a).normalized(), n(-u.y(), u.x());
-    s.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(a));
-    s.contrast = 50;
-    return s;
-  };
+  auto make = MakeSegment;
   // A long piece and a short one whose direction is 9 degrees off (a one-pixel bump near a
   // corner): one edge.
   std::vector<Segment> v = {make({0, 0}, {22, 1.2}), make({22.5, 1.6}, {30.5, 0.8})};
@@ -108,15 +111,7 @@ TEST(Segments, MergeJoinsPiecesOfOneEdgeButNotACorner) {
 // A side bent halfway by 7-14 degrees (a shadow across a small square's side) gets a segment
 // over both pieces, the pieces stay; a corner, a gap or pieces going the other way do not.
 TEST(Segments, BridgeSpansABentSideButNotACornerOrAGap) {
-  auto make = [](Eigen::Vector2d a, Eigen::Vector2d b) {
-    Segment s;
-    s.a = a;
-    s.b = b;
-    const Eigen::Vector2d u = (b - a).normalized(), n(-u.y(), u.x());
-    s.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(a));
-    s.contrast = 50;
-    return s;
-  };
+  auto make = MakeSegment;
   // The 30 px case of the comparison's size sweep: 7 degrees at (505.3, 622.1).
   std::vector<Segment> v = {make({499.7, 634.4}, {505.1, 622.0}),
                             make({505.5, 622.3}, {514.0, 608.0})};
