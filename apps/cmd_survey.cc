@@ -204,7 +204,7 @@ void AddSurveyCommands(CLI::App& app, int* exit_code) {
                 "Survey only the reference's group when the view graph is disconnected");
   cmd->add_option("--corner-sigma", o->corner_sigma,
                   "Standard deviation of every corner (px); by default each corner's own, from "
-                  "the detector's line fits (x 1.04)");
+                  "the detector's line fits (x 1.02)");
   cmd->add_option("--out", o->out, "The layout JSON to write (svms.layout, with covariances)")
       ->required();
   cmd->add_option("--report", o->report, "Write report.md, tables and pictures to this directory");

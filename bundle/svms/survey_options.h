@@ -28,7 +28,7 @@ struct SurveyOptions {
   // corner by a shadow's edge) instead of all alike. The scale is fusion's (ObjectPoseOptions).
   double corner_sigma_px = 0.1;
   bool corner_sigma_from_fit = true;
-  double corner_fit_scale = 1.04;
+  double corner_fit_scale = 1.02;
   double min_corner_sigma_px = 0.01;
   // Floor on a post tip's standard deviation (pixels); the detector's TipObservation::sigma_px
   // is used when larger.

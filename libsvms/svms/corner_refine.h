@@ -43,7 +43,7 @@ struct ExcludedRegion {
 
 struct RefinedCorners {
   std::array<Eigen::Vector2d, 4> corners;  // same order as the input
-  std::array<double, 4> side_rms{};  // RMS distance of each side's edge points to its line, px
+  std::array<double, 4> side_rms{};  // each side's edge-point sigma about its line, px (n - 2 dof)
   std::array<int, 4> side_points{};  // edge points used per side
   // Standard deviation of each corner (pixels, each axis) propagated from its two side lines'
   // fits: each line's offset and slope from its edge points' scatter (side_rms, side_points),
