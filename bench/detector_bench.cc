@@ -83,6 +83,8 @@ void BM_Detect(benchmark::State& state) {
     for (int k = 0; k < svms::DetectionStats::kSteps; ++k) ms[k] += stats.ms[k];
   }
   state.counters["markers_found"] = static_cast<double>(found);
+  state.counters["segments"] = stats.segments;
+  state.counters["quads"] = stats.quads;
   for (int k = 0; k < svms::DetectionStats::kSteps; ++k)
     state.counters[std::string("ms_") + svms::DetectionStats::kStepNames[k]] =
         ms[k] / state.iterations();

@@ -43,6 +43,7 @@ void ExpectReadsBack(const std::string& png, const MarkerModel& m, double dpi) {
     EXPECT_TRUE(match.accepted());
     EXPECT_EQ(match.id, mm.id);
     EXPECT_GT(r.weakest(), 0.3) << "every cell clearly black or white";
+    EXPECT_EQ(r.separated_refs, 44);
     EXPECT_LT(r.black, 40);
     EXPECT_GT(r.white, 215);
   }
@@ -120,6 +121,28 @@ TEST(Artwork, EveryRotationOfTheArtworkDecodesWithItsRotation) {
     EXPECT_EQ(match.rotation, r);
     cv::rotate(img, img, cv::ROTATE_90_COUNTERCLOCKWISE);
   }
+}
+
+// Step 7b retries a small quad only if its cells' stripe and square references stand apart
+// (BitReading::separated_refs): all 44 on the print, a coin toss each on noise.
+TEST(Artwork, StripeAndSquareReferencesStandApartOnThePrintNotOnNoise) {
+  const MarkerModel m = MarkerModel::Standard(4321, 0.05, 0.01);
+  WrittenFiles files;
+  ArtworkOptions o;
+  o.dpi = 100;
+  ASSERT_TRUE(WriteMarkerArtwork(m, TempBase("sep"), o, &files).ok());
+  const cv::Mat img = cv::imread(TempBase("sep") + ".png", cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(img.empty());
+  const Eigen::Matrix3d H = ArtworkPixelFromPlane(img.cols, img.rows, 100);
+  EXPECT_EQ(SampleBits(img, H, m).separated_refs, 44);
+  cv::Mat noise(img.size(), CV_8U);
+  cv::RNG rng(7);
+  int most = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+    most = std::max(most, SampleBits(noise, H, m).separated_refs);
+  }
+  EXPECT_LT(most, 40) << "DetectorOptions::small_quad_min_separated_refs would let noise through";
 }
 
 TEST(Artwork, SheetPaginatesAndRefusesWhatDoesNotFit) {

@@ -1,6 +1,7 @@
 #include "svms/bit_sampler.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "svms/corner_refine.h"
@@ -50,6 +51,7 @@ BitReading SampleBits(const cv::Mat& image, const Eigen::Matrix3d& pixel_from_pl
   if (model.inner) inset = std::min(inset, 0.5 * (half - 6 * model.inner->cell_size));
   const double stripe_mid = half + 0.5 * w, black_line = half - inset;
   double black_sum = 0, white_sum = 0;
+  std::array<double, Svms44::kBits> cell_white, cell_black;
   for (int i = 0; i < Svms44::kBits; ++i) {
     const Eigen::Vector2d c = model.BitCellCentre(i);
     // Unit vector from the ring toward the centre along this side's normal, and the position
@@ -75,9 +77,13 @@ BitReading SampleBits(const cv::Mat& image, const Eigen::Matrix3d& pixel_from_pl
     if (value > threshold) r.word |= uint64_t{1} << i;
     black_sum += black;
     white_sum += white;
+    cell_white[i] = white;
+    cell_black[i] = black;
   }
   r.black = black_sum / Svms44::kBits;
   r.white = white_sum / Svms44::kBits;
+  for (int i = 0; i < Svms44::kBits; ++i)
+    r.separated_refs += cell_white[i] - cell_black[i] >= 0.5 * (r.white - r.black);
   return r;
 }
 

@@ -20,6 +20,10 @@ struct BitReading {
   std::array<float, 44> margin{};
   double black = 0, white = 0;  // mean levels of the square and the stripe references
   int samples_outside = 0;      // sample points that fell outside the image
+  // Cells whose own stripe reference is brighter than their own square reference by at least
+  // half of (white - black): 44 on a marker, even with its corners tenths of a pixel off (the
+  // references sit mid-stripe and mid-square); fewer on a texture's chance quadrilateral.
+  int separated_refs = 0;
   // The smallest |margin| over the cells: how close the weakest bit came to flipping.
   float weakest() const;
 };

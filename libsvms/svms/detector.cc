@@ -158,7 +158,8 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
     // its bit cells (a sixth of its side, out to twice its half-side) misplaces the samples:
     // refine the corners first and read again.
     if (!m.accepted() && o.refine_corners && q.min_side() < o.small_quad_refine_px &&
-        bits.white - bits.black >= o.small_quad_min_contrast) {
+        bits.white - bits.black >= o.small_quad_min_contrast &&
+        bits.separated_refs >= o.small_quad_min_separated_refs) {
       // One iteration (step 8 runs its own on whatever decodes): most small quads here are
       // texture, and this retry must stay cheap on a busy background.
       CornerRefineOptions once = o.refine;

@@ -195,8 +195,12 @@ TEST(Render, PostLitAt45DegreesCastsAShadowAsLongAsItIsTall) {
   // Geometry: along -x from the post, shadowed up to h + r (the top disc's far edge).
   for (double x = -0.005; x > -0.09; x -= 0.001) {
     const bool shadow = r->InSunShadow(0, Eigen::Vector3d(x, 0, 0));
-    if (x > -(h + radius) + 0.0005) EXPECT_TRUE(shadow) << x;
-    if (x < -(h + radius) - 0.0005) EXPECT_FALSE(shadow) << x;
+    if (x > -(h + radius) + 0.0005) {
+      EXPECT_TRUE(shadow) << x;
+    }
+    if (x < -(h + radius) - 0.0005) {
+      EXPECT_FALSE(shadow) << x;
+    }
   }
   // Pixels: along the image row through the post, the shadow edge in the white stripe is at
   // h + r from the centre (2000 px/m at 1 m: 144 px). The camera looks down with its x along
