@@ -11,10 +11,17 @@
 namespace svms {
 namespace {
 
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return m;
+// Adds one residual row J = [jr^T, jt^T] (rotation, translation), weight w, residual r to the
+// upper triangle of JtWJ and to JtWr. Written out: Eigen's rankUpdate and comma initialiser
+// on 6-vectors were not inlined and cost more than the projection.
+inline void AddRow(const Eigen::Vector3d& jr, const Eigen::Vector3d& jt, double w, double r,
+                   Eigen::Matrix<double, 6, 6>* JtWJ, Eigen::Matrix<double, 6, 1>* JtWr) {
+  const double j[6] = {jr.x(), jr.y(), jr.z(), jt.x(), jt.y(), jt.z()};
+  for (int a = 0; a < 6; ++a) {
+    const double wa = w * j[a];
+    (*JtWr)(a) += wa * r;
+    for (int b = a; b < 6; ++b) (*JtWJ)(a, b) += wa * j[b];
+  }
 }
 
 // Buffers kept per thread between calls (no allocation once grown; the C API's promise).
@@ -34,7 +41,7 @@ PoseScratch& Scratch() {
 
 std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d& pred,
                                       double radius, double black, double white,
-                                      double min_contrast) {
+                                      double min_contrast, double tip_radius_px) {
   const double thr = black + 0.5 * (white - black);
   const int x0 = std::max(0, static_cast<int>(std::floor(pred.x() - radius)));
   const int x1 = std::min(img.cols - 1, static_cast<int>(std::ceil(pred.x() + radius)));
@@ -58,7 +65,39 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
         by = y;
       }
     }
-  if (bx < 0 || at(by, bx) - black < min_contrast * (white - black)) return std::nullopt;
+  const bool sub_pixel = tip_radius_px < 1;
+  const double peak_fraction =
+      sub_pixel ? std::min(1.0, 0.5 * M_PI * tip_radius_px * tip_radius_px) : 1.0;
+  if (bx < 0 || at(by, bx) - black < min_contrast * peak_fraction * (white - black))
+    return std::nullopt;
+  if (sub_pixel) {
+    // A sub-pixel disc: the 3 x 3 around the seed hold its light; the ring around them must be
+    // dark (a bright ring means the stripe, a bit cell or a glint, not an isolated top).
+    if (bx < 2 || by < 2 || bx > img.cols - 3 || by > img.rows - 3) return std::nullopt;
+    const double floor = black + 0.03 * (white - black);
+    const double ring_max = black + 0.5 * (at(by, bx) - black);
+    double w = 0;
+    Eigen::Vector2d c = Eigen::Vector2d::Zero();
+    for (int dy = -2; dy <= 2; ++dy)
+      for (int dx = -2; dx <= 2; ++dx) {
+        const double v = at(by + dy, bx + dx);
+        if (std::abs(dx) == 2 || std::abs(dy) == 2) {
+          if (v > ring_max) return std::nullopt;
+          continue;
+        }
+        const double wi = std::max(0.0, v - floor);
+        c += wi * Eigen::Vector2d(bx + dx, by + dy);
+        w += wi;
+      }
+    if (w <= 0) return std::nullopt;
+    TipObservation t;
+    t.pixel = c / w;
+    // The centroid of a disc sampled by a few pixels, each with a grey level or two of noise
+    // against a flux of tens: within 0.1 px; 0.2 px also covers the top's perspective and the
+    // post's shading on a 10 px marker.
+    t.sigma_px = 0.2;
+    return t;
+  }
   // Flood the connected bright region from the seed (bounded by the window).
   PoseScratch& sc = Scratch();
   std::vector<std::pair<int, int>>&stack = sc.stack, &blob = sc.blob;
@@ -155,16 +194,16 @@ bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X
       if (!camera.Project(p, &q, &dq_dp)) return false;
       const Eigen::Vector2d r = q - px[i];
       ss += r.squaredNorm();
-      // Left perturbation in camera axes: p = exp([d]) R X + t  ->  dp/dd = -[R X]x, dp/dt = I.
-      Eigen::Matrix<double, 2, 6> J;
-      J.leftCols<3>() = -dq_dp * Skew(R * X[i]);
-      J.rightCols<3>() = dq_dp;
+      // Left perturbation in camera axes: p = exp([d]) R X + t  ->  dp/dd = -[R X]x, dp/dt = I;
+      // a row g^T of dq/dp gives the row [((R X) x g)^T, g^T].
+      const Eigen::Vector3d a = R * X[i];
       const double w = 1.0 / (sigma[i] * sigma[i]);
-      JtWJ += w * J.transpose() * J;
-      JtWr += w * J.transpose() * r;
+      for (int k = 0; k < 2; ++k)
+        AddRow(a.cross(dq_dp.row(k).transpose()), dq_dp.row(k).transpose(), w, r[k], &JtWJ, &JtWr);
     }
-    // Edge points: the distance across the edge's image (the normal at the model point's
-    // projection; its change with the pose is second order).
+    // Edge points: the distance across the edge's image, along its normal at the current pose
+    // (the normal's own change with the pose is left out of J: it multiplies the offset along
+    // the edge between the model point's image and the edge point, which is tiny).
     for (size_t i = 0; edges && i < edges->size(); ++i) {
       const EdgeObservation& e = (*edges)[i];
       const Eigen::Vector3d p = R * e.point + t;
@@ -175,23 +214,25 @@ bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X
       if (!(along.norm() > 0)) return false;
       const Eigen::Vector2d n = Eigen::Vector2d(-along.y(), along.x()).normalized();
       const double r = n.dot(q - e.pixel);
-      Eigen::Matrix<double, 1, 6> J;
-      J.leftCols<3>() = -n.transpose() * dq_dp * Skew(R * e.point);
-      J.rightCols<3>() = n.transpose() * dq_dp;
-      const double w = 1.0 / (e.sigma_px * e.sigma_px);
-      JtWJ += w * J.transpose() * J;
-      JtWr += w * J.transpose() * r;
+      const Eigen::Vector3d g = dq_dp.transpose() * n;
+      AddRow((p - t).cross(g), g, 1.0 / (e.sigma_px * e.sigma_px), r, &JtWJ, &JtWr);
     }
+    JtWJ.triangularView<Eigen::StrictlyLower>() = JtWJ.transpose();
     const Eigen::Matrix<double, 6, 1> step = -JtWJ.ldlt().solve(JtWr);
     if (!step.allFinite()) return false;
     const double angle = step.head<3>().norm();
     if (angle > 1e-15) R = Eigen::AngleAxisd(angle, step.head<3>() / angle).toRotationMatrix() * R;
     t += step.tail<3>();
     *rms = std::sqrt(ss / X.size());
-    // With edge points the normal's change is left out of J, and the iteration converges
-    // linearly: stop at 1e-9 (radians, relative translation), far below any error.
-    const double tol = edges && !edges->empty() ? 1e-9 : 1e-12;
-    if (step.head<3>().norm() < tol && step.tail<3>().norm() < tol * (1 + t.norm())) break;
+    // Done when the step is a millionth of the pose's own standard deviation (its squared
+    // Mahalanobis length under J^T W J below 1e-12), or below 1e-12 (radians; translation
+    // relative to the range). Where noise leaves residuals and the fit is ill-conditioned (a
+    // small marker), Gauss-Newton converges only linearly: the fixed 1e-12 alone took twice
+    // the iterations for no change a covariance could show.
+    const double tol = 1e-12;
+    if (step.dot(JtWJ * step) < 1e-12 ||
+        (step.head<3>().norm() < tol && step.tail<3>().norm() < tol * (1 + t.norm())))
+      break;
   }
   *pose = Pose::FromRotation(R, t);
   Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(JtWJ);
@@ -218,6 +259,7 @@ void RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const 
   edges.clear();
   const uint64_t code = Svms44::Codeword(model.id);
   const double c = model.cell_size, h = 5 * c;  // the stripe's outer half-side: 5 cells
+  const Eigen::Matrix3d R = pose->Rotation();
   std::array<int, 4> per_side{};
   for (int i = 0; i < 44; ++i) {
     if ((code >> i) & 1) continue;  // a white cell merges with the stripe: no edge
@@ -233,9 +275,10 @@ void RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const 
     for (double f : {-0.25, 0.0, 0.25}) {
       const Eigen::Vector3d P = (on_y ? Eigen::Vector3d(cc.x() + f * c, cc.y() > 0 ? h : -h, 0)
                                       : Eigen::Vector3d(cc.x() > 0 ? h : -h, cc.y() + f * c, 0));
+      const Eigen::Vector3d P_cam = R * P + pose->tvec;
       Eigen::Vector2d q0, q1, q2;
-      if (!camera.Project(*pose * P, &q0) || !camera.Project(*pose * (P + 0.5 * c * inward), &q1) ||
-          !camera.Project(*pose * (P + 0.5 * c * along), &q2))
+      if (!camera.Project(P_cam, &q0) || !camera.Project(P_cam + 0.5 * c * (R * inward), &q1) ||
+          !camera.Project(P_cam + 0.5 * c * (R * along), &q2))
         return;
       const double cell_px = 2 * std::min((q1 - q0).norm(), (q2 - q0).norm());
       if (cell_px < o.stripe_edge_min_cell_px) return;
@@ -260,10 +303,11 @@ void RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const 
   thread_local std::vector<double> residual;
   residual.clear();
   double ss = 0;
+  const Eigen::Matrix3d R_fit = p.Rotation();
   for (const EdgeObservation& e : edges) {
+    const Eigen::Vector3d e_cam = R_fit * e.point + p.tvec;
     Eigen::Vector2d q, q2;
-    if (!camera.Project(p * e.point, &q) ||
-        !camera.Project(p * (e.point + 1e-3 * e.direction), &q2))
+    if (!camera.Project(e_cam, &q) || !camera.Project(e_cam + 1e-3 * (R_fit * e.direction), &q2))
       return;
     const Eigen::Vector2d along = q2 - q;
     residual.push_back(Eigen::Vector2d(-along.y(), along.x()).normalized().dot(q - e.pixel));
@@ -336,7 +380,8 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
       const Eigen::Vector3d tip3 = VisibleTipPoint(model, c.pose.Inverse().tvec, &fraction);
       Eigen::Vector2d pred;
       if (fraction >= 0.25 && camera.Project(c.pose * tip3, &pred)) {
-        c.tip = FindTip(image, pred, search, black, white, o.tip_min_contrast);
+        c.tip = FindTip(image, pred, search, black, white, o.tip_min_contrast,
+                        model.post->tip_radius * px_per_m);
         if (c.tip) c.tip_error = (c.tip->pixel - pred).norm();
       }
     }

@@ -35,13 +35,15 @@ struct MarkerPoseOptions {
   // that is not known (0), corner_sigma_px. The scale is fusion's (ObjectPoseOptions), measured
   // on the simulator's mockup survey images.
   double corner_sigma_px = 0.1;
-  double corner_fit_scale = 1.04;
+  double corner_fit_scale = 1.02;
   double min_corner_sigma_px = 0.01;
   double tip_search_fraction = 0.25;  // search radius, as a fraction of the square's side
   double tip_min_contrast = 0.35;     // tip brighter than black by this fraction of white - black
-  // A white top smaller than this in the image (radius, pixels) is not looked for: a blob of
-  // a pixel or less is as likely noise or a neighbouring bit cell, and pulls the pose wrong.
-  double tip_min_radius_px = 0.5;
+  // A white top smaller than this in the image (radius, pixels) is not looked for. Down to a
+  // third of a pixel the top still shows in the square's black (on a 10 px marker at 8-bit:
+  // two pixels 35 and 42 levels above black, with white 143 above) and tells the two planar
+  // solutions apart; FindTip reads it as a sub-pixel blob (its tip_radius_px).
+  double tip_min_radius_px = 0.35;
   // The white stripe's outer edge, where a black bit cell borders it (the decoded ID says
   // which), is a square 5/3 the size of the black one: its edge points are added to the pose
   // fit (point-to-line), which nearly triples the perspective leverage on the orientation.
@@ -70,10 +72,14 @@ struct MarkerPose {
 
 // The white blob nearest `predicted` within `radius` pixels: centroid of the pixels brighter
 // than the midpoint of `black` and `white`, weighted by how much brighter. nullopt if none is
-// clearly there.
+// clearly there. `tip_radius_px` is the white top's expected radius in the image: below a
+// pixel its light is spread over two to four pixels and no pixel reaches the midpoint, so
+// the brightest must stand out by min_contrast x min(1, pi r^2 / 2) only, and the centroid is
+// taken over the 3 x 3 pixels around it (all of a sub-pixel disc's footprint), which must be
+// ringed by dark pixels (nothing else bright within 2 px).
 std::optional<TipObservation> FindTip(const cv::Mat& image, const Eigen::Vector2d& predicted,
                                       double radius, double black, double white,
-                                      double min_contrast);
+                                      double min_contrast, double tip_radius_px = 1e9);
 
 // Pose of a marker from its corners (marker order: TL, TR, BR, BL as printed, pixels), each
 // with its sigma from the side fits (pixels; 0: not known, see MarkerPoseOptions).
