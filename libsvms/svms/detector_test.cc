@@ -212,35 +212,45 @@ TEST(Detector, TheTipPicksTheRightPoseWhereThePlanarPoseIsAmbiguous) {
 // A 30 px marker nearly head-on (the paper's Fig. 9 at its far end): the white stripe's outer
 // edge, fitted where black cells border it, brings the orientation closer to the truth and the
 // covariance says so.
-TEST(Detector, TheStripesOuterEdgeSharpensTheOrientationOfASmallMarker) {
+TEST(Detector, TheStripeAndDecalEdgesSharpenTheOrientationOfASmallMarker) {
   const CameraModel cam = CameraModel::Pinhole(1111.1, 320, 240);
-  double err_on = 0, err_off = 0, sigma_on = 0, sigma_off = 0;
+  double err_on = 0, err_off = 0, err_stripe = 0, sigma_on = 0, sigma_off = 0, sigma_stripe = 0;
   int n = 0;
   for (int v = 0; v < 6; ++v) {
     const MarkerModel m = MarkerModel::Standard(100 + v, 0.2, 0.05);
     const double a = (5 + 4 * v) * M_PI / 180;
     const Rendered r = Render(
         Base(cam, {{m, Pose{}}}, Look({7.4 * std::sin(a), 0.3, 7.4 * std::cos(a)}, {0, 0, 0})));
-    DetectorOptions off;
+    DetectorOptions off, stripe_only;
     off.pose.use_stripe_edge = false;
+    stripe_only.pose.use_decal_edge = false;
     const std::vector<Detection> d_on = Detector(DetectorOptions{}, cam, {m}).Detect(r.image);
     const std::vector<Detection> d_off = Detector(off, cam, {m}).Detect(r.image);
+    const std::vector<Detection> d_stripe = Detector(stripe_only, cam, {m}).Detect(r.image);
     ASSERT_EQ(d_on.size(), 1u);
     ASSERT_EQ(d_off.size(), 1u);
-    ASSERT_TRUE(d_on[0].cam_from_marker && d_off[0].cam_from_marker);
+    ASSERT_EQ(d_stripe.size(), 1u);
+    ASSERT_TRUE(d_on[0].cam_from_marker && d_off[0].cam_from_marker && d_stripe[0].cam_from_marker);
     const Pose& truth = r.truth.markers[0].cam_from_marker;
     err_on += std::pow(AngleDeg(*d_on[0].cam_from_marker, truth), 2);
     err_off += std::pow(AngleDeg(*d_off[0].cam_from_marker, truth), 2);
+    err_stripe += std::pow(AngleDeg(*d_stripe[0].cam_from_marker, truth), 2);
     sigma_on += d_on[0].covariance.topLeftCorner<3, 3>().trace();
     sigma_off += d_off[0].covariance.topLeftCorner<3, 3>().trace();
+    sigma_stripe += d_stripe[0].covariance.topLeftCorner<3, 3>().trace();
     ++n;
   }
   err_on = std::sqrt(err_on / n);
   err_off = std::sqrt(err_off / n);
-  RecordProperty("orientation_rms_deg_with_edge", std::to_string(err_on));
+  err_stripe = std::sqrt(err_stripe / n);
+  RecordProperty("orientation_rms_deg_with_edges", std::to_string(err_on));
+  RecordProperty("orientation_rms_deg_stripe_edge_only", std::to_string(err_stripe));
   RecordProperty("orientation_rms_deg_without", std::to_string(err_off));
+  RecordProperty("orientation_variance_ratio_both_to_stripe",
+                 std::to_string(sigma_on / sigma_stripe));
   EXPECT_LT(err_on, err_off);
-  EXPECT_LT(sigma_on, 0.7 * sigma_off);  // the edge points carry real information
+  EXPECT_LT(sigma_on, 0.7 * sigma_off);     // the edge points carry real information
+  EXPECT_LT(sigma_on, 0.9 * sigma_stripe);  // and the decal's edge adds to the stripe's
 }
 
 // Markers whose black square is 8-11 px: the corners of such a small quad are off by tenths

@@ -50,6 +50,9 @@ struct MarkerPoseOptions {
   // Only where the cells are at least stripe_edge_min_cell_px wide in the image.
   bool use_stripe_edge = true;
   double stripe_edge_min_cell_px = 3;
+  // Likewise the decal's outer edge (6 cells from the centre, twice the black square's half
+  // side) where a white bit cell meets a darker skin; with use_stripe_edge only.
+  bool use_decal_edge = true;
 };
 
 // A point on a straight edge of the marker: `point` on the edge and `direction` along it
@@ -107,10 +110,11 @@ bool RegionTouchesSides(const ExcludedRegion& region,
                         const std::array<Eigen::Vector2d, 4>& corners);
 
 // Gauss-Newton refinement of cam_from_marker over `points_in_marker` observed at `pixels`
-// with per-point sigmas; fills the covariance. Exposed for tests.
+// with per-point sigmas (and `edges`, point-to-line), at most `max_iterations` steps; fills
+// the covariance, (J^T W J)^-1 in [rotation, translation], camera axes. Exposed for tests.
 bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& points_in_marker,
                 const std::vector<Eigen::Vector2d>& pixels, const std::vector<double>& sigmas,
                 Pose* cam_from_marker, PoseCovariance* covariance, double* rms_px,
-                const std::vector<EdgeObservation>* edges = nullptr);
+                const std::vector<EdgeObservation>* edges = nullptr, int max_iterations = 10);
 
 }  // namespace svms
