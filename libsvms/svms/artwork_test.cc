@@ -22,6 +22,15 @@ std::string TempBase(const std::string& name) {
   return (dir / name).string();
 }
 
+// The artwork of `m` at `dpi`, written as `name`.png and read back in grey (empty on failure).
+cv::Mat WrittenArtwork(const MarkerModel& m, const std::string& name, double dpi) {
+  WrittenFiles files;
+  ArtworkOptions o;
+  o.dpi = dpi;
+  if (!WriteMarkerArtwork(m, TempBase(name), o, &files).ok()) return cv::Mat();
+  return cv::imread(TempBase(name) + ".png", cv::IMREAD_GRAYSCALE);
+}
+
 std::string Slurp(const std::string& path) {
   std::string s;
   EXPECT_TRUE(ReadTextFile(path, &s).ok()) << path;
@@ -106,11 +115,7 @@ TEST(Artwork, DualAndConcaveMarkersReadBackAtLowResolution) {
 
 TEST(Artwork, EveryRotationOfTheArtworkDecodesWithItsRotation) {
   const MarkerModel m = MarkerModel::Standard(1234, 0.05, 0.01);
-  WrittenFiles files;
-  ArtworkOptions o;
-  o.dpi = 100;
-  ASSERT_TRUE(WriteMarkerArtwork(m, TempBase("rot"), o, &files).ok());
-  cv::Mat img = cv::imread(TempBase("rot") + ".png", cv::IMREAD_GRAYSCALE);
+  cv::Mat img = WrittenArtwork(m, "rot", 100);
   ASSERT_FALSE(img.empty());
   for (int r = 0; r < 4; ++r) {
     // Reading from marker corner r: rotate the image so that corner r is at the top-left.
@@ -127,11 +132,7 @@ TEST(Artwork, EveryRotationOfTheArtworkDecodesWithItsRotation) {
 // (BitReading::separated_refs): all 44 on the print, a coin toss each on noise.
 TEST(Artwork, StripeAndSquareReferencesStandApartOnThePrintNotOnNoise) {
   const MarkerModel m = MarkerModel::Standard(4321, 0.05, 0.01);
-  WrittenFiles files;
-  ArtworkOptions o;
-  o.dpi = 100;
-  ASSERT_TRUE(WriteMarkerArtwork(m, TempBase("sep"), o, &files).ok());
-  const cv::Mat img = cv::imread(TempBase("sep") + ".png", cv::IMREAD_GRAYSCALE);
+  const cv::Mat img = WrittenArtwork(m, "sep", 100);
   ASSERT_FALSE(img.empty());
   const Eigen::Matrix3d H = ArtworkPixelFromPlane(img.cols, img.rows, 100);
   EXPECT_EQ(SampleBits(img, H, m).separated_refs, 44);

@@ -372,6 +372,30 @@ TEST(Detector, SixteenBitAndColourImagesWork) {
   ASSERT_EQ(det.Detect(colour).size(), 1u);
 }
 
+// Central differences of `residuals(R, t)` (N values, already whitened) with respect to a
+// left rotation of `at` (camera axes, radians) and its translation: the Jacobian RefinePose's
+// covariance (J^T J)^-1 must agree with.
+template <int N, typename F>
+Eigen::Matrix<double, N, 6> NumericPoseJacobian(const Pose& at, F residuals) {
+  Eigen::Matrix<double, N, 6> J;
+  const double h = 1e-7;
+  for (int k = 0; k < 6; ++k) {
+    Eigen::Matrix<double, 6, 1> dlt = Eigen::Matrix<double, 6, 1>::Zero();
+    dlt(k) = h;
+    auto perturbed = [&](double sgn) {
+      const Eigen::Vector3d w = sgn * dlt.head<3>();
+      const Eigen::Matrix3d R =
+          (w.norm() > 0 ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix()
+                        : Eigen::Matrix3d::Identity()) *
+          at.Rotation();
+      return Eigen::Matrix<double, N, 1>(
+          residuals(R, Eigen::Vector3d(at.tvec + sgn * dlt.tail<3>())));
+    };
+    J.col(k) = (perturbed(1) - perturbed(-1)) / (2 * h);
+  }
+  return J;
+}
+
 TEST(RefinePose, JacobianMatchesFiniteDifferencesAndRecoversThePose) {
   const CameraModel cam = Distorted();
   Pose truth;
@@ -397,27 +421,16 @@ TEST(RefinePose, JacobianMatchesFiniteDifferencesAndRecoversThePose) {
   EXPECT_LT(AngleDeg(start, truth), 1e-7);
   EXPECT_LT(rms, 1e-6);
   // The covariance is (J^T W J)^-1: compare with a finite-difference Jacobian.
-  Eigen::Matrix<double, 10, 6> J;
-  const double h = 1e-7;
-  for (int k = 0; k < 6; ++k) {
-    Eigen::Matrix<double, 6, 1> dlt = Eigen::Matrix<double, 6, 1>::Zero();
-    dlt(k) = h;
-    auto residuals = [&](double sgn) {
-      const Eigen::Vector3d w = sgn * dlt.head<3>();
-      const Eigen::Matrix3d R =
-          (w.norm() > 0 ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix()
-                        : Eigen::Matrix3d::Identity()) *
-          truth.Rotation();
-      Eigen::Matrix<double, 10, 1> r;
-      for (int i = 0; i < 5; ++i) {
-        Eigen::Vector2d q;
-        cam.Project(R * X[i] + truth.tvec + sgn * dlt.tail<3>(), &q);
-        r.segment<2>(2 * i) = q / 0.1;
-      }
-      return r;
-    };
-    J.col(k) = (residuals(1) - residuals(-1)) / (2 * h);
-  }
+  const Eigen::Matrix<double, 10, 6> J =
+      NumericPoseJacobian<10>(truth, [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
+        Eigen::Matrix<double, 10, 1> r;
+        for (int i = 0; i < 5; ++i) {
+          Eigen::Vector2d q;
+          cam.Project(R * X[i] + t, &q);
+          r.segment<2>(2 * i) = q / 0.1;
+        }
+        return r;
+      });
   const PoseCovariance numeric = (J.transpose() * J).inverse();
   EXPECT_LT((numeric - cov).norm() / cov.norm(), 1e-4);
 }
@@ -471,33 +484,21 @@ TEST(RefinePose, EdgePointsJacobianMatchesFiniteDifferences) {
     const Eigen::Vector2d u = (b - a).normalized();
     return Eigen::Vector2d(-u.y(), u.x());
   };
-  Eigen::Matrix<double, 28, 6> J;
-  const double step = 1e-7;
-  for (int k = 0; k < 6; ++k) {
-    Eigen::Matrix<double, 6, 1> dlt = Eigen::Matrix<double, 6, 1>::Zero();
-    dlt(k) = step;
-    auto residuals = [&](double sgn) {
-      const Eigen::Vector3d w = sgn * dlt.head<3>();
-      const Eigen::Matrix3d R =
-          (w.norm() > 0 ? Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix()
-                        : Eigen::Matrix3d::Identity()) *
-          truth.Rotation();
-      const Eigen::Vector3d t = truth.tvec + sgn * dlt.tail<3>();
-      Eigen::Matrix<double, 28, 1> r;
-      for (int i = 0; i < 4; ++i) {
-        Eigen::Vector2d q;
-        cam.Project(R * X[i] + t, &q);
-        r.segment<2>(2 * i) = q / 0.1;
-      }
-      for (int i = 0; i < 20; ++i) {
-        Eigen::Vector2d q;
-        cam.Project(R * edges[i].point + t, &q);
-        r(8 + i) = normal_at(edges[i]).dot(q - edges[i].pixel) / edges[i].sigma_px;
-      }
-      return r;
-    };
-    J.col(k) = (residuals(1) - residuals(-1)) / (2 * step);
-  }
+  const Eigen::Matrix<double, 28, 6> J =
+      NumericPoseJacobian<28>(truth, [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
+        Eigen::Matrix<double, 28, 1> r;
+        for (int i = 0; i < 4; ++i) {
+          Eigen::Vector2d q;
+          cam.Project(R * X[i] + t, &q);
+          r.segment<2>(2 * i) = q / 0.1;
+        }
+        for (int i = 0; i < 20; ++i) {
+          Eigen::Vector2d q;
+          cam.Project(R * edges[i].point + t, &q);
+          r(8 + i) = normal_at(edges[i]).dot(q - edges[i].pixel) / edges[i].sigma_px;
+        }
+        return r;
+      });
   const PoseCovariance numeric = (J.transpose() * J).inverse();
   EXPECT_LT((numeric - cov).norm() / cov.norm(), 1e-4);
   // And the edges carry information: the covariance is smaller than from the corners alone.
