@@ -31,6 +31,12 @@ struct SegmentOptions {
   // Find edges on 16 sqrt(grey) (noise about one level at every brightness; see segments.cc)
   // instead of on the grey levels; the thresholds above then apply on that scale.
   bool stabilise_variance = true;
+  // Sensor read noise breaks that: 16 sqrt(grey) multiplies the noise in the dark by
+  // 8 / sqrt(grey), and 4 grey levels of read noise become 12 levels inside a black square,
+  // thousands of noise edges and a detector ten times slower. The read noise is estimated in
+  // each image (EstimateReadNoise); above read_noise_gate grey levels the scale becomes
+  // 16 sqrt(grey + 64 sigma^2), the stabilising transform for shot plus read noise.
+  double read_noise_gate = 1.5;
   double min_length = 4;  // pixels
   // A chain is split where it leaves its chord by more than max(max_deviation,
   // relative_deviation * chord length): lens distortion bows a marker's side by about 1 % of
@@ -66,6 +72,13 @@ void BridgeKinks(const SegmentOptions& options, std::vector<Segment>* segments);
 
 // Finds straight edge segments in an 8-bit image. `gradient_x`, `gradient_y` (CV_16S Sobel,
 // computed here) are returned for later steps.
+// The read noise of an 8-bit image, grey levels RMS: from the darkest grey-level bin
+// with enough pixels (every 4th pixel of every 4th row, binned by grey level in steps of 32), the
+// robust spread of the 4-neighbour Laplacian there, less the shot noise the 16 sqrt(grey) scale
+// assumes (grey / 64) and the quantisation's 1/12. Texture inflates it; the median keeps
+// that small where most of the bin is flat. 0 for images smaller than 8 x 8.
+double EstimateReadNoise(const cv::Mat& gray8);
+
 std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& options,
                                   cv::Mat* gradient_x, cv::Mat* gradient_y);
 // The same into *segments (replaced). Its buffers, and this thread's scratch (kept between

@@ -141,6 +141,41 @@ TEST(Segments, BridgeSpansABentSideButNotACornerOrAGap) {
 
 // Nested and adjacent squares do not hide one another: the white stripe of a marker on a dark
 // skin is a bright frame whose inner border is the black square's border seen the other way.
+// A dark square on a brighter plate with shot noise (variance grey / 64, what 16 sqrt(grey)
+// assumes) plus `read` grey levels of read noise, rounded to 8 bits.
+cv::Mat NoisySquare(double read, uint64_t seed) {
+  cv::Mat img(240, 320, CV_8U, cv::Scalar(150));
+  DrawSquare(img, 160, 120, 80, 10, 12);
+  cv::RNG rng(seed);
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x) {
+      const double v = img.at<uint8_t>(y, x);
+      img.at<uint8_t>(y, x) =
+          cv::saturate_cast<uint8_t>(v + rng.gaussian(std::sqrt(v / 64 + read * read)));
+    }
+  return img;
+}
+
+TEST(Segments, ReadNoiseIsEstimatedAndDoesNotMultiplyTheEdges) {
+  EXPECT_LT(EstimateReadNoise(NoisySquare(0, 1)), 0.6);
+  EXPECT_LT(EstimateReadNoise(NoisySquare(1, 2)), SegmentOptions{}.read_noise_gate);
+  EXPECT_NEAR(EstimateReadNoise(NoisySquare(4, 3)), 4, 0.6);
+  EXPECT_NEAR(EstimateReadNoise(NoisySquare(8, 4)), 8, 1.0);
+  EXPECT_EQ(EstimateReadNoise(cv::Mat(4, 4, CV_8U, cv::Scalar(9))), 0);
+  // With 4 levels of read noise the black square's inside (level 12) is 12 levels of noise on
+  // the plain 16 sqrt(grey) scale: noise edges everywhere, unless the scale allows for it.
+  const cv::Mat noisy = NoisySquare(4, 5);
+  cv::Mat gx, gy;
+  SegmentOptions plain;
+  plain.read_noise_gate = 1e9;
+  const size_t adapted = FindSegments(noisy, SegmentOptions{}, &gx, &gy).size();
+  const size_t unadapted = FindSegments(noisy, plain, &gx, &gy).size();
+  RecordProperty("segments_adapted", static_cast<int>(adapted));
+  RecordProperty("segments_plain_scale", static_cast<int>(unadapted));
+  EXPECT_LE(adapted, 12u);
+  EXPECT_GT(unadapted, 5 * adapted);
+}
+
 TEST(Quads, NestedAndAdjacentSquaresAreAllFound) {
   cv::Mat img(200, 300, CV_8U, cv::Scalar(200));
   DrawSquare(img, 100, 100, 120, 5, 20);                    // dark skin
