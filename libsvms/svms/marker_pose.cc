@@ -92,9 +92,8 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
     if (w <= 0) return std::nullopt;
     TipObservation t;
     t.pixel = c / w;
-    // The centroid of a disc sampled by a few pixels, each with a grey level or two of noise
-    // against a flux of tens: within 0.1 px; 0.2 px also covers the top's perspective and the
-    // post's shading on a 10 px marker.
+    // Per axis. Measured against the simulator's truth on the comparison's size sweep: errors
+    // of 0.06-0.20 px on 10 px markers, 0.16-0.37 px (length) on 8 px ones.
     t.sigma_px = 0.2;
     return t;
   }
