@@ -396,11 +396,29 @@ Eigen::Matrix<double, N, 6> NumericPoseJacobian(const Pose& at, F residuals) {
   return J;
 }
 
-TEST(RefinePose, JacobianMatchesFiniteDifferencesAndRecoversThePose) {
-  const CameraModel cam = Distorted();
+// The projections of X[0, n) at (R, t), divided by sigma, into r[0, 2n): the point part of a
+// whitened residual (the observed pixels are constant and cancel in differences).
+void ScaledProjections(const CameraModel& cam, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                       const std::vector<Eigen::Vector3d>& X, int n, double sigma,
+                       Eigen::Ref<Eigen::VectorXd> r) {
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector2d q;
+    cam.Project(R * X[i] + t, &q);
+    r.segment<2>(2 * i) = q / sigma;
+  }
+}
+
+// The RefinePose tests' marker pose: 0.8 m away, turned about 35 degrees.
+Pose RefinePoseTruth() {
   Pose truth;
   truth.rvec = Eigen::Vector3d(0.3, -0.5, 0.2);
   truth.tvec = Eigen::Vector3d(0.05, -0.02, 0.8);
+  return truth;
+}
+
+TEST(RefinePose, JacobianMatchesFiniteDifferencesAndRecoversThePose) {
+  const CameraModel cam = Distorted();
+  const Pose truth = RefinePoseTruth();
   const MarkerModel m = MarkerModel::Standard(1, 0.1, 0.03);
   const auto corners = m.Corners();
   std::vector<Eigen::Vector3d> X(corners.begin(), corners.end());
@@ -423,12 +441,8 @@ TEST(RefinePose, JacobianMatchesFiniteDifferencesAndRecoversThePose) {
   // The covariance is (J^T W J)^-1: compare with a finite-difference Jacobian.
   const Eigen::Matrix<double, 10, 6> J =
       NumericPoseJacobian<10>(truth, [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
-        Eigen::Matrix<double, 10, 1> r;
-        for (int i = 0; i < 5; ++i) {
-          Eigen::Vector2d q;
-          cam.Project(R * X[i] + t, &q);
-          r.segment<2>(2 * i) = q / 0.1;
-        }
+        Eigen::VectorXd r(10);
+        ScaledProjections(cam, R, t, X, 5, 0.1, r);
         return r;
       });
   const PoseCovariance numeric = (J.transpose() * J).inverse();
@@ -440,9 +454,7 @@ TEST(RefinePose, JacobianMatchesFiniteDifferencesAndRecoversThePose) {
 // (J^T W J)^-1 of that residual (finite differences at the truth).
 TEST(RefinePose, EdgePointsJacobianMatchesFiniteDifferences) {
   const CameraModel cam = Distorted();
-  Pose truth;
-  truth.rvec = Eigen::Vector3d(0.3, -0.5, 0.2);
-  truth.tvec = Eigen::Vector3d(0.05, -0.02, 0.8);
+  const Pose truth = RefinePoseTruth();
   const MarkerModel m = MarkerModel::Standard(1, 0.1, 0.03);
   const auto corners = m.Corners();
   const std::vector<Eigen::Vector3d> X(corners.begin(), corners.end());
@@ -486,12 +498,8 @@ TEST(RefinePose, EdgePointsJacobianMatchesFiniteDifferences) {
   };
   const Eigen::Matrix<double, 28, 6> J =
       NumericPoseJacobian<28>(truth, [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
-        Eigen::Matrix<double, 28, 1> r;
-        for (int i = 0; i < 4; ++i) {
-          Eigen::Vector2d q;
-          cam.Project(R * X[i] + t, &q);
-          r.segment<2>(2 * i) = q / 0.1;
-        }
+        Eigen::VectorXd r(28);
+        ScaledProjections(cam, R, t, X, 4, 0.1, r);
         for (int i = 0; i < 20; ++i) {
           Eigen::Vector2d q;
           cam.Project(R * edges[i].point + t, &q);
