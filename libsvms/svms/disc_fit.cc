@@ -1,0 +1,156 @@
+#include "svms/disc_fit.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+namespace svms {
+namespace {
+
+// Integral of sqrt(r^2 - X^2) dX, for |X| <= r.
+double HalfChordIntegral(double r, double x) {
+  const double c = std::clamp(x / r, -1.0, 1.0);
+  const double xc = r * c;
+  return 0.5 * (xc * std::sqrt(std::max(0.0, r * r - xc * xc)) + r * r * std::asin(c));
+}
+
+// Area of the disc of radius r (centred at 0) left of abscissa x.
+double AreaLeftOf(double r, double x) {
+  if (x <= -r) return 0;
+  if (x >= r) return M_PI * r * r;
+  return 2 * (HalfChordIntegral(r, x) - HalfChordIntegral(r, -r));
+}
+
+}  // namespace
+
+double DiscRectangleArea(double r, double x0, double x1, double y0, double y1) {
+  if (r <= 0 || x1 <= x0 || y1 <= y0) return 0;
+  const double a = std::max(x0, -r), b = std::min(x1, r);
+  if (b <= a) return 0;
+  // Between consecutive break points the chord's ends are each either a side of the
+  // rectangle or the circle, so the integral is in closed form piece by piece.
+  std::array<double, 6> breaks;
+  int n = 0;
+  breaks[n++] = a;
+  breaks[n++] = b;
+  for (double c : {y0, y1})
+    if (std::abs(c) < r) {
+      const double s = std::sqrt(r * r - c * c);
+      if (s > a && s < b) breaks[n++] = s;
+      if (-s > a && -s < b) breaks[n++] = -s;
+    }
+  for (int i = 1; i < n; ++i)  // insertion sort of at most 6 (std::sort trips -Warray-bounds)
+    for (int j = i; j > 0 && breaks[j] < breaks[j - 1]; --j) std::swap(breaks[j], breaks[j - 1]);
+  double area = 0;
+  for (int i = 0; i + 1 < n; ++i) {
+    const double p = breaks[i], q = breaks[i + 1];
+    if (q <= p) continue;
+    const double m = 0.5 * (p + q), hm = std::sqrt(std::max(0.0, r * r - m * m));
+    const double top = std::min(y1, hm), bottom = std::max(y0, -hm);
+    if (top <= bottom) continue;
+    const double circle = HalfChordIntegral(r, q) - HalfChordIntegral(r, p);
+    area += (hm < y1 ? circle : y1 * (q - p)) - (-hm > y0 ? -circle : y0 * (q - p));
+  }
+  return area;
+}
+
+std::optional<DiscFit> FitDisc(const double* values, int size, int origin_x, int origin_y,
+                               double radius) {
+  if (size < 3 || size > 16 || radius <= 0) return std::nullopt;
+  const int n = size * size;
+  // Each axis alone, from the window's column (row) sums, which depend on the disc's abscissa
+  // (ordinate) only: the profile of their least-squares cost (amplitude and background solved
+  // at each place) on a fine grid.
+  constexpr double kStep = 0.01;
+  const int places = static_cast<int>(std::lround((size - 1) / kStep)) + 1;
+  if (places > 1601) return std::nullopt;
+  std::array<std::array<double, 1601>, 2> profile;
+  std::array<double, 2> best_place{}, least{1e300, 1e300};
+  for (int axis = 0; axis < 2; ++axis) {
+    std::array<double, 16> sums{};
+    for (int i = 0; i < n; ++i) sums[axis == 0 ? i % size : i / size] += values[i];
+    double sv = 0, svv = 0;
+    for (int k = 0; k < size; ++k) {
+      sv += sums[k];
+      svv += sums[k] * sums[k];
+    }
+    const double origin = axis == 0 ? origin_x : origin_y;
+    for (int j = 0; j < places; ++j) {
+      const double c = origin + j * kStep;
+      double saa = 0, sa = 0, sav = 0;
+      double left = AreaLeftOf(radius, origin - 0.5 - c);
+      for (int k = 0; k < size; ++k) {
+        const double right = AreaLeftOf(radius, origin + k + 0.5 - c);
+        const double a = right - left;
+        left = right;
+        saa += a * a;
+        sa += a;
+        sav += a * sums[k];
+      }
+      const double det = size * saa - sa * sa;
+      double e = svv - sv * sv / size;  // no disc in the window: a flat background
+      if (det > 1e-12) {
+        const double amplitude = (size * sav - sa * sv) / det;
+        if (amplitude > 0) e = svv - amplitude * sav - (sv - amplitude * sa) / size * sv;
+      }
+      profile[axis][j] = e;
+      if (e < least[axis]) {
+        least[axis] = e;
+        best_place[axis] = c;
+      }
+    }
+  }
+  // Amplitude, background and the pixel noise from the whole window at `centre`.
+  DiscFit fit;
+  auto linear_fit = [&](const Eigen::Vector2d& centre) {
+    Eigen::Matrix2d A = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d b = Eigen::Vector2d::Zero();
+    std::array<double, 256> area;
+    for (int i = 0; i < n; ++i) {
+      const double u = origin_x + i % size - centre.x(), v = origin_y + i / size - centre.y();
+      area[i] = DiscRectangleArea(radius, u - 0.5, u + 0.5, v - 0.5, v + 0.5);
+      const Eigen::Vector2d g(area[i], 1);
+      A += g * g.transpose();
+      b += g * values[i];
+    }
+    if (std::abs(A.determinant()) < 1e-12) return false;
+    const Eigen::Vector2d ab = A.ldlt().solve(b);
+    double ssr = 0;
+    for (int i = 0; i < n; ++i) ssr += std::pow(values[i] - ab(0) * area[i] - ab(1), 2);
+    fit.amplitude = ab(0);
+    fit.background = ab(1);
+    fit.rms = std::sqrt(ssr / n);
+    return true;
+  };
+  if (!linear_fit(Eigen::Vector2d(best_place[0], best_place[1])) || fit.amplitude <= 0)
+    return std::nullopt;
+  // The noise of a sum of `size` pixels, from the window's residual (two places and the two
+  // linear parameters taken), at least 8-bit quantization's.
+  const double pixel_var = std::max(fit.rms * fit.rms * n / (n - 4), 1.0 / 12);
+  const double sum_var = size * pixel_var;
+  // Each axis: mean and variance of the place weighted by its likelihood. Unlike a local
+  // curvature this stays honest where the values hardly change with the place (a disc inside
+  // one pixel column: all of that column is as likely) or where a sliver of the disc in the
+  // next pixel is lost in the noise (two places are about as likely).
+  double variance = 0;
+  for (int axis = 0; axis < 2; ++axis) {
+    const double origin = axis == 0 ? origin_x : origin_y;
+    double w = 0, m1 = 0, m2 = 0;
+    for (int j = 0; j < places; ++j) {
+      const double wj = std::exp(-(profile[axis][j] - least[axis]) / (2 * sum_var));
+      const double c = j * kStep;
+      w += wj;
+      m1 += wj * c;
+      m2 += wj * c * c;
+    }
+    const double mean = m1 / w;
+    fit.centre(axis) = origin + mean;
+    variance = std::max(variance, std::max(0.0, m2 / w - mean * mean) + kStep * kStep / 12);
+  }
+  fit.sigma_px = std::sqrt(variance);
+  if (!linear_fit(fit.centre) || fit.amplitude <= 0) return std::nullopt;
+  return fit;
+}
+
+}  // namespace svms
