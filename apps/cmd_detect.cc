@@ -41,6 +41,7 @@ nlohmann::json DetectionJson(const Detection& d) {
     j["corner_sigma"] = {d.corner_sigma[0], d.corner_sigma[1], d.corner_sigma[2],
                          d.corner_sigma[3]};
   j["tip"] = d.tip ? nlohmann::json{d.tip->pixel.x(), d.tip->pixel.y()} : nlohmann::json();
+  if (d.tip) j["tip_sigma"] = d.tip->sigma_px;
   if (d.cam_from_marker) {
     const Pose& p = *d.cam_from_marker;
     j["cam_from_marker"] = {{"rvec", {p.rvec(0), p.rvec(1), p.rvec(2)}},
@@ -191,7 +192,8 @@ void AddDetectCommands(CLI::App& app, int* exit_code) {
   det->footer(
       "Output: one JSON line per image: image, ms, detections (id, corners TL/TR/BR/BL as "
       "printed,\n"
-      "corner_sigma (each corner's sigma in px from its line fits), tip, bit_errors, "
+      "corner_sigma (each corner's sigma in px from its line fits), tip (px), tip_sigma (px, each "
+      "axis), bit_errors, "
       "cam_from_marker {rvec, tvec}, covariance (36 numbers, row-major,\n"
       "[rotation, translation] in camera axes), nested_in). Without --camera: IDs and corners "
       "only.\n"

@@ -1,15 +1,21 @@
 #include "svms/marker_pose.h"
 
 #include <Eigen/Dense>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <opencv2/core.hpp>
 
 #include "svms/corner_refine.h"
+#include "svms/disc_fit.h"
 #include "svms/ippe.h"
 #include "svms/svms44.h"
 
 namespace svms {
 namespace {
+
+// Per axis, pixels: what the sub-pixel top's disc fit leaves unmodelled (see FindTip).
+constexpr double kSubPixelTipModelSigma = 0.03;
 
 // Adds one residual row J = [jr^T, jt^T] (rotation, translation), weight w, residual r to the
 // upper triangle of JtWJ and to JtWr. Written out: Eigen's rankUpdate and comma initialiser
@@ -35,6 +41,24 @@ struct PoseScratch {
 PoseScratch& Scratch() {
   thread_local PoseScratch scratch;
   return scratch;
+}
+
+// The other planar candidate's weight in the covariance below which it is left out, and above
+// which the pose is flagged ambiguous (EstimateMarkerPose).
+constexpr double kMixtureWeightFloor = 1e-6;
+constexpr double kAmbiguousWeight = 0.01;
+
+// Sum over the points of their squared reprojection error in units of their sigmas.
+double WeightedSquaredResiduals(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X,
+                                const std::vector<Eigen::Vector2d>& px,
+                                const std::vector<double>& sigma, const Pose& pose) {
+  double chi2 = 0;
+  for (size_t i = 0; i < X.size(); ++i) {
+    Eigen::Vector2d q;
+    if (!camera.Project(pose * X[i], &q)) return std::numeric_limits<double>::infinity();
+    chi2 += (q - px[i]).squaredNorm() / (sigma[i] * sigma[i]);
+  }
+  return chi2;
 }
 
 }  // namespace
@@ -74,27 +98,31 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
     // A sub-pixel disc: the 3 x 3 around the seed hold its light; the ring around them must be
     // dark (a bright ring means the stripe, a bit cell or a glint, not an isolated top).
     if (bx < 2 || by < 2 || bx > img.cols - 3 || by > img.rows - 3) return std::nullopt;
-    const double floor = black + 0.03 * (white - black);
     const double ring_max = black + 0.5 * (at(by, bx) - black);
-    double w = 0;
-    Eigen::Vector2d c = Eigen::Vector2d::Zero();
+    std::array<double, 25> window;
     for (int dy = -2; dy <= 2; ++dy)
       for (int dx = -2; dx <= 2; ++dx) {
         const double v = at(by + dy, bx + dx);
-        if (std::abs(dx) == 2 || std::abs(dy) == 2) {
-          if (v > ring_max) return std::nullopt;
-          continue;
-        }
-        const double wi = std::max(0.0, v - floor);
-        c += wi * Eigen::Vector2d(bx + dx, by + dy);
-        w += wi;
+        if ((std::abs(dx) == 2 || std::abs(dy) == 2) && v > ring_max) return std::nullopt;
+        window[(dy + 2) * 5 + dx + 2] = v;
       }
-    if (w <= 0) return std::nullopt;
+    // Not the centroid: it locks to pixel centres (disc_fit.h). A top of at most half a pixel
+    // centred in the seed lies within its 3 x 3, and the ring is then left out of the fit: on a
+    // small marker it may already hold a bit of the stripe.
+    std::optional<DiscFit> fit;
+    if (tip_radius_px <= 0.5) {
+      std::array<double, 9> inner;
+      for (int k = 0; k < 9; ++k) inner[k] = window[(k / 3 + 1) * 5 + k % 3 + 1];
+      fit = FitDisc(inner.data(), 3, bx - 1, by - 1, tip_radius_px);
+    } else {
+      fit = FitDisc(window.data(), 5, bx - 2, by - 2, tip_radius_px);
+    }
+    if (!fit) return std::nullopt;
     TipObservation t;
-    t.pixel = c / w;
-    // Per axis. Measured against the simulator's truth on the comparison's size sweep: errors
-    // of 0.06-0.20 px on 10 px markers, 0.16-0.37 px (length) on 8 px ones.
-    t.sigma_px = 0.2;
+    t.pixel = fit->centre;
+    // The fit's own sigma, and a floor for what it does not model: the top is an ellipse in
+    // an oblique view, and the lens and sensor blur it.
+    t.sigma_px = std::hypot(fit->sigma_px, kSubPixelTipModelSigma);
     return t;
   }
   // Flood the connected bright region from the seed (bounded by the window).
@@ -432,71 +460,119 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
   }
   if (cands.empty()) return false;
   out->solutions = static_cast<int>(cands.size());
-  // With a tip: the solution that predicts it best. Without: IPPE's first (lowest error),
-  // flagged ambiguous when there were two.
-  size_t pick = 0;
+  // The tip observation: the white top found nearest its candidate's prediction.
+  size_t tip_from = 0;
   for (size_t s = 1; s < cands.size(); ++s)
-    if (cands[s].tip_error < cands[pick].tip_error) pick = s;
-  const bool have_tip = cands[pick].tip.has_value();
-  out->ambiguous = !have_tip && cands.size() > 1;
+    if (cands[s].tip_error < cands[tip_from].tip_error) tip_from = s;
+  const std::optional<TipObservation> tip = cands[tip_from].tip;
   PoseScratch& sc = Scratch();
   std::vector<Eigen::Vector3d>& X = sc.X;
   std::vector<Eigen::Vector2d>& px = sc.px;
   std::vector<double>& sig = sc.sigma;
-  X.clear();
-  px.clear();
-  sig.clear();
-  for (int k = 0; k < 4; ++k) {
-    X.push_back(model.Corners()[k]);
-    px.push_back(corners[k]);
-    sig.push_back(corner_sigma[k] > 0
-                      ? std::max(o.min_corner_sigma_px, o.corner_fit_scale * corner_sigma[k])
-                      : o.corner_sigma_px);
-  }
-  double fraction = 1;
-  if (have_tip) {
-    X.push_back(VisibleTipPoint(model, cands[pick].pose.Inverse().tvec, &fraction));
-    px.push_back(cands[pick].tip->pixel);
-    double sigma = cands[pick].tip->sigma_px;
-    if (model.post->concave()) {
-      // What is bright at the bottom of a well is what is both seen and lit; the detector does
-      // not know where the light comes from, so the observation is only good to about half the
-      // bore's image: enough to choose the planar solution, little weight in the refinement.
-      Eigen::Vector2d c0, c1;
-      const Pose& p = cands[pick].pose;
-      if (camera.Project(p * Eigen::Vector3d(0, 0, 0), &c0) &&
-          camera.Project(p * Eigen::Vector3d(model.post->radius, 0, 0), &c1))
-        sigma = std::max(sigma, 0.5 * (c1 - c0).norm());
+  // Every candidate is refined over the corners (and the tip), and the one whose weighted
+  // squared residuals are least is kept: unlike the tip's distance from each prediction alone,
+  // this weighs the tip against the corners by their sigmas, and two candidates that the tip
+  // pulls to the same pose (a nearly head-on view) count as one.
+  struct Refined {
+    Pose pose;
+    PoseCovariance covariance = PoseCovariance::Zero();
+    double chi2 = 1e300, rms = 0;
+    bool ok = false;
+  };
+  std::array<Refined, 2> refined;
+  size_t pick = 0;
+  bool use_tip = tip.has_value();
+  for (int pass = 0; pass < 2; ++pass) {
+    for (size_t s = 0; s < cands.size(); ++s) {
+      Refined& f = refined[s];
+      f = Refined();
+      X.clear();
+      px.clear();
+      sig.clear();
+      for (int k = 0; k < 4; ++k) {
+        X.push_back(model.Corners()[k]);
+        px.push_back(corners[k]);
+        sig.push_back(corner_sigma[k] > 0
+                          ? std::max(o.min_corner_sigma_px, o.corner_fit_scale * corner_sigma[k])
+                          : o.corner_sigma_px);
+      }
+      f.pose = cands[s].pose;
+      if (use_tip) {
+        double fraction = 1;
+        X.push_back(VisibleTipPoint(model, f.pose.Inverse().tvec, &fraction));
+        px.push_back(tip->pixel);
+        double sigma = tip->sigma_px;
+        if (model.post->concave()) {
+          // What is bright at the bottom of a well is what is both seen and lit; the detector
+          // does not know where the light comes from, so the observation is only good to about
+          // half the bore's image: enough to choose the planar solution, little weight in the
+          // refinement.
+          Eigen::Vector2d c0, c1;
+          if (camera.Project(f.pose * Eigen::Vector3d(0, 0, 0), &c0) &&
+              camera.Project(f.pose * Eigen::Vector3d(model.post->radius, 0, 0), &c1))
+            sigma = std::max(sigma, 0.5 * (c1 - c0).norm());
+        }
+        sig.push_back(sigma);
+      }
+      if (!RefinePose(camera, X, px, sig, &f.pose, &f.covariance, &f.rms)) continue;
+      if (use_tip && model.post->concave()) {
+        // The visible part of the well's bottom depends on the pose: once more with the
+        // refined one.
+        double fraction = 1;
+        X.back() = VisibleTipPoint(model, f.pose.Inverse().tvec, &fraction);
+        if (!RefinePose(camera, X, px, sig, &f.pose, &f.covariance, &f.rms)) continue;
+      }
+      f.chi2 = WeightedSquaredResiduals(camera, X, px, sig, f.pose);
+      f.ok = std::isfinite(f.chi2);
+      if (f.ok && (!refined[pick].ok || s == 0 || f.chi2 < refined[pick].chi2)) pick = s;
     }
-    sig.push_back(sigma);
-  }
-  Pose pose = cands[pick].pose;
-  if (!RefinePose(camera, X, px, sig, &pose, &out->covariance, &out->rms_px)) return false;
-  if (have_tip && model.post->concave()) {
-    // The visible part of the well's bottom depends on the pose: once more with the refined one.
-    X.back() = VisibleTipPoint(model, pose.Inverse().tvec, &fraction);
-    if (!RefinePose(camera, X, px, sig, &pose, &out->covariance, &out->rms_px)) return false;
-  }
-  // A tip that the refined pose cannot explain is dropped (a reflection, a bright speck).
-  if (have_tip) {
+    if (!refined[pick].ok) return false;
+    if (!use_tip) break;
+    // A tip that the kept pose cannot explain is dropped (a reflection, a bright speck), and
+    // the candidates are weighed again on their corners alone.
+    double fraction = 1;
     Eigen::Vector2d pred;
-    camera.Project(pose * X.back(), &pred);
-    if ((pred - cands[pick].tip->pixel).norm() > 4 * sig.back() + 1.0) {
-      X.pop_back();
-      px.pop_back();
-      sig.pop_back();
-      pose = cands[pick].pose;
-      if (!RefinePose(camera, X, px, sig, &pose, &out->covariance, &out->rms_px)) return false;
-      RefineWithStripeEdge(image, model, camera, o, X, px, sig, &pose, &out->covariance);
-      out->ambiguous = cands.size() > 1;
-      out->cam_from_marker = pose;
-      out->tip.reset();
-      return true;
+    const Eigen::Vector3d tip3 =
+        VisibleTipPoint(model, refined[pick].pose.Inverse().tvec, &fraction);
+    if (camera.Project(refined[pick].pose * tip3, &pred) &&
+        (pred - tip->pixel).norm() <= 4 * sig.back() + 1.0)
+      break;
+    use_tip = false;
+    pick = 0;
+  }
+  // X, px and sig hold the last candidate's points; the kept one's differ only in a well's
+  // visible bottom, which follows the pose.
+  if (use_tip) {
+    double fraction = 1;
+    X.back() = VisibleTipPoint(model, refined[pick].pose.Inverse().tvec, &fraction);
+  }
+  Pose pose = refined[pick].pose;
+  out->covariance = refined[pick].covariance;
+  out->rms_px = refined[pick].rms;
+  RefineWithStripeEdge(image, model, camera, o, X, px, sig, &pose, &out->covariance);
+  // The other candidate, when it is a distinct pose and not much less likely, is what the
+  // covariance must also cover: the two as a mixture weighted by their likelihoods, about the
+  // kept one, (1 - w) C + w (C' + d d^T) with w = 1 / (1 + exp(dchi2 / 2)). Flagged ambiguous
+  // when w is above 1 % (dchi2 below 9.2).
+  out->ambiguous = false;
+  const size_t other = 1 - pick;
+  if (cands.size() > 1 && refined[other].ok) {
+    // Both as refined over the same points (the edges, fitted to the kept one only, would set
+    // the two apart when they are one).
+    const Refined &a = refined[pick], &b = refined[other];
+    Eigen::Matrix<double, 6, 1> d;
+    const Eigen::AngleAxisd delta(b.pose.Rotation() * a.pose.Rotation().transpose());
+    d << delta.angle() * delta.axis(), b.pose.tvec - a.pose.tvec;
+    const double separation = d.dot(a.covariance.ldlt().solve(d));
+    const double dchi2 = std::max(0.0, b.chi2 - a.chi2);
+    if (separation > 9 && dchi2 < 2 * std::log(1 / kMixtureWeightFloor - 1)) {
+      const double w = 1 / (1 + std::exp(0.5 * dchi2));
+      out->covariance = (1 - w) * out->covariance + w * (b.covariance + d * d.transpose());
+      out->ambiguous = w > kAmbiguousWeight;
     }
   }
-  RefineWithStripeEdge(image, model, camera, o, X, px, sig, &pose, &out->covariance);
   out->cam_from_marker = pose;
-  out->tip = have_tip ? cands[pick].tip : std::nullopt;
+  out->tip = use_tip ? tip : std::nullopt;
   return true;
 }
 

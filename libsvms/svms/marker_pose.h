@@ -2,10 +2,11 @@
 //
 // The four corners of a planar square leave a two-fold ambiguity at small sizes and oblique
 // views (IPPE gives both solutions). The post tip, off the plane, settles it: each solution
-// predicts where the tip should be; the white tip (or the well's white bottom) is searched
-// there, and the solution whose prediction it matches is kept. The pose is then refined by
-// Gauss-Newton over the corners and the tip together, through the camera's mrcal lens model,
-// each weighted by its own uncertainty, and its 6x6 covariance is (J^T W J)^-1.
+// predicts where the tip should be and the white tip (or the well's white bottom) is searched
+// there. Each solution is then refined by Gauss-Newton over the corners and the tip together,
+// through the camera's mrcal lens model, each point weighted by its own uncertainty, and the
+// one with the least weighted squared residuals is kept; its 6x6 covariance is (J^T W J)^-1,
+// widened to cover the other solution as far as the data leave it likely.
 //
 // Why not Ceres here: six parameters and at most five points per marker, solved for every
 // marker in every frame; a dense Gauss-Newton on Eigen costs microseconds and allocates
@@ -68,18 +69,22 @@ struct MarkerPose {
   Pose cam_from_marker;
   PoseCovariance covariance = PoseCovariance::Zero();  // [rotation, translation], camera axes
   std::optional<TipObservation> tip;
-  bool ambiguous = false;  // two planar solutions and no tip to tell them apart
-  double rms_px = 0;       // RMS of the corner (and tip) residuals after the fit
-  int solutions = 0;       // planar solutions considered
+  // Two planar solutions that the corners and tip do not tell apart: the other one has more
+  // than 1 % of the likelihood (its weighted squared residuals exceed the kept one's by less
+  // than 9.2). The covariance then spans both (a mixture about the kept pose).
+  bool ambiguous = false;
+  double rms_px = 0;  // RMS of the corner (and tip) residuals after the fit
+  int solutions = 0;  // planar solutions considered
 };
 
 // The white blob nearest `predicted` within `radius` pixels: centroid of the pixels brighter
 // than the midpoint of `black` and `white`, weighted by how much brighter. nullopt if none is
 // clearly there. `tip_radius_px` is the white top's expected radius in the image: below a
 // pixel its light is spread over two to four pixels and no pixel reaches the midpoint, so
-// the brightest must stand out by min_contrast x min(1, pi r^2 / 2) only, and the centroid is
-// taken over the 3 x 3 pixels around it (all of a sub-pixel disc's footprint), which must be
-// ringed by dark pixels (nothing else bright within 2 px).
+// the brightest must stand out by min_contrast x min(1, pi r^2 / 2) only, it must be ringed
+// by dark pixels (nothing else bright within 2 px), and the top's place is fitted to the
+// pixels around it as a disc of that radius (FitDisc, disc_fit.h: a centroid would lock to
+// the pixel centres), with the fit's own sigma.
 std::optional<TipObservation> FindTip(const cv::Mat& image, const Eigen::Vector2d& predicted,
                                       double radius, double black, double white,
                                       double min_contrast, double tip_radius_px = 1e9);
