@@ -39,6 +39,7 @@ struct SegmentScratch {
   std::vector<int> order;
   std::vector<char> gone;
   std::vector<Segment> kept;
+  std::vector<double> length, start_x, start_y;  // by piece; starts in sorted order
 };
 SegmentScratch& Scratch() {
   thread_local SegmentScratch scratch;
@@ -351,57 +352,79 @@ void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
   auto dist_to_line = [](const Segment& s, const Eigen::Vector2d& p) {
     return std::abs(s.line.head<2>().dot(p) + s.line.z());
   };
+  const double offset2 = o.merge_offset_px * o.merge_offset_px;
   bool merged = true;
-  // Few segments take part; a simple sweep until nothing joins, with a sort on start x to
-  // keep the pair search local.
+  // A sweep with a sort on start x to keep the pair search local. A join keeps the first
+  // piece's start (Joined), so the order holds through the sweep, and a piece goes on joining
+  // from its new end at once: on a cluttered frame (long grid lines in many pieces) sweeping
+  // again after every join was a fifth of the detector's time. A last sweep finds nothing.
   while (merged) {
     merged = false;
     std::vector<Segment>& v = *segs;
     std::vector<int>& order = sc.order;
+    std::vector<double>& len = sc.length;
     order.resize(v.size());
-    for (size_t i = 0; i < v.size(); ++i) order[i] = static_cast<int>(i);
+    len.resize(v.size());
+    for (size_t i = 0; i < v.size(); ++i) {
+      order[i] = static_cast<int>(i);
+      len[i] = v[i].length();
+    }
     std::sort(order.begin(), order.end(), [&](int a, int b) { return v[a].a.x() < v[b].a.x(); });
+    // The starts in that order, side by side in memory: the window scans below read them.
+    std::vector<double>&xs = sc.start_x, &ys = sc.start_y;
+    xs.resize(v.size());
+    ys.resize(v.size());
+    for (size_t k = 0; k < v.size(); ++k) {
+      xs[k] = v[order[k]].a.x();
+      ys[k] = v[order[k]].a.y();
+    }
     std::vector<char>& gone = sc.gone;
     gone.assign(v.size(), 0);
     for (size_t i = 0; i < v.size(); ++i) {
       if (gone[i]) continue;
-      const Segment& s = v[i];
-      const Eigen::Vector2d di = (s.b - s.a) / s.length();
-      const double reach = std::max(o.merge_gap_px, o.merge_gap_fraction * s.length()) + 1;
-      // Starts with x in [b.x - reach, b.x + reach].
-      auto lo = std::lower_bound(order.begin(), order.end(), s.b.x() - reach,
-                                 [&](int k, double x) { return v[k].a.x() < x; });
-      for (auto it = lo; it != order.end() && v[*it].a.x() <= s.b.x() + reach; ++it) {
-        const int j = *it;
-        if (j == static_cast<int>(i) || gone[j]) continue;
-        const Segment& t = v[j];
-        const Eigen::Vector2d dj = (t.b - t.a) / t.length();
-        // A short piece's direction is uncertain: allow it the angle at which its own length
-        // moves its far end by merge_offset_px.
-        const double shorter = std::min(s.length(), t.length());
-        // cos(atan(offset / shorter)), without the trigonometry (this runs for every pair).
-        if (di.dot(dj) < std::min(cos_max, shorter / std::hypot(shorter, o.merge_offset_px)))
-          continue;
-        const double gap = (t.a - s.b).dot(di);
-        if (gap >
-                std::max(o.merge_gap_px, o.merge_gap_fraction * std::min(s.length(), t.length())) ||
-            gap < -o.merge_gap_px)
-          continue;
-        // The shorter piece's ends must lie on the longer piece's line (the better-measured
-        // of the two); the longer piece's ends on the shorter's line only when both are long.
-        const Segment& longer = s.length() >= t.length() ? s : t;
-        const Segment& other = s.length() >= t.length() ? t : s;
-        if (dist_to_line(longer, other.a) > o.merge_offset_px ||
-            dist_to_line(longer, other.b) > o.merge_offset_px)
-          continue;
-        if (shorter > both_long && (dist_to_line(other, longer.a) > o.merge_offset_px ||
-                                    dist_to_line(other, longer.b) > o.merge_offset_px))
-          continue;
-        const Segment m = Joined(s, t);
-        v[i] = m;
-        gone[j] = 1;
-        merged = true;
-        break;
+      for (bool joined = true; joined;) {
+        joined = false;
+        const Segment& s = v[i];
+        const Eigen::Vector2d di = (s.b - s.a) / len[i];
+        const double reach = std::max(o.merge_gap_px, o.merge_gap_fraction * len[i]) + 1;
+        const double y_reach = reach + 2 * o.merge_offset_px;
+        // Starts with x in [b.x - reach, b.x + reach].
+        const size_t lo = std::lower_bound(xs.begin(), xs.end(), s.b.x() - reach) - xs.begin();
+        const double x_end = s.b.x() + reach, y = s.b.y();
+        for (size_t k = lo; k < xs.size() && xs[k] <= x_end; ++k) {
+          // The start must be near in y as well (the gap along the piece is below reach and
+          // the offset across it below two merge offsets).
+          if (std::abs(ys[k] - y) > y_reach) continue;
+          const int j = order[k];
+          if (j == static_cast<int>(i) || gone[j]) continue;
+          const Segment& t = v[j];
+          const double shorter = std::min(len[i], len[j]);
+          const double gap = (t.a - s.b).dot(di);
+          if (gap > std::max(o.merge_gap_px, o.merge_gap_fraction * shorter) ||
+              gap < -o.merge_gap_px)
+            continue;
+          // A short piece's direction is uncertain: allow it the angle at which its own
+          // length moves its far end by merge_offset_px, cos(atan(offset / shorter)) =
+          // shorter / sqrt(shorter^2 + offset^2), compared squared (this runs for every pair).
+          const double c = di.dot(t.b - t.a) / len[j];
+          if (c < cos_max && (c <= 0 || c * c * (shorter * shorter + offset2) < shorter * shorter))
+            continue;
+          // The shorter piece's ends must lie on the longer piece's line (the better-measured
+          // of the two); the longer piece's ends on the shorter's line only when both are long.
+          const Segment& longer = len[i] >= len[j] ? s : t;
+          const Segment& other = len[i] >= len[j] ? t : s;
+          if (dist_to_line(longer, other.a) > o.merge_offset_px ||
+              dist_to_line(longer, other.b) > o.merge_offset_px)
+            continue;
+          if (shorter > both_long && (dist_to_line(other, longer.a) > o.merge_offset_px ||
+                                      dist_to_line(other, longer.b) > o.merge_offset_px))
+            continue;
+          v[i] = Joined(s, t);
+          len[i] = v[i].length();
+          gone[j] = 1;
+          merged = joined = true;
+          break;
+        }
       }
     }
     if (merged) {
