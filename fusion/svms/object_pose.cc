@@ -227,6 +227,7 @@ void ObservationsFromDetections(const std::vector<Detection>& detections, const 
         o.side_px = std::min(o.side_px, (d->corners[(k + 1) % 4] - d->corners[k]).norm());
       o.cam_from_marker = d->cam_from_marker;
       o.pose_ambiguous = d->pose_ambiguous;
+      o.ambiguity_covariance = d->ambiguity_covariance;
       // One tip per physical post: the inner marker of a dual shares the outer's post, whether
       // the layout has them as one entry or (as the survey writes) as two.
       if (d->tip && o.model.post) {
@@ -437,6 +438,7 @@ void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservat
   double ss = 0, chi2 = 0;
   int points = 0;
   bool ambiguous_single = false;
+  const MarkerObservation* last = nullptr;
   for (Block& b : blocks) {
     if (!b.active) continue;
     UpdatePoints(&b, R, t, o);
@@ -451,6 +453,7 @@ void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservat
     points += static_cast<int>(b.points.size());
     result.ids_used.push_back(b.obs->id);
     ambiguous_single = b.obs->pose_ambiguous;
+    last = b.obs;
   }
   result.markers_used = static_cast<int>(result.ids_used.size());
   result.points_used = points;
@@ -472,6 +475,16 @@ void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservat
                                                           (o.variance_prior_dof + std::max(0, dof))
                                                     : 1.0;
   result.covariance *= result.variance_factor;
+  if (result.markers_used == 1 && !last->ambiguity_covariance.isZero()) {
+    // One marker: its mirror solution is as possible here as it was to the detector. Its
+    // widening, about the marker's origin, moved to the object's: with a left perturbation
+    // in camera axes, d t_object = d t_marker - [a]x d theta, a = object origin - marker
+    // origin (camera axes).
+    const Eigen::Vector3d a = t - (R * last->object_from_marker.tvec + t);
+    Mat6 J = Mat6::Identity();
+    J.bottomLeftCorner<3, 3>() << 0, a.z(), -a.y(), -a.z(), 0, a.x(), a.y(), -a.x(), 0;
+    result.covariance += J * last->ambiguity_covariance * J.transpose();
+  }
   result.cam_from_object = Pose::FromRotation(R, t);
   result.rms_px = std::sqrt(ss / (2.0 * points));
   result.chi2 = chi2;

@@ -93,6 +93,10 @@ struct MarkerObservation {
   std::optional<TipObservation> tip;
   std::optional<Pose> cam_from_marker;  // the detector's single-marker pose (a start)
   bool pose_ambiguous = false;          // the detector could not tell its two planar poses apart
+  // The detector's widening of its single-marker covariance for the other planar solution
+  // ([rotation, translation], camera axes, about the marker's origin): added, moved to the
+  // object's origin, to the fused covariance when this is the only marker used.
+  PoseCovariance ambiguity_covariance = PoseCovariance::Zero();
 };
 
 struct ObjectPose {

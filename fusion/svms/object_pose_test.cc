@@ -236,6 +236,43 @@ TEST(ObjectPose, ObservationsFromDetectionsMatchTheLayoutAndShareADualsPost) {
   EXPECT_NEAR(obs[2].model.size, 0.108, 1e-12);
 }
 
+// One marker whose detector could not rule out its mirror pose: that widening reaches the
+// fused covariance, moved from the marker's origin to the object's; with two markers it does
+// not (the geometry settles it).
+TEST(ObjectPose, ASingleMarkersMirrorPoseWidensTheFusedCovariance) {
+  const Rig rig;
+  std::vector<MarkerObservation> one = {rig.Observe(0, rig.layout.markers[0].object_from_marker)};
+  const ObjectPose base = SolveObjectPose(rig.camera, one, ObjectPoseOptions{});
+  ASSERT_TRUE(base.valid) << base.message;
+  PoseCovariance A = PoseCovariance::Zero();
+  A.topLeftCorner<3, 3>() = Eigen::Vector3d(4e-4, 1e-4, 0).asDiagonal();
+  A(3, 3) = 1e-6;
+  one[0].ambiguity_covariance = A;
+  one[0].pose_ambiguous = true;
+  const ObjectPose widened = SolveObjectPose(rig.camera, one, ObjectPoseOptions{});
+  ASSERT_TRUE(widened.valid) << widened.message;
+  EXPECT_TRUE(widened.ambiguous);
+  // The expected move, written out: a rotation d about the marker's origin moves the object's
+  // origin by d x a, a from the marker's origin to the object's (camera axes).
+  const Pose cam_from_marker = widened.cam_from_object * rig.layout.markers[0].object_from_marker;
+  const Vec3 a = widened.cam_from_object.tvec - cam_from_marker.tvec;
+  Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Identity();
+  for (int k = 0; k < 3; ++k) J.block<3, 1>(3, k) = Vec3::Unit(k).cross(a);
+  const PoseCovariance expected = base.covariance + J * A * J.transpose();
+  EXPECT_LT((widened.covariance - expected).cwiseAbs().maxCoeff(), 1e-9 * expected.norm());
+  // Two markers: no widening.
+  std::vector<MarkerObservation> two = {one[0],
+                                        rig.Observe(1, rig.layout.markers[1].object_from_marker)};
+  two[1].ambiguity_covariance = A;
+  std::vector<MarkerObservation> two_plain = two;
+  for (auto& o : two_plain) o.ambiguity_covariance.setZero();
+  const ObjectPose p2 = SolveObjectPose(rig.camera, two, ObjectPoseOptions{});
+  const ObjectPose p2_plain = SolveObjectPose(rig.camera, two_plain, ObjectPoseOptions{});
+  ASSERT_TRUE(p2.valid && p2_plain.valid);
+  EXPECT_FALSE(p2.ambiguous);
+  EXPECT_LT((p2.covariance - p2_plain.covariance).cwiseAbs().maxCoeff(), 1e-15);
+}
+
 TEST(ObjectPose, NeesOfAKnownErrorIsItsMahalanobisNorm) {
   Pose truth{Vec3(0.1, 0.2, 0.3), Vec3(1, 2, 3)};
   Pose est = truth;

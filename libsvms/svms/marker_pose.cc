@@ -555,6 +555,7 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
   // kept one, (1 - w) C + w (C' + d d^T) with w = 1 / (1 + exp(dchi2 / 2)). Flagged ambiguous
   // when w is above 1 % (dchi2 below 9.2).
   out->ambiguous = false;
+  out->ambiguity_covariance.setZero();
   const size_t other = 1 - pick;
   if (cands.size() > 1 && refined[other].ok) {
     // Both as refined over the same points (the edges, fitted to the kept one only, would set
@@ -567,7 +568,8 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
     const double dchi2 = std::max(0.0, b.chi2 - a.chi2);
     if (separation > 9 && dchi2 < 2 * std::log(1 / kMixtureWeightFloor - 1)) {
       const double w = 1 / (1 + std::exp(0.5 * dchi2));
-      out->covariance = (1 - w) * out->covariance + w * (b.covariance + d * d.transpose());
+      out->ambiguity_covariance = w * (b.covariance - out->covariance + d * d.transpose());
+      out->covariance += out->ambiguity_covariance;
       out->ambiguous = w > kAmbiguousWeight;
     }
   }

@@ -73,6 +73,9 @@ struct MarkerPose {
   // than 1 % of the likelihood (its weighted squared residuals exceed the kept one's by less
   // than 9.2). The covariance then spans both (a mixture about the kept pose).
   bool ambiguous = false;
+  // What the other planar solution adds to `covariance` (same axes): w (C' - C + d d^T), zero
+  // when it is the same pose or negligible. A fit over other points (fusion) adds it likewise.
+  PoseCovariance ambiguity_covariance = PoseCovariance::Zero();
   double rms_px = 0;  // RMS of the corner (and tip) residuals after the fit
   int solutions = 0;  // planar solutions considered
 };
