@@ -43,7 +43,8 @@ struct CompareCliOptions {
   std::string out;
   bool quick = false;
   uint64_t seed = 1;
-  int threads = 2;  // rendering only; every detector runs on one core
+  int size_views = 8;  // views per marker size in the size sweep
+  int threads = 2;     // rendering only; every detector runs on one core
   bool save_images = false;
 };
 
@@ -225,6 +226,7 @@ int RunCompare(const CompareCliOptions& o) {
   CompareOptions co;
   co.seed = o.seed;
   co.quick = o.quick;
+  co.size_views = o.size_views;
   const std::vector<CompareSweep> sweeps = MakeCompareSweeps(co);
 
   std::vector<ImageRecord> images;
@@ -445,6 +447,7 @@ int RunCompare(const CompareCliOptions& o) {
   summary["type"] = "svms.bench.compare";
   summary["seed"] = o.seed;
   summary["quick"] = o.quick;
+  summary["size_views"] = o.quick ? 1 : o.size_views;
   summary["marker_size_m"] = co.marker_size;
   summary["fairness"] = {
       {"size", "every tag's outer black edge = the SVMS black square (same corners in space)"},
@@ -627,8 +630,9 @@ int RunCompare(const CompareCliOptions& o) {
   // --- report.md: every number from this run.
   std::ostringstream md;
   md << "## Comparison with AprilTag 3 and OpenCV ArUco\n\n"
-     << "Written by `svms bench compare" << (o.quick ? " --quick" : "") << " --seed " << o.seed
-     << "` (" << F(Ms(std::chrono::steady_clock::now() - start) / 1000, 0)
+     << "Written by `svms bench compare" << (o.quick ? " --quick" : "")
+     << (o.size_views != 8 ? " --size-views " + std::to_string(o.size_views) : "") << " --seed "
+     << o.seed << "` (" << F(Ms(std::chrono::steady_clock::now() - start) / 1000, 0)
      << " s). The same scenes are rendered three times, with an SVMS marker, an AprilTag "
         "tag36h11 and an ArUco DICT_6X6_1000 tag printed on the same geometry: same camera "
         "(1024x1024 pinhole, f = 1111.1 px), poses, light, occluders, sensor noise and seed. "
@@ -717,6 +721,26 @@ int RunCompare(const CompareCliOptions& o) {
     md << "\n";
   }
   md << "\n";
+  // Flips are rare events at the smallest sizes: per size, so that a larger sample
+  // (--size-views) shows where they are.
+  md << "Pose flips (orientation error > 10 deg) by size, up to 30 px: flips / posed:\n\n| size "
+        "(px) |";
+  for (const std::string& n : names) md << " " << n << " |";
+  md << "\n|---|";
+  for (size_t i = 0; i < names.size(); ++i) md << "---|";
+  md << "\n";
+  for (const auto& [c, cfgs] : by["size"]) {
+    if (std::stoi(c) > 30) continue;
+    md << "| " << std::stoi(c) << " |";
+    for (const std::string& n : names) {
+      const auto it = cfgs.find(n);
+      const int flips = it == cfgs.end() ? 0 : it->second.flips;
+      const int posed = it == cfgs.end() ? 0 : it->second.posed;
+      md << " " << flips << "/" << posed << " |";
+    }
+    md << "\n";
+  }
+  md << "\n";
   md << "Sun and shadow (75 px, camera 20 deg off-axis), detected:\n\n| condition |";
   for (const std::string& n : names) md << " " << n << " |";
   md << "\n|---|";
@@ -777,6 +801,11 @@ void AddBenchCompare(CLI::App& bench, int* exit_code) {
   c->add_option("--out", o->out, "Output directory (CSV, JSON, plots, report.md)")->required();
   c->add_flag("--quick", o->quick, "A few views per sweep (smoke test, under 2 minutes)");
   c->add_option("--seed", o->seed, "Seed of every scene and of the noise")->capture_default_str();
+  c->add_option("--size-views", o->size_views,
+                "Views per marker size in the size sweep (more to measure rare events, such as "
+                "flips at 8 px)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 200));
   c->add_flag("--save-images", o->save_images,
               "Also write every rendered sweep image (DIR/images/SWEEP_FAMILY/VIEW.png)");
   c->add_option("--threads", o->threads, "Rendering threads (detectors always run on one core)")

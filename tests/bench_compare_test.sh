@@ -26,4 +26,15 @@ for sys in svms apriltag_d2 apriltag_d1 aruco_subpix; do
     fail "$sys did not find the 60 px marker"
 done
 [[ $(wc -l < "$out/fig9_summary.csv") -ge 6 ]] || fail "fig9_summary.csv has too few distances"
+# Flips per size (quick: 10, 16 and 30 px), one row each.
+grep -q '^Pose flips (orientation error > 10 deg) by size' "$out/report.md" || fail "no flips-by-size table"
+for px in 10 16 30; do
+  grep -q "^| $px | [0-9]*/[0-9]* |" "$out/report.md" || fail "no flips row for $px px"
+done
+# A bad --size-views is refused with its name, before any work.
+if "$svms" bench compare --size-views 0 --out "$out/bad" > /dev/null 2> "$out/bad.txt"; then
+  fail "--size-views 0 was accepted"
+fi
+grep -q -- "--size-views" "$out/bad.txt" || fail "the error does not name --size-views"
+[[ ! -e "$out/bad" ]] || fail "--size-views 0 wrote output"
 echo "bench compare --quick: ok"

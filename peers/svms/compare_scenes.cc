@@ -1,5 +1,6 @@
 #include "svms/compare_scenes.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -79,7 +80,7 @@ std::vector<CompareSweep> MakeCompareSweeps(const CompareOptions& o) {
     const std::vector<int> px =
         o.quick ? std::vector<int>{10, 16, 30, 60}
                 : std::vector<int>{8, 10, 12, 14, 16, 18, 20, 23, 26, 30, 35, 40, 50, 60, 80, 120};
-    const int per = o.quick ? 1 : 8;
+    const int per = o.quick ? 1 : std::max(1, o.size_views);
     for (int p : px)
       for (int k = 0; k < per; ++k) {
         // Draws in a fixed order whatever the compiler (random_draws.h): offset, roll, azimuth,

@@ -21,6 +21,7 @@ namespace svms {
 struct CompareOptions {
   uint64_t seed = 1;
   bool quick = false;        // a few views per sweep (smoke test, < 2 min in all)
+  int size_views = 8;        // views per marker size in the size sweep (quick: 1)
   double marker_size = 0.1;  // black square side (= a peer's outer black edge), metres
 };
 
