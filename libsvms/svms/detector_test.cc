@@ -4,6 +4,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <string>
 
 #include "svms/render.h"
 #include "svms/truth.h"
@@ -329,82 +330,88 @@ TEST(Detector, TenPixelMarkersAreReadAfterTheirCornersAreRefined) {
   EXPECT_GT(with_7b, without_7b);
 }
 
-// The post's white top on a 10 px marker is a third of a pixel across: it still shows in the
-// black and picks the planar solution; without it most of these tilted markers come out
-// mirrored (20 degrees of tilt: the two solutions are about 40 degrees apart).
+// Six 0.1 m markers (post 25 mm, IDs first_id..first_id + 5) tilted by `tilt` about their
+// x axis after a roll of roll0 + k roll_step, in a row lifted off the plate (so that the tilted
+// decal is not buried in it), seen head-on by a 600 px pinhole from `distance` metres: the
+// scene of the small-marker tip tests.
+struct TiltedRow {
+  CameraModel cam = CameraModel::Pinhole(600, 400, 200);
+  std::vector<MarkerModel> models;
+  Rendered r;
+};
+TiltedRow RenderTiltedRow(int first_id, double roll0, double roll_step, double tilt, double x0,
+                          double dx, double dy, double distance) {
+  TiltedRow row;
+  std::vector<std::pair<MarkerModel, Pose>> markers;
+  for (int i = 0; i < 6; ++i) {
+    const Eigen::Matrix3d R = (Eigen::AngleAxisd(roll0 + roll_step * i, Eigen::Vector3d::UnitZ()) *
+                               Eigen::AngleAxisd(tilt, Eigen::Vector3d::UnitX()))
+                                  .toRotationMatrix();
+    markers.push_back({MarkerModel::Standard(first_id + i, 0.1, 0.025),
+                       Pose::FromRotation(R, Eigen::Vector3d(x0 + dx * i, dy * (i % 2), 0.05))});
+    row.models.push_back(markers.back().first);
+  }
+  row.r = Render(Base(row.cam, markers, Look({0.05, -0.3, distance}, {0, 0, 0})));
+  return row;
+}
+
+// What the detector made of a TiltedRow: poses, tips, errors above 10 degrees (with which
+// markers), ambiguous flags; and the largest true side in pixels.
+struct TipTally {
+  int posed = 0, with_tip = 0, flipped = 0, ambiguous = 0;
+  double max_side_px = 0;
+  std::string flips;
+};
+TipTally DetectTiltedRow(const TiltedRow& row, int first_id, const DetectorOptions& options) {
+  TipTally t;
+  for (const Detection& d : Detector(options, row.cam, row.models).Detect(row.r.image)) {
+    EXPECT_TRUE(d.cam_from_marker.has_value());
+    if (!d.cam_from_marker) continue;
+    const MarkerTruth& truth = row.r.truth.markers[d.id - first_id];
+    t.max_side_px = std::max(t.max_side_px, truth.side_px);
+    ++t.posed;
+    t.with_tip += d.tip.has_value();
+    t.ambiguous += d.pose_ambiguous;
+    const double err = AngleDeg(*d.cam_from_marker, truth.cam_from_marker);
+    if (err > 10) {
+      ++t.flipped;
+      t.flips += " marker " + std::to_string(d.id) + (d.tip ? " (tip) " : " (no tip) ") +
+                 std::to_string(err) + " deg;";
+    }
+  }
+  return t;
+}
+
 // 8 px markers 18 degrees off-axis: the top (0.4 px in radius, 0.6 px from the square's
 // centre) sits within 3 px of a corner of the white stripe, which must not make it be taken
 // for part of the print; without it the mirror pose (36 degrees off) is as likely.
 TEST(Detector, AnEightPixelMarkersTopIsFoundNextToTheStripesCorner) {
-  std::vector<std::pair<MarkerModel, Pose>> markers;
-  for (int i = 0; i < 6; ++i) {
-    const Eigen::Matrix3d R = (Eigen::AngleAxisd(0.9 * i + 0.4, Eigen::Vector3d::UnitZ()) *
-                               Eigen::AngleAxisd(0.32, Eigen::Vector3d::UnitX()))
-                                  .toRotationMatrix();
-    markers.push_back(
-        {MarkerModel::Standard(60 + i, 0.1, 0.025),
-         Pose::FromRotation(R, Eigen::Vector3d(-0.9 + 0.36 * i, 0.2 * (i % 2), 0.05))});
-  }
-  const CameraModel cam = CameraModel::Pinhole(600, 400, 200);
-  const Rendered r = Render(Base(cam, markers, Look({0.05, -0.3, 7.5}, {0, 0, 0})));
-  std::vector<MarkerModel> models;
-  for (const auto& m : markers) models.push_back(m.first);
-  int posed = 0, with_tip = 0;
-  for (const Detection& d : Detector(DetectorOptions{}, cam, models).Detect(r.image)) {
-    ASSERT_TRUE(d.cam_from_marker.has_value());
-    const MarkerTruth& t = r.truth.markers[d.id - 60];
-    EXPECT_LT(t.side_px, 9);
-    ++posed;
-    with_tip += d.tip.has_value();
-    EXPECT_LT(AngleDeg(*d.cam_from_marker, t.cam_from_marker), 10)
-        << "marker " << d.id << (d.tip ? " with" : " without") << " tip";
-  }
-  EXPECT_GE(posed, 4);
-  EXPECT_EQ(with_tip, posed);
+  const TiltedRow row = RenderTiltedRow(60, 0.4, 0.9, 0.32, -0.9, 0.36, 0.2, 7.5);
+  const TipTally t = DetectTiltedRow(row, 60, DetectorOptions{});
+  EXPECT_LT(t.max_side_px, 9);
+  EXPECT_GE(t.posed, 4);
+  EXPECT_EQ(t.with_tip, t.posed);
+  EXPECT_EQ(t.flipped, 0) << t.flips;
 }
 
+// The post's white top on a 10 px marker is a third of a pixel across: it still shows in the
+// black and picks the planar solution; without it most of these tilted markers come out
+// mirrored (20 degrees of tilt: the two solutions are about 40 degrees apart).
 TEST(Detector, ASubPixelTipPicksThePoseOfATenPixelMarker) {
-  std::vector<std::pair<MarkerModel, Pose>> markers;
-  for (int i = 0; i < 6; ++i) {
-    Pose p;
-    const Eigen::Matrix3d R = (Eigen::AngleAxisd(0.7 * i, Eigen::Vector3d::UnitZ()) *
-                               Eigen::AngleAxisd(0.35, Eigen::Vector3d::UnitX()))
-                                  .toRotationMatrix();
-    // Lifted off the plate so that the tilted decal is not buried in it.
-    p = Pose::FromRotation(R, Eigen::Vector3d(-0.6 + 0.25 * i, 0.12 * (i % 2), 0.05));
-    markers.push_back({MarkerModel::Standard(40 + i, 0.1, 0.025), p});
-  }
-  const CameraModel cam = CameraModel::Pinhole(600, 400, 200);
-  const Rendered r = Render(Base(cam, markers, Look({0.05, -0.3, 6.0}, {0, 0, 0})));
-  std::vector<MarkerModel> models;
-  for (const auto& m : markers) models.push_back(m.first);
-  int posed = 0, with_tip = 0, flipped = 0;
-  for (const Detection& d : Detector(DetectorOptions{}, cam, models).Detect(r.image)) {
-    ASSERT_TRUE(d.cam_from_marker.has_value());
-    const MarkerTruth& t = r.truth.markers[d.id - 40];
-    EXPECT_LT(t.side_px, 10.5);
-    ++posed;
-    with_tip += d.tip.has_value();
-    const double err = AngleDeg(*d.cam_from_marker, t.cam_from_marker);
-    flipped += err > 10;
-    EXPECT_LT(err, 10) << "marker " << d.id << (d.tip ? " with" : " without") << " tip";
-  }
-  EXPECT_GE(posed, 5);
-  EXPECT_EQ(with_tip, posed);
-  EXPECT_EQ(flipped, 0);
+  const TiltedRow row = RenderTiltedRow(40, 0, 0.7, 0.35, -0.6, 0.25, 0.12, 6.0);
+  const TipTally t = DetectTiltedRow(row, 40, DetectorOptions{});
+  EXPECT_LT(t.max_side_px, 10.5);
+  EXPECT_GE(t.posed, 5);
+  EXPECT_EQ(t.with_tip, t.posed);
+  EXPECT_EQ(t.flipped, 0) << t.flips;
   // The same markers with the tip left to tops of half a pixel or more: no tip, ambiguous.
   DetectorOptions no_small_tips;
   no_small_tips.pose.tip_min_radius_px = 0.5;
-  int ambiguous = 0, flipped_without = 0;
-  for (const Detection& d : Detector(no_small_tips, cam, models).Detect(r.image)) {
-    EXPECT_FALSE(d.tip.has_value());
-    ambiguous += d.pose_ambiguous;
-    flipped_without +=
-        AngleDeg(*d.cam_from_marker, r.truth.markers[d.id - 40].cam_from_marker) > 10;
-  }
-  EXPECT_GE(ambiguous, 5);
-  EXPECT_GE(flipped_without, 2) << "the scene no longer shows what the tip is for";
-  RecordProperty("flipped_without_small_tips", flipped_without);  // 5 of 6 when written
+  const TipTally without = DetectTiltedRow(row, 40, no_small_tips);
+  EXPECT_EQ(without.with_tip, 0);
+  EXPECT_GE(without.ambiguous, 5);
+  EXPECT_GE(without.flipped, 2) << "the scene no longer shows what the tip is for";
+  RecordProperty("flipped_without_small_tips", without.flipped);  // 5 of 6 when written
 }
 
 TEST(Detector, WithoutCameraOrModelsGivesIdsAndCornersOnly) {
