@@ -11,6 +11,7 @@
 #include "commands.h"
 #include "image_inputs.h"
 #include "svms/detector.h"
+#include "svms/format.h"
 #include "svms/image_io.h"
 #include "svms/model_io.h"
 #include "svms/survey.h"
@@ -204,7 +205,8 @@ void AddSurveyCommands(CLI::App& app, int* exit_code) {
                 "Survey only the reference's group when the view graph is disconnected");
   cmd->add_option("--corner-sigma", o->corner_sigma,
                   "Standard deviation of every corner (px); by default each corner's own, from "
-                  "the detector's line fits (x 1.02)");
+                  "the detector's line fits (x " +
+                      Fixed(kCornerFitScale, 2) + ")");
   cmd->add_option("--out", o->out, "The layout JSON to write (svms.layout, with covariances)")
       ->required();
   cmd->add_option("--report", o->report, "Write report.md, tables and pictures to this directory");

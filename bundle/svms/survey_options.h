@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "svms/marker_pose.h"
 #include "svms/status.h"
 
 namespace svms::bundle {
@@ -25,10 +26,10 @@ struct SurveyOptions {
   // the detector's side fits give (Detection::corner_sigma), at least min_corner_sigma_px,
   // when corner_sigma_from_fit and the detection has one; corner_sigma_px otherwise. Each
   // corner is then weighted by its own noise (a side at a grazing angle, a small marker, a
-  // corner by a shadow's edge) instead of all alike. The scale is fusion's (ObjectPoseOptions).
+  // corner by a shadow's edge) instead of all alike. The scale: kCornerFitScale (marker_pose.h).
   double corner_sigma_px = 0.1;
   bool corner_sigma_from_fit = true;
-  double corner_fit_scale = 1.02;
+  double corner_fit_scale = kCornerFitScale;
   double min_corner_sigma_px = 0.01;
   // Floor on a post tip's standard deviation (pixels); the detector's TipObservation::sigma_px
   // is used when larger.

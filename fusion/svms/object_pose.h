@@ -35,6 +35,7 @@
 #include "svms/camera.h"
 #include "svms/detector.h"
 #include "svms/layout.h"
+#include "svms/marker_pose.h"
 #include "svms/pose.h"
 
 namespace svms {
@@ -49,11 +50,9 @@ struct ObjectPoseOptions {
   double min_corner_sigma_px = 0.01;
   // When the detector measured a corner's sigma from its line fits (Detection::corner_sigma),
   // use corner_fit_scale times that instead of the size model (at least min_corner_sigma_px).
-  // Calibrated on the simulator's mockup survey images with the true layout (200 views): 1.02
-  // makes their mean NEES 5.99 with the line fits' unbiased (n - 2) scatter of session 6 (1.04
-  // did with the biased one). The approach is the test (docs/flight-interface.md).
+  // Calibrated on the simulator's mockup survey images (kCornerFitScale, marker_pose.h).
   bool corner_sigma_from_fit = true;
-  double corner_fit_scale = 1.02;
+  double corner_fit_scale = kCornerFitScale;
   // Added in quadrature to corner_fit_scale x the line-fit sigma: the part of a corner's error
   // that more edge points do not average away (the edge model's bias with blur and pixel
   // phase). Pixels, each axis. 0.004 made the mean NEES 6.06 on the same calibration set in

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <random>
 
 #include "svms/marker_pose.h"
 
@@ -121,6 +123,90 @@ TEST(RefineCorners, TooFewEdgePointsLeavesTheCornersAndSaysSo) {
   const RefinedCorners r = RefineCorners(flat, kTruth, nullptr, {});
   EXPECT_FALSE(r.ok);
   for (int k = 0; k < 4; ++k) EXPECT_EQ(r.corners[k], kTruth[k]);
+}
+
+// Columns of a vertical band scene through square pixels (exact areas): dark 20 left of
+// `edge`, white 200 over [edge, edge + stripe), then `beyond` (a bit cell's grey).
+cv::Mat Bands(double edge, double stripe, int beyond) {
+  auto grey = [&](double x) { return x < edge ? 20.0 : x < edge + stripe ? 200.0 : beyond; };
+  cv::Mat img(16, 40, CV_8UC1);
+  for (int x = 0; x < img.cols; ++x) {
+    // Pixel x covers [x - 0.5, x + 0.5): integrate the piecewise-constant scene exactly.
+    std::vector<double> cuts = {x - 0.5, x + 0.5};
+    for (double c : {edge, edge + stripe})
+      if (c > x - 0.5 && c < x + 0.5) cuts.push_back(c);
+    std::sort(cuts.begin(), cuts.end());
+    double v = 0;
+    for (size_t i = 0; i + 1 < cuts.size(); ++i)
+      v += (cuts[i + 1] - cuts[i]) * grey(0.5 * (cuts[i] + cuts[i + 1]));
+    img.col(x).setTo(cv::saturate_cast<uint8_t>(v));
+  }
+  return img;
+}
+
+// The white stripe of an 8 px marker is 2.7 px wide and a black bit cell may lie beyond it:
+// the edge is placed from the profile up to its brightest point, not from a bright level read
+// where the cell already darkens it (which put such edges 0.1-0.2 px off).
+TEST(LocateEdge, ANarrowStripeBeforeADarkCellDoesNotMoveTheEdge) {
+  for (int beyond : {20, 200}) {
+    double worst = 0;
+    for (int phase = 0; phase < 8; ++phase) {
+      const double edge = 17.0 + phase / 8.0;
+      Eigen::Vector2d found;
+      double strength;
+      ASSERT_TRUE(LocateEdge(Bands(edge, 8.0 / 3, beyond), Eigen::Vector2d(edge - 0.3, 8),
+                             Eigen::Vector2d(1, 0), 2.5, &found, &strength))
+          << "edge " << edge << " beyond " << beyond;
+      worst = std::max(worst, std::abs(found.x() - edge));
+      EXPECT_NEAR(found.y(), 8, 1e-12);
+    }
+    EXPECT_LT(worst, 0.03) << "beyond the stripe: grey " << beyond;
+  }
+}
+
+// An 8 px dark square on a bright surround with read noise (sigma 4 grey levels), 300 times
+// at random places and angles: each side has 5 edge points, and its own scatter alone (3
+// degrees of freedom) would give corner sigmas whose normalised errors have heavy tails.
+// Pooled over the four sides they come out near 1.
+TEST(RefineCorners, ASmallQuadsCornerSigmasAreHonest) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> place(-0.5, 0.5), angle(0, M_PI / 2);
+  std::normal_distribution<double> noise(0, 4);
+  CornerRefineOptions own;  // each side's own scatter only
+  own.pooled_prior_dof = 0;
+  double sum_z2 = 0, own_sum_z2 = 0;
+  int n = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    const Eigen::Vector2d centre(60 + place(rng), 60 + place(rng));
+    const double a = angle(rng);
+    std::array<Eigen::Vector2d, 4> truth, guess;
+    for (int k = 0; k < 4; ++k) {
+      // Clockwise on screen (y down), from the top left.
+      const double t = a + M_PI * (1.25 + 0.5 * k);
+      truth[k] = centre + 4 * std::sqrt(2.0) * Eigen::Vector2d(std::cos(t), std::sin(t));
+      guess[k] = truth[k] + Eigen::Vector2d(0.3 * place(rng), 0.3 * place(rng));
+    }
+    cv::Mat img = Draw(truth);
+    for (int y = 45; y < 75; ++y)
+      for (int x = 45; x < 75; ++x)
+        img.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(img.at<uint8_t>(y, x) + noise(rng));
+    const RefinedCorners r = RefineCorners(img, guess, nullptr, {});
+    const RefinedCorners r_own = RefineCorners(img, guess, nullptr, own);
+    if (!r.ok || !r_own.ok) continue;
+    for (int k = 0; k < 4; ++k) {
+      EXPECT_LT((r.corners[k] - r_own.corners[k]).norm(), 1e-12) << "only the sigmas differ";
+      sum_z2 += (r.corners[k] - truth[k]).squaredNorm() / (r.corner_sigma[k] * r.corner_sigma[k]);
+      own_sum_z2 +=
+          (r.corners[k] - truth[k]).squaredNorm() / (r_own.corner_sigma[k] * r_own.corner_sigma[k]);
+      n += 2;
+    }
+  }
+  ASSERT_GT(n, 2 * 4 * 280);
+  const double z_rms = std::sqrt(sum_z2 / n), own_z_rms = std::sqrt(own_sum_z2 / n);
+  EXPECT_GT(z_rms, 0.7);
+  EXPECT_LT(z_rms, 1.25);
+  // 1.18 and 1.30 with this seed.
+  EXPECT_GT(own_z_rms, z_rms + 0.06) << "pooling should tame the tails: " << z_rms;
 }
 
 TEST(ExcludedRegion, ContainsAndTouchesSides) {
