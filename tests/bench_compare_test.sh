@@ -29,8 +29,16 @@ done
 # Flips per size (quick: 10, 16 and 30 px), one row each.
 grep -q '^Pose flips (orientation error > 10 deg) by size' "$out/report.md" || fail "no flips-by-size table"
 for px in 10 16 30; do
-  grep -q "^| $px | [0-9]*/[0-9]* |" "$out/report.md" || fail "no flips row for $px px"
+  grep -q "^| $px | [0-9]*/[0-9]* ([0-9]*) |" "$out/report.md" || fail "no flips row for $px px"
 done
+# Each pose's distance to the truth's planar twin, and the planar flips counted.
+head -1 "$out/markers.csv" | grep -q ',orientation_err_deg,twin_err_deg$' ||
+  fail "markers.csv has no twin_err_deg"
+grep -q '^size,size_060px_00,060,svms,.*,[0-9.]*,[0-9.]*$' "$out/markers.csv" ||
+  fail "no twin error for the 60 px svms pose"
+grep -q '"planar_flips"' "$out/summary.json" || fail "summary.json has no planar_flips"
+grep -q '^- No pose flips: .*, of them planar [0-9]*)' "$out/report.md" ||
+  fail "the flips target does not count the planar ones"
 # A bad --size-views is refused with its name, before any work.
 if "$svms" bench compare --size-views 0 --out "$out/bad" > /dev/null 2> "$out/bad.txt"; then
   fail "--size-views 0 was accepted"

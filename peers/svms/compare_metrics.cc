@@ -20,7 +20,24 @@ bool InQuad(const std::array<PointTruth, 4>& q, const Eigen::Vector2d& p) {
   return in;
 }
 
+double AngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return Eigen::AngleAxisd(a.transpose() * b).angle() * 180 / M_PI;
+}
+
 }  // namespace
+
+Eigen::Matrix3d PlanarTwin(const Pose& cam_from_marker) {
+  const Eigen::Matrix3d R = cam_from_marker.Rotation();
+  const Eigen::Vector3d v = cam_from_marker.tvec.normalized();
+  const Eigen::Vector3d n = R.col(2);
+  const Eigen::Vector3d n_twin = 2 * n.dot(v) * v - n;
+  return Eigen::Quaterniond::FromTwoVectors(n, n_twin).toRotationMatrix() * R;
+}
+
+bool MarkerOutcome::planar_flip() const {
+  return orientation_err_deg > kFlipDeg && twin_err_deg < orientation_err_deg &&
+         2 * view_angle_deg > kFlipDeg;
+}
 
 ImageOutcome EvaluateImage(const ViewTruth& truth, const std::vector<FoundMarker>& found) {
   ImageOutcome out;
@@ -76,10 +93,8 @@ ImageOutcome EvaluateImage(const ViewTruth& truth, const std::vector<FoundMarker
     m.corner_rms_px = std::sqrt(ss / 4);
     if (f.cam_from_marker) {
       m.range_err_m = std::abs(f.cam_from_marker->tvec.norm() - t.cam_from_marker.tvec.norm());
-      m.orientation_err_deg = Eigen::AngleAxisd(f.cam_from_marker->Rotation().transpose() *
-                                                t.cam_from_marker.Rotation())
-                                  .angle() *
-                              180 / M_PI;
+      m.orientation_err_deg = AngleDeg(f.cam_from_marker->Rotation(), t.cam_from_marker.Rotation());
+      m.twin_err_deg = AngleDeg(f.cam_from_marker->Rotation(), PlanarTwin(t.cam_from_marker));
     }
   }
   return out;
