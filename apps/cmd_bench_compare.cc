@@ -78,10 +78,10 @@ std::vector<FoundMarker> Run(const System& sys, const cv::Mat& img, const Camera
   const auto t0 = std::chrono::steady_clock::now();
   if (sys.svms) {
     for (const Detection& d : sys.svms->Detect(img))
-      out.push_back(FoundMarker{d.id, d.corners, d.cam_from_marker});
+      out.push_back(FoundMarker{d.id, d.corners, d.cam_from_marker, d.pose_ambiguous});
   } else {
     for (const PeerDetection& d : sys.peer->Detect(img)) {
-      FoundMarker f{d.id, d.corners, std::nullopt};
+      FoundMarker f{d.id, d.corners, std::nullopt, false};
       Pose p;
       if (marker_size > 0 && PeerPose(camera, d.corners, marker_size, &p)) f.cam_from_marker = p;
       out.push_back(f);
@@ -125,7 +125,7 @@ std::string Condition(const std::string& sweep, const std::string& view, const M
 struct Tally {
   int eligible = 0, detected = 0, wrong = 0;
   std::vector<double> side, corner, range_rel, orient;
-  int flips = 0, planar_flips = 0, posed = 0;
+  int flips = 0, planar_flips = 0, unflagged_flips = 0, flagged = 0, posed = 0;
   void Add(const MarkerOutcome& m) {
     if (!m.eligible) return;
     ++eligible;
@@ -140,6 +140,8 @@ struct Tally {
       orient.push_back(m.orientation_err_deg);
       flips += m.orientation_err_deg > kFlipDeg;
       planar_flips += m.planar_flip();
+      unflagged_flips += m.orientation_err_deg > kFlipDeg && !m.pose_ambiguous;
+      flagged += m.pose_ambiguous;
     }
   }
   double rate() const { return eligible ? static_cast<double>(detected) / eligible : NAN; }
@@ -156,6 +158,8 @@ struct Tally {
             {"orientation_err_deg_p95", orient.empty() ? json() : json(Percentile(orient, 95))},
             {"pose_flips", flips},
             {"planar_flips", planar_flips},
+            {"unflagged_flips", unflagged_flips},
+            {"poses_flagged_ambiguous", flagged},
             {"posed", posed},
             {"flip_rate", posed ? json(static_cast<double>(flips) / posed) : json()}};
   }
@@ -397,14 +401,17 @@ int RunCompare(const CompareCliOptions& o) {
     std::ofstream f(dir / "markers.csv");
     f << "sweep,view,condition,config,family,truth_id,eligible,detected,wrong_id,min_side_px,"
          "view_angle_deg,occluded_fraction,distance_m,corner_rms_px,range_err_m,"
-         "orientation_err_deg,twin_err_deg\n";
+         "orientation_err_deg,twin_err_deg,pose_ambiguous\n";
     for (const MarkerRecord& r : markers) {
       const MarkerOutcome& m = r.m;
       f << r.sweep << "," << r.view << "," << r.condition << "," << r.config << "," << r.family
         << "," << m.truth_id << "," << m.eligible << "," << m.detected << "," << m.wrong_id << ","
         << F(m.min_side_px, 3) << "," << F(m.view_angle_deg, 3) << "," << F(m.occluded_fraction, 4)
         << "," << F(m.distance_m, 4) << "," << F(m.corner_rms_px, 4) << "," << F(m.range_err_m, 6)
-        << "," << F(m.orientation_err_deg, 4) << "," << F(m.twin_err_deg, 4) << "\n";
+        << "," << F(m.orientation_err_deg, 4) << "," << F(m.twin_err_deg, 4) << ","
+        << (m.detected && std::isfinite(m.orientation_err_deg) ? std::to_string(m.pose_ambiguous)
+                                                               : "-")
+        << "\n";
     }
     std::ofstream g(dir / "images.csv");
     g << "sweep,view,config,time_ms,detections,false_positives,wrong_ids\n";
@@ -650,9 +657,9 @@ int RunCompare(const CompareCliOptions& o) {
   md << "| system | detected | at <= 30 px | wrong IDs | false pos. (clutter, "
      << timing["svms"].clutter_images
      << " images) | corner RMS px (median) | range err % (median) | orientation err deg "
-        "(median / p95) | pose flips (>10 deg) | of them planar | ms/image median | ms p99 | ms "
-        "clutter median |\n"
-     << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+        "(median / p95) | pose flips (>10 deg) | of them planar / not flagged | poses flagged "
+        "ambiguous | ms/image median | ms p99 | ms clutter median |\n"
+     << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const std::string& n : names) {
     const Tally& t = overall[n];
     const Tally& s = small[n];
@@ -662,15 +669,17 @@ int RunCompare(const CompareCliOptions& o) {
        << tm.wrong << " | " << tm.fp_clutter << " | " << F(Median(t.corner), 3) << " | "
        << F(Median(t.range_rel), 2) << " | " << F(Median(t.orient), 2) << " / "
        << F(Percentile(t.orient, 95), 2) << " | " << t.flips << "/" << t.posed << " ("
-       << F(t.posed ? 100.0 * t.flips / t.posed : NAN, 1) << " %) | " << t.planar_flips << " | "
-       << F(Median(tm.all), 1) << " | " << F(Percentile(tm.all, 99), 1) << " | "
-       << F(Median(tm.clutter), 1) << " |\n";
+       << F(t.posed ? 100.0 * t.flips / t.posed : NAN, 1) << " %) | " << t.planar_flips << " / "
+       << t.unflagged_flips << " | " << t.flagged << " | " << F(Median(tm.all), 1) << " | "
+       << F(Percentile(tm.all, 99), 1) << " | " << F(Median(tm.clutter), 1) << " |\n";
   }
   md << "\nA flip is *planar* when the pose is nearer the truth's planar twin (its normal mirrored "
         "about the line of sight: what four coplanar corners cannot tell from the truth under weak "
         "perspective) than the truth, the twin being itself more than 10 deg from the truth (a "
         "view angle above 5 deg). The other flips are measurement noise: a head-on marker's twin "
-        "is its own pose.\n";
+        "is its own pose. SVMS flags a pose *ambiguous* when its planar twin keeps more than 1 % "
+        "of "
+        "the likelihood (the peers flag nothing).\n";
   // The targets, checked on this run's numbers.
   {
     const Tally& sv = small["svms"];
@@ -701,7 +710,8 @@ int RunCompare(const CompareCliOptions& o) {
           "sweep: "
        << verdict(orient_all && has_peer_orient) << ".\n"
        << "- No pose flips: " << verdict(overall["svms"].flips == 0) << " ("
-       << overall["svms"].flips << ", of them planar " << overall["svms"].planar_flips << ").\n"
+       << overall["svms"].flips << ", of them planar " << overall["svms"].planar_flips
+       << ", not flagged ambiguous " << overall["svms"].unflagged_flips << ").\n"
        << "- Faster per image (median) than every peer configuration that detects at least as "
           "many markers, and at least 2x faster than the fastest of them: ";
     if (!std::isfinite(fastest_peer_ms)) {

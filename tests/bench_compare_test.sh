@@ -32,12 +32,13 @@ for px in 10 16 30; do
   grep -q "^| $px | [0-9]*/[0-9]* ([0-9]*) |" "$out/report.md" || fail "no flips row for $px px"
 done
 # Each pose's distance to the truth's planar twin, and the planar flips counted.
-head -1 "$out/markers.csv" | grep -q ',orientation_err_deg,twin_err_deg$' ||
+head -1 "$out/markers.csv" | grep -q ',orientation_err_deg,twin_err_deg,pose_ambiguous$' ||
   fail "markers.csv has no twin_err_deg"
-grep -q '^size,size_060px_00,060,svms,.*,[0-9.]*,[0-9.]*$' "$out/markers.csv" ||
+grep -q '^size,size_060px_00,060,svms,.*,[0-9.]*,[0-9.]*,0$' "$out/markers.csv" ||
   fail "no twin error for the 60 px svms pose"
 grep -q '"planar_flips"' "$out/summary.json" || fail "summary.json has no planar_flips"
-grep -q '^- No pose flips: .*, of them planar [0-9]*)' "$out/report.md" ||
+grep -q '"unflagged_flips"' "$out/summary.json" || fail "summary.json has no unflagged_flips"
+grep -q '^- No pose flips: .*, of them planar [0-9]*, not flagged ambiguous [0-9]*)' "$out/report.md" ||
   fail "the flips target does not count the planar ones"
 # A bad --size-views is refused with its name, before any work.
 if "$svms" bench compare --size-views 0 --out "$out/bad" > /dev/null 2> "$out/bad.txt"; then

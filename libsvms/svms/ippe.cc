@@ -3,6 +3,7 @@
 // operation order so that the results agree to rounding; comments name the OpenCV function.
 #include "svms/ippe.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -362,6 +363,15 @@ bool SolveSquareIppe(const std::array<Eigen::Vector2d, 4>& normalized, double si
     (*out)[1] = b;
   }
   return true;
+}
+
+Pose PlanarTwin(const Pose& cam_from_target) {
+  const Eigen::Matrix3d R = cam_from_target.Rotation();
+  const Eigen::Vector3d v = cam_from_target.tvec.normalized();
+  const Eigen::Vector3d n = R.col(2);
+  const Eigen::Vector3d n_twin = 2 * n.dot(v) * v - n;
+  return Pose::FromRotation(Eigen::Quaterniond::FromTwoVectors(n, n_twin).toRotationMatrix() * R,
+                            cam_from_target.tvec);
 }
 
 }  // namespace svms

@@ -43,6 +43,8 @@
 #include <Eigen/Core>
 #include <array>
 
+#include "svms/pose.h"
+
 namespace svms {
 
 // One pose of the square: p_cam = cam_from_marker_R * p_marker + cam_from_marker_t.
@@ -90,5 +92,14 @@ const char* IppeStatusName(IppeStatus status);
 // (optional) says why. No heap allocation; thread-safe (no state).
 bool SolveSquareIppe(const std::array<Eigen::Vector2d, 4>& normalized, double side,
                      std::array<PlanarPoseCandidate, 2>* out, IppeStatus* status = nullptr);
+
+// The planar twin of a pose of a small planar target: the orientation that its coplanar points,
+// seen under weak perspective, cannot tell from `cam_from_target`'s. Its normal (the target's z
+// axis) is mirrored about the line of sight to the target's origin, n' = 2 (n.v) v - n with v
+// the unit vector from the camera to the origin, by the smallest rotation taking n to n',
+// applied after the pose's own rotation; the translation is kept. IPPE's second solution is this
+// pose up to perspective (within 0.5 deg for a 0.1 m square at 15 m, 20 deg off-axis). The twin
+// is twice the view angle from the pose: a target seen head-on is its own twin.
+Pose PlanarTwin(const Pose& cam_from_target);
 
 }  // namespace svms

@@ -479,5 +479,37 @@ TEST(IppeSquare, StatusNames) {
                "determinant below OpenCV's threshold");
 }
 
+// The twin is what IPPE returns as the other solution for a small, distant, tilted square.
+TEST(PlanarTwin, IsIppesOtherSolution) {
+  Pose truth;
+  truth.tvec = Eigen::Vector3d(0.8, -0.5, 15);
+  truth.rvec = Eigen::Vector3d(M_PI, 0, 0) + Eigen::Vector3d(0.25, 0.2, 0.1);
+  const cv::Matx33d K(1000, 0, 512, 0, 1000, 512, 0, 0, 1);
+  const double s = 0.05;
+  std::vector<cv::Point3d> object = {{-s, s, 0}, {s, s, 0}, {s, -s, 0}, {-s, -s, 0}};
+  std::vector<cv::Point2d> image;
+  cv::projectPoints(object, cv::Vec3d(truth.rvec.data()), cv::Vec3d(truth.tvec.data()), K,
+                    cv::noArray(), image);
+  std::vector<cv::Mat> rvecs, tvecs;
+  ASSERT_EQ(cv::solvePnPGeneric(object, image, K, cv::noArray(), rvecs, tvecs, false,
+                                cv::SOLVEPNP_IPPE_SQUARE),
+            2);
+  const Eigen::Matrix3d twin = PlanarTwin(truth).Rotation();
+  const double apart = Eigen::AngleAxisd(twin.transpose() * truth.Rotation()).angle() * 180 / M_PI;
+  EXPECT_GT(apart, 20);  // twice the view angle
+  double to_truth = 1e9, to_twin = 1e9;
+  for (const cv::Mat& r : rvecs) {
+    Pose p;
+    p.rvec = Eigen::Vector3d(r.at<double>(0), r.at<double>(1), r.at<double>(2));
+    to_truth =
+        std::min(to_truth, Eigen::AngleAxisd(p.Rotation().transpose() * truth.Rotation()).angle() *
+                               180 / M_PI);
+    to_twin =
+        std::min(to_twin, Eigen::AngleAxisd(p.Rotation().transpose() * twin).angle() * 180 / M_PI);
+  }
+  EXPECT_LT(to_truth, 1e-6);
+  EXPECT_LT(to_twin, 0.5);  // weak perspective: exact only at infinite distance
+}
+
 }  // namespace
 }  // namespace svms

@@ -560,6 +560,7 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
   // when w is above 1 % (dchi2 below 9.2).
   out->ambiguous = false;
   out->ambiguity_covariance.setZero();
+  bool weighed = false;  // the other solution's likelihood is known
   const size_t other = 1 - pick;
   if (cands.size() > 1 && refined[other].ok) {
     // Both as refined over the same points (the edges, fitted to the kept one only, would set
@@ -573,6 +574,33 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
     if (separation > 9 && dchi2 < 2 * std::log(1 / kMixtureWeightFloor - 1)) {
       const double w = 1 / (1 + std::exp(0.5 * dchi2));
       out->ambiguity_covariance = w * (b.covariance - out->covariance + d * d.transpose());
+      out->covariance += out->ambiguity_covariance;
+      out->ambiguous = w > kAmbiguousWeight;
+    }
+    weighed = separation > 9;
+  }
+  // Where no distinct second solution survived the refinement (both slid to one minimum: on a
+  // marker of 8-10 px a corner 3 sigmas off outweighs a tip 1 sigma off), the kept pose's planar
+  // twin is what the data may still have confused it with. How far apart the two put the
+  // points, in sigmas (D = sum |twin - kept|^2 / sigma^2, the expected difference of their
+  // weighted squared residuals), says how often noise alone would swap them: Phi(-sqrt(D) / 2).
+  // Above 1 % the pose is flagged ambiguous and the covariance spans the twin with that weight.
+  if (!weighed) {
+    const Pose twin = PlanarTwin(pose);
+    Eigen::Matrix<double, 6, 1> d;
+    const Eigen::AngleAxisd delta(twin.Rotation() * pose.Rotation().transpose());
+    d << delta.angle() * delta.axis(), Eigen::Vector3d::Zero();
+    const double separation = d.dot(out->covariance.ldlt().solve(d));
+    double D = 0;
+    bool projected = true;
+    for (size_t i = 0; i < X.size() && projected; ++i) {
+      Eigen::Vector2d p_kept, p_twin;
+      projected = camera.Project(pose * X[i], &p_kept) && camera.Project(twin * X[i], &p_twin);
+      D += (p_twin - p_kept).squaredNorm() / (sig[i] * sig[i]);
+    }
+    const double w = 0.5 * std::erfc(std::sqrt(D) / 2 / std::sqrt(2.0));
+    if (projected && separation > 9 && w > kMixtureWeightFloor) {
+      out->ambiguity_covariance = w * d * d.transpose();
       out->covariance += out->ambiguity_covariance;
       out->ambiguous = w > kAmbiguousWeight;
     }

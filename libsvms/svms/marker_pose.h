@@ -78,7 +78,10 @@ struct MarkerPose {
   std::optional<TipObservation> tip;
   // Two planar solutions that the corners and tip do not tell apart: the other one has more
   // than 1 % of the likelihood (its weighted squared residuals exceed the kept one's by less
-  // than 9.2). The covariance then spans both (a mixture about the kept pose).
+  // than 9.2). The covariance then spans both (a mixture about the kept pose). Where both
+  // refined to one pose, the kept pose's planar twin (PlanarTwin, ippe.h) stands for the other,
+  // with the weight Phi(-sqrt(D) / 2): how often noise swaps two poses that put the corners and
+  // tip D (squared sigmas, summed) apart.
   bool ambiguous = false;
   // What the other planar solution adds to `covariance` (same axes): w (C' - C + d d^T), zero
   // when it is the same pose or negligible. A fit over other points (fusion) adds it likewise.

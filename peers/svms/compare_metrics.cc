@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "svms/ippe.h"
+
 namespace svms {
 namespace {
 
@@ -25,14 +27,6 @@ double AngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
 }
 
 }  // namespace
-
-Eigen::Matrix3d PlanarTwin(const Pose& cam_from_marker) {
-  const Eigen::Matrix3d R = cam_from_marker.Rotation();
-  const Eigen::Vector3d v = cam_from_marker.tvec.normalized();
-  const Eigen::Vector3d n = R.col(2);
-  const Eigen::Vector3d n_twin = 2 * n.dot(v) * v - n;
-  return Eigen::Quaterniond::FromTwoVectors(n, n_twin).toRotationMatrix() * R;
-}
 
 bool MarkerOutcome::planar_flip() const {
   return orientation_err_deg > kFlipDeg && twin_err_deg < orientation_err_deg &&
@@ -94,7 +88,9 @@ ImageOutcome EvaluateImage(const ViewTruth& truth, const std::vector<FoundMarker
     if (f.cam_from_marker) {
       m.range_err_m = std::abs(f.cam_from_marker->tvec.norm() - t.cam_from_marker.tvec.norm());
       m.orientation_err_deg = AngleDeg(f.cam_from_marker->Rotation(), t.cam_from_marker.Rotation());
-      m.twin_err_deg = AngleDeg(f.cam_from_marker->Rotation(), PlanarTwin(t.cam_from_marker));
+      m.pose_ambiguous = f.pose_ambiguous;
+      m.twin_err_deg =
+          AngleDeg(f.cam_from_marker->Rotation(), PlanarTwin(t.cam_from_marker).Rotation());
     }
   }
   return out;

@@ -22,6 +22,7 @@ struct FoundMarker {
   int id = -1;
   std::array<Eigen::Vector2d, 4> corners;  // TL, TR, BR, BL as printed, pixels
   std::optional<Pose> cam_from_marker;
+  bool pose_ambiguous = false;  // the system flags the pose as possibly its planar twin (SVMS)
 };
 
 // One truth marker, for one system, in one image.
@@ -39,10 +40,9 @@ struct MarkerOutcome {
   // marker centre; rotation angle between estimated and true orientation.
   double corner_rms_px = NAN, range_err_m = NAN, orientation_err_deg = NAN;
   // Rotation angle between the estimate and the true pose's planar twin (NaN without a pose),
-  // degrees: the orientation that four coplanar points seen under weak perspective cannot tell
-  // from the true one, the normal mirrored about the line of sight (PlanarTwin). It is twice
-  // the view angle away from the truth.
+  // degrees (PlanarTwin, ippe.h: twice the view angle from the truth).
   double twin_err_deg = NAN;
+  bool pose_ambiguous = false;  // of the hit: the system flagged its pose
   // A pose flip (orientation error above kFlipDeg) that is the planar ambiguity: nearer the
   // twin than the truth, with the twin itself above kFlipDeg from the truth. The other flips
   // are measurement noise: a head-on marker's twin is its own pose.
@@ -54,11 +54,6 @@ struct ImageOutcome {
   int false_positives = 0;
   int wrong_ids = 0;  // detections on a marker with a wrong ID
 };
-
-// The planar twin of `cam_from_marker`'s orientation: the marker's normal mirrored about the
-// line of sight to its centre (n' = 2 (n.v) v - n, v the unit vector from the camera to the
-// centre), by the smallest rotation taking n to n', applied before the pose's own rotation.
-Eigen::Matrix3d PlanarTwin(const Pose& cam_from_marker);
 
 ImageOutcome EvaluateImage(const ViewTruth& truth, const std::vector<FoundMarker>& found);
 

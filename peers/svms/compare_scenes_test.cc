@@ -1,0 +1,109 @@
+// The comparison's own scenes: where the size sweep's smallest markers are posed wrong, the
+// detector says so.
+#include "svms/compare_scenes.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <memory>
+
+#include "svms/detector.h"
+#include "svms/ippe.h"
+#include "svms/render.h"
+#include "svms/truth.h"
+
+namespace svms {
+namespace {
+
+// The 3-dof NEES of `estimate`'s orientation (`covariance`'s rotation block, camera axes).
+double RotationNees(const Pose& truth, const Pose& estimate, const PoseCovariance& covariance) {
+  const Eigen::AngleAxisd e(estimate.Rotation() * truth.Rotation().transpose());
+  const Eigen::Vector3d w = e.angle() * e.axis();
+  return w.dot(covariance.topLeftCorner<3, 3>().ldlt().solve(w));
+}
+
+// Each view of the size sweep at `px` ("008"): the orientation error (degrees, NaN where not
+// posed), the ambiguity flag, the rotation NEES, and the error's part along the way to the
+// pose's planar twin in units of the covariance's sigma that way.
+struct Posed {
+  std::string view;
+  double error_deg = NAN, nees = NAN, twin_way_sigmas = NAN;
+  bool ambiguous = false;
+};
+std::vector<Posed> PoseSizeViews(const std::string& px) {
+  std::vector<Posed> out;
+  for (const CompareSweep& sw : MakeCompareSweeps(CompareOptions{})) {
+    if (sw.name != "size") continue;
+    std::unique_ptr<Renderer> r;
+    EXPECT_TRUE(Renderer::Create(sw.scene, &r));
+    if (!r) return out;
+    std::vector<MarkerModel> models;
+    for (const SceneObject& ob : sw.scene.objects)
+      for (const SceneMarker& m : ob.markers) models.push_back(m.model);
+    const Detector det(DetectorOptions{}, sw.scene.camera, models);
+    for (size_t v = 0; v < sw.scene.views.size(); ++v) {
+      if (sw.scene.views[v].name.rfind("size_" + px + "px_", 0) != 0) continue;
+      const cv::Mat img = r->Expose(r->RenderRadiance(static_cast<int>(v)), static_cast<int>(v));
+      const ViewTruth truth = ComputeTruth(*r, static_cast<int>(v));
+      Posed p{sw.scene.views[v].name};
+      for (const Detection& d : det.Detect(img)) {
+        if (d.id != truth.markers[0].id || !d.cam_from_marker) continue;
+        const Pose& t = truth.markers[0].cam_from_marker;
+        p.error_deg =
+            Eigen::AngleAxisd(d.cam_from_marker->Rotation().transpose() * t.Rotation()).angle() *
+            180 / M_PI;
+        p.nees = RotationNees(t, *d.cam_from_marker, d.covariance);
+        const Eigen::AngleAxisd e(d.cam_from_marker->Rotation() * t.Rotation().transpose());
+        const Eigen::AngleAxisd tw(PlanarTwin(*d.cam_from_marker).Rotation() *
+                                   d.cam_from_marker->Rotation().transpose());
+        const Eigen::Vector3d way = tw.axis();
+        p.twin_way_sigmas = std::abs((e.angle() * e.axis()).dot(way)) /
+                            std::sqrt(way.dot(d.covariance.topLeftCorner<3, 3>() * way));
+        p.ambiguous = d.pose_ambiguous;
+      }
+      out.push_back(p);
+    }
+  }
+  return out;
+}
+
+// 8 px markers at 14 m, 0-18 degrees off-axis: the post's top is 0.4 px in radius, found to
+// about 0.15 px, and a corner 3 sigmas off can outweigh it. In view size_008px_05 (6 degrees
+// off-axis) both planar solutions refine to the twin, 12 degrees off; no second solution is
+// left to weigh, and the flag comes from how far apart the pose and its twin put the points.
+// Its covariance then spans the twin (the error along the way to it within 3 sigmas); its NEES
+// stays high (27, 35 without the twin) because the same corner turned the roll 0.9 degrees,
+// 3 of its sigmas.
+TEST(CompareScenes, EightPixelMarkersArePosedRightOrFlagged) {
+  const std::vector<Posed> views = PoseSizeViews("008");
+  ASSERT_EQ(views.size(), 8u);
+  int posed = 0;
+  for (const Posed& p : views) {
+    if (!std::isfinite(p.error_deg)) continue;
+    ++posed;
+    SCOPED_TRACE(p.view + ": error " + std::to_string(p.error_deg) + " deg");
+    if (p.error_deg > 10) {
+      EXPECT_TRUE(p.ambiguous);
+      EXPECT_LT(p.twin_way_sigmas, 3);
+    } else {
+      EXPECT_LT(p.nees, 16.3);  // chi-square, 3 dof, 99.9 %
+    }
+  }
+  EXPECT_GE(posed, 6);
+}
+
+// At 30 px the top is found to a few hundredths of a pixel: every pose right, none flagged.
+TEST(CompareScenes, ThirtyPixelMarkersAreNotFlagged) {
+  const std::vector<Posed> views = PoseSizeViews("030");
+  ASSERT_EQ(views.size(), 8u);
+  for (const Posed& p : views) {
+    SCOPED_TRACE(p.view);
+    ASSERT_TRUE(std::isfinite(p.error_deg));
+    EXPECT_LT(p.error_deg, 2);
+    EXPECT_FALSE(p.ambiguous);
+  }
+}
+
+}  // namespace
+}  // namespace svms
