@@ -38,6 +38,10 @@ struct CornerRefineOptions {
   // heavy tails (t with 3 dof: RMS 1.7); all sides see the same noise and contrast. On sides
   // of 60 points it changes little.
   double pooled_prior_dof = 8;
+  // A quad whose shortest side is below this (pixels) has a white stripe (a third of the side)
+  // too narrow for the edge profile's +-2 px window plus the pixels' blur: its edges are placed
+  // as LocateEdge's narrow_band says.
+  double narrow_stripe_side_px = 13.5;
 };
 
 // Part of the image whose edges are not the marker's sides: the post's silhouette, which
@@ -76,8 +80,11 @@ double SampleImage(const cv::Mat& image, double u, double v);
 // (0.5 px steps) around p, then placed from the area under the normalised profile. *edge: the
 // edge point (pixels); *strength: the derivative's peak (grey levels per pixel). False where no
 // rising edge stands out (at the search's ends, or too little contrast across it).
+// `narrow_band`: the bright side may be a band narrower than about 4.5 px with something darker
+// beyond it; where the profile falls again by more than 2 % of its contrast within 2 px, the
+// area is taken up to its brightest point only.
 bool LocateEdge(const cv::Mat& image, const Eigen::Vector2d& p,
                 const Eigen::Vector2d& dark_to_bright, double search_px, Eigen::Vector2d* edge,
-                double* strength);
+                double* strength, bool narrow_band = false);
 
 }  // namespace svms
