@@ -15,6 +15,7 @@
 
 #include "commands.h"
 #include "gnuplot.h"
+#include "svms/camera_covariance.h"
 #include "svms/detector.h"
 #include "svms/image_io.h"
 #include "svms/observations.h"
@@ -338,6 +339,13 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
   }
   if (!o.out.empty()) {
     if (Status s = out->result.camera.Write(o.out); !s) {
+      std::cerr << prog << s.message() << "\n";
+      return kExitFailed;
+    }
+    if (Status s = WriteCovarianceSidecar(CovarianceSidecarPath(o.out), out->result.camera,
+                                          out->result.noise_sigma_px,
+                                          static_cast<int>(out->result.views.size()));
+        !s) {
       std::cerr << prog << s.message() << "\n";
       return kExitFailed;
     }

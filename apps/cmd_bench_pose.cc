@@ -38,6 +38,7 @@ struct BenchPoseOptions {
   double min_corner_sigma_px = ObjectPoseOptions{}.min_corner_sigma_px;
   double corner_sigma_systematic_px = ObjectPoseOptions{}.corner_sigma_systematic_px;
   bool size_model = false;
+  bool no_calibration_covariance = false;
 };
 
 std::string F(double v, int digits) { return Fixed(v, digits); }
@@ -113,6 +114,7 @@ int RunBenchPose(const BenchPoseOptions& o) {
   options.fusion.min_corner_sigma_px = o.min_corner_sigma_px;
   options.fusion.corner_sigma_systematic_px = o.corner_sigma_systematic_px;
   options.fusion.corner_sigma_from_fit = !o.size_model;
+  options.fusion.use_calibration_covariance = !o.no_calibration_covariance;
   std::unique_ptr<PoseEstimator> est;
   const std::string camera_path = o.camera.empty() ? D + "/true.cameramodel" : o.camera;
   if (Status s = PoseEstimator::CreateFromFiles(camera_path, layout_path, options, &est); !s) {
@@ -258,6 +260,8 @@ int RunBenchPose(const BenchPoseOptions& o) {
     }
   }
   const double nees_mean = Mean(nees);
+  const bool calibration_in_covariance =
+      !o.no_calibration_covariance && est->camera().intrinsics_covariance_factor().size() > 0;
   // chi-square(6) 95 % bounds on the mean of n NEES values: 6 +- 1.96 sqrt(12 / n).
   const double half = 1.96 * std::sqrt(12.0 / std::max<size_t>(1, nees.size()));
   const bool nees_ok = nees_mean >= 6 - half && nees_mean <= 6 + half;
@@ -272,6 +276,7 @@ int RunBenchPose(const BenchPoseOptions& o) {
                             {"corner_sigma_px", o.corner_sigma_px},
                             {"min_corner_sigma_px", o.min_corner_sigma_px},
                             {"corner_sigma_systematic_px", o.corner_sigma_systematic_px},
+                            {"calibration_in_covariance", calibration_in_covariance},
                             {"nees_mean", nees_mean},
                             {"nees_bounds", {6 - half, 6 + half}},
                             {"nees_median", Percentile(nees, 0.5)},
@@ -339,7 +344,9 @@ int RunBenchPose(const BenchPoseOptions& o) {
         "flat over 10,000 frames.\n\n"
      << "Setup: the `approach` dataset (" << rows.size()
      << " frames, 12 m -> 1.3 m, 1024x1024 OPENCV8 camera; "
-     << (o.camera.empty() ? std::string("the true model") : "`" + o.camera + "`") << "); layout: `"
+     << (o.camera.empty() ? std::string("the true model") : "`" + o.camera + "`")
+     << (calibration_in_covariance ? ", its calibration's uncertainty in the covariance" : "")
+     << "); layout: `"
      << (o.layout.empty() ? "svms survey` of the rendered `mockup` dataset (reference marker 10)"
                           : o.layout + "`")
      << "; corner sigma: "
@@ -426,6 +433,9 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
   cmd->add_option("--min-corner-sigma", o->min_corner_sigma_px, "No corner sigma below this (px)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  cmd->add_flag("--no-calibration-covariance", o->no_calibration_covariance,
+                "Leave the camera's calibration uncertainty (CAMERA.covariance.json) out of the "
+                "pose covariance");
   cmd->add_flag("--size-model", o->size_model,
                 "Corner sigma from the marker's size only (--corner-sigma, exponent)");
   cmd->add_option("--threads", o->threads, "Threads for rendering and the survey")

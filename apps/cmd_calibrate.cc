@@ -76,7 +76,10 @@ void AddCalibrateCommands(CLI::App& app, int* exit_code) {
                   "mrcal lens model: LENSMODEL_PINHOLE, LENSMODEL_OPENCV4/5/8/12, "
                   "LENSMODEL_SPLINED_STEREOGRAPHIC[_order=..._Nx=..._Ny=..._fov_x_deg=...]")
       ->capture_default_str();
-  cmd->add_option("--out", c->out, "The camera model to write (.cameramodel)")->required();
+  cmd->add_option("--out", c->out,
+                  "The camera model to write (.cameramodel); its intrinsics' covariance goes "
+                  "next to it, as OUT.covariance.json (read by svms pose)")
+      ->required();
   cmd->add_option("--report", c->report,
                   "Directory for the report: summary.json and PNG/SVG plots (residual histogram "
                   "and vectors, coverage, projection uncertainty)");

@@ -12,6 +12,7 @@
 #include "commands.h"
 #include "image_inputs.h"
 #include "overlay.h"
+#include "svms/camera_covariance.h"
 #include "svms/image_io.h"
 #include "svms/pose_estimator.h"
 
@@ -62,7 +63,8 @@ nlohmann::json FrameJson(const FrameResult& r) {
   j["dof"] = p.dof;
   j["flags"] = {{"ambiguous", p.ambiguous},
                 {"poorly_conditioned", p.poorly_conditioned},
-                {"budget_exceeded", r.budget_exceeded}};
+                {"budget_exceeded", r.budget_exceeded},
+                {"calibration_in_covariance", p.calibration_in_covariance}};
   j["latency_ms"] = r.latency_ms;
   j["detect_ms"] = r.detect_ms;
   return j;
@@ -97,6 +99,14 @@ int RunPose(const PoseCliOptions& o) {
   const std::string limit = std::to_string(max_pixels);
   setenv("OPENCV_IO_MAX_IMAGE_PIXELS", limit.c_str(), 1);
   const CameraModel& camera = est->camera();
+  if (!o.quiet) {
+    std::cerr << "svms pose: " << o.camera << ": "
+              << (camera.intrinsics_covariance_factor().size() > 0
+                      ? "its calibration's uncertainty (" + CovarianceSidecarPath(o.camera) +
+                            ") goes into the pose covariance\n"
+                      : "no " + CovarianceSidecarPath(o.camera) +
+                            ": the pose covariance leaves out the calibration's error\n");
+  }
 
   std::vector<std::string> files;
   if (!o.from_stdin) files = ExpandImageInputs(o.inputs);
@@ -204,7 +214,9 @@ void AddPoseCommands(CLI::App& app, int* exit_code) {
       "row-major, [rotation, translation], rotation about the camera axes), markers (IDs used),\n"
       "markers_rejected, points_rejected, markers_seen, points, rms (px), chi2, dof, flags "
       "{ambiguous,\n"
-      "poorly_conditioned, budget_exceeded}, latency_ms, detect_ms; message when not valid.\n"
+      "poorly_conditioned, budget_exceeded, calibration_in_covariance}, latency_ms, detect_ms;\n"
+      "message when not valid. The covariance includes the camera calibration's uncertainty\n"
+      "when CAMERA.covariance.json (written by svms calibrate) is next to the camera model.\n"
       "An unreadable frame gets an \"error\" field and a line on stderr; the stream goes on;\n"
       "exit code 1 at the end. See docs/flight-interface.md.\n"
       "Examples:\n"

@@ -64,7 +64,8 @@ void Fill(const svms::FrameResult& r, svms_pose* out) {
   out->flags = (p.ambiguous ? SVMS_FLAG_AMBIGUOUS : 0u) |
                (p.poorly_conditioned ? SVMS_FLAG_POORLY_CONDITIONED : 0u) |
                (r.budget_exceeded ? SVMS_FLAG_BUDGET_EXCEEDED : 0u) |
-               (p.ids_rejected.empty() ? 0u : SVMS_FLAG_MARKER_REJECTED);
+               (p.ids_rejected.empty() ? 0u : SVMS_FLAG_MARKER_REJECTED) |
+               (p.calibration_in_covariance ? SVMS_FLAG_CALIBRATION_IN_COVARIANCE : 0u);
   out->latency_ms = r.latency_ms;
   if (!p.valid) return;
   const svms::Pose& c = p.cam_from_object;

@@ -167,6 +167,33 @@ printf '%s 12.5\n/nonexistent.png 13\n' "$(head -1 "$tmp/frames.txt")" > "$tmp/f
 expect 1 "/nonexistent.png: no such file" "$svms" pose --stdin --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json" --quiet < "$tmp/frames2.txt"
 if out=$("$svms" pose --stdin --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json" --quiet < "$tmp/frames2.txt" 2>/dev/null); then fail "bad frame: exit 0"
 else grep -q '"timestamp":12.5' <<<"$out" && grep -q '"error"' <<<"$out" && pass || fail "bad frame lines: $out"; fi
+# The camera's covariance sidecar (svms calibrate writes it): read, flagged, widens the
+# covariance; one of another calibration is refused by name.
+cp "$tmp/range/true.cameramodel" "$tmp/cal.cameramodel"
+python3 - "$tmp/cal.cameramodel" <<'PY'
+import ast, json, sys
+m = ast.literal_eval(open(sys.argv[1]).read())
+n = len(m["intrinsics"])
+factor = [[(0.3 if i < 4 else 1e-4) if i == k else 0.0 for k in range(n)] for i in range(n)]
+json.dump({"type": "svms.intrinsics_covariance", "lensmodel": m["lensmodel"],
+           "imagersize": m["imagersize"], "intrinsics": m["intrinsics"], "noise_sigma_px": 0.05,
+           "views": 20, "covariance_factor": factor}, open(sys.argv[1] + ".covariance.json", "w"))
+PY
+expect 0 "its calibration's uncertainty ($tmp/cal.cameramodel.covariance.json) goes into the pose covariance" \
+  "$svms" pose "$(head -1 "$tmp/frames.txt")" --camera "$tmp/cal.cameramodel" --layout "$tmp/range_layout.json"
+with=$("$svms" pose "$(head -1 "$tmp/frames.txt")" --camera "$tmp/cal.cameramodel" --layout "$tmp/range_layout.json" --quiet)
+without=$("$svms" pose "$(head -1 "$tmp/frames.txt")" --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json" --quiet)
+python3 - "$with" "$without" <<'PY' && pass || fail "pose with a covariance sidecar: $with"
+import json, sys
+a, b = (json.loads(x) for x in sys.argv[1:3])
+assert a["flags"]["calibration_in_covariance"] and not b["flags"]["calibration_in_covariance"]
+assert a["cam_from_object"] == b["cam_from_object"]  # the pose itself does not change
+for i in range(6):
+    assert a["covariance"][7 * i] > b["covariance"][7 * i], (i, a["covariance"], b["covariance"])
+PY
+sed -i 's/"intrinsics": \[\([0-9.e+-]*\)/"intrinsics": [1\1/' "$tmp/cal.cameramodel.covariance.json"
+expect 2 "$tmp/cal.cameramodel.covariance.json: intrinsics[0]: written for 1" \
+  "$svms" pose "$tmp/range" --camera "$tmp/cal.cameramodel" --layout "$tmp/range_layout.json"
 expect 2 "/nonexistent.cameramodel" "$svms" pose "$tmp/range" --camera /nonexistent.cameramodel --layout "$tmp/range_layout.json"
 expect 2 "expected a layout" "$svms" pose "$tmp/range" --camera "$tmp/range/true.cameramodel" --layout "$tmp/range/markers.json"
 expect 2 "not both and not neither" "$svms" pose --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json"

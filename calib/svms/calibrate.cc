@@ -12,6 +12,8 @@
 #include <memory>
 #include <opencv2/calib3d.hpp>
 
+#include "svms/camera_covariance.h"
+
 namespace svms::calib {
 namespace {
 
@@ -454,6 +456,13 @@ Status Calibrate(const std::vector<ViewObservations>& all_views, const Calibrati
   }
   result->covariance_factor = sigma * F;
   result->covariance = result->covariance_factor * result->covariance_factor.transpose();
+  // The camera carries its intrinsics' marginal uncertainty (what a pose in this camera's frame
+  // inherits: unlike ProjectionCovariance, nothing is absorbed into the board poses here).
+  if (Status st = result->camera.set_intrinsics_covariance_factor(
+          CompactFactor(result->covariance_factor.topRows(n)));
+      !st) {
+    return st;
+  }
   const double rel = std::sqrt(result->covariance(0, 0)) / s.intrinsics[0];
   if (!(rel <= o.max_focal_rel_sigma)) {
     return Status::Error(

@@ -167,7 +167,7 @@ TEST(Calibrate, PredictedUncertaintyMatchesMonteCarlo) {
   // predicted covariance. Pinhole and 10 views keep each solve to milliseconds.
   const BoardViews s = DatasetSetup(10);
   const CameraModel truth = CameraModel::Pinhole(1100, 1024, 1024);
-  double e2 = 0, p2 = 0;
+  double e2 = 0, p2 = 0, nees = 0;
   const int trials = 40;
   for (int t = 0; t < trials; ++t) {
     CalibrationResult r;
@@ -176,10 +176,21 @@ TEST(Calibrate, PredictedUncertaintyMatchesMonteCarlo) {
     double err = 0, pred = 0;
     CompareOverImage(r, truth, UsedTruth(s, r), 1.5, &err, &pred);
     e2 += err * err, p2 += pred * pred;
+    // The camera carries its intrinsics' marginal covariance (what a pose inherits) as a factor.
+    const Eigen::MatrixXd& L = r.camera.intrinsics_covariance_factor();
+    ASSERT_EQ(L.rows(), 4);
+    ASSERT_EQ(L.cols(), 4);
+    const Eigen::Matrix4d block = r.covariance.topLeftCorner<4, 4>();
+    EXPECT_LT((L * L.transpose() - block).norm(), 1e-9 * block.norm());
+    Eigen::Vector4d error;
+    for (int k = 0; k < 4; ++k) error[k] = r.camera.intrinsics()[k] - truth.intrinsics()[k];
+    nees += L.triangularView<Eigen::Lower>().solve(error).squaredNorm();
   }
   const double ratio = std::sqrt(e2 / p2);
   EXPECT_GT(ratio, 0.8);
   EXPECT_LT(ratio, 1.25);
+  // Mean of 40 chi-square(4) draws: 4 +- 0.45 (1 sigma); allow 4 sigma.
+  EXPECT_NEAR(nees / trials, 4.0, 1.8);
 }
 
 TEST(Calibrate, RejectsOutliers) {

@@ -42,6 +42,9 @@ typedef enum svms_status {
   2u                                 /* rotation sigma > 1 deg or position sigma > 2 % of range */
 #define SVMS_FLAG_BUDGET_EXCEEDED 4u /* the time budget ran out: the markers found until then */
 #define SVMS_FLAG_MARKER_REJECTED 8u /* a marker was inconsistent with the others and left out */
+/* The covariance includes the camera calibration's uncertainty (CAMERA.covariance.json, written
+ * by svms calibrate, was next to the camera model). */
+#define SVMS_FLAG_CALIBRATION_IN_COVARIANCE 16u
 
 #define SVMS_MAX_REPORTED_MARKERS 32
 
@@ -60,7 +63,7 @@ typedef struct svms_pose {
   double quaternion[4];
   /* 6x6 row-major, ordered [rotation(3), translation(3)]: the rotation a small angle about the
    * camera axes (rad^2), the translation of tvec (m^2). Includes image noise and the layout's
-   * own uncertainty. */
+   * own uncertainty, and the camera calibration's with SVMS_FLAG_CALIBRATION_IN_COVARIANCE. */
   double covariance[36];
   int markers_seen;                          /* markers of the layout detected */
   int markers_used;                          /* after rejection */

@@ -73,7 +73,8 @@ int main(int argc, char** argv) {
   std::ifstream(dir + "/frame_11.raw", std::ios::binary)
       .read(reinterpret_cast<char*>(frame.data()), frame.size());
   svms_estimator* e = nullptr;
-  if (svms_create((dir + "/true.cameramodel").c_str(), (dir + "/true_layout.json").c_str(), nullptr,
+  // The camera with a covariance sidecar: the calibration's term is in the frames counted too.
+  if (svms_create((dir + "/cal.cameramodel").c_str(), (dir + "/true_layout.json").c_str(), nullptr,
                   &e) != SVMS_OK) {
     std::fprintf(stderr, "svms_create: %s\n", svms_last_error());
     return 1;
@@ -94,7 +95,7 @@ int main(int argc, char** argv) {
     counting = true;
     const svms_status s = process(i);
     counting = false;
-    if (s != SVMS_OK || !pose.valid) {
+    if (s != SVMS_OK || !pose.valid || !(pose.flags & SVMS_FLAG_CALIBRATION_IN_COVARIANCE)) {
       std::fprintf(stderr, "frame %d: %s %s\n", i, svms_status_string(s), svms_last_error());
       return 1;
     }

@@ -1,10 +1,13 @@
 // Writes what the C API tests need into DIR: true.cameramodel and true_layout.json of the
-// quick approach dataset, and two rendered frames as raw 8-bit pixels (frame_N.raw, width x
-// height bytes, row-major) with their true cam_from_object (frame_N.txt: rvec and tvec).
+// quick approach dataset, the same camera as cal.cameramodel with a covariance sidecar (the
+// intrinsics' sigma 0.5 px for the core, 1e-4 for the distortion), and two rendered frames as raw
+// 8-bit pixels (frame_N.raw, width x height bytes, row-major) with their true cam_from_object
+// (frame_N.txt: rvec and tvec).
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 
+#include "svms/camera_covariance.h"
 #include "svms/datasets.h"
 #include "svms/render.h"
 #include "svms/truth.h"
@@ -23,6 +26,19 @@ int main(int argc, char** argv) {
     std::cerr << s.message() << "\n";
     return 1;
   }
+  svms::CameraModel calibrated = scene.camera;
+  const int n = static_cast<int>(calibrated.intrinsics().size());
+  Eigen::VectorXd sigma = Eigen::VectorXd::Constant(n, 1e-4);
+  sigma.head<4>().setConstant(0.5);
+  if (svms::Status s =
+          calibrated.set_intrinsics_covariance_factor(sigma.asDiagonal().toDenseMatrix());
+      !s)
+    return 1;
+  if (!calibrated.Write(dir + "/cal.cameramodel").ok() ||
+      !svms::WriteCovarianceSidecar(svms::CovarianceSidecarPath(dir + "/cal.cameramodel"),
+                                    calibrated, 0.05, 20)
+           .ok())
+    return 1;
   for (const auto& [name, text] : d.files)
     if (name == "true_layout.json") std::ofstream(dir + "/" + name) << text;
   std::unique_ptr<svms::Renderer> r;

@@ -29,6 +29,7 @@ static int failures = 0;
 
 enum { W = 1024, H = 1024 };
 static char camera_path[4096], layout_path[4096];
+static const char* fixture_dir;
 static unsigned char* frame;
 
 static unsigned char* ReadRaw(const char* path, size_t n) {
@@ -63,6 +64,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   char path[4096];
+  fixture_dir = argv[1];
   snprintf(camera_path, sizeof camera_path, "%s/true.cameramodel", argv[1]);
   snprintf(layout_path, sizeof layout_path, "%s/true_layout.json", argv[1]);
   snprintf(path, sizeof path, "%s/frame_11.raw", argv[1]);
@@ -121,6 +123,20 @@ int main(int argc, char** argv) {
     for (int c = 0; c < 6; ++c) CHECK(pose.covariance[r * 6 + c] == pose.covariance[c * 6 + r]);
   }
   CHECK(pose.latency_ms > 0);
+  CHECK((pose.flags & SVMS_FLAG_CALIBRATION_IN_COVARIANCE) == 0);
+
+  /* A camera with its calibration's covariance (cal.cameramodel.covariance.json): the same
+   * pose, flagged, with a wider covariance. */
+  char cal_path[4096];
+  snprintf(cal_path, sizeof cal_path, "%s/cal.cameramodel", fixture_dir);
+  svms_estimator* calibrated = NULL;
+  CHECK_STATUS(svms_create(cal_path, layout_path, NULL, &calibrated), SVMS_OK);
+  svms_pose pc;
+  CHECK_STATUS(svms_process_frame(calibrated, frame, W, H, W, 1.1, &pc), SVMS_OK);
+  CHECK(pc.valid && (pc.flags & SVMS_FLAG_CALIBRATION_IN_COVARIANCE) != 0);
+  CHECK(memcmp(pc.tvec, pose.tvec, sizeof pose.tvec) == 0);
+  for (int r = 0; r < 6; ++r) CHECK(pc.covariance[r * 6 + r] > pose.covariance[r * 6 + r]);
+  svms_destroy(calibrated);
 
   /* The same pixels with padded rows, and as 16 bits. */
   const ptrdiff_t stride = W + 77;

@@ -147,6 +147,24 @@ bool Evaluate(const CameraModel& camera, const Block& b, const Eigen::Matrix3d& 
   return true;
 }
 
+// d pixel / d intrinsics of one marker's points at the current pose, mrcal's analytic
+// gradients: the first 2n rows of *J (resized to kMaxRows x N, so that its allocation is kept
+// from one marker and frame to the next), in point order.
+bool IntrinsicsJacobian(const CameraModel& camera, const Block& b, const Eigen::Matrix3d& R,
+                        const Eigen::Vector3d& t, Eigen::MatrixXd* J) {
+  thread_local Eigen::Matrix<double, 2, Eigen::Dynamic> dq_dintrinsics;
+  const int n = static_cast<int>(b.points.size());
+  const Eigen::Index N = static_cast<Eigen::Index>(camera.intrinsics().size());
+  J->resize(kMaxRows, N);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d p_cam = R * (b.R_om * b.points[i].in_marker + b.t_om) + t;
+    Eigen::Vector2d q;
+    if (!camera.Project(p_cam, &q, nullptr, &dq_dintrinsics)) return false;
+    J->middleRows<2>(2 * i) = dq_dintrinsics;
+  }
+  return true;
+}
+
 // The whitening factor of one marker at the current pose: R_m = diag(sigma^2) + J_L S J_L^T.
 bool Whitening(const CameraModel& camera, Block* b, const Eigen::Matrix3d& R,
                const Eigen::Vector3d& t, const ObjectPoseOptions& o) {
@@ -434,6 +452,11 @@ void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservat
   }
 
   // 4. The result: covariance from the unweighted information of the markers kept.
+  const Eigen::MatrixXd& intrinsics_factor = camera.intrinsics_covariance_factor();
+  const bool with_calibration = o.use_calibration_covariance && intrinsics_factor.size() > 0;
+  // G = sum over markers of (whitened d r / d pose)^T (whitened d r / d intrinsics), 6 x N.
+  thread_local Eigen::MatrixXd G, J_intrinsics, HG, SL;
+  if (with_calibration) G.setZero(6, intrinsics_factor.rows());
   Mat6 H = Mat6::Zero();
   double ss = 0, chi2 = 0;
   int points = 0;
@@ -447,6 +470,15 @@ void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservat
     MatR6 J;
     if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) continue;
     const MatR6 wJ = b.L_inv * J;
+    if (with_calibration) {
+      if (!IntrinsicsJacobian(camera, b, R, t, &J_intrinsics)) {
+        result.message = "the camera gives no intrinsics gradients (CAHVORE)";
+        return;
+      }
+      const Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxRows> wJt_W =
+          wJ.transpose() * b.L_inv;
+      G.noalias() += wJt_W * J_intrinsics.topRows(J.rows());
+    }
     H += wJ.transpose() * wJ;
     ss += r.squaredNorm();
     chi2 += (b.L_inv * r).squaredNorm();
@@ -468,6 +500,7 @@ void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservat
   }
   result.covariance = lu.inverse();
   result.covariance = 0.5 * (result.covariance + result.covariance.transpose()).eval();
+  const Mat6 H_inv = result.covariance;
   // The frame's own evidence on the noise level: the variance factor's posterior mean under a
   // prior worth variance_prior_dof degrees of freedom at 1 (the nominal noise model).
   const int dof = 2 * points - 6;
@@ -475,6 +508,16 @@ void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservat
                                                           (o.variance_prior_dof + std::max(0, dof))
                                                     : 1.0;
   result.covariance *= result.variance_factor;
+  if (with_calibration) {
+    // The calibration's error moves the optimum by d pose = S d intrinsics,
+    // S = -H^-1 G (the implicit function theorem at J^T W r = 0); its covariance S L L^T S^T
+    // is added after the variance factor (it is not the frame's noise). The same error is in
+    // every frame, so it is a bias along a sequence, not noise that averages away.
+    HG.noalias() = H_inv * G;
+    SL.noalias() = HG * intrinsics_factor;
+    result.covariance.noalias() += SL * SL.transpose();
+    result.calibration_in_covariance = true;
+  }
   if (result.markers_used == 1 && !last->ambiguity_covariance.isZero()) {
     // One marker: its mirror solution is as possible here as it was to the detector. Its
     // widening, about the marker's origin, moved to the object's: with a left perturbation

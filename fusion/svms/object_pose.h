@@ -13,6 +13,10 @@
 //     the marker's surveyed pose is off). The fit whitens each marker's residuals with R_m, so
 //     the pose covariance (J^T R^-1 J)^-1 includes both the image noise and the layout's.
 //     Cross-covariances between markers are not in a layout file and are taken as zero.
+//   - The camera calibration's uncertainty, when the camera carries it (camera_covariance.h):
+//     the intrinsics' error Sigma_theta = L L^T moves the optimum by d pose = S d theta,
+//     S = -(J^T W J)^-1 J^T W d pixel / d theta, and S L L^T S^T is added to the covariance.
+//     It is the same error in every frame: a bias along a sequence, not noise.
 //   - Robust: a marker whose whitened residual is large is down-weighted (Cauchy on its
 //     Mahalanobis norm per coordinate) during the iterations; after convergence, single
 //     outlying points (a corner hidden by the post, a glint taken for the tip) are left out,
@@ -61,6 +65,9 @@ struct ObjectPoseOptions {
   double min_tip_sigma_px = 0.3;      // floor on the detector's own tip sigma
   bool use_tips = true;               // post tips as observations
   bool use_layout_covariance = true;  // add the layout's uncertainty to the noise model
+  // Add the camera calibration's uncertainty to the pose covariance, when the camera carries
+  // one (CameraModel::intrinsics_covariance_factor, camera_covariance.h).
+  bool use_calibration_covariance = true;
   // Robust weight of a marker per iteration: 1 / (1 + (n / robust_k)^2), n its whitened RMS
   // residual per coordinate (Cauchy: a wrong marker's pull fades instead of staying).
   double robust_k = 3;
@@ -107,11 +114,13 @@ struct ObjectPose {
   int points_used = 0;      // corners and tips of the markers used
   int points_rejected = 0;  // single corners or tips left out as outliers
   std::vector<int> ids_used, ids_rejected;
-  double rms_px = 0;                // RMS pixel residual (per coordinate) of the points used
-  double chi2 = 0;                  // whitened residual sum of squares of the points used
-  int dof = 0;                      // 2 * points_used - 6
-  double variance_factor = 1;       // the scale applied to the covariance (variance_prior_dof)
-  bool ambiguous = false;           // one marker, and its planar pose could not be told apart
+  double rms_px = 0;           // RMS pixel residual (per coordinate) of the points used
+  double chi2 = 0;             // whitened residual sum of squares of the points used
+  int dof = 0;                 // 2 * points_used - 6
+  double variance_factor = 1;  // the scale applied to the covariance (variance_prior_dof)
+  bool ambiguous = false;      // one marker, and its planar pose could not be told apart
+  // The covariance includes the camera calibration's uncertainty (the camera carried one).
+  bool calibration_in_covariance = false;
   bool poorly_conditioned = false;  // sigmas above ObjectPoseOptions' limits
   std::string message;              // why not valid
 };

@@ -42,6 +42,9 @@ class PoseEstimator {
   // errors name the file.
   static Status Create(const CameraModel& camera, const Layout& layout,
                        const PoseEstimatorOptions& options, std::unique_ptr<PoseEstimator>* out);
+  // CreateFromFiles also reads the camera's covariance sidecar (camera_covariance.h) when
+  // CAMERA.covariance.json exists; a sidecar that cannot be read or belongs to another model is
+  // an error (it names the sidecar), never silently left out.
   static Status CreateFromFiles(const std::string& camera_path, const std::string& layout_path,
                                 const PoseEstimatorOptions& options,
                                 std::unique_ptr<PoseEstimator>* out);

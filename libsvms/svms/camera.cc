@@ -547,7 +547,8 @@ bool CameraModel::Project(const Eigen::Vector3d& p_cam, Eigen::Vector2d* px,
   // sparsely inside (only the core and the control points near the point are non-zero) and
   // densifies it before returning; camera_test checks it against finite differences.
   const int n = static_cast<int>(intrinsics_.size());
-  Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor> dq_di;
+  // Per thread and kept: a warmed-up caller (the fusion's calibration term) allocates nothing.
+  thread_local Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor> dq_di;
   if (dpx_dintrinsics != nullptr) dq_di.resize(2, n);
   if (!mrcal_project(&q, dpx_dp != nullptr ? dq_dp : nullptr,
                      dpx_dintrinsics != nullptr ? dq_di.data() : nullptr, &p, 1, &lm,
@@ -681,6 +682,24 @@ bool CameraModel::Unproject(const Eigen::Vector2d& px, Eigen::Vector3d* directio
   if (!(std::hypot(back.x - px.x(), back.y - px.y()) <= kUnprojectTolerancePx)) return false;
   *direction = unit;
   return true;
+}
+
+Status CameraModel::set_intrinsics_covariance_factor(const Eigen::MatrixXd& factor) {
+  const Eigen::Index n = static_cast<Eigen::Index>(intrinsics_.size());
+  if (factor.size() == 0) {
+    intrinsics_cov_factor_.resize(0, 0);
+    return Status::Ok();
+  }
+  if (factor.rows() != n || factor.cols() != n) {
+    return Status::Error("intrinsics covariance: expected a " + std::to_string(n) + "x" +
+                         std::to_string(n) + " factor for " + lensmodel_ + ", got " +
+                         std::to_string(factor.rows()) + "x" + std::to_string(factor.cols()));
+  }
+  if (!factor.allFinite()) {
+    return Status::Error("intrinsics covariance: expected finite numbers, got a NaN or infinity");
+  }
+  intrinsics_cov_factor_ = factor;
+  return Status::Ok();
 }
 
 std::string CameraModel::Summary() const {

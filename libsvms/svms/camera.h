@@ -92,6 +92,15 @@ class CameraModel {
   bool UnprojectMany(const std::vector<Eigen::Vector2d>& px,
                      std::vector<Eigen::Vector3d>* directions) const;
 
+  // The uncertainty of the intrinsics when it is known (a calibration's estimate, e.g. read
+  // from the sidecar `svms calibrate` writes: camera_covariance.h): a factor L, N x N with
+  // N = intrinsics().size(), such that Cov(intrinsics) = L L^T (units of the intrinsics).
+  // Empty (0 x 0) when unknown: then poses computed with this camera leave the calibration's
+  // error out of their covariance. Not part of the .cameramodel file (Read leaves it empty).
+  const Eigen::MatrixXd& intrinsics_covariance_factor() const { return intrinsics_cov_factor_; }
+  // Sets the factor; an empty matrix clears it. Error (unchanged) unless it is N x N and finite.
+  Status set_intrinsics_covariance_factor(const Eigen::MatrixXd& factor);
+
   // One line, e.g. "LENSMODEL_OPENCV8 1024x768, fx 900.0 fy 900.0" ("(empty camera model)").
   std::string Summary() const;
 
@@ -108,6 +117,7 @@ class CameraModel {
   int width_ = 0;
   int height_ = 0;
   Pose cam_from_ref_;
+  Eigen::MatrixXd intrinsics_cov_factor_;
   alignas(8) std::array<unsigned char, kMrcalLensModelBytes> mrcal_lensmodel_{};
 };
 

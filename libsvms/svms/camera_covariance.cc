@@ -1,0 +1,128 @@
+#include "svms/camera_covariance.h"
+
+#include <Eigen/QR>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "svms/json_fields.h"
+#include "svms/model_io.h"
+
+namespace svms {
+
+using json_fields::FieldError;
+using nlohmann::json;
+
+namespace {
+
+constexpr const char* kType = "svms.intrinsics_covariance";
+
+}  // namespace
+
+std::string CovarianceSidecarPath(const std::string& cameramodel_path) {
+  return cameramodel_path + ".covariance.json";
+}
+
+Eigen::MatrixXd CompactFactor(const Eigen::MatrixXd& rows_of_factor) {
+  // With F^T = Q R (Householder): F F^T = R^T Q^T Q R = R^T R, so L = R^T.
+  const Eigen::Index n = rows_of_factor.rows();
+  Eigen::HouseholderQR<Eigen::MatrixXd> qr(rows_of_factor.transpose());
+  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(n, n);
+  const Eigen::Index k = std::min(n, rows_of_factor.cols());
+  R.topRows(k) = qr.matrixQR().topRows(k).triangularView<Eigen::Upper>();
+  return R.transpose();
+}
+
+Status WriteCovarianceSidecar(const std::string& path, const CameraModel& camera,
+                              double noise_sigma_px, int views) {
+  const Eigen::MatrixXd& L = camera.intrinsics_covariance_factor();
+  if (L.size() == 0) return Status::Error(path + ": the camera has no intrinsics covariance");
+  json sigma = json::array();
+  for (Eigen::Index i = 0; i < L.rows(); ++i) sigma.push_back(L.row(i).norm());
+  const json head = {{"type", kType},
+                     {"lensmodel", camera.lensmodel()},
+                     {"imagersize", {camera.width(), camera.height()}},
+                     {"intrinsics", camera.intrinsics()},
+                     {"sigma", sigma},
+                     {"noise_sigma_px", noise_sigma_px},
+                     {"views", views}};
+  // One field per line and one row of the factor per line (nlohmann's indented dump would put
+  // every number on a line of its own).
+  std::string text = "{\n";
+  for (const char* key :
+       {"type", "lensmodel", "imagersize", "intrinsics", "sigma", "noise_sigma_px", "views"})
+    text += "  \"" + std::string(key) + "\": " + head[key].dump() + ",\n";
+  text += "  \"covariance_factor\": [\n";
+  for (Eigen::Index i = 0; i < L.rows(); ++i) {
+    json row = json::array();
+    for (Eigen::Index k = 0; k < L.cols(); ++k) row.push_back(L(i, k));
+    text += "    " + row.dump() + (i + 1 < L.rows() ? ",\n" : "\n");
+  }
+  text += "  ]\n}\n";
+  return WriteTextFile(path, text);
+}
+
+Status ReadCovarianceSidecar(const std::string& path, CameraModel* camera) {
+  std::string text;
+  if (Status s = ReadTextFile(path, &text); !s) return s;
+  json j;
+  std::string error;
+  if (!json_fields::ParseText(text, path, &j, &error)) return Status::Error(error);
+  const Eigen::Index n = static_cast<Eigen::Index>(camera->intrinsics().size());
+  Eigen::MatrixXd L(n, n);
+  try {
+    using namespace json_fields;
+    if (!j.is_object()) Fail("(top level)", "an object of type \"" + std::string(kType) + "\"", j);
+    CheckKeys(j, "",
+              {"type", "lensmodel", "imagersize", "intrinsics", "sigma", "noise_sigma_px", "views",
+               "covariance_factor"});
+    if (String(j, "", "type") != kType) Fail("type", std::string("\"") + kType + "\"", j["type"]);
+    const std::string lensmodel = String(j, "", "lensmodel");
+    if (lensmodel != camera->lensmodel()) {
+      throw FieldError{"lensmodel: written for " + lensmodel + ", but the camera is " +
+                       camera->lensmodel() + " (a sidecar of another calibration?)"};
+    }
+    const json& size = Required(j, "", "imagersize");
+    if (!size.is_array() || size.size() != 2 || !size[0].is_number_integer() ||
+        !size[1].is_number_integer())
+      Fail("imagersize", "an array of 2 integers", size);
+    if (size[0].get<long long>() != camera->width() || size[1].get<long long>() != camera->height())
+      throw FieldError{"imagersize: written for " + size[0].dump() + "x" + size[1].dump() +
+                       ", but the camera is " + std::to_string(camera->width()) + "x" +
+                       std::to_string(camera->height())};
+    const json& in = Required(j, "", "intrinsics");
+    if (!in.is_array() || static_cast<Eigen::Index>(in.size()) != n)
+      Fail("intrinsics", "an array of " + std::to_string(n) + " numbers", in);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const std::string field = "intrinsics[" + std::to_string(i) + "]";
+      if (!in[i].is_number()) Fail(field, "a number", in[i]);
+      const double a = in[i].get<double>(), b = camera->intrinsics()[i];
+      if (!(std::abs(a - b) <= 1e-9 * std::max(1.0, std::abs(b))))
+        throw FieldError{field + ": written for " + in[i].dump() + ", but the camera has " +
+                         json(b).dump() + " (a sidecar of another calibration?)"};
+    }
+    NumberIn(j, "", "noise_sigma_px", 0, 1e3);
+    if (Integer(j, "", "views") < 1) Fail("views", "a positive integer", j["views"]);
+    const json& rows = Required(j, "", "covariance_factor");
+    const std::string shape = std::to_string(n) + " rows of " + std::to_string(n) + " numbers";
+    if (!rows.is_array() || static_cast<Eigen::Index>(rows.size()) != n)
+      Fail("covariance_factor", shape, rows);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const json& row = rows[i];
+      const std::string field = "covariance_factor[" + std::to_string(i) + "]";
+      if (!row.is_array() || static_cast<Eigen::Index>(row.size()) != n)
+        Fail(field, "an array of " + std::to_string(n) + " numbers", row);
+      for (Eigen::Index k = 0; k < n; ++k) {
+        if (!row[k].is_number() || !std::isfinite(row[k].get<double>()))
+          Fail(field + "[" + std::to_string(k) + "]", "a finite number", row[k]);
+        L(i, k) = row[k].get<double>();
+      }
+    }
+  } catch (const FieldError& e) {
+    return Status::Error(path + ": " + e.message);
+  }
+  if (Status s = camera->set_intrinsics_covariance_factor(L); !s)
+    return Status::Error(path + ": " + s.message());
+  return Status::Ok();
+}
+
+}  // namespace svms
