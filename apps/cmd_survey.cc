@@ -10,6 +10,7 @@
 
 #include "commands.h"
 #include "image_inputs.h"
+#include "svms/camera_covariance.h"
 #include "svms/detector.h"
 #include "svms/format.h"
 #include "svms/image_io.h"
@@ -86,7 +87,7 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
     return kExitBadInput;
   };
   CameraModel camera;
-  if (Status s = CameraModel::Read(o.camera, &camera); !s) return bad_input(s.message());
+  if (Status s = ReadCameraWithSidecar(o.camera, &camera); !s) return bad_input(s.message());
   ModelFile models;
   if (Status s = ReadModelFile(o.markers, &models); !s) return bad_input(s.message());
   bundle::SurveyOptions options;
@@ -171,7 +172,10 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
   }
   result.layout.name = "survey of " + std::to_string(result.summary.images_used) +
                        " images; covariances scaled by the a-posteriori variance factor " +
-                       std::to_string(result.summary.variance_factor);
+                       std::to_string(result.summary.variance_factor) +
+                       (result.summary.calibration_in_covariance
+                            ? ", plus the camera calibration's uncertainty"
+                            : "");
   if (Status w = WriteTextFile(o.out, LayoutToJson(result.layout)); !w) {
     std::cerr << "svms survey: " << w.message() << "\n";
     return kExitFailed;

@@ -107,6 +107,8 @@ class Solver {
       : images_(images), options_(options), config_(config), R_(*result), S_(result->summary) {
     work_camera_ = camera;
     intrinsics_ = camera.intrinsics();
+    calibration_term_ = !config_.refine_intrinsics && options_.use_calibration_covariance &&
+                        camera.intrinsics_covariance_factor().size() > 0;
   }
 
   Status Run(const std::vector<MarkerModel>& models);
@@ -140,6 +142,9 @@ class Solver {
     // (J^T J)^-1 restricted to `params`, in the residuals' sigma units (not yet scaled by the
     // variance factor); empty when the system is rank deficient.
     Eigen::MatrixXd covariance;
+    // With the calibration term: S L, S = d params / d intrinsics (the rows of `params`), L the
+    // camera's intrinsics covariance factor; S L L^T S^T is the calibration's share.
+    Eigen::MatrixXd calibration;
   };
   std::string RankDeficiency(ReducedSystem* reduced);
   void FillResult();
@@ -165,6 +170,9 @@ class Solver {
   std::vector<int> detection_image_;       // global detection index -> image
   CameraModel work_camera_;
   std::vector<double> intrinsics_;
+  // The intrinsics are a constant parameter block of the problem, there for the Jacobian of the
+  // calibration's share of the covariance (SurveyOptions::use_calibration_covariance).
+  bool calibration_term_ = false;
   int root_ = -1;
 
   std::unique_ptr<IntrinsicsSync> sync_;
@@ -432,6 +440,7 @@ void Solver::BuildProblem(bool robust) {
   else if (robust && options_.loss == "huber")
     loss_ = std::make_unique<ceres::HuberLoss>(options_.loss_scale);
   ceres::Problem& P = *problem_;
+  const bool intrinsics_block = config_.refine_intrinsics || calibration_term_;
   point_blocks_.assign(points_.size(), nullptr);
   for (size_t k = 0; k < points_.size(); ++k) {
     PointObs& p = points_[k];
@@ -441,16 +450,18 @@ void Solver::BuildProblem(bool robust) {
     MarkerPointCost* cost;
     if (p.point == 4) {
       cost = MarkerPointCost::CreateTip(&work_camera_, &p.tip_xy, p.px, p.sigma,
-                                        config_.refine_intrinsics);
+                                        intrinsics_block);
       blocks.push_back(&post_height_.at(p.marker_id));
     } else {
       cost = MarkerPointCost::CreateCorner(&work_camera_,
                                            markers_.at(p.marker_id).model.Corners()[p.point], p.px,
-                                           p.sigma, config_.refine_intrinsics);
+                                           p.sigma, intrinsics_block);
     }
-    if (config_.refine_intrinsics) blocks.push_back(intrinsics_.data());
+    if (intrinsics_block) blocks.push_back(intrinsics_.data());
     point_blocks_[k] = P.AddResidualBlock(cost, loss_.get(), blocks);
   }
+  if (calibration_term_ && P.HasParameterBlock(intrinsics_.data()))
+    P.SetParameterBlockConstant(intrinsics_.data());
   for (auto& [id, h] : post_height_) {
     P.AddResidualBlock(
         PostHeightPriorCost::Create(post_drawn_.at(id), options_.post_height_prior_sigma), nullptr,
@@ -501,7 +512,8 @@ Status Solver::Solve(bool robust, double* cost, int* iterations, std::string* re
     if (problem_->HasParameterBlock(b.data())) ordering->AddElementToGroup(b.data(), 1);
   for (auto& [id, h] : post_height_)
     if (problem_->HasParameterBlock(&h)) ordering->AddElementToGroup(&h, 1);
-  if (config_.refine_intrinsics) ordering->AddElementToGroup(intrinsics_.data(), 1);
+  if (problem_->HasParameterBlock(intrinsics_.data()))
+    ordering->AddElementToGroup(intrinsics_.data(), 1);
   so.linear_solver_ordering = ordering;
   so.max_num_iterations = options_.max_iterations;
   so.function_tolerance = options_.function_tolerance;
@@ -663,18 +675,28 @@ Status Solver::ComputeCovariance() {
       Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Identity();
       J.topLeftCorner<3, 3>() = LeftJacobianSO3(Eigen::Vector3d(b[0], b[1], b[2]));
       c = factor * J * cov_params * J.transpose();
+      if (reduced.calibration.size() > 0) {
+        const Eigen::MatrixXd SL = J * reduced.calibration.middleRows(reduced.offset.at(b.data()), 6);
+        c += SL * SL.transpose();
+      }
       c = 0.5 * (c + c.transpose()).eval();
     }
     e.covariance = c;
     const int owner = markers_.at(e.marker.id).post_owner;
     if (owner >= 0 && post_height_.count(owner)) {
       double var = 0;
-      if (!problem_->IsParameterBlockConstant(&post_height_.at(owner)))
+      double calibration_var = 0;
+      if (!problem_->IsParameterBlockConstant(&post_height_.at(owner))) {
         get(&post_height_.at(owner), 1, &var);
-      e.post_height_sigma = std::sqrt(std::max(0.0, factor * var));
+        if (reduced.calibration.size() > 0)
+          calibration_var =
+              reduced.calibration.row(reduced.offset.at(&post_height_.at(owner))).squaredNorm();
+      }
+      e.post_height_sigma = std::sqrt(std::max(0.0, factor * var) + calibration_var);
     }
   }
   S_.covariance_ok = true;
+  S_.calibration_in_covariance = reduced.calibration.size() > 0;
   return Status::Ok();
 }
 
@@ -700,6 +722,7 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
   reduced->params = rest;
   reduced->offset.clear();
   reduced->covariance.resize(0, 0);
+  reduced->calibration.resize(0, 0);
   {
     int o = 0;
     for (const Param& p : rest) {
@@ -710,38 +733,57 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
   ceres::Problem::EvaluateOptions eo;
   for (const Param& p : cams) eo.parameter_blocks.push_back(const_cast<double*>(p.block));
   for (const Param& p : rest) eo.parameter_blocks.push_back(const_cast<double*>(p.block));
+  // The calibration term: the (constant) intrinsics' columns last, evaluated as variables.
+  const bool calibration = calibration_term_ && problem_->HasParameterBlock(intrinsics_.data());
+  const int nt = calibration ? static_cast<int>(intrinsics_.size()) : 0;
+  if (calibration) {
+    eo.parameter_blocks.push_back(intrinsics_.data());
+    problem_->SetParameterBlockVariable(intrinsics_.data());
+  }
   ceres::CRSMatrix crs;
-  if (!problem_->Evaluate(eo, nullptr, nullptr, nullptr, &crs))
+  const bool evaluated = problem_->Evaluate(eo, nullptr, nullptr, nullptr, &crs);
+  if (calibration) problem_->SetParameterBlockConstant(intrinsics_.data());
+  if (!evaluated)
     return "(the Jacobian could not be evaluated at the solution: a point does not project)";
   // J^T J reduced onto the non-camera parameters, accumulated row by row from the Jacobian
   // (every residual touches at most one camera): H_cc per camera, the coupling H_rc of each
   // camera to the reduced rows it touches, and H_rr (dense, small). Forming the whole J^T J
   // as a sparse product instead took most of the 2000 x 40 covariance step.
   const int nc = 6 * static_cast<int>(cams.size());
-  const int nr = crs.num_cols - nc;
+  const int nr = crs.num_cols - nc - nt;
   using Row6 = Eigen::Matrix<double, 1, 6>;
   std::vector<Eigen::Matrix<double, 6, 6>> Hcc(cams.size(), Eigen::Matrix<double, 6, 6>::Zero());
   std::vector<std::map<int, Row6>> Hrc(cams.size());  // reduced row -> H(row, camera block)
   Eigen::MatrixXd S = Eigen::MatrixXd::Zero(nr, nr);
-  std::vector<std::pair<int, double>> cam_entries, rest_entries;
+  // With the calibration term: H(reduced rows, intrinsics) and H(camera block, intrinsics).
+  Eigen::MatrixXd Hrt = Eigen::MatrixXd::Zero(nr, nt);
+  std::vector<Eigen::MatrixXd> Hct(calibration ? cams.size() : 0, Eigen::MatrixXd::Zero(6, nt));
+  std::vector<std::pair<int, double>> cam_entries, rest_entries, intrinsics_entries;
   for (int r = 0; r < crs.num_rows; ++r) {
     cam_entries.clear();
     rest_entries.clear();
+    intrinsics_entries.clear();
     int cam = -1;
     for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
       const int col = crs.cols[k];
       if (col < nc) {
         cam = col / 6;
         cam_entries.emplace_back(col % 6, crs.values[k]);
-      } else {
+      } else if (col < nc + nr) {
         rest_entries.emplace_back(col - nc, crs.values[k]);
+      } else {
+        intrinsics_entries.emplace_back(col - nc - nr, crs.values[k]);
       }
     }
-    for (const auto& [a, va] : rest_entries)
+    for (const auto& [a, va] : rest_entries) {
       for (const auto& [b, vb] : rest_entries) S(a, b) += va * vb;
+      for (const auto& [t, vt] : intrinsics_entries) Hrt(a, t) += va * vt;
+    }
     if (cam < 0) continue;
-    for (const auto& [a, va] : cam_entries)
+    for (const auto& [a, va] : cam_entries) {
       for (const auto& [b, vb] : cam_entries) Hcc[cam](a, b) += va * vb;
+      for (const auto& [t, vt] : intrinsics_entries) Hct[cam](a, t) += va * vt;
+    }
     for (const auto& [a, va] : rest_entries) {
       Row6& h = Hrc[cam].try_emplace(a, Row6::Zero()).first->second;
       for (const auto& [b, vb] : cam_entries) h(b) += va * vb;
@@ -761,9 +803,14 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
       B.row(static_cast<Eigen::Index>(rows.size())) = v;
       rows.push_back(row);
     }
-    const Eigen::MatrixXd update = B * Hcc[c].inverse() * B.transpose();
+    const Eigen::Matrix<double, 6, 6> Hcc_inv = Hcc[c].inverse();
+    const Eigen::MatrixXd update = B * Hcc_inv * B.transpose();
     for (size_t a = 0; a < rows.size(); ++a)
       for (size_t b = 0; b < rows.size(); ++b) S(rows[a], rows[b]) -= update(a, b);
+    if (calibration) {
+      const Eigen::MatrixXd coupling = B * Hcc_inv * Hct[c];
+      for (size_t a = 0; a < rows.size(); ++a) Hrt.row(rows[a]) -= coupling.row(a);
+    }
   }
   Eigen::VectorXd d = S.diagonal().cwiseMax(0).cwiseSqrt();
   // Parameter k is component `what[k]` of block `block_of[k]`.
@@ -813,6 +860,9 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
     const Eigen::MatrixXd Sn_inv = V * es.eigenvalues().cwiseInverse().asDiagonal() * V.transpose();
     const Eigen::VectorXd dinv = d.cwiseInverse();
     reduced->covariance = dinv.asDiagonal() * Sn_inv * dinv.asDiagonal();
+    // d params / d intrinsics = -S^-1 H_rt (the reduced normal equations at the optimum).
+    if (calibration)
+      reduced->calibration = reduced->covariance * Hrt * work_camera_.intrinsics_covariance_factor();
     return "";
   }
   std::string s = "not determined: ";

@@ -135,7 +135,10 @@ std::string SurveySummary::BriefReport() const {
   s << "residuals m = " << residuals << ", parameters n = " << parameters << ", RMS " << rms_px
     << " px, variance factor " << variance_factor << "\n";
   s << "covariance: " << (covariance_ok ? "ok" : "not computed")
-    << (covariance_ok && covariance_scaled ? " (scaled by the variance factor)" : "") << "\n";
+    << (covariance_ok && covariance_scaled ? " (scaled by the variance factor)" : "")
+    << (covariance_ok && calibration_in_covariance ? ", plus the camera calibration's uncertainty"
+                                                   : "")
+    << "\n";
   s << "time: init " << seconds_init << " s, solve " << seconds_first << " + " << seconds_second
     << " s, covariance " << seconds_covariance << " s\n";
   return s.str();

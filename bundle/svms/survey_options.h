@@ -75,6 +75,12 @@ struct SurveyOptions {
   // Scale covariances by the a-posteriori variance factor 2 cost / (m - n) (noise not known
   // a priori). false: covariances assume the sigmas above are right.
   bool scale_covariance = true;
+  // When the camera carries its calibration's uncertainty (CameraModel::
+  // intrinsics_covariance_factor, e.g. from svms calibrate's sidecar) and the intrinsics are
+  // not refined: add what that uncertainty does to every marker pose and post height,
+  // S L L^T S^T with S = d layout / d intrinsics at the optimum (camera poses eliminated), to
+  // their covariances, unscaled (it is not this survey's noise).
+  bool use_calibration_covariance = true;
 
   // Progress of the solver on stderr.
   bool verbose = false;
@@ -171,6 +177,7 @@ struct SurveySummary {
   double variance_factor = 1;  // 2 cost / (m - n) of the final solve
   bool covariance_ok = false;
   bool covariance_scaled = false;
+  bool calibration_in_covariance = false;  // the camera calibration's uncertainty was added
 
   std::vector<ResidualStats> per_image, per_marker;
   std::vector<RejectedPoint> rejected;

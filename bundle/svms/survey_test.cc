@@ -308,6 +308,54 @@ TEST(Survey, RankDeficiencyNamesTheUndeterminedParameters) {
   EXPECT_FALSE(r.summary.covariance_ok);
 }
 
+// A camera whose intrinsics are off by draws from its calibration's covariance: with that
+// covariance on the camera, the layout's NEES stays near 6; without it, the layout is
+// overconfident. The images are synthesised through the true camera.
+TEST(Survey, CalibrationUncertaintyIsPropagated) {
+  const TestObject m = MakeTestObject(60);
+  const Layout truth = InFrameOf(m.truth, 100);
+  const int n = static_cast<int>(m.camera.intrinsics().size());
+  Eigen::VectorXd sigma = Eigen::VectorXd::Constant(n, 1e-3);
+  sigma.head<4>() << 1.5, 1.5, 1.0, 1.0;
+  const Eigen::MatrixXd L = sigma.asDiagonal().toDenseMatrix();
+  std::mt19937_64 rng(17);
+  std::normal_distribution<double> g(0, 1);
+  SurveyOptions with, without;
+  without.use_calibration_covariance = false;
+  const int trials = 30;
+  double nees_with = 0, nees_without = 0;
+  int count = 0;
+  for (int t = 0; t < trials; ++t) {
+    std::vector<double> intrinsics = m.camera.intrinsics();
+    for (int k = 0; k < n; ++k) intrinsics[k] += sigma[k] * g(rng);
+    CameraModel calibrated;
+    ASSERT_TRUE(CameraModel::Create(m.camera.lensmodel(), intrinsics, m.camera.width(),
+                                    m.camera.height(), &calibrated)
+                    .ok());
+    ASSERT_TRUE(calibrated.set_intrinsics_covariance_factor(L).ok());
+    const std::vector<SurveyImage> images =
+        SynthesiseImages(m.truth, m.camera, m.cam_from_object, SyntheticOptions{}, 100 + t);
+    SurveyResult a, b;
+    ASSERT_TRUE(RunSurvey(images, m.models, calibrated, with, ReferenceConfig(100), &a).ok());
+    ASSERT_TRUE(RunSurvey(images, m.models, calibrated, without, ReferenceConfig(100), &b).ok());
+    EXPECT_TRUE(a.summary.calibration_in_covariance);
+    EXPECT_FALSE(b.summary.calibration_in_covariance);
+    for (const SurveyResult* r : {&a, &b})
+      for (const LayoutEntry& e : r->layout.markers) {
+        if (!e.covariance || e.covariance->isZero()) continue;
+        const Eigen::Matrix<double, 6, 1> err =
+            PoseError(e.object_from_marker, TruePose(truth, e.marker.id));
+        (r == &a ? nees_with : nees_without) += err.dot(e.covariance->ldlt().solve(err));
+        count += r == &a;
+      }
+  }
+  // 30 draws of the intrinsics, 8 markers each (correlated within a draw): a loose band.
+  // (Below 6 rather than above: the wrong intrinsics also raise the variance factor.)
+  EXPECT_GT(nees_with / count, 4.0);
+  EXPECT_LT(nees_with / count, 8.0);
+  EXPECT_GT(nees_without / count, 12.0);  // the calibration's error dominates here
+}
+
 TEST(Survey, CovarianceAlgorithmsAgree) {
   // The Schur complement (cameras eliminated, the reduced system inverted) gives the same
   // marker and post covariances as ceres::Covariance on the whole Jacobian, SPARSE_QR and

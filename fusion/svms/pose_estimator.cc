@@ -1,6 +1,5 @@
 #include "svms/pose_estimator.h"
 
-#include <filesystem>
 #include <memory>
 
 #include "svms/camera_covariance.h"
@@ -50,12 +49,7 @@ Status PoseEstimator::CreateFromFiles(const std::string& camera_path,
                                       const PoseEstimatorOptions& options,
                                       std::unique_ptr<PoseEstimator>* out) {
   CameraModel camera;
-  if (Status s = CameraModel::Read(camera_path, &camera); !s) return s;
-  const std::string sidecar = CovarianceSidecarPath(camera_path);
-  std::error_code ec;
-  if (std::filesystem::exists(sidecar, ec)) {
-    if (Status s = ReadCovarianceSidecar(sidecar, &camera); !s) return s;
-  }
+  if (Status s = ReadCameraWithSidecar(camera_path, &camera); !s) return s;
   ModelFile file;
   if (Status s = ReadModelFile(layout_path, &file); !s) return s;
   if (file.kind != ModelFile::Kind::kLayout)

@@ -2,6 +2,7 @@
 
 #include <Eigen/QR>
 #include <cmath>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 
 #include "svms/json_fields.h"
@@ -20,6 +21,18 @@ constexpr const char* kType = "svms.intrinsics_covariance";
 
 std::string CovarianceSidecarPath(const std::string& cameramodel_path) {
   return cameramodel_path + ".covariance.json";
+}
+
+Status ReadCameraWithSidecar(const std::string& path, CameraModel* camera) {
+  CameraModel c;
+  if (Status s = CameraModel::Read(path, &c); !s) return s;
+  const std::string sidecar = CovarianceSidecarPath(path);
+  std::error_code ec;
+  if (std::filesystem::exists(sidecar, ec)) {
+    if (Status s = ReadCovarianceSidecar(sidecar, &c); !s) return s;
+  }
+  *camera = std::move(c);
+  return Status::Ok();
 }
 
 Eigen::MatrixXd CompactFactor(const Eigen::MatrixXd& rows_of_factor) {

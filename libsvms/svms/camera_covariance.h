@@ -38,6 +38,10 @@ Status WriteCovarianceSidecar(const std::string& path, const CameraModel& camera
 // On error *camera is unchanged.
 Status ReadCovarianceSidecar(const std::string& path, CameraModel* camera);
 
+// CameraModel::Read, then ReadCovarianceSidecar of CovarianceSidecarPath(path) when that file
+// exists (an unreadable or mismatched sidecar is an error, never silently skipped).
+Status ReadCameraWithSidecar(const std::string& path, CameraModel* camera);
+
 // The factor of a covariance block: L (n x n, lower triangular) with L L^T = F F^T for the
 // rows F of a factor of the whole state's covariance (e.g. the intrinsics' rows of
 // calib::CalibrationResult::covariance_factor). PSD by construction.
