@@ -15,6 +15,7 @@
 #include "commands.h"
 #include "image_inputs.h"
 #include "overlay.h"
+#include "svms/camera_covariance.h"
 #include "svms/detector.h"
 #include "svms/image_io.h"
 #include "svms/model_io.h"
@@ -51,6 +52,7 @@ nlohmann::json DetectionJson(const Detection& d) {
       for (int k = 0; k < 6; ++k) cov[r * 6 + k] = d.covariance(r, k);
     j["covariance"] = cov;
     j["pose_ambiguous"] = d.pose_ambiguous;
+    j["calibration_in_covariance"] = d.calibration_in_covariance;
   }
   if (d.nested_in >= 0) j["nested_in"] = d.nested_in;
   return j;
@@ -59,7 +61,7 @@ nlohmann::json DetectionJson(const Detection& d) {
 int RunDetect(const DetectOptions& o) {
   CameraModel camera;
   if (!o.camera.empty()) {
-    if (Status s = CameraModel::Read(o.camera, &camera); !s) {
+    if (Status s = ReadCameraWithSidecar(o.camera, &camera); !s) {
       std::cerr << "svms detect: " << s.message() << "\n";
       return kExitBadInput;
     }
@@ -195,8 +197,9 @@ void AddDetectCommands(CLI::App& app, int* exit_code) {
       "corner_sigma (each corner's sigma in px from its line fits), tip (px), tip_sigma (px, each "
       "axis), bit_errors, "
       "cam_from_marker {rvec, tvec}, covariance (36 numbers, row-major,\n"
-      "[rotation, translation] in camera axes), nested_in). Without --camera: IDs and corners "
-      "only.\n"
+      "[rotation, translation] in camera axes), pose_ambiguous, calibration_in_covariance (the\n"
+      "covariance includes the calibration's uncertainty: CAMERA.covariance.json was next to the\n"
+      "camera model), nested_in). Without --camera: IDs and corners only.\n"
       "A bad image gets an \"error\" field and a line on stderr; the batch goes on; exit code 1.\n"
       "Examples:\n"
       "  svms detect frame.png\n"

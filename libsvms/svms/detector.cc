@@ -223,6 +223,7 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
         d.tip = mp.tip;
         d.pose_ambiguous = mp.ambiguous;
         d.ambiguity_covariance = mp.ambiguity_covariance;
+        d.calibration_in_covariance = mp.calibration_in_covariance;
         d.pose_rms_px = mp.rms_px;
         // 10b. At grazing views the post's silhouette crosses a side and moves the edge points
         // there by pixels: refit the sides without them and solve the pose again.
@@ -250,6 +251,7 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
             d.tip = again.tip;
             d.pose_ambiguous = again.ambiguous;
             d.ambiguity_covariance = again.ambiguity_covariance;
+            d.calibration_in_covariance = again.calibration_in_covariance;
             d.pose_rms_px = again.rms_px;
           }
         }

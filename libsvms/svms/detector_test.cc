@@ -4,6 +4,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <random>
 #include <string>
 
 #include "svms/render.h"
@@ -124,6 +125,22 @@ TEST(Detector, FindsEveryMarkerWithAccurateCornersAndPose) {
     // The covariance is a covariance.
     EXPECT_TRUE((d.covariance - d.covariance.transpose()).cwiseAbs().maxCoeff() < 1e-12);
     EXPECT_GT(d.covariance.diagonal().minCoeff(), 0);
+    EXPECT_FALSE(d.calibration_in_covariance);
+  }
+  // The same camera carrying its calibration's uncertainty: the same poses, wider covariances.
+  CameraModel calibrated = r.scene.camera;
+  Eigen::VectorXd s = Eigen::VectorXd::Constant(calibrated.intrinsics().size(), 1e-4);
+  s.head<4>().setConstant(0.5);
+  ASSERT_TRUE(calibrated.set_intrinsics_covariance_factor(s.asDiagonal().toDenseMatrix()).ok());
+  const std::vector<Detection> again =
+      Detector(DetectorOptions{}, calibrated, {a, b}).Detect(r.image);
+  ASSERT_EQ(again.size(), found.size());
+  for (size_t i = 0; i < found.size(); ++i) {
+    EXPECT_TRUE(again[i].calibration_in_covariance);
+    ASSERT_TRUE(again[i].cam_from_marker.has_value());
+    EXPECT_EQ(again[i].cam_from_marker->tvec, found[i].cam_from_marker->tvec);
+    for (int k = 0; k < 6; ++k)
+      EXPECT_GT(again[i].covariance(k, k), found[i].covariance(k, k)) << again[i].id << " " << k;
   }
 }
 
@@ -530,6 +547,56 @@ TEST(RefinePose, JacobianMatchesFiniteDifferencesAndRecoversThePose) {
       });
   const PoseCovariance numeric = (J.transpose() * J).inverse();
   EXPECT_LT((numeric - cov).norm() / cov.norm(), 1e-4);
+}
+
+// A camera whose intrinsics are off by draws from its calibration's covariance: a single
+// marker's fit (corners and tip) with CalibrationCovariance added has NEES near 6; without
+// it the fit is overconfident.
+TEST(RefinePose, CalibrationCovarianceMatchesMonteCarlo) {
+  const CameraModel truth_camera = Distorted();
+  const Pose truth = RefinePoseTruth();
+  const MarkerModel m = MarkerModel::Standard(1, 0.1, 0.03);
+  const auto corners = m.Corners();
+  std::vector<Eigen::Vector3d> X(corners.begin(), corners.end());
+  X.push_back(*m.PostTip());
+  const std::vector<double> sigma(5, 0.1);
+  const int n = static_cast<int>(truth_camera.intrinsics().size());
+  Eigen::VectorXd s = Eigen::VectorXd::Constant(n, 1e-3);
+  s.head<4>() << 2.0, 2.0, 1.5, 1.5;
+  const Eigen::MatrixXd L = s.asDiagonal().toDenseMatrix();
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> g(0, 1);
+  const int trials = 1000;
+  double nees_with = 0, nees_without = 0;
+  for (int i = 0; i < trials; ++i) {
+    std::vector<double> intrinsics = truth_camera.intrinsics();
+    for (int k = 0; k < n; ++k) intrinsics[k] += s[k] * g(rng);
+    CameraModel cam;
+    ASSERT_TRUE(CameraModel::Create(truth_camera.lensmodel(), intrinsics, truth_camera.width(),
+                                    truth_camera.height(), &cam)
+                    .ok());
+    ASSERT_TRUE(cam.set_intrinsics_covariance_factor(L).ok());
+    std::vector<Eigen::Vector2d> px;
+    for (const auto& x : X) {
+      Eigen::Vector2d q;
+      ASSERT_TRUE(truth_camera.Project(truth * x, &q));
+      px.push_back(q + 0.1 * Eigen::Vector2d(g(rng), g(rng)));
+    }
+    Pose pose = truth;
+    PoseCovariance cov, calibration;
+    double rms;
+    ASSERT_TRUE(RefinePose(cam, X, px, sigma, &pose, &cov, &rms));
+    ASSERT_TRUE(CalibrationCovariance(cam, pose, X, sigma, &calibration));
+    Eigen::Matrix<double, 6, 1> e;
+    const Eigen::AngleAxisd d(truth.Rotation() * pose.Rotation().transpose());
+    e << d.angle() * d.axis(), truth.tvec - pose.tvec;
+    nees_with += e.dot((cov + calibration).ldlt().solve(e));
+    nees_without += e.dot(cov.ldlt().solve(e));
+  }
+  EXPECT_NEAR(nees_with / trials, 6.0, 0.4);
+  EXPECT_GT(nees_without / trials, 12.0);
+  PoseCovariance unused;
+  EXPECT_FALSE(CalibrationCovariance(truth_camera, truth, X, sigma, &unused));  // no factor
 }
 
 // With edge points (step 10c) the residual is the distance across each edge's image: the fit

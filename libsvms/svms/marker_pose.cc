@@ -212,6 +212,42 @@ Eigen::Vector3d VisibleTipPoint(const MarkerModel& model, const Eigen::Vector3d&
   return Eigen::Vector3d(c.x(), c.y(), post.height);
 }
 
+// Buffers per thread: a warmed-up call allocates nothing.
+bool CalibrationCovariance(const CameraModel& camera, const Pose& pose,
+                           const std::vector<Eigen::Vector3d>& X, const std::vector<double>& sigma,
+                           PoseCovariance* out) {
+  const Eigen::MatrixXd& L = camera.intrinsics_covariance_factor();
+  if (L.size() == 0) return false;
+  thread_local Eigen::Matrix<double, 2, Eigen::Dynamic> dq_dintrinsics;
+  thread_local Eigen::MatrixXd G, HG, SL;
+  G.setZero(6, L.rows());
+  Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
+  const Eigen::Matrix3d R = pose.Rotation();
+  for (size_t i = 0; i < X.size(); ++i) {
+    const Eigen::Vector3d a = R * X[i];
+    Eigen::Vector2d q;
+    Eigen::Matrix<double, 2, 3> dq_dp;
+    if (!camera.Project(a + pose.tvec, &q, &dq_dp, &dq_dintrinsics)) return false;
+    // The rows RefinePose uses: [((R X) x g)^T, g^T] for each row g^T of dq/dp.
+    Eigen::Matrix<double, 2, 6> J;
+    for (int k = 0; k < 2; ++k) {
+      const Eigen::Vector3d g = dq_dp.row(k).transpose();
+      J.block<1, 3>(k, 0) = a.cross(g).transpose();
+      J.block<1, 3>(k, 3) = g.transpose();
+    }
+    const double w = 1.0 / (sigma[i] * sigma[i]);
+    H.noalias() += w * J.transpose() * J;
+    G.noalias() += w * J.transpose() * dq_dintrinsics;
+  }
+  Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(H);
+  if (lu.rank() < 6) return false;
+  const Eigen::Matrix<double, 6, 6> H_inv = lu.inverse();
+  HG.noalias() = H_inv * G;
+  SL.noalias() = HG * L;
+  out->noalias() = SL * SL.transpose();
+  return out->allFinite();
+}
+
 bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X,
                 const std::vector<Eigen::Vector2d>& px, const std::vector<double>& sigma,
                 Pose* pose, PoseCovariance* cov, double* rms,
@@ -609,6 +645,14 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
       out->ambiguity_covariance = w * d * d.transpose();
       out->covariance += out->ambiguity_covariance;
       out->ambiguous = w > kAmbiguousWeight && delta.angle() > kAmbiguousMinDeg * M_PI / 180;
+    }
+  }
+  out->calibration_in_covariance = false;
+  if (o.use_calibration_covariance && camera.intrinsics_covariance_factor().size() > 0) {
+    PoseCovariance calibration;
+    if (CalibrationCovariance(camera, pose, X, sig, &calibration)) {
+      out->covariance += calibration;
+      out->calibration_in_covariance = true;
     }
   }
   out->cam_from_marker = pose;

@@ -61,6 +61,10 @@ struct MarkerPoseOptions {
   // Likewise the decal's outer edge (6 cells from the centre, twice the black square's half
   // side) where a white bit cell meets a darker skin; with use_stripe_edge only.
   bool use_decal_edge = true;
+  // Add the camera calibration's uncertainty to the covariance when the camera carries one
+  // (CameraModel::intrinsics_covariance_factor): S L L^T S^T, S = d pose / d intrinsics of the
+  // fit over the corners and tip.
+  bool use_calibration_covariance = true;
 };
 
 // A point on a straight edge of the marker: `point` on the edge and `direction` along it
@@ -87,8 +91,9 @@ struct MarkerPose {
   // What the other planar solution adds to `covariance` (same axes): w (C' - C + d d^T), zero
   // when it is the same pose or negligible. A fit over other points (fusion) adds it likewise.
   PoseCovariance ambiguity_covariance = PoseCovariance::Zero();
-  double rms_px = 0;  // RMS of the corner (and tip) residuals after the fit
-  int solutions = 0;  // planar solutions considered
+  double rms_px = 0;                       // RMS of the corner (and tip) residuals after the fit
+  int solutions = 0;                       // planar solutions considered
+  bool calibration_in_covariance = false;  // the camera calibration's uncertainty is included
 };
 
 // The white blob nearest `predicted` within `radius` pixels: centroid of the pixels brighter
@@ -127,6 +132,15 @@ std::optional<ExcludedRegion> PostSilhouette(const MarkerModel& model, const Cam
 // Whether `region` reaches any side of the quad `corners` (pixels).
 bool RegionTouchesSides(const ExcludedRegion& region,
                         const std::array<Eigen::Vector2d, 4>& corners);
+
+// The camera calibration's share of a pose fit's covariance, added by EstimateMarkerPose:
+// S L L^T S^T with S = -(J^T W J)^-1 J^T W d pixel / d intrinsics over the points X (marker
+// frame, metres; sigma their pixel sigmas) at cam_from_marker, L the camera's
+// intrinsics_covariance_factor ([rotation, translation], camera axes). False when the camera
+// has no factor or a point does not project. Exposed for tests.
+bool CalibrationCovariance(const CameraModel& camera, const Pose& cam_from_marker,
+                           const std::vector<Eigen::Vector3d>& X, const std::vector<double>& sigma,
+                           PoseCovariance* out);
 
 // Gauss-Newton refinement of cam_from_marker over `points_in_marker` observed at `pixels`
 // with per-point sigmas (and `edges`, point-to-line), at most `max_iterations` steps; fills
