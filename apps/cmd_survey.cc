@@ -170,12 +170,12 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
     std::cerr << "svms survey: " << s.message() << "\n";
     return kExitFailed;
   }
-  result.layout.name = "survey of " + std::to_string(result.summary.images_used) +
-                       " images; covariances scaled by the a-posteriori variance factor " +
-                       std::to_string(result.summary.variance_factor) +
-                       (result.summary.calibration_in_covariance
-                            ? ", plus the camera calibration's uncertainty"
-                            : "");
+  result.layout.name =
+      "survey of " + std::to_string(result.summary.images_used) +
+      " images; covariances scaled by the a-posteriori variance factor " +
+      std::to_string(result.summary.variance_factor) +
+      (result.summary.calibration_in_covariance ? ", plus the camera calibration's uncertainty"
+                                                : "");
   if (Status w = WriteTextFile(o.out, LayoutToJson(result.layout)); !w) {
     std::cerr << "svms survey: " << w.message() << "\n";
     return kExitFailed;

@@ -449,8 +449,7 @@ void Solver::BuildProblem(bool robust) {
                                    object_from_marker_.at(p.marker_id).data()};
     MarkerPointCost* cost;
     if (p.point == 4) {
-      cost = MarkerPointCost::CreateTip(&work_camera_, &p.tip_xy, p.px, p.sigma,
-                                        intrinsics_block);
+      cost = MarkerPointCost::CreateTip(&work_camera_, &p.tip_xy, p.px, p.sigma, intrinsics_block);
       blocks.push_back(&post_height_.at(p.marker_id));
     } else {
       cost = MarkerPointCost::CreateCorner(&work_camera_,
@@ -676,7 +675,8 @@ Status Solver::ComputeCovariance() {
       J.topLeftCorner<3, 3>() = LeftJacobianSO3(Eigen::Vector3d(b[0], b[1], b[2]));
       c = factor * J * cov_params * J.transpose();
       if (reduced.calibration.size() > 0) {
-        const Eigen::MatrixXd SL = J * reduced.calibration.middleRows(reduced.offset.at(b.data()), 6);
+        const Eigen::MatrixXd SL =
+            J * reduced.calibration.middleRows(reduced.offset.at(b.data()), 6);
         c += SL * SL.transpose();
       }
       c = 0.5 * (c + c.transpose()).eval();
@@ -862,7 +862,8 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
     reduced->covariance = dinv.asDiagonal() * Sn_inv * dinv.asDiagonal();
     // d params / d intrinsics = -S^-1 H_rt (the reduced normal equations at the optimum).
     if (calibration)
-      reduced->calibration = reduced->covariance * Hrt * work_camera_.intrinsics_covariance_factor();
+      reduced->calibration =
+          reduced->covariance * Hrt * work_camera_.intrinsics_covariance_factor();
     return "";
   }
   std::string s = "not determined: ";

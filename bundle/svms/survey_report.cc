@@ -190,10 +190,10 @@ Status WriteSurveyReport(const SurveyResult& r, const std::string& dir) {
      << ", RMS reprojection residual " << Fixed(S.rms_px, 3) << " px, a-posteriori variance factor "
      << Fixed(S.variance_factor, 3) << "; covariances "
      << (S.covariance_ok ? (S.covariance_scaled ? "scaled by it" : "not scaled") : "not computed")
-     << (S.covariance_ok ? (S.calibration_in_covariance
-                                ? ", the camera calibration's uncertainty included"
-                                : ", without the camera calibration's uncertainty")
-                         : "")
+     << (S.covariance_ok
+             ? (S.calibration_in_covariance ? ", the camera calibration's uncertainty included"
+                                            : ", without the camera calibration's uncertainty")
+             : "")
      << ". Points rejected as outliers: " << S.rejected.size() << ".\n\n";
   md << "| marker | x (m) | y (m) | z (m) | position sigma (mm) | orientation sigma (deg) | post "
         "height (mm) | its sigma (mm) | RMS (px) |\n|---|---|---|---|---|---|---|---|---|\n";
