@@ -6,6 +6,7 @@
 #include "calibrate_run.h"
 #include "commands.h"
 #include "image_inputs.h"
+#include "svms/camera_covariance.h"
 #include "svms/model_io.h"
 
 namespace svms::cli {
@@ -53,7 +54,9 @@ int RunCalibrate(const CalibrateCliOptions& c) {
     std::printf("%s: %zu views, %d points (%d outliers), RMS %.3f px, worst %.3f px\n",
                 r.camera.Summary().c_str(), r.views.size(), r.num_inliers, r.num_outliers, r.rms_px,
                 r.worst_px);
-    if (!c.out.empty()) std::printf("wrote %s\n", c.out.c_str());
+    if (!c.out.empty())
+      std::printf("wrote %s and its intrinsics' covariance %s\n", c.out.c_str(),
+                  CovarianceSidecarPath(c.out).c_str());
     if (!c.report.empty())
       std::printf("wrote %s/summary.json (uncertainty at %.2f m: RMS %.3f px, max %.3f px)\n",
                   c.report.c_str(), out.uncertainty_range, out.uncertainty_rms,

@@ -133,6 +133,13 @@ Status ReadCovarianceSidecar(const std::string& path, CameraModel* camera) {
   } catch (const FieldError& e) {
     return Status::Error(path + ": " + e.message);
   }
+  // The propagation needs d pixel / d intrinsics: mrcal 2.2 has none for CAHVORE.
+  Eigen::Vector2d q;
+  Eigen::Matrix<double, 2, Eigen::Dynamic> dq_dintrinsics;
+  if (!camera->Project(Eigen::Vector3d(0, 0, 1), &q, nullptr, &dq_dintrinsics))
+    return Status::Error(path + ": " + camera->lensmodel() +
+                         " gives no intrinsics gradients in mrcal 2.2, so its calibration's "
+                         "uncertainty cannot be propagated; remove the sidecar");
   if (Status s = camera->set_intrinsics_covariance_factor(L); !s)
     return Status::Error(path + ": " + s.message());
   return Status::Ok();

@@ -136,6 +136,33 @@ TEST_F(Sidecar, MalformedFieldsAreNamed) {
   EXPECT_NE(s.message().find("not valid JSON"), std::string::npos) << s.message();
 }
 
+TEST_F(Sidecar, ALensModelWithoutGradientsIsRefused) {
+  // CAHVORE has no intrinsics gradients in mrcal 2.2: nothing could propagate the covariance.
+  CameraModel cahvore;
+  const std::vector<double> intrinsics = {1000, 1000, 511.5, 383.5, 0, 0, 0, 0, 0, 0, 0, 0};
+  ASSERT_TRUE(
+      CameraModel::Create("LENSMODEL_CAHVORE_linearity=1.00", intrinsics, 1024, 768, &cahvore)
+          .ok());
+  nlohmann::json j = json_;
+  j["lensmodel"] = cahvore.lensmodel();
+  j["imagersize"] = {1024, 768};
+  j["intrinsics"] = intrinsics;
+  j["covariance_factor"] = nlohmann::json::array();
+  for (int i = 0; i < 12; ++i) {
+    std::vector<double> row(12, 0.0);
+    row[i] = 0.1;
+    j["covariance_factor"].push_back(row);
+  }
+  ASSERT_TRUE(WriteTextFile(path_, j.dump()).ok());
+  const Status s = ReadCovarianceSidecar(path_, &cahvore);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find(path_ + ": LENSMODEL_CAHVORE_linearity=1.00 gives no intrinsics "
+                                     "gradients"),
+            std::string::npos)
+      << s.message();
+  EXPECT_EQ(cahvore.intrinsics_covariance_factor().size(), 0);
+}
+
 TEST(CameraCovariance, FactorShapeAndValuesAreChecked) {
   CameraModel c = Camera();
   EXPECT_FALSE(c.set_intrinsics_covariance_factor(Eigen::MatrixXd::Identity(4, 4)).ok());
