@@ -15,6 +15,7 @@
 
 #include "commands.h"
 #include "gnuplot.h"
+#include "progress.h"
 #include "svms/camera_covariance.h"
 #include "svms/detector.h"
 #include "svms/image_io.h"
@@ -224,8 +225,10 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
     std::vector<calib::ViewObservations> all(n);
     errors.assign(n, "");
     sizes.assign(n, cv::Size());
-    std::atomic<size_t> next{0}, done{0};
+    std::atomic<size_t> next{0};
+    size_t done = 0;  // under io
     std::mutex io;
+    Progress progress(std::string("svms calibrate: ") + what, n, "", !o.quiet);
     auto worker = [&] {
       for (size_t i; (i = next++) < n;) {
         cv::Mat img;
@@ -236,17 +239,14 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
           all[i] = calib::ObservationsFromDetections(detector.Detect(img), o.layout, files[i],
                                                      corner_sigma);
         }
-        const size_t d = ++done;
-        if (!o.quiet) {
-          std::lock_guard<std::mutex> lock(io);
-          std::cerr << "\rsvms calibrate: " << what << " " << d << "/" << n << std::flush;
-        }
+        std::lock_guard<std::mutex> lock(io);
+        progress.Update(++done);
       }
     };
     std::vector<std::thread> pool;
     for (int t = 0; t < std::max(1, o.threads); ++t) pool.emplace_back(worker);
     for (std::thread& t : pool) t.join();
-    if (!o.quiet) std::cerr << "\n";
+    progress.Finish();
     return all;
   };
   const size_t n = o.images.size();

@@ -22,6 +22,7 @@
 #include "calibrate_run.h"
 #include "commands.h"
 #include "gnuplot.h"
+#include "progress.h"
 #include "svms/datasets.h"
 #include "svms/model_io.h"
 #include "svms/random_draws.h"
@@ -501,6 +502,7 @@ int RunBench(const BenchOptions& o) {
     std::mt19937_64 rng(20261122);
     std::normal_distribution<double> gauss(0, 1);
     const double t0 = Now();
+    Progress progress("svms bench calibrate: Monte-Carlo", trials);
     for (int trial = 0; trial < trials; ++trial) {
       std::vector<calib::ViewObservations> syn;
       std::vector<Pose> syn_true;
@@ -537,10 +539,9 @@ int RunBench(const BenchOptions& o) {
           continue;
         mc_e2 += e.squaredNorm(), mc_p2 += C.trace(), ++mc_n;
       }
-      std::cerr << "\rsvms bench calibrate: Monte-Carlo " << trial + 1 << "/" << trials
-                << std::flush;
+      progress.Update(trial + 1);
     }
-    std::cerr << "\n";
+    progress.Finish();
     mc_seconds = Now() - t0;
   }
   const double mc_err = mc_n ? std::sqrt(mc_e2 / mc_n) : NAN;

@@ -28,6 +28,7 @@
 #include "commands.h"
 #include "gnuplot.h"
 #include "overlay.h"
+#include "progress.h"
 #include "svms/datasets.h"
 #include "svms/detector.h"
 #include "svms/render.h"
@@ -227,8 +228,10 @@ Status RunSet(const SetSpec& spec, const BenchDetectOptions& o, SetResult* resul
     const int n = static_cast<int>(scene.views.size());
     std::vector<std::vector<MarkerRow>> rows(n);
     std::vector<ViewRow> views(n);
-    std::atomic<int> next{0}, done{0}, miss_images{0};
+    std::atomic<int> next{0}, miss_images{0};
+    int done = 0;  // under io
     std::mutex io;
+    Progress progress("svms bench detect: " + spec.name, n);
     const fs::path miss_dir = fs::path(o.out) / "misses";
     auto worker = [&] {
       for (int v; (v = next++) < n;) {
@@ -249,14 +252,13 @@ Status RunSet(const SetSpec& spec, const BenchDetectOptions& o, SetResult* resul
                          (miss_dir / (spec.name + "_" + truth.name + ".png")).string());
         }
         std::lock_guard<std::mutex> lock(io);
-        std::cerr << "\rsvms bench detect: " << spec.name << " " << ++done << "/" << n
-                  << std::flush;
+        progress.Update(++done);
       }
     };
     std::vector<std::thread> pool;
     for (int t = 0; t < std::min(o.threads, n); ++t) pool.emplace_back(worker);
     for (auto& t : pool) t.join();
-    std::cerr << "\n";
+    progress.Finish();
     for (int v = 0; v < n; ++v) {
       result->markers.insert(result->markers.end(), rows[v].begin(), rows[v].end());
       result->views.push_back(views[v]);

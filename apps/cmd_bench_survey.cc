@@ -17,6 +17,7 @@
 #include "bench_util.h"
 #include "commands.h"
 #include "gnuplot.h"
+#include "progress.h"
 #include "svms/detector.h"
 #include "svms/model_io.h"
 #include "svms/survey.h"
@@ -151,8 +152,10 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
   // 2. Detect every image.
   const Detector detector(DetectorOptions{}, camera, models.markers);
   std::vector<bundle::SurveyImage> images(cam_from_object.size());
-  std::atomic<size_t> next{0}, done{0};
+  std::atomic<size_t> next{0};
+  size_t done = 0;  // under io
   std::mutex io;
+  Progress detecting("svms bench survey: detecting", images.size());
   const auto t_detect = Clock::now();
   auto worker = [&] {
     for (size_t i; (i = next++) < images.size();) {
@@ -160,14 +163,13 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
       const cv::Mat img = cv::imread(D + "/" + images[i].name + ".png", cv::IMREAD_GRAYSCALE);
       if (!img.empty()) images[i].detections = detector.Detect(img);
       std::lock_guard<std::mutex> lock(io);
-      std::cerr << "\rsvms bench survey: detecting " << ++done << "/" << images.size()
-                << std::flush;
+      detecting.Update(++done);
     }
   };
   std::vector<std::thread> pool;
   for (int t = 0; t < o.threads; ++t) pool.emplace_back(worker);
   for (auto& t : pool) t.join();
-  std::cerr << "\n";
+  detecting.Finish();
   const double detect_s = std::chrono::duration<double>(Clock::now() - t_detect).count();
   std::map<int, int> detections_of;
   for (const auto& im : images)
@@ -210,8 +212,9 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
   std::map<int, std::vector<double>> nees;
   std::map<int, std::vector<double>> mc_pos_ba, mc_pos_naive, mc_ang_ba, mc_ang_naive;
   int mc_failed = 0;
+  Progress monte_carlo("svms bench survey: Monte-Carlo", runs);
   for (int run = 0; run < runs && st; ++run) {
-    std::cerr << "\rsvms bench survey: Monte-Carlo " << run + 1 << "/" << runs << std::flush;
+    monte_carlo.Update(run + 1);  // starting run + 1
     // As built is not as drawn: each run's post heights are drawn from the survey's prior
     // (the drawing, sigma post_height_prior_sigma), which the covariance counts as a
     // measurement; with the drawn heights exact, the prior would be a noise-free measurement
@@ -241,7 +244,7 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
       mc_ang_naive[m.id].push_back(m.orientation_deg);
     }
   }
-  if (runs) std::cerr << "\n";
+  monte_carlo.Finish();
   const int n_ok = runs - mc_failed;
   const double lo = n_ok ? ChiSquareQuantile(6.0 * n_ok, -1.959964) / n_ok : 0;
   const double hi = n_ok ? ChiSquareQuantile(6.0 * n_ok, 1.959964) / n_ok : 0;

@@ -15,6 +15,7 @@
 #include "commands.h"
 #include "image_inputs.h"
 #include "overlay.h"
+#include "progress.h"
 #include "svms/camera_covariance.h"
 #include "svms/detector.h"
 #include "svms/image_io.h"
@@ -100,8 +101,10 @@ int RunDetect(const DetectOptions& o) {
   std::vector<std::string> lines(files.size()), errors(files.size());
   std::vector<bool> ready(files.size(), false);
   size_t printed = 0;
-  std::atomic<size_t> next{0}, done{0};
+  std::atomic<size_t> next{0};
+  size_t done = 0;  // under io
   std::mutex io;
+  Progress progress("svms detect:", files.size(), " images", !o.quiet && files.size() > 1);
   auto worker = [&] {
     for (size_t i; (i = next++) < files.size();) {
       const std::string& f = files[i];
@@ -146,16 +149,14 @@ int RunDetect(const DetectOptions& o) {
         std::cout << lines[printed] << "\n";
         std::string().swap(lines[printed]);
       }
-      const size_t d = ++done;
-      if (!o.quiet && files.size() > 1)
-        std::cerr << "\rsvms detect: " << d << "/" << files.size() << " images" << std::flush;
+      progress.Update(++done);
     }
   };
   std::vector<std::thread> pool;
   for (int t = 0; t < std::max(1, std::min<int>(o.threads, static_cast<int>(files.size()))); ++t)
     pool.emplace_back(worker);
   for (auto& t : pool) t.join();
-  if (!o.quiet && files.size() > 1) std::cerr << "\n";
+  progress.Finish();
   std::cout << std::flush;
   int failed = 0;
   for (const std::string& e : errors)

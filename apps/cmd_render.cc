@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "commands.h"
+#include "progress.h"
 #include "svms/model_io.h"
 #include "svms/render.h"
 #include "svms/scene.h"
@@ -57,8 +58,10 @@ int RenderScene(const Scene& scene, const std::string& source, const std::string
   }
   const int n = static_cast<int>(scene.views.size());
   std::vector<ViewTruth> truth(n);
-  std::atomic<int> next{0}, done{0};
+  std::atomic<int> next{0};
+  int done = 0;  // under io
   std::mutex io;
+  Progress progress("svms render:", n, " views of " + o.scene, !o.quiet);
   std::vector<std::string> failures;
   auto worker = [&] {
     for (int v; (v = next++) < n;) {
@@ -74,15 +77,13 @@ int RenderScene(const Scene& scene, const std::string& source, const std::string
       }
       std::lock_guard<std::mutex> lock(io);
       if (!ok) failures.push_back(file + ": cannot write");
-      const int d = ++done;
-      if (!o.quiet)
-        std::cerr << "\rsvms render: " << d << "/" << n << " views of " << o.scene << std::flush;
+      progress.Update(++done);
     }
   };
   std::vector<std::thread> pool;
   for (int t = 0; t < std::min(o.threads, n); ++t) pool.emplace_back(worker);
   for (auto& t : pool) t.join();
-  if (!o.quiet) std::cerr << "\n";
+  progress.Finish();
   const std::string truth_file = (std::filesystem::path(o.out) / "truth.json").string();
   if (Status s = WriteTextFile(truth_file, TruthToJson(scene, truth)); !s)
     failures.push_back(s.message());

@@ -10,6 +10,7 @@
 
 #include "commands.h"
 #include "image_inputs.h"
+#include "progress.h"
 #include "svms/camera_covariance.h"
 #include "svms/detector.h"
 #include "svms/format.h"
@@ -126,8 +127,10 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
   const Detector detector(DetectorOptions{}, camera, models.markers);
   std::vector<bundle::SurveyImage> images(files.size());
   std::vector<std::string> errors(files.size());
-  std::atomic<size_t> next{0}, done{0};
+  std::atomic<size_t> next{0};
+  size_t done = 0;  // under io
   std::mutex io;
+  Progress progress("svms survey: detecting", files.size(), "", !o.quiet);
   auto worker = [&] {
     for (size_t i; (i = next++) < files.size();) {
       images[i].name = fs::path(files[i]).stem().string();
@@ -141,16 +144,14 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
       else
         images[i].detections = detector.Detect(img);
       std::lock_guard<std::mutex> lock(io);
-      const size_t d = ++done;
-      if (!o.quiet)
-        std::cerr << "\rsvms survey: detecting " << d << "/" << files.size() << std::flush;
+      progress.Update(++done);
     }
   };
   std::vector<std::thread> pool;
   for (int t = 0; t < std::max(1, std::min<int>(o.threads, static_cast<int>(files.size()))); ++t)
     pool.emplace_back(worker);
   for (auto& t : pool) t.join();
-  if (!o.quiet) std::cerr << "\n";
+  progress.Finish();
   int unreadable = 0;
   for (const std::string& e : errors)
     if (!e.empty()) {
