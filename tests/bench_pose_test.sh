@@ -33,5 +33,14 @@ sed 's/1024, 1024/640, 480/' "$out/approach/true.cameramodel" > "$out/small.came
 expect 2 "imagersize: the models differ (1024x1024 and 640x480)" "$svms" bench pose --quick \
   --data "$out/approach" --layout "$out/approach/true_layout.json" \
   --camera "$out/small.cameramodel" --out "$out/bp2"
+# No true camera in the dataset: the rest of the report, and a row saying why the frame rows are
+# missing (not a silent omission).
+cp -r "$out/approach" "$out/no_true" && rm "$out/no_true/true.cameramodel"
+expect 0 "warning: the given camera's frame is not aligned" "$svms" bench pose --quick \
+  --data "$out/no_true" --layout "$out/no_true/true_layout.json" \
+  --camera "$out/shifted.cameramodel" --out "$out/bp3"
+grep -q "^| the given camera's frame against the true camera's | not measured: .*true.cameramodel" \
+  "$out/bp3/report.md" && pass || fail "report.md: no 'not measured' row"
+grep -q '"frame_alignment": null' "$out/bp3/summary.json" && pass || fail "summary.json: frame_alignment not null"
 echo "bench_pose_test: $passes passed, $fails failed"
 [ "$fails" -eq 0 ]

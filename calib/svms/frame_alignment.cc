@@ -9,10 +9,22 @@
 
 namespace svms::calib {
 
+Eigen::Matrix3d FitRotation(const std::vector<Eigen::Vector3d>& from,
+                            const std::vector<Eigen::Vector3d>& to) {
+  if (from.size() < 2 || from.size() != to.size()) return Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();
+  for (size_t k = 0; k < from.size(); ++k) cross += to[k] * from[k].transpose();
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d fix = Eigen::Matrix3d::Identity();
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) fix(2, 2) = -1;
+  return svd.matrixU() * fix * svd.matrixV().transpose();
+}
+
 Status AlignCameraFrames(const CameraModel& a, const CameraModel& b,
                          const FrameAlignmentOptions& options, FrameAlignment* out) {
   if (a.empty() || b.empty())
-    return Status::Error("imagersize: an empty camera model cannot be compared");
+    return Status::Error(std::string("lensmodel: camera model ") + (a.empty() ? "a" : "b") +
+                         " is empty; expected a camera model to compare");
   if (a.width() != b.width() || a.height() != b.height())
     return Status::Error("imagersize: the models differ (" + std::to_string(a.width()) + "x" +
                          std::to_string(a.height()) + " and " + std::to_string(b.width()) + "x" +
@@ -43,14 +55,9 @@ Status AlignCameraFrames(const CameraModel& a, const CameraModel& b,
     return Status::Error("cells: only " + std::to_string(pixels.size()) +
                          " cell centres unproject through both models; expected at least 10");
 
-  // 2. Kabsch: the rotation taking the directions of a onto those of b (unit vectors, so no
-  // centring: a rotation about the camera centre).
-  Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();
-  for (size_t k = 0; k < pixels.size(); ++k) cross += in_b[k] * in_a[k].transpose();
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d fix = Eigen::Matrix3d::Identity();
-  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) fix(2, 2) = -1;
-  const Eigen::Matrix3d b_from_a = svd.matrixU() * fix * svd.matrixV().transpose();
+  // 2. The rotation taking the directions of a onto those of b (unit vectors, so no centring:
+  // a rotation about the camera centre).
+  const Eigen::Matrix3d b_from_a = FitRotation(in_a, in_b);
 
   // 3. Pixel differences with and without the rotation.
   double sum = 0, sum_unaligned = 0, worst = 0;

@@ -44,7 +44,7 @@ TEST(AlignCameraFrames, KnownRotationOfALonLatModel) {
   EXPECT_LT((f.b_from_a - expected).norm(), 1e-9);
   EXPECT_NEAR(f.angle_deg, theta * 180 / M_PI, 1e-7);
   EXPECT_LT(f.rms_px, 1e-6);
-  EXPECT_NEAR(f.rms_unaligned_px, fx * theta, 1e-6);  // every pixel moved by 7 px
+  EXPECT_NEAR(f.rms_unaligned_px, fx * theta, 1e-4);  // every pixel moved by 7 px
 }
 
 // A pinhole's principal point moved by 5 px is nearly a rotation by atan(5 / f): the fit finds
@@ -55,7 +55,7 @@ TEST(AlignCameraFrames, ShiftedPrincipalPointIsMostlyARotation) {
   FrameAlignment f;
   ASSERT_TRUE(AlignCameraFrames(a, b, {}, &f));
   EXPECT_NEAR(f.angle_deg, std::atan(5.0 / 1000) * 180 / M_PI, 0.03);
-  EXPECT_NEAR(f.rms_unaligned_px, 5, 1e-6);
+  EXPECT_NEAR(f.rms_unaligned_px, 5, 1e-4);  // kUnprojectTolerancePx
   EXPECT_LT(f.rms_px, 0.5);
   EXPECT_LT(f.worst_px, 1.5);
   // The same over a smaller focus region: closer to a pure rotation.
@@ -78,7 +78,7 @@ TEST(AlignCameraFrames, BadInputIsNamed) {
       << s.message();
   s = AlignCameraFrames(a, CameraModel(), {}, &f);
   ASSERT_FALSE(s);
-  EXPECT_EQ(s.message().rfind("imagersize", 0), 0u) << s.message();
+  EXPECT_EQ(s.message(), "lensmodel: camera model b is empty; expected a camera model to compare");
   FrameAlignmentOptions o;
   o.grid = 2;
   s = AlignCameraFrames(a, a, o, &f);
@@ -90,7 +90,9 @@ TEST(AlignCameraFrames, BadInputIsNamed) {
   ASSERT_FALSE(s);
   EXPECT_EQ(s.message().rfind("radius_fraction", 0), 0u) << s.message();
   o.radius_fraction = std::nan("");
-  EXPECT_FALSE(AlignCameraFrames(a, a, o, &f));
+  s = AlignCameraFrames(a, a, o, &f);
+  ASSERT_FALSE(s);
+  EXPECT_EQ(s.message(), "radius_fraction: nan, expected in (0, 1.5]");
   o = {};
   o.grid = 4;
   o.radius_fraction = 0.01;  // no cell centre that close to the middle
@@ -118,8 +120,8 @@ TEST(AlignCameraFrames, AgreesWithMrcalsProjectionDiff) {
       std::string(SVMS_PYTHON) +
       " -c 'import mrcal,sys; m = [mrcal.cameramodel(p) for p in sys.argv[1:3]]; "
       "Rt = mrcal.projection_diff(m, gridn_width=32, use_uncertainties=False, "
-      "focus_radius=384)[-1]; print(*Rt[:3,:].ravel())' " +
-      pa + " " + pb + " > " + out;
+      "focus_radius=384)[-1]; print(*Rt[:3,:].ravel())' '" +
+      pa + "' '" + pb + "' > '" + out + "'";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   FILE* file = std::fopen(out.c_str(), "r");
   ASSERT_NE(file, nullptr);
@@ -129,9 +131,32 @@ TEST(AlignCameraFrames, AgreesWithMrcalsProjectionDiff) {
   const double between_deg =
       Eigen::AngleAxisd(mrcal_b_from_a.transpose() * f.b_from_a).angle() * 180 / M_PI;
   EXPECT_GT(f.angle_deg, 0.3);  // 6 and 4 px at f = 900: 0.46 deg
-  EXPECT_LT(between_deg, 0.02 * f.angle_deg) << "ours " << f.angle_deg << " deg";
+  // Measured: 1.2 % of the angle (mrcal samples a 32 x 24 grid of corners and drops outliers).
+  EXPECT_LT(between_deg, 0.03 * f.angle_deg) << "ours " << f.angle_deg << " deg";
   std::printf("rotation %.5f deg, from mrcal's by %.5f deg; diff RMS %.3f -> %.3f px\n",
               f.angle_deg, between_deg, f.rms_unaligned_px, f.rms_px);
+}
+
+// Nearly planar directions mirrored through their plane: the best orthogonal matrix is that
+// mirror, a reflection; the best rotation is close to the identity.
+TEST(FitRotation, NeverReturnsAReflection) {
+  std::vector<Eigen::Vector3d> from, to;
+  for (int k = 0; k < 20; ++k) {
+    const double a = 0.3 * k;
+    from.push_back(Eigen::Vector3d(std::cos(a), std::sin(a), 0.01 * ((k % 3) - 1)).normalized());
+    to.push_back(Eigen::Vector3d(from.back().x(), from.back().y(), -from.back().z()));
+  }
+  const Eigen::Matrix3d R = FitRotation(from, to);
+  EXPECT_NEAR(R.determinant(), 1, 1e-12);
+  EXPECT_LT((R.transpose() * R - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+  EXPECT_LT(Eigen::AngleAxisd(R).angle(), 0.05);
+  // A known rotation is recovered exactly; mismatched inputs give the identity.
+  const Eigen::Matrix3d Q =
+      Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, -2, 0.5).normalized()).toRotationMatrix();
+  std::vector<Eigen::Vector3d> rotated;
+  for (const Eigen::Vector3d& v : from) rotated.push_back(Q * v);
+  EXPECT_LT((FitRotation(from, rotated) - Q).norm(), 1e-12);
+  EXPECT_EQ(FitRotation(from, {}), Eigen::Matrix3d::Identity());
 }
 
 }  // namespace
