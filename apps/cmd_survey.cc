@@ -176,7 +176,10 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
       " images; covariances scaled by the a-posteriori variance factor " +
       std::to_string(result.summary.variance_factor) +
       (result.summary.calibration_in_covariance ? ", plus the camera calibration's uncertainty"
-                                                : "");
+                                                : "") +
+      (result.summary.corner_repeat_in_covariance
+           ? ", plus each marker's repeated corner error (from its grey levels)"
+           : "");
   if (Status w = WriteTextFile(o.out, LayoutToJson(result.layout)); !w) {
     std::cerr << "svms survey: " << w.message() << "\n";
     return kExitFailed;

@@ -44,6 +44,9 @@ struct PointObs {
   Eigen::Vector2d px;
   double sigma = 1;
   Eigen::Vector2d tip_xy = Eigen::Vector2d::Zero();  // concave well offset, see MarkerPointCost
+  // A corner's outward direction in the image (unit: from the detection's centre through it),
+  // for SurveyOptions::corner_repeat_px_grey; zero for a tip.
+  Eigen::Vector2d outward = Eigen::Vector2d::Zero();
   bool rejected = false;
   double residual = 0;  // |r| / sigma after the last solve
 };
@@ -145,6 +148,10 @@ class Solver {
     // With the calibration term: S L, S = d params / d intrinsics (the rows of `params`), L the
     // camera's intrinsics covariance factor; S L L^T S^T is the calibration's share.
     Eigen::MatrixXd calibration;
+    // With the repeated corner error (SurveyOptions::corner_repeat_px_grey): S diag(sigma),
+    // S = d params / d shift, one column per marker of repeat_sigma_; (S sigma)(S sigma)^T
+    // is that error's share.
+    Eigen::MatrixXd repeat;
   };
   std::string RankDeficiency(ReducedSystem* reduced);
   void FillResult();
@@ -173,6 +180,9 @@ class Solver {
   // The intrinsics are a constant parameter block of the problem, there for the Jacobian of the
   // calibration's share of the covariance (SurveyOptions::use_calibration_covariance).
   bool calibration_term_ = false;
+  // Per marker ID: the standard deviation of its repeated outward corner shift (pixels), for
+  // the markers with grey levels when SurveyOptions::corner_repeat_px_grey > 0.
+  std::map<int, double> repeat_sigma_;
   int root_ = -1;
 
   std::unique_ptr<IntrinsicsSync> sync_;
@@ -313,11 +323,15 @@ Status Solver::CollectObservations() {
 
   // Points.
   int detection = 0;
+  std::map<int, std::vector<double>> contrast;  // per marker ID, grey levels
   for (int i = 0; i < n; ++i) {
     std::set<int> tip_seen;  // post owners whose tip this image already gave
     for (const Detection& d : images_[i].detections) {
       if (!surveyed_.count(d.id) || !d.cam_from_marker) continue;
       const MarkerInfo& info = markers_.at(d.id);
+      if (d.white > d.black) contrast[d.id].push_back(d.white - d.black);
+      const Eigen::Vector2d centre =
+          0.25 * (d.corners[0] + d.corners[1] + d.corners[2] + d.corners[3]);
       for (int k = 0; k < 4; ++k) {
         PointObs p;
         p.image = i;
@@ -325,6 +339,7 @@ Status Solver::CollectObservations() {
         p.detection = detection;
         p.point = k;
         p.px = d.corners[k];
+        if ((p.px - centre).norm() > 0) p.outward = (p.px - centre).normalized();
         p.sigma = options_.corner_sigma_from_fit && d.corner_sigma[k] > 0
                       ? std::max(options_.min_corner_sigma_px,
                                  options_.corner_fit_scale * d.corner_sigma[k])
@@ -348,6 +363,11 @@ Status Solver::CollectObservations() {
     }
   }
   S_.detections_used = detection;
+  if (options_.corner_repeat_px_grey > 0)
+    for (auto& [id, c] : contrast) {
+      std::nth_element(c.begin(), c.begin() + c.size() / 2, c.end());
+      repeat_sigma_[id] = options_.corner_repeat_px_grey / c[c.size() / 2];
+    }
   for (int id : surveyed_)
     if (markers_.at(id).post_owner == id) post_height_[id] = post_drawn_.at(id);
   return Status::Ok();
@@ -674,9 +694,9 @@ Status Solver::ComputeCovariance() {
       Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Identity();
       J.topLeftCorner<3, 3>() = LeftJacobianSO3(Eigen::Vector3d(b[0], b[1], b[2]));
       c = factor * J * cov_params * J.transpose();
-      if (reduced.calibration.size() > 0) {
-        const Eigen::MatrixXd SL =
-            J * reduced.calibration.middleRows(reduced.offset.at(b.data()), 6);
+      for (const Eigen::MatrixXd* share : {&reduced.calibration, &reduced.repeat}) {
+        if (share->size() == 0) continue;
+        const Eigen::MatrixXd SL = J * share->middleRows(reduced.offset.at(b.data()), 6);
         c += SL * SL.transpose();
       }
       c = 0.5 * (c + c.transpose()).eval();
@@ -685,18 +705,19 @@ Status Solver::ComputeCovariance() {
     const int owner = markers_.at(e.marker.id).post_owner;
     if (owner >= 0 && post_height_.count(owner)) {
       double var = 0;
-      double calibration_var = 0;
+      double unscaled_var = 0;
       if (!problem_->IsParameterBlockConstant(&post_height_.at(owner))) {
         get(&post_height_.at(owner), 1, &var);
-        if (reduced.calibration.size() > 0)
-          calibration_var =
-              reduced.calibration.row(reduced.offset.at(&post_height_.at(owner))).squaredNorm();
+        for (const Eigen::MatrixXd* share : {&reduced.calibration, &reduced.repeat})
+          if (share->size() > 0)
+            unscaled_var += share->row(reduced.offset.at(&post_height_.at(owner))).squaredNorm();
       }
-      e.post_height_sigma = std::sqrt(std::max(0.0, factor * var) + calibration_var);
+      e.post_height_sigma = std::sqrt(std::max(0.0, factor * var) + unscaled_var);
     }
   }
   S_.covariance_ok = true;
   S_.calibration_in_covariance = reduced.calibration.size() > 0;
+  S_.corner_repeat_in_covariance = reduced.repeat.size() > 0;
   return Status::Ok();
 }
 
@@ -723,6 +744,7 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
   reduced->offset.clear();
   reduced->covariance.resize(0, 0);
   reduced->calibration.resize(0, 0);
+  reduced->repeat.resize(0, 0);
   {
     int o = 0;
     for (const Param& p : rest) {
@@ -740,6 +762,33 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
     eo.parameter_blocks.push_back(intrinsics_.data());
     problem_->SetParameterBlockVariable(intrinsics_.data());
   }
+  // The repeated corner error's columns (SurveyOptions::corner_repeat_px_grey), after the
+  // intrinsics': one per marker of repeat_sigma_ with a corner in the problem. A corner's
+  // residual is (projection - observed) / sigma, so d residual / d shift = -outward / sigma.
+  // The points' residuals come first, in points_ order, so that each row's point is known.
+  std::map<int, int> repeat_col;            // marker ID -> its column after the intrinsics'
+  std::vector<std::pair<int, int>> row_of;  // row -> (index in points_, axis); points only
+  {
+    std::vector<ceres::ResidualBlockId> all;
+    problem_->GetResidualBlocks(&all);
+    std::set<ceres::ResidualBlockId> point_rows;
+    for (size_t k = 0; k < points_.size(); ++k) {
+      const ceres::ResidualBlockId id = point_blocks_[k];
+      if (!id) continue;
+      point_rows.insert(id);
+      eo.residual_blocks.push_back(id);
+      const int m = problem_->GetCostFunctionForResidualBlock(id)->num_residuals();
+      for (int a = 0; a < m; ++a) row_of.emplace_back(static_cast<int>(k), a);
+      const PointObs& p = points_[k];
+      if (p.point < 4 && repeat_sigma_.count(p.marker_id) && !repeat_col.count(p.marker_id)) {
+        const int next = static_cast<int>(repeat_col.size());
+        repeat_col[p.marker_id] = next;
+      }
+    }
+    for (ceres::ResidualBlockId id : all)
+      if (!point_rows.count(id)) eo.residual_blocks.push_back(id);
+  }
+  const int nb = static_cast<int>(repeat_col.size());
   ceres::CRSMatrix crs;
   const bool evaluated = problem_->Evaluate(eo, nullptr, nullptr, nullptr, &crs);
   if (calibration) problem_->SetParameterBlockConstant(intrinsics_.data());
@@ -755,9 +804,11 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
   std::vector<Eigen::Matrix<double, 6, 6>> Hcc(cams.size(), Eigen::Matrix<double, 6, 6>::Zero());
   std::vector<std::map<int, Row6>> Hrc(cams.size());  // reduced row -> H(row, camera block)
   Eigen::MatrixXd S = Eigen::MatrixXd::Zero(nr, nr);
-  // With the calibration term: H(reduced rows, intrinsics) and H(camera block, intrinsics).
-  Eigen::MatrixXd Hrt = Eigen::MatrixXd::Zero(nr, nt);
-  std::vector<Eigen::MatrixXd> Hct(calibration ? cams.size() : 0, Eigen::MatrixXd::Zero(6, nt));
+  // With the calibration term and the repeated corner error: H(reduced rows, intrinsics and
+  // shifts) and H(camera block, intrinsics and shifts).
+  const int nx = nt + nb;
+  Eigen::MatrixXd Hrt = Eigen::MatrixXd::Zero(nr, nx);
+  std::vector<Eigen::MatrixXd> Hct(nx > 0 ? cams.size() : 0, Eigen::MatrixXd::Zero(6, nx));
   std::vector<std::pair<int, double>> cam_entries, rest_entries, intrinsics_entries;
   for (int r = 0; r < crs.num_rows; ++r) {
     cam_entries.clear();
@@ -774,6 +825,12 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
       } else {
         intrinsics_entries.emplace_back(col - nc - nr, crs.values[k]);
       }
+    }
+    if (nb > 0 && r < static_cast<int>(row_of.size())) {
+      const PointObs& p = points_[row_of[r].first];
+      const auto it = repeat_col.find(p.marker_id);
+      if (p.point < 4 && it != repeat_col.end())
+        intrinsics_entries.emplace_back(nt + it->second, -p.outward(row_of[r].second) / p.sigma);
     }
     for (const auto& [a, va] : rest_entries) {
       for (const auto& [b, vb] : rest_entries) S(a, b) += va * vb;
@@ -807,7 +864,7 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
     const Eigen::MatrixXd update = B * Hcc_inv * B.transpose();
     for (size_t a = 0; a < rows.size(); ++a)
       for (size_t b = 0; b < rows.size(); ++b) S(rows[a], rows[b]) -= update(a, b);
-    if (calibration) {
+    if (nx > 0) {
       const Eigen::MatrixXd coupling = B * Hcc_inv * Hct[c];
       for (size_t a = 0; a < rows.size(); ++a) Hrt.row(rows[a]) -= coupling.row(a);
     }
@@ -863,7 +920,13 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
     // d params / d intrinsics = -S^-1 H_rt (the reduced normal equations at the optimum).
     if (calibration)
       reduced->calibration =
-          reduced->covariance * Hrt * work_camera_.intrinsics_covariance_factor();
+          reduced->covariance * Hrt.leftCols(nt) * work_camera_.intrinsics_covariance_factor();
+    // d params / d shifts likewise, each column scaled by its shift's sigma.
+    if (nb > 0) {
+      Eigen::VectorXd sigma(nb);
+      for (const auto& [id, col] : repeat_col) sigma(col) = repeat_sigma_.at(id);
+      reduced->repeat = reduced->covariance * Hrt.rightCols(nb) * sigma.asDiagonal();
+    }
     return "";
   }
   std::string s = "not determined: ";

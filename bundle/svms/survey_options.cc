@@ -47,6 +47,8 @@ Status SurveyOptions::Check() const {
       !Positive(parameter_tolerance))
     return Status::Error("survey options: tolerances: expected > 0");
   if (num_threads < 1) return bad("num_threads", ">= 1", num_threads);
+  if (!(corner_repeat_px_grey >= 0) || !std::isfinite(corner_repeat_px_grey))
+    return bad("corner_repeat_px_grey", ">= 0 pixels per grey level", corner_repeat_px_grey);
   return Status::Ok();
 }
 
@@ -138,6 +140,9 @@ std::string SurveySummary::BriefReport() const {
     << (covariance_ok && covariance_scaled ? " (scaled by the variance factor)" : "")
     << (covariance_ok && calibration_in_covariance ? ", plus the camera calibration's uncertainty"
                                                    : "")
+    << (covariance_ok && corner_repeat_in_covariance
+            ? ", plus each marker's repeated corner error (its grey levels)"
+            : "")
     << "\n";
   s << "time: init " << seconds_init << " s, solve " << seconds_first << " + " << seconds_second
     << " s, covariance " << seconds_covariance << " s\n";

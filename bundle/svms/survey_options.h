@@ -81,6 +81,18 @@ struct SurveyOptions {
   // S L L^T S^T with S = d layout / d intrinsics at the optimum (camera poses eliminated), to
   // their covariances, unscaled (it is not this survey's noise).
   bool use_calibration_covariance = true;
+  // A corner error that repeats in every view of a marker, which no number of views averages
+  // away: where a marker's contrast is a few grey levels (in shadow) and the noise is too small
+  // to dither the image's integer steps, the edge locator's error is set by the grey levels,
+  // not by the view (measured: 0.043 px inward with 7 grey levels, against 0.002 px on lit
+  // markers; docs/benchmarks.md, survey). Modelled as one outward shift of all four corners of
+  // a marker in all its views, of standard deviation corner_repeat_px_grey / contrast pixels
+  // (a step of one grey level across an edge about a pixel wide, uniformly placed: 1 / sqrt(12)
+  // px per grey level of contrast), contrast the median of Detection::white - black over the
+  // marker's detections. Its effect on the layout, S sigma^2 S^T with S = d layout / d shift
+  // (camera poses eliminated), is added to the covariances, unscaled, as the calibration's is.
+  // 0: left out; detections without grey levels (white <= black) give no term.
+  double corner_repeat_px_grey = 0.29;
 
   // Progress of the solver on stderr.
   bool verbose = false;
@@ -177,7 +189,8 @@ struct SurveySummary {
   double variance_factor = 1;  // 2 cost / (m - n) of the final solve
   bool covariance_ok = false;
   bool covariance_scaled = false;
-  bool calibration_in_covariance = false;  // the camera calibration's uncertainty was added
+  bool calibration_in_covariance = false;    // the camera calibration's uncertainty was added
+  bool corner_repeat_in_covariance = false;  // corner_repeat_px_grey's term was added
 
   std::vector<ResidualStats> per_image, per_marker;
   std::vector<RejectedPoint> rejected;

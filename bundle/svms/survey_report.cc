@@ -194,6 +194,10 @@ Status WriteSurveyReport(const SurveyResult& r, const std::string& dir) {
              ? (S.calibration_in_covariance ? ", the camera calibration's uncertainty included"
                                             : ", without the camera calibration's uncertainty")
              : "")
+     << (S.covariance_ok && S.corner_repeat_in_covariance
+             ? ", and each marker's repeated corner error (SurveyOptions::corner_repeat_px_grey "
+               "over its contrast in grey levels)"
+             : "")
      << ". Points rejected as outliers: " << S.rejected.size() << ".\n\n";
   md << "| marker | x (m) | y (m) | z (m) | position sigma (mm) | orientation sigma (deg) | post "
         "height (mm) | its sigma (mm) | RMS (px) |\n|---|---|---|---|---|---|---|---|---|\n";

@@ -422,6 +422,70 @@ TEST(Survey, BadInputIsNamed) {
   EXPECT_NE(s.message().find("nothing to survey"), std::string::npos) << s.message();
   s = RunSurvey(images, m.models, CameraModel(), SurveyOptions{}, ReferenceConfig(100), &r);
   EXPECT_NE(s.message().find("camera"), std::string::npos) << s.message();
+  o = SurveyOptions{};
+  o.corner_repeat_px_grey = -0.1;
+  s = RunSurvey(images, m.models, m.camera, o, ReferenceConfig(100), &r);
+  EXPECT_NE(s.message().find("corner_repeat_px_grey: expected >= 0 pixels per grey level"),
+            std::string::npos)
+      << s.message();
+}
+
+// Every corner of a marker shifted outward by the same amount in every view (what coarse grey
+// levels do to a marker in shadow), the shift drawn per marker from N(0, sigma^2) with sigma =
+// corner_repeat_px_grey / contrast: with the term, the layout's NEES stays near 6; without it,
+// the repeated error, which no number of views averages away, makes the layout overconfident.
+// Detections without grey levels get no term (the synthetic default).
+TEST(Survey, RepeatedCornerErrorIsPropagated) {
+  const TestObject m = MakeTestObject(60);
+  const Layout truth = InFrameOf(m.truth, 100);
+  const double contrast = 4;  // grey levels: white 4.5, black 0.5
+  const double sigma = SurveyOptions{}.corner_repeat_px_grey / contrast;
+  std::mt19937_64 rng(23);
+  std::normal_distribution<double> g(0, 1);
+  SurveyOptions with, without;
+  without.corner_repeat_px_grey = 0;
+  const int trials = 30;
+  double nees_with = 0, nees_without = 0;
+  int count = 0;
+  for (int t = 0; t < trials; ++t) {
+    std::vector<SurveyImage> images =
+        SynthesiseImages(m.truth, m.camera, m.cam_from_object, SyntheticOptions{}, 300 + t);
+    {
+      SurveyResult plain;
+      ASSERT_TRUE(RunSurvey(images, m.models, m.camera, with, ReferenceConfig(100), &plain).ok());
+      EXPECT_FALSE(plain.summary.corner_repeat_in_covariance);  // no grey levels: no term
+    }
+    std::map<int, double> shift;
+    for (SurveyImage& image : images)
+      for (Detection& d : image.detections) {
+        if (!shift.count(d.id)) shift[d.id] = sigma * g(rng);
+        const Eigen::Vector2d centre = 0.25 * (d.corners[0] + d.corners[1] + d.corners[2] +
+                                               d.corners[3]);
+        for (Eigen::Vector2d& c : d.corners) c += shift[d.id] * (c - centre).normalized();
+        d.black = 0.5;
+        d.white = 0.5 + contrast;
+      }
+    SurveyResult a, b;
+    ASSERT_TRUE(RunSurvey(images, m.models, m.camera, with, ReferenceConfig(100), &a).ok());
+    ASSERT_TRUE(RunSurvey(images, m.models, m.camera, without, ReferenceConfig(100), &b).ok());
+    EXPECT_TRUE(a.summary.corner_repeat_in_covariance);
+    EXPECT_FALSE(b.summary.corner_repeat_in_covariance);
+    for (const SurveyResult* r : {&a, &b})
+      for (const LayoutEntry& e : r->layout.markers) {
+        if (!e.covariance || e.covariance->isZero()) continue;
+        const Eigen::Matrix<double, 6, 1> err =
+            PoseError(e.object_from_marker, TruePose(truth, e.marker.id));
+        (r == &a ? nees_with : nees_without) += err.dot(e.covariance->ldlt().solve(err));
+        count += r == &a;
+      }
+  }
+  // 30 surveys, 8 markers each (their shifts independent, their errors correlated through the
+  // shared cameras): a loose band around 6.
+  EXPECT_GT(nees_with / count, 4.0) << nees_with / count;
+  EXPECT_LT(nees_with / count, 8.5) << nees_with / count;
+  EXPECT_GT(nees_without / count, 12.0) << nees_without / count;
+  std::printf("NEES with the repeated corner error %.2f, without %.2f\n", nees_with / count,
+              nees_without / count);
 }
 
 TEST(ViewGraph, RobustAverageIgnoresABadSample) {
