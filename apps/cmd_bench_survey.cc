@@ -452,15 +452,17 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
     md << "Mean NEES of the " << ba_nees.size() << " surveyed markers on these rendered images: **"
        << F(Mean(ba_nees), 1) << "** (chi-square(6): 6, give or take "
        << F(2 * std::sqrt(12.0 / ba_nees.size()), 1) << " for " << ba_nees.size()
-       << " markers at 2 sigmas; " << F(Mean(nees_without_repeat), 1)
+       << " markers at 2 sigmas; "
+       << (nees_without_repeat.empty() ? std::string("-") : F(Mean(nees_without_repeat), 1))
        << " without the repeated corner error term). The covariance holds the random part of "
           "the corner and tip noise, scaled by the variance factor, and each marker's repeated "
-          "corner error, set by its grey levels (SurveyOptions::corner_repeat_px_grey "
+          "corner error, one outward shift common to its views that moves a detection's corners "
+          "by SurveyOptions::corner_repeat_px_grey ("
        << F(sopt.corner_repeat_px_grey, 2)
-       << " px / contrast): a corner's mean outward error that stands several standard errors "
-          "from zero (column above) is such an error, which no number of views averages away. "
-          "The Monte-Carlo below, with independent noise and no grey levels, checks the rest of "
-          "the covariance.\n\n";
+       << " px, fitted on this dataset) over its contrast in grey levels: a corner's mean "
+          "outward error that stands several standard errors from zero (column above) is such "
+          "an error, which no number of views averages away. The Monte-Carlo below, with "
+          "independent noise and no grey levels, checks the rest of the covariance.\n\n";
   md << "![](survey_errors.png)\n\n";
   md << "**Monte-Carlo** (" << n_ok << " surveys, " << mc_failed << " failed): observations "
      << "synthesised from the truth (true camera poses and layout, the dataset's camera) for "

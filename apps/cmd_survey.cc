@@ -178,7 +178,7 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
       (result.summary.calibration_in_covariance ? ", plus the camera calibration's uncertainty"
                                                 : "") +
       (result.summary.corner_repeat_in_covariance
-           ? ", plus each marker's repeated corner error (from its grey levels)"
+           ? ", plus the repeated corner error of the markers seen with grey levels"
            : "");
   if (Status w = WriteTextFile(o.out, LayoutToJson(result.layout)); !w) {
     std::cerr << "svms survey: " << w.message() << "\n";

@@ -44,9 +44,12 @@ struct PointObs {
   Eigen::Vector2d px;
   double sigma = 1;
   Eigen::Vector2d tip_xy = Eigen::Vector2d::Zero();  // concave well offset, see MarkerPointCost
-  // A corner's outward direction in the image (unit: from the detection's centre through it),
-  // for SurveyOptions::corner_repeat_px_grey; zero for a tip.
+  // SurveyOptions::corner_repeat_px_grey: the corner's outward direction in the image (unit:
+  // from the detection's centre through it) and the sigma of the marker's repeated shift in
+  // this view, corner_repeat_px_grey / this detection's contrast (pixels); 0 for a tip or a
+  // detection without grey levels.
   Eigen::Vector2d outward = Eigen::Vector2d::Zero();
+  double repeat_px = 0;
   bool rejected = false;
   double residual = 0;  // |r| / sigma after the last solve
 };
@@ -149,8 +152,8 @@ class Solver {
     // camera's intrinsics covariance factor; S L L^T S^T is the calibration's share.
     Eigen::MatrixXd calibration;
     // With the repeated corner error (SurveyOptions::corner_repeat_px_grey): S diag(sigma),
-    // S = d params / d shift, one column per marker of repeat_sigma_; (S sigma)(S sigma)^T
-    // is that error's share.
+    // S = d params / d shift, one column per marker with a repeat_px (its shift of unit
+    // variance, scaled in each view by that view's repeat_px); S S^T is that error's share.
     Eigen::MatrixXd repeat;
   };
   std::string RankDeficiency(ReducedSystem* reduced);
@@ -180,9 +183,6 @@ class Solver {
   // The intrinsics are a constant parameter block of the problem, there for the Jacobian of the
   // calibration's share of the covariance (SurveyOptions::use_calibration_covariance).
   bool calibration_term_ = false;
-  // Per marker ID: the standard deviation of its repeated outward corner shift (pixels), for
-  // the markers with grey levels when SurveyOptions::corner_repeat_px_grey > 0.
-  std::map<int, double> repeat_sigma_;
   int root_ = -1;
 
   std::unique_ptr<IntrinsicsSync> sync_;
@@ -323,13 +323,15 @@ Status Solver::CollectObservations() {
 
   // Points.
   int detection = 0;
-  std::map<int, std::vector<double>> contrast;  // per marker ID, grey levels
   for (int i = 0; i < n; ++i) {
     std::set<int> tip_seen;  // post owners whose tip this image already gave
     for (const Detection& d : images_[i].detections) {
       if (!surveyed_.count(d.id) || !d.cam_from_marker) continue;
       const MarkerInfo& info = markers_.at(d.id);
-      if (d.white > d.black) contrast[d.id].push_back(d.white - d.black);
+      // In the image's own grey levels: its integer steps are what the shift comes from.
+      const double repeat_px = options_.corner_repeat_px_grey > 0 && d.white > d.black
+                                   ? options_.corner_repeat_px_grey / (d.white - d.black)
+                                   : 0.0;
       const Eigen::Vector2d centre =
           0.25 * (d.corners[0] + d.corners[1] + d.corners[2] + d.corners[3]);
       for (int k = 0; k < 4; ++k) {
@@ -340,6 +342,7 @@ Status Solver::CollectObservations() {
         p.point = k;
         p.px = d.corners[k];
         if ((p.px - centre).norm() > 0) p.outward = (p.px - centre).normalized();
+        p.repeat_px = repeat_px;
         p.sigma = options_.corner_sigma_from_fit && d.corner_sigma[k] > 0
                       ? std::max(options_.min_corner_sigma_px,
                                  options_.corner_fit_scale * d.corner_sigma[k])
@@ -363,11 +366,6 @@ Status Solver::CollectObservations() {
     }
   }
   S_.detections_used = detection;
-  if (options_.corner_repeat_px_grey > 0)
-    for (auto& [id, c] : contrast) {
-      std::nth_element(c.begin(), c.begin() + c.size() / 2, c.end());
-      repeat_sigma_[id] = options_.corner_repeat_px_grey / c[c.size() / 2];
-    }
   for (int id : surveyed_)
     if (markers_.at(id).post_owner == id) post_height_[id] = post_drawn_.at(id);
   return Status::Ok();
@@ -763,8 +761,10 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
     problem_->SetParameterBlockVariable(intrinsics_.data());
   }
   // The repeated corner error's columns (SurveyOptions::corner_repeat_px_grey), after the
-  // intrinsics': one per marker of repeat_sigma_ with a corner in the problem. A corner's
-  // residual is (projection - observed) / sigma, so d residual / d shift = -outward / sigma.
+  // intrinsics': one per marker with a corner in the problem that has a repeat_px: the
+  // marker's shift, of unit variance, moves each of its corners by repeat_px along outward. A
+  // corner's residual is (projection - observed) / sigma, so d residual / d shift =
+  // -outward repeat_px / sigma.
   // The points' residuals come first, in points_ order, so that each row's point is known.
   std::map<int, int> repeat_col;            // marker ID -> its column after the intrinsics'
   std::vector<std::pair<int, int>> row_of;  // row -> (index in points_, axis); points only
@@ -780,7 +780,7 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
       const int m = problem_->GetCostFunctionForResidualBlock(id)->num_residuals();
       for (int a = 0; a < m; ++a) row_of.emplace_back(static_cast<int>(k), a);
       const PointObs& p = points_[k];
-      if (p.point < 4 && repeat_sigma_.count(p.marker_id) && !repeat_col.count(p.marker_id)) {
+      if (p.point < 4 && p.repeat_px > 0 && !repeat_col.count(p.marker_id)) {
         const int next = static_cast<int>(repeat_col.size());
         repeat_col[p.marker_id] = next;
       }
@@ -829,8 +829,9 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
     if (nb > 0 && r < static_cast<int>(row_of.size())) {
       const PointObs& p = points_[row_of[r].first];
       const auto it = repeat_col.find(p.marker_id);
-      if (p.point < 4 && it != repeat_col.end())
-        intrinsics_entries.emplace_back(nt + it->second, -p.outward(row_of[r].second) / p.sigma);
+      if (p.point < 4 && p.repeat_px > 0 && it != repeat_col.end())
+        intrinsics_entries.emplace_back(nt + it->second,
+                                        -p.outward(row_of[r].second) * p.repeat_px / p.sigma);
     }
     for (const auto& [a, va] : rest_entries) {
       for (const auto& [b, vb] : rest_entries) S(a, b) += va * vb;
@@ -921,12 +922,8 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
     if (calibration)
       reduced->calibration =
           reduced->covariance * Hrt.leftCols(nt) * work_camera_.intrinsics_covariance_factor();
-    // d params / d shifts likewise, each column scaled by its shift's sigma.
-    if (nb > 0) {
-      Eigen::VectorXd sigma(nb);
-      for (const auto& [id, col] : repeat_col) sigma(col) = repeat_sigma_.at(id);
-      reduced->repeat = reduced->covariance * Hrt.rightCols(nb) * sigma.asDiagonal();
-    }
+    // d params / d shifts likewise (the shifts have unit variance).
+    if (nb > 0) reduced->repeat = reduced->covariance * Hrt.rightCols(nb);
     return "";
   }
   std::string s = "not determined: ";

@@ -141,7 +141,7 @@ std::string SurveySummary::BriefReport() const {
     << (covariance_ok && calibration_in_covariance ? ", plus the camera calibration's uncertainty"
                                                    : "")
     << (covariance_ok && corner_repeat_in_covariance
-            ? ", plus each marker's repeated corner error (its grey levels)"
+            ? ", plus the repeated corner error of the markers seen with grey levels"
             : "")
     << "\n";
   s << "time: init " << seconds_init << " s, solve " << seconds_first << " + " << seconds_second

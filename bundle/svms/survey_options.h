@@ -83,15 +83,18 @@ struct SurveyOptions {
   bool use_calibration_covariance = true;
   // A corner error that repeats in every view of a marker, which no number of views averages
   // away: where a marker's contrast is a few grey levels (in shadow) and the noise is too small
-  // to dither the image's integer steps, the edge locator's error is set by the grey levels,
-  // not by the view (measured: 0.043 px inward with 7 grey levels, against 0.002 px on lit
-  // markers; docs/benchmarks.md, survey). Modelled as one outward shift of all four corners of
-  // a marker in all its views, of standard deviation corner_repeat_px_grey / contrast pixels
-  // (a step of one grey level across an edge about a pixel wide, uniformly placed: 1 / sqrt(12)
-  // px per grey level of contrast), contrast the median of Detection::white - black over the
-  // marker's detections. Its effect on the layout, S sigma^2 S^T with S = d layout / d shift
-  // (camera poses eliminated), is added to the covariances, unscaled, as the calibration's is.
-  // 0: left out; detections without grey levels (white <= black) give no term.
+  // to dither the image's integer steps, the edge locator's error is set by the grey levels
+  // rather than by the view. Modelled as one outward shift per marker, of unit variance and
+  // common to all its views, that moves each corner of a detection by corner_repeat_px_grey /
+  // contrast pixels, contrast = that detection's Detection::white - black in the image's own
+  // grey levels (a 16-bit image's steps are 256 times finer, and so is the term). Its effect on
+  // the layout, S S^T with S = d layout / d shifts (camera poses eliminated), is added to the
+  // covariances, unscaled, as the calibration's is. 0: left out; detections without grey
+  // levels (white <= black) add nothing. The value is fitted: on the seed-1 rendered mockup
+  // the corners of markers in shadow (about 7 grey levels) come out 0.043 px inward on average
+  // (lit ones 0.002 px), and 0.043 x 7 = 0.29 (docs/benchmarks.md, survey).
+  // Not modelled: that the shifts of different markers share a sign (all seven shadowed
+  // markers there came out inward).
   double corner_repeat_px_grey = 0.29;
 
   // Progress of the solver on stderr.

@@ -195,8 +195,8 @@ Status WriteSurveyReport(const SurveyResult& r, const std::string& dir) {
                                             : ", without the camera calibration's uncertainty")
              : "")
      << (S.covariance_ok && S.corner_repeat_in_covariance
-             ? ", and each marker's repeated corner error (SurveyOptions::corner_repeat_px_grey "
-               "over its contrast in grey levels)"
+             ? ", and the repeated corner error of the markers seen with grey levels "
+               "(SurveyOptions::corner_repeat_px_grey over each detection's contrast)"
              : "")
      << ". Points rejected as outliers: " << S.rejected.size() << ".\n\n";
   md << "| marker | x (m) | y (m) | z (m) | position sigma (mm) | orientation sigma (deg) | post "

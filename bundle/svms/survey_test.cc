@@ -356,6 +356,63 @@ TEST(Survey, CalibrationUncertaintyIsPropagated) {
   EXPECT_GT(nees_without / count, 12.0);  // the calibration's error dominates here
 }
 
+// The term's Jacobian against finite differences: only marker 103's detections have grey
+// levels, so the covariance the term adds to every marker j is s_j s_j^T, s_j = d pose_j / d
+// (the shift's unit); moving 103's corners outward by delta times their repeat_px in every view
+// and surveying again moves marker j by delta s_j. A wrong scale, sign of one axis or an axis
+// mix-up in the term shows here.
+TEST(Survey, RepeatedCornerErrorMatchesFiniteDifferences) {
+  const TestObject m = MakeTestObject(40);
+  const int shifted = 103;
+  const double contrast = 4, delta = 0.5;
+  const double repeat_px = SurveyOptions{}.corner_repeat_px_grey / contrast;
+  std::vector<SurveyImage> images =
+      SynthesiseImages(m.truth, m.camera, m.cam_from_object, SyntheticOptions{}, 41);
+  std::vector<SurveyImage> moved = images;
+  for (size_t i = 0; i < images.size(); ++i)
+    for (size_t k = 0; k < images[i].detections.size(); ++k) {
+      Detection& d = images[i].detections[k];
+      if (d.id != shifted) continue;
+      d.black = 1;
+      d.white = 1 + contrast;
+      const Eigen::Vector2d centre =
+          0.25 * (d.corners[0] + d.corners[1] + d.corners[2] + d.corners[3]);
+      for (int c = 0; c < 4; ++c)
+        moved[i].detections[k].corners[c] +=
+            delta * repeat_px * (d.corners[c] - centre).normalized();
+    }
+  SurveyOptions without;
+  without.corner_repeat_px_grey = 0;
+  without.reject_outliers = false;  // the same points in both solves
+  SurveyOptions with = without;
+  with.corner_repeat_px_grey = SurveyOptions{}.corner_repeat_px_grey;
+  SurveyResult a, b, c;
+  ASSERT_TRUE(RunSurvey(images, m.models, m.camera, with, ReferenceConfig(100), &a).ok());
+  ASSERT_TRUE(RunSurvey(images, m.models, m.camera, without, ReferenceConfig(100), &b).ok());
+  ASSERT_TRUE(RunSurvey(moved, m.models, m.camera, without, ReferenceConfig(100), &c).ok());
+  ASSERT_TRUE(a.summary.corner_repeat_in_covariance);
+  int compared = 0;
+  for (const LayoutEntry& e : a.layout.markers) {
+    if (!e.covariance || e.covariance->isZero()) continue;  // the reference
+    const LayoutEntry* plain = b.layout.Find(e.marker.id);
+    const LayoutEntry* shifted_pose = c.layout.Find(e.marker.id);
+    ASSERT_TRUE(plain && shifted_pose && plain->covariance);
+    // The term changes covariances only, not the solution.
+    EXPECT_LT(PoseError(e.object_from_marker, plain->object_from_marker).norm(), 1e-9);
+    const PoseCovariance added = *e.covariance - *plain->covariance;
+    const Eigen::Matrix<double, 6, 1> s =
+        PoseError(shifted_pose->object_from_marker, plain->object_from_marker) / delta;
+    const PoseCovariance expected = s * s.transpose();
+    if (expected.norm() < 1e-3 * plain->covariance->norm()) continue;  // too small to compare
+    EXPECT_LT((added - expected).norm(), 0.03 * expected.norm())
+        << "marker " << e.marker.id << "\nadded\n"
+        << added << "\nexpected\n"
+        << expected;
+    ++compared;
+  }
+  EXPECT_GE(compared, 3);
+}
+
 TEST(Survey, CovarianceAlgorithmsAgree) {
   // The Schur complement (cameras eliminated, the reduced system inverted) gives the same
   // marker and post covariances as ceres::Covariance on the whole Jacobian, SPARSE_QR and
@@ -459,8 +516,8 @@ TEST(Survey, RepeatedCornerErrorIsPropagated) {
     for (SurveyImage& image : images)
       for (Detection& d : image.detections) {
         if (!shift.count(d.id)) shift[d.id] = sigma * g(rng);
-        const Eigen::Vector2d centre = 0.25 * (d.corners[0] + d.corners[1] + d.corners[2] +
-                                               d.corners[3]);
+        const Eigen::Vector2d centre =
+            0.25 * (d.corners[0] + d.corners[1] + d.corners[2] + d.corners[3]);
         for (Eigen::Vector2d& c : d.corners) c += shift[d.id] * (c - centre).normalized();
         d.black = 0.5;
         d.white = 0.5 + contrast;
