@@ -53,6 +53,20 @@ Eigen::Matrix<double, 6, 1> PoseError(const Pose& estimate, const Pose& truth) {
   return e;
 }
 
+// The sum of the NEES of every surveyed marker but the reference (zero covariance) against
+// `truth` (in the reference's frame); *count (if given) grows by the number of markers summed.
+double SumNees(const SurveyResult& r, const Layout& truth, int* count) {
+  double sum = 0;
+  for (const LayoutEntry& e : r.layout.markers) {
+    if (!e.covariance || e.covariance->isZero()) continue;
+    const Eigen::Matrix<double, 6, 1> err =
+        PoseError(e.object_from_marker, TruePose(truth, e.marker.id));
+    sum += err.dot(e.covariance->ldlt().solve(err));
+    if (count) ++*count;
+  }
+  return sum;
+}
+
 // Expects every surveyed marker within its covariance: NEES below the chi-square(6) 99.9 %
 // quantile; returns the largest NEES.
 double ExpectWithinSigmas(const SurveyResult& r, const Layout& truth_in_object_frame) {
@@ -340,14 +354,8 @@ TEST(Survey, CalibrationUncertaintyIsPropagated) {
     ASSERT_TRUE(RunSurvey(images, m.models, calibrated, without, ReferenceConfig(100), &b).ok());
     EXPECT_TRUE(a.summary.calibration_in_covariance);
     EXPECT_FALSE(b.summary.calibration_in_covariance);
-    for (const SurveyResult* r : {&a, &b})
-      for (const LayoutEntry& e : r->layout.markers) {
-        if (!e.covariance || e.covariance->isZero()) continue;
-        const Eigen::Matrix<double, 6, 1> err =
-            PoseError(e.object_from_marker, TruePose(truth, e.marker.id));
-        (r == &a ? nees_with : nees_without) += err.dot(e.covariance->ldlt().solve(err));
-        count += r == &a;
-      }
+    nees_with += SumNees(a, truth, &count);
+    nees_without += SumNees(b, truth, nullptr);
   }
   // 30 draws of the intrinsics, 8 markers each (correlated within a draw): a loose band.
   // (Below 6 rather than above: the wrong intrinsics also raise the variance factor.)
@@ -527,14 +535,8 @@ TEST(Survey, RepeatedCornerErrorIsPropagated) {
     ASSERT_TRUE(RunSurvey(images, m.models, m.camera, without, ReferenceConfig(100), &b).ok());
     EXPECT_TRUE(a.summary.corner_repeat_in_covariance);
     EXPECT_FALSE(b.summary.corner_repeat_in_covariance);
-    for (const SurveyResult* r : {&a, &b})
-      for (const LayoutEntry& e : r->layout.markers) {
-        if (!e.covariance || e.covariance->isZero()) continue;
-        const Eigen::Matrix<double, 6, 1> err =
-            PoseError(e.object_from_marker, TruePose(truth, e.marker.id));
-        (r == &a ? nees_with : nees_without) += err.dot(e.covariance->ldlt().solve(err));
-        count += r == &a;
-      }
+    nees_with += SumNees(a, truth, &count);
+    nees_without += SumNees(b, truth, nullptr);
   }
   // 30 surveys, 8 markers each (their shifts independent, their errors correlated through the
   // shared cameras): a loose band around 6.
