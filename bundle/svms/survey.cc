@@ -151,9 +151,9 @@ class Solver {
     // With the calibration term: S L, S = d params / d intrinsics (the rows of `params`), L the
     // camera's intrinsics covariance factor; S L L^T S^T is the calibration's share.
     Eigen::MatrixXd calibration;
-    // With the repeated corner error (SurveyOptions::corner_repeat_px_grey): S diag(sigma),
-    // S = d params / d shift, one column per marker with a repeat_px (its shift of unit
-    // variance, scaled in each view by that view's repeat_px); S S^T is that error's share.
+    // With the repeated corner error (SurveyOptions::corner_repeat_px_grey): S = d params /
+    // d shifts, one column per marker with a repeat_px (its shift, of unit variance, moves its
+    // corners in each view by that view's repeat_px); S S^T is that error's share.
     Eigen::MatrixXd repeat;
   };
   std::string RankDeficiency(ReducedSystem* reduced);
@@ -809,11 +809,11 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
   const int nx = nt + nb;
   Eigen::MatrixXd Hrt = Eigen::MatrixXd::Zero(nr, nx);
   std::vector<Eigen::MatrixXd> Hct(nx > 0 ? cams.size() : 0, Eigen::MatrixXd::Zero(6, nx));
-  std::vector<std::pair<int, double>> cam_entries, rest_entries, intrinsics_entries;
+  std::vector<std::pair<int, double>> cam_entries, rest_entries, extra_entries;
   for (int r = 0; r < crs.num_rows; ++r) {
     cam_entries.clear();
     rest_entries.clear();
-    intrinsics_entries.clear();
+    extra_entries.clear();
     int cam = -1;
     for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
       const int col = crs.cols[k];
@@ -823,24 +823,24 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
       } else if (col < nc + nr) {
         rest_entries.emplace_back(col - nc, crs.values[k]);
       } else {
-        intrinsics_entries.emplace_back(col - nc - nr, crs.values[k]);
+        extra_entries.emplace_back(col - nc - nr, crs.values[k]);
       }
     }
     if (nb > 0 && r < static_cast<int>(row_of.size())) {
       const PointObs& p = points_[row_of[r].first];
       const auto it = repeat_col.find(p.marker_id);
       if (p.point < 4 && p.repeat_px > 0 && it != repeat_col.end())
-        intrinsics_entries.emplace_back(nt + it->second,
-                                        -p.outward(row_of[r].second) * p.repeat_px / p.sigma);
+        extra_entries.emplace_back(nt + it->second,
+                                   -p.outward(row_of[r].second) * p.repeat_px / p.sigma);
     }
     for (const auto& [a, va] : rest_entries) {
       for (const auto& [b, vb] : rest_entries) S(a, b) += va * vb;
-      for (const auto& [t, vt] : intrinsics_entries) Hrt(a, t) += va * vt;
+      for (const auto& [t, vt] : extra_entries) Hrt(a, t) += va * vt;
     }
     if (cam < 0) continue;
     for (const auto& [a, va] : cam_entries) {
       for (const auto& [b, vb] : cam_entries) Hcc[cam](a, b) += va * vb;
-      for (const auto& [t, vt] : intrinsics_entries) Hct[cam](a, t) += va * vt;
+      for (const auto& [t, vt] : extra_entries) Hct[cam](a, t) += va * vt;
     }
     for (const auto& [a, va] : rest_entries) {
       Row6& h = Hrc[cam].try_emplace(a, Row6::Zero()).first->second;
