@@ -516,13 +516,19 @@ Pose RefinePoseTruth() {
   return truth;
 }
 
-TEST(RefinePose, JacobianMatchesFiniteDifferencesAndRecoversThePose) {
-  const CameraModel cam = Distorted();
-  const Pose truth = RefinePoseTruth();
+// The four corners and the post tip of a 0.1 m marker with a 30 mm post (marker frame, m).
+std::vector<Eigen::Vector3d> RefinePoseMarkerPoints() {
   const MarkerModel m = MarkerModel::Standard(1, 0.1, 0.03);
   const auto corners = m.Corners();
   std::vector<Eigen::Vector3d> X(corners.begin(), corners.end());
   X.push_back(*m.PostTip());
+  return X;
+}
+
+TEST(RefinePose, JacobianMatchesFiniteDifferencesAndRecoversThePose) {
+  const CameraModel cam = Distorted();
+  const Pose truth = RefinePoseTruth();
+  const std::vector<Eigen::Vector3d> X = RefinePoseMarkerPoints();
   std::vector<Eigen::Vector2d> px;
   for (const auto& x : X) {
     Eigen::Vector2d q;
@@ -555,10 +561,7 @@ TEST(RefinePose, JacobianMatchesFiniteDifferencesAndRecoversThePose) {
 TEST(RefinePose, CalibrationCovarianceMatchesMonteCarlo) {
   const CameraModel truth_camera = Distorted();
   const Pose truth = RefinePoseTruth();
-  const MarkerModel m = MarkerModel::Standard(1, 0.1, 0.03);
-  const auto corners = m.Corners();
-  std::vector<Eigen::Vector3d> X(corners.begin(), corners.end());
-  X.push_back(*m.PostTip());
+  const std::vector<Eigen::Vector3d> X = RefinePoseMarkerPoints();
   const std::vector<double> sigma(5, 0.1);
   const int n = static_cast<int>(truth_camera.intrinsics().size());
   Eigen::VectorXd s = Eigen::VectorXd::Constant(n, 1e-3);
