@@ -15,11 +15,22 @@ namespace {
 std::string TempPath(const char* what) {
   return "/tmp/svms_fuzz_camera_" + std::to_string(::getpid()) + what;
 }
+
+// Removes the two files when an input is done, whichever way it returns (an abort leaves them).
+struct RemoveOnReturn {
+  const std::string& a;
+  const std::string& b;
+  ~RemoveOnReturn() {
+    std::remove(a.c_str());
+    std::remove(b.c_str());
+  }
+};
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const std::string in_path = TempPath(".in.cameramodel");
   static const std::string out_path = TempPath(".out.cameramodel");
+  const RemoveOnReturn cleanup{in_path, out_path};
   {
     std::ofstream f(in_path, std::ios::binary | std::ios::trunc);
     f.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));

@@ -5,12 +5,12 @@
 #include <Eigen/Eigenvalues>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 #include <random>
 
 #include "svms/board.h"
 #include "svms/datasets.h"
 #include "svms/random_draws.h"
+#include "svms_testing/scratch_dir.h"
 
 namespace svms::calib {
 namespace {
@@ -260,9 +260,8 @@ TEST(Calibrate, WritesAModelMrcalsPythonReads) {
   CalibrationResult r;
   ASSERT_TRUE(
       Calibrate(Synthesise(s, DistortedCamera(), 0.1, 7), Options("LENSMODEL_OPENCV8"), &r).ok());
-  const std::string path = (std::filesystem::temp_directory_path() /
-                            ("svms_calib_test_" + std::to_string(getpid()) + ".cameramodel"))
-                               .string();
+  const svms_testing::ScratchDir dir("svms_calib_test");
+  const std::string path = dir.File("camera.cameramodel");
   ASSERT_TRUE(r.camera.Write(path).ok());
   const std::string cmd = std::string(SVMS_PYTHON) +
                           " -c 'import mrcal,sys; m = mrcal.cameramodel(sys.argv[1]); "
@@ -276,8 +275,6 @@ TEST(Calibrate, WritesAModelMrcalsPythonReads) {
   ASSERT_EQ(std::fscanf(f, "%lf", &fx), 1);
   std::fclose(f);
   EXPECT_DOUBLE_EQ(fx, r.camera.intrinsics()[0]);
-  std::filesystem::remove(path);
-  std::filesystem::remove(path + ".out");
 }
 
 TEST(Calibrate, TooFewViews) {

@@ -9,17 +9,17 @@
 #include "svms/bit_sampler.h"
 #include "svms/model_io.h"
 #include "svms/svms44.h"
+#include "svms_testing/scratch_dir.h"
 
 namespace svms {
 namespace {
 
 namespace fs = std::filesystem;
 
+// `name` in a scratch directory removed when the test program ends.
 std::string TempBase(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("svms_artwork_test_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return (dir / name).string();
+  static const svms_testing::ScratchDir dir("svms_artwork_test");
+  return dir.File(name);
 }
 
 // The artwork of `m` at `dpi`, written as `name`.png and read back in grey (empty on failure).

@@ -1,18 +1,15 @@
 #include "svms/camera_covariance.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
-#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "svms/model_io.h"
+#include "svms_testing/scratch_dir.h"
 
 namespace svms {
 namespace {
-
-namespace fs = std::filesystem;
 
 CameraModel Camera() {
   CameraModel c;
@@ -33,9 +30,7 @@ Eigen::MatrixXd Factor(int n) {
 class Sidecar : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("svms_sidecar_" + std::to_string(::getpid()));
-    fs::create_directories(dir_);
-    path_ = CovarianceSidecarPath((dir_ / "cam.cameramodel").string());
+    path_ = CovarianceSidecarPath(dir_.File("cam.cameramodel"));
     camera_ = Camera();
     ASSERT_TRUE(camera_.set_intrinsics_covariance_factor(Factor(8)).ok());
     ASSERT_TRUE(WriteCovarianceSidecar(path_, camera_, 0.05, 30).ok());
@@ -43,7 +38,6 @@ class Sidecar : public ::testing::Test {
     ASSERT_TRUE(ReadTextFile(path_, &text).ok());
     json_ = nlohmann::json::parse(text);
   }
-  void TearDown() override { fs::remove_all(dir_); }
   // Writes json_ after `edit` and reads it into a fresh camera: the error message ("" if ok).
   template <typename Edit>
   std::string ReadEdited(Edit edit) {
@@ -57,7 +51,7 @@ class Sidecar : public ::testing::Test {
     }
     return s.ok() ? "" : s.message();
   }
-  fs::path dir_;
+  svms_testing::ScratchDir dir_{"svms_sidecar"};
   std::string path_;
   CameraModel camera_;
   nlohmann::json json_;

@@ -12,6 +12,8 @@
 #include <limits>
 #include <sstream>
 
+#include "svms_testing/scratch_dir.h"
+
 namespace svms {
 namespace {
 
@@ -21,23 +23,9 @@ constexpr char kPython[] = "/usr/bin/python3";  // the Debian python that has py
 
 // A per-process scratch directory, removed when the test program ends.
 const fs::path& TempDir() {
-  static const fs::path dir = [] {
-    const fs::path d =
-        fs::temp_directory_path() / ("svms_camera_test_" + std::to_string(::getpid()));
-    fs::create_directories(d);
-    return d;
-  }();
-  return dir;
+  static const svms_testing::ScratchDir dir("svms_camera_test");
+  return dir.path();
 }
-class TempDirCleanup : public ::testing::Environment {
- public:
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(TempDir(), ec);
-  }
-};
-[[maybe_unused]] ::testing::Environment* const kCleanup =
-    ::testing::AddGlobalTestEnvironment(new TempDirCleanup);
 
 std::string TempPath(const std::string& name) { return (TempDir() / name).string(); }
 

@@ -9,6 +9,7 @@
 
 #include "svms/render.h"
 #include "svms/truth.h"
+#include "svms_testing/scratch_dir.h"
 
 namespace svms {
 namespace {
@@ -97,12 +98,17 @@ TEST(Detector, FindsEveryMarkerWithAccurateCornersAndPose) {
   const Rendered r =
       Render(Base(Distorted(), {{a, pa}, {b, pb}}, Look({0.1, -0.25, 0.75}, {0, 0, 0})));
   DetectorOptions dopt;
-  dopt.debug_dir = "/tmp/svms_detector_debug";
-  cv::imwrite("/tmp/svms_detector_debug_input.png", r.image);
+  const svms_testing::ScratchDir debug("svms_detector_debug");
+  dopt.debug_dir = debug.File("steps");
   const Detector det(dopt, r.scene.camera, {a, b});
   DetectionStats stats;
   const std::vector<Detection> found = det.Detect(r.image, &stats);
   ASSERT_EQ(found.size(), 2u) << "segments " << stats.segments << " quads " << stats.quads;
+  // The debug pictures of the steps are written and read back as images of the frame's size.
+  for (const char* step : {"1_segments.png", "2_quads.png"}) {
+    const cv::Mat picture = cv::imread(dopt.debug_dir + "/" + step);
+    EXPECT_EQ(picture.size(), r.image.size()) << step;
+  }
   for (const Detection& d : found) {
     const MarkerTruth* t = nullptr;
     for (const auto& mt : r.truth.markers)

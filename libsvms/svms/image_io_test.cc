@@ -7,18 +7,17 @@
 #include <opencv2/imgcodecs.hpp>
 #include <random>
 
+#include "svms_testing/scratch_dir.h"
+
 namespace svms {
 namespace {
 
 namespace fs = std::filesystem;
 
-fs::path Dir() {
-  static const fs::path d = [] {
-    fs::path p = fs::temp_directory_path() / ("svms_image_io_test_" + std::to_string(::getpid()));
-    fs::create_directories(p);
-    return p;
-  }();
-  return d;
+// A scratch directory removed when the test program ends.
+const fs::path& Dir() {
+  static const svms_testing::ScratchDir dir("svms_image_io_test");
+  return dir.path();
 }
 
 std::string Write(const std::string& name, const std::vector<unsigned char>& bytes) {
