@@ -15,11 +15,24 @@ double HalfChordIntegral(double r, double x) {
   return 0.5 * (xc * std::sqrt(std::max(0.0, r * r - xc * xc)) + r * r * std::asin(c));
 }
 
-// Area of the disc of radius r (centred at 0) left of abscissa x.
+// Area of the disc of radius r (centred at 0) left of abscissa x, from a table of the unit
+// disc's (linear interpolation between 4097 abscissae: off by less than 1e-5 r^2). FitDisc's
+// profile takes it a few thousand times per fit; with the closed form's asin and sqrt a top of
+// 3 px cost 0.1 ms to fit.
 double AreaLeftOf(double r, double x) {
   if (x <= -r) return 0;
   if (x >= r) return M_PI * r * r;
-  return 2 * (HalfChordIntegral(r, x) - HalfChordIntegral(r, -r));
+  constexpr int kIntervals = 4096;
+  static const std::array<double, kIntervals + 1> table = [] {
+    std::array<double, kIntervals + 1> t;
+    for (int i = 0; i <= kIntervals; ++i)
+      t[i] = 2 * (HalfChordIntegral(1, -1 + 2.0 * i / kIntervals) - HalfChordIntegral(1, -1));
+    return t;
+  }();
+  const double u = (x / r + 1) * (0.5 * kIntervals);
+  const int i = std::min(kIntervals - 1, static_cast<int>(u));
+  const double f = u - i;
+  return r * r * ((1 - f) * table[i] + f * table[i + 1]);
 }
 
 }  // namespace
@@ -56,14 +69,17 @@ double DiscRectangleArea(double r, double x0, double x1, double y0, double y1) {
 }
 
 std::optional<DiscFit> FitDisc(const double* values, int size, int origin_x, int origin_y,
-                               double radius) {
-  if (size < 3 || size > 16 || radius <= 0) return std::nullopt;
+                               double radius, double search_px) {
+  if (size < 3 || size > 16 || radius <= 0 || !(search_px >= 0)) return std::nullopt;
   const int n = size * size;
   // Each axis alone, from the window's column (row) sums, which depend on the disc's abscissa
   // (ordinate) only: the profile of their least-squares cost (amplitude and background solved
-  // at each place) on a fine grid.
+  // at each place) on a fine grid, places first + j kStep from the window's first pixel.
   constexpr double kStep = 0.01;
-  const int places = static_cast<int>(std::lround((size - 1) / kStep)) + 1;
+  const double half = 0.5 * (size - 1);
+  const double reach = search_px > 0 ? std::min(search_px, half) : half;
+  const double first = half - reach;
+  const int places = static_cast<int>(std::lround(2 * reach / kStep)) + 1;
   if (places > 1601) return std::nullopt;
   std::array<std::array<double, 1601>, 2> profile;
   std::array<double, 2> best_place{}, least{1e300, 1e300};
@@ -77,7 +93,7 @@ std::optional<DiscFit> FitDisc(const double* values, int size, int origin_x, int
     }
     const double origin = axis == 0 ? origin_x : origin_y;
     for (int j = 0; j < places; ++j) {
-      const double c = origin + j * kStep;
+      const double c = origin + first + j * kStep;
       double saa = 0, sa = 0, sav = 0;
       double left = AreaLeftOf(radius, origin - 0.5 - c);
       for (int k = 0; k < size; ++k) {
@@ -139,7 +155,7 @@ std::optional<DiscFit> FitDisc(const double* values, int size, int origin_x, int
     double w = 0, m1 = 0, m2 = 0;
     for (int j = 0; j < places; ++j) {
       const double wj = std::exp(-(profile[axis][j] - least[axis]) / (2 * sum_var));
-      const double c = j * kStep;
+      const double c = first + j * kStep;
       w += wj;
       m1 += wj * c;
       m2 += wj * c * c;

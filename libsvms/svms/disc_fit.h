@@ -35,9 +35,12 @@ struct DiscFit {
 // [x - 1/2, x + 1/2] x [y - 1/2, y + 1/2]. Each coordinate is the mean of its likelihood
 // (from the column or row sums, with amplitude and background solved at each place),
 // so a disc wholly inside one pixel comes out at the middle of where it may be, with that
-// spread as its sigma. nullopt if no disc of positive amplitude fits, or for a window of
-// fewer than 3 or more than 16 pixels across.
+// spread as its sigma. The centre is looked for within `search_px` of the window's middle,
+// each axis (0: anywhere in the window); for a disc of a pixel or more in radius, whose place
+// the values pin down to hundredths of a pixel, a search of a pixel about a first guess costs
+// a fraction of a whole window's. nullopt if no disc of positive amplitude fits, or for a
+// window of fewer than 3 or more than 16 pixels across.
 std::optional<DiscFit> FitDisc(const double* values, int size, int origin_x, int origin_y,
-                               double radius);
+                               double radius, double search_px = 0);
 
 }  // namespace svms

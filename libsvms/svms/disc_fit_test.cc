@@ -137,6 +137,31 @@ TEST(FitDisc, SigmaMatchesTheScatterAndTheCentroidLocksToThePixel) {
   }
 }
 
+// A disc of a few pixels, searched for within a pixel of the window's middle: the same place
+// and sigma as a search of the whole window, at hundredths of a pixel from the truth.
+TEST(FitDisc, ASearchNearTheMiddleFindsWhatTheWholeWindowsDoes) {
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> off(-0.5, 0.5);
+  std::normal_distribution<double> g(0, 0.5);
+  for (double r : {1.2, 2.5, 4.0}) {
+    const int h = static_cast<int>(std::ceil(r + 1.5)), size = 2 * h + 1;
+    for (int k = 0; k < 10; ++k) {
+      const Eigen::Vector2d c(30 + off(rng), 40 + off(rng));
+      std::vector<double> v(size * size);
+      for (int i = 0; i < size * size; ++i) {
+        const double x = 30 - h + i % size - c.x(), y = 40 - h + i / size - c.y();
+        v[i] = 12 + 150 * DiscRectangleArea(r, x - 0.5, x + 0.5, y - 0.5, y + 0.5) + g(rng);
+      }
+      const auto whole = FitDisc(v.data(), size, 30 - h, 40 - h, r);
+      const auto near = FitDisc(v.data(), size, 30 - h, 40 - h, r, 1.0);
+      ASSERT_TRUE(whole && near) << "r " << r;
+      EXPECT_LT((near->centre - whole->centre).norm(), 1e-9) << "r " << r;
+      EXPECT_NEAR(near->sigma_px, whole->sigma_px, 1e-9) << "r " << r;
+      EXPECT_LT((near->centre - c).norm(), 0.03) << "r " << r;
+    }
+  }
+}
+
 TEST(FitDisc, RefusesAFlatWindowAndBadArguments) {
   std::mt19937 rng(1);
   const std::vector<double> flat = Window(0.4, Eigen::Vector2d(2, 2), 0, 0, 0, 20, 1.0, &rng);
@@ -148,6 +173,8 @@ TEST(FitDisc, RefusesAFlatWindowAndBadArguments) {
   const std::vector<double> v = Window(0.4, Eigen::Vector2d(2, 2), 0, 0, 100, 20, 0, &rng);
   EXPECT_FALSE(FitDisc(v.data(), 2, 0, 0, 0.4));
   EXPECT_FALSE(FitDisc(v.data(), 5, 0, 0, 0));
+  EXPECT_FALSE(FitDisc(v.data(), 5, 0, 0, 0.4, -1));
+  EXPECT_FALSE(FitDisc(v.data(), 5, 0, 0, 0.4, std::nan("")));
 }
 
 }  // namespace

@@ -96,14 +96,15 @@ struct MarkerPose {
   bool calibration_in_covariance = false;  // the camera calibration's uncertainty is included
 };
 
-// The white blob nearest `predicted` within `radius` pixels: centroid of the pixels brighter
-// than the midpoint of `black` and `white`, weighted by how much brighter. nullopt if none is
-// clearly there. `tip_radius_px` is the white top's expected radius in the image: below a
-// pixel its light is spread over two to four pixels and no pixel reaches the midpoint, so
-// the brightest must stand out by min_contrast x min(1, pi r^2 / 2) only, it must be ringed
-// by dark pixels (nothing else bright within 2 px), and the top's place is fitted to the
-// pixels around it as a disc of that radius (FitDisc, disc_fit.h: a centroid would lock to
-// the pixel centres), with the fit's own sigma.
+// The white blob nearest `predicted` within `radius` pixels: the connected pixels brighter
+// than the midpoint of `black` and `white`. nullopt if none is clearly there. `tip_radius_px`
+// is the white top's expected radius in the image. Up to 5 px the top's place is fitted to
+// the pixels around it as a disc of that radius (FitDisc, disc_fit.h: a centroid would lock
+// to the pixel centres), with the fit's own sigma; below a pixel its light is spread over two
+// to four pixels and no pixel reaches the midpoint, so the brightest must stand out by
+// min_contrast x min(1, pi r^2 / 2) only and be ringed by dark pixels (nothing else bright
+// within 2 px). Larger tops, and a top with something else bright next to it, give the
+// blob's centroid weighted by brightness.
 std::optional<TipObservation> FindTip(const cv::Mat& image, const Eigen::Vector2d& predicted,
                                       double radius, double black, double white,
                                       double min_contrast, double tip_radius_px = 1e9);
