@@ -70,7 +70,7 @@ double DiscRectangleArea(double r, double x0, double x1, double y0, double y1) {
 
 std::optional<DiscFit> FitDisc(const double* values, int size, int origin_x, int origin_y,
                                double radius, double search_px) {
-  if (size < 3 || size > 16 || radius <= 0 || !(search_px >= 0)) return std::nullopt;
+  if (size < 3 || size > 16 || !(radius > 0) || !(search_px >= 0)) return std::nullopt;
   const int n = size * size;
   // Each axis alone, from the window's column (row) sums, which depend on the disc's abscissa
   // (ordinate) only: the profile of their least-squares cost (amplitude and background solved
@@ -83,6 +83,7 @@ std::optional<DiscFit> FitDisc(const double* values, int size, int origin_x, int
   if (places > 1601) return std::nullopt;
   std::array<std::array<double, 1601>, 2> profile;
   std::array<double, 2> best_place{}, least{1e300, 1e300};
+  std::array<int, 2> best_j{};
   for (int axis = 0; axis < 2; ++axis) {
     std::array<double, 16> sums{};
     for (int i = 0; i < n; ++i) sums[axis == 0 ? i % size : i / size] += values[i];
@@ -114,8 +115,13 @@ std::optional<DiscFit> FitDisc(const double* values, int size, int origin_x, int
       if (e < least[axis]) {
         least[axis] = e;
         best_place[axis] = c;
+        best_j[axis] = j;
       }
     }
+    // A restricted search whose best place is at an end of its range has not found the disc
+    // (it lies farther out, or the values hold none): no answer rather than the range's edge
+    // with a sigma that only describes the range.
+    if (reach < half && (best_j[axis] == 0 || best_j[axis] == places - 1)) return std::nullopt;
   }
   // Amplitude, background and the pixel noise from the whole window at `centre`.
   DiscFit fit;

@@ -38,8 +38,9 @@ struct DiscFit {
 // spread as its sigma. The centre is looked for within `search_px` of the window's middle,
 // each axis (0: anywhere in the window); for a disc of a pixel or more in radius, whose place
 // the values pin down to hundredths of a pixel, a search of a pixel about a first guess costs
-// a fraction of a whole window's. nullopt if no disc of positive amplitude fits, or for a
-// window of fewer than 3 or more than 16 pixels across.
+// a fraction of a whole window's; nullopt if the best place is at the edge of that search.
+// nullopt if no disc of positive amplitude fits, for a window of fewer than 3 or more than 16
+// pixels across, a radius that is not positive, or a search_px that is negative or NaN.
 std::optional<DiscFit> FitDisc(const double* values, int size, int origin_x, int origin_y,
                                double radius, double search_px = 0);
 

@@ -54,13 +54,14 @@ TEST(DiscRectangleArea, PixelsOfAGridSumToTheDisc) {
   EXPECT_NEAR(sum, M_PI * r * r, 1e-12);
 }
 
-// A 5 x 5 window with pixel (ox, oy) top-left, of a disc at `c` on a background, plus noise.
-std::vector<double> Window(double r, const Eigen::Vector2d& c, int ox, int oy, double amplitude,
-                           double background, double noise, std::mt19937* rng) {
+// A `size` x `size` window with pixel (ox, oy) top-left, of a disc at `c` on a background,
+// plus noise.
+std::vector<double> Window(int size, double r, const Eigen::Vector2d& c, int ox, int oy,
+                           double amplitude, double background, double noise, std::mt19937* rng) {
   std::normal_distribution<double> g(0, noise);
-  std::vector<double> v(25);
-  for (int i = 0; i < 25; ++i) {
-    const double x = ox + i % 5 - c.x(), y = oy + i / 5 - c.y();
+  std::vector<double> v(size * size);
+  for (int i = 0; i < size * size; ++i) {
+    const double x = ox + i % size - c.x(), y = oy + i / size - c.y();
     v[i] = background + amplitude * DiscRectangleArea(r, x - 0.5, x + 0.5, y - 0.5, y + 0.5) +
            (noise > 0 ? g(*rng) : 0);
   }
@@ -73,7 +74,7 @@ TEST(FitDisc, FindsTheCentreOfASubPixelDiscOrSaysWhereItMayBe) {
   for (int k = 0; k < 60; ++k) {
     const double r = rr(rng);
     const Eigen::Vector2d c(102 + off(rng), 37 + off(rng));
-    const std::vector<double> v = Window(r, c, 100, 35, 140, 11, 0, &rng);
+    const std::vector<double> v = Window(5, r, c, 100, 35, 140, 11, 0, &rng);
     const auto fit = FitDisc(v.data(), 5, 100, 35, r);
     ASSERT_TRUE(fit) << "r " << r << " c " << c.transpose();
     EXPECT_NEAR(fit->amplitude, 140, 3);
@@ -91,8 +92,9 @@ TEST(FitDisc, FindsTheCentreOfASubPixelDiscOrSaysWhereItMayBe) {
         EXPECT_NEAR(fit->centre(axis), c(axis), 0.01);
       }
     }
-    if (0.5 - r - (c - c.array().round().matrix()).cwiseAbs().minCoeff() < -0.05)
+    if (0.5 - r - (c - c.array().round().matrix()).cwiseAbs().minCoeff() < -0.05) {
       EXPECT_LT(fit->sigma_px, 0.02);
+    }
   }
 }
 
@@ -110,7 +112,7 @@ TEST(FitDisc, SigmaMatchesTheScatterAndTheCentroidLocksToThePixel) {
     int n = 0;
     for (int k = 0; k < 400; ++k) {
       const Eigen::Vector2d c(12 + off(rng), 20 + off(rng));
-      const std::vector<double> v = Window(r, c, 10, 18, 140, 10, noise, &rng);
+      const std::vector<double> v = Window(5, r, c, 10, 18, 140, 10, noise, &rng);
       const auto fit = FitDisc(v.data(), 5, 10, 18, r);
       ASSERT_TRUE(fit);
       err2 += (fit->centre - c).squaredNorm() / 2;
@@ -142,16 +144,11 @@ TEST(FitDisc, SigmaMatchesTheScatterAndTheCentroidLocksToThePixel) {
 TEST(FitDisc, ASearchNearTheMiddleFindsWhatTheWholeWindowsDoes) {
   std::mt19937 rng(21);
   std::uniform_real_distribution<double> off(-0.5, 0.5);
-  std::normal_distribution<double> g(0, 0.5);
   for (double r : {1.2, 2.5, 4.0}) {
     const int h = static_cast<int>(std::ceil(r + 1.5)), size = 2 * h + 1;
     for (int k = 0; k < 10; ++k) {
       const Eigen::Vector2d c(30 + off(rng), 40 + off(rng));
-      std::vector<double> v(size * size);
-      for (int i = 0; i < size * size; ++i) {
-        const double x = 30 - h + i % size - c.x(), y = 40 - h + i / size - c.y();
-        v[i] = 12 + 150 * DiscRectangleArea(r, x - 0.5, x + 0.5, y - 0.5, y + 0.5) + g(rng);
-      }
+      const std::vector<double> v = Window(size, r, c, 30 - h, 40 - h, 150, 12, 0.5, &rng);
       const auto whole = FitDisc(v.data(), size, 30 - h, 40 - h, r);
       const auto near = FitDisc(v.data(), size, 30 - h, 40 - h, r, 1.0);
       ASSERT_TRUE(whole && near) << "r " << r;
@@ -162,19 +159,59 @@ TEST(FitDisc, ASearchNearTheMiddleFindsWhatTheWholeWindowsDoes) {
   }
 }
 
+// Tops of a few pixels under more noise than the simulator's: the sigma still describes the
+// scatter (or overstates it a little, never understates).
+TEST(FitDisc, SigmaOfLargerDiscsMatchesTheScatter) {
+  for (double r : {1.2, 3.0, 5.0})
+    for (double noise : {2.0, 8.0}) {
+      SCOPED_TRACE("r " + std::to_string(r) + " noise " + std::to_string(noise));
+      std::mt19937 rng(31);
+      std::uniform_real_distribution<double> off(-0.5, 0.5);
+      const int h = static_cast<int>(std::ceil(r + 1.5)), size = 2 * h + 1;
+      double err2 = 0, sigma2 = 0;
+      const int n = 200;
+      for (int k = 0; k < n; ++k) {
+        const Eigen::Vector2d c(50 + off(rng), 60 + off(rng));
+        const auto fit = FitDisc(Window(size, r, c, 50 - h, 60 - h, 150, 12, noise, &rng).data(),
+                                 size, 50 - h, 60 - h, r, 1.0);
+        ASSERT_TRUE(fit);
+        err2 += (fit->centre - c).squaredNorm() / 2;
+        sigma2 += fit->sigma_px * fit->sigma_px;
+      }
+      const double ratio = std::sqrt(err2 / sigma2);
+      EXPECT_GT(ratio, 0.5);
+      EXPECT_LT(ratio, 1.2);
+    }
+}
+
+// A disc outside the restricted search, or a search too narrow to hold a place: no answer,
+// rather than the edge of the search with a small sigma.
+TEST(FitDisc, ARestrictedSearchThatMissesTheDiscSaysSo) {
+  std::mt19937 rng(2);
+  const double r = 2;
+  const std::vector<double> v = Window(7, r, Eigen::Vector2d(4.4, 3.0), 0, 0, 150, 12, 0.5, &rng);
+  EXPECT_TRUE(FitDisc(v.data(), 7, 0, 0, r));        // the whole window finds it
+  EXPECT_FALSE(FitDisc(v.data(), 7, 0, 0, r, 1.0));  // 1.4 px off the middle
+  EXPECT_TRUE(FitDisc(v.data(), 7, 0, 0, r, 1.6));
+  const std::vector<double> w = Window(7, r, Eigen::Vector2d(3.2, 3.1), 0, 0, 150, 12, 0.5, &rng);
+  EXPECT_FALSE(FitDisc(w.data(), 7, 0, 0, r, 1e-9));
+}
+
 TEST(FitDisc, RefusesAFlatWindowAndBadArguments) {
   std::mt19937 rng(1);
-  const std::vector<double> flat = Window(0.4, Eigen::Vector2d(2, 2), 0, 0, 0, 20, 1.0, &rng);
+  const std::vector<double> flat = Window(5, 0.4, Eigen::Vector2d(2, 2), 0, 0, 0, 20, 1.0, &rng);
   const auto fit = FitDisc(flat.data(), 5, 0, 0, 0.4);
   // Noise alone may fit a faint disc; never a confident one.
   if (fit) {
     EXPECT_GT(fit->sigma_px, 0.1);
   }
-  const std::vector<double> v = Window(0.4, Eigen::Vector2d(2, 2), 0, 0, 100, 20, 0, &rng);
+  const std::vector<double> v = Window(5, 0.4, Eigen::Vector2d(2, 2), 0, 0, 100, 20, 0, &rng);
   EXPECT_FALSE(FitDisc(v.data(), 2, 0, 0, 0.4));
   EXPECT_FALSE(FitDisc(v.data(), 5, 0, 0, 0));
   EXPECT_FALSE(FitDisc(v.data(), 5, 0, 0, 0.4, -1));
   EXPECT_FALSE(FitDisc(v.data(), 5, 0, 0, 0.4, std::nan("")));
+  EXPECT_FALSE(FitDisc(v.data(), 5, 0, 0, std::nan("")));
+  EXPECT_FALSE(FitDisc(v.data(), 5, 0, 0, -0.4));
 }
 
 }  // namespace

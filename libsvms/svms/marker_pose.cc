@@ -22,6 +22,12 @@ constexpr double kTipDiscModelSigma = 0.03;
 // its sigma of 0.05 (pixel locking, as below a pixel), the disc fit 0.03-0.05 px; at 6 px
 // (120 px markers) both are at 0.04.
 constexpr double kMaxDiscFitRadiusPx = 5;
+// The fit's window, 2 ceil(r + 1.5) + 1 pixels across, must fit FitDisc's 16.
+static_assert(2 * (static_cast<int>(kMaxDiscFitRadiusPx) + 2) + 1 <= 16);
+// Where such a top is left to its centroid (something bright beside it, the image's border),
+// the centroid's pixel locking, per axis, is about this many pixels over the top's radius
+// (0.13 px RMS at a radius of 1.2 px, 0.05 at 2, 0.03 at 3.5: FindTip's tests).
+constexpr double kCentroidLockingPxPx = 0.15;
 
 // Adds one residual row J = [jr^T, jt^T] (rotation, translation), weight w, residual r to the
 // upper triangle of JtWJ and to JtWr. Written out: Eigen's rankUpdate and comma initialiser
@@ -181,7 +187,7 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
     const int h = static_cast<int>(std::ceil(tip_radius_px + 1.5));
     const int size = 2 * h + 1;
     const int cx = static_cast<int>(std::lround(c.x())), cy = static_cast<int>(std::lround(c.y()));
-    bool clear = size <= 16 && cx - h >= 0 && cy - h >= 0 && cx + h < img.cols && cy + h < img.rows;
+    bool clear = cx - h >= 0 && cy - h >= 0 && cx + h < img.cols && cy + h < img.rows;
     std::array<double, 256> window;
     for (int dy = -h; clear && dy <= h; ++dy)
       for (int dx = -h; clear && dx <= h; ++dx) {
@@ -206,8 +212,11 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
   TipObservation t;
   t.pixel = c;
   // Centroid standard error for ~1 grey level of noise, plus a floor for the disc's
-  // perspective and the sampling of the blob's edge.
+  // perspective and the sampling of the blob's edge; for a top of a few pixels at least its
+  // pixel locking.
   t.sigma_px = std::sqrt(0.05 * 0.05 + 1.0 / std::max(1.0, w2) * blob.size() * 0.25);
+  if (tip_radius_px <= kMaxDiscFitRadiusPx)
+    t.sigma_px = std::max(t.sigma_px, kCentroidLockingPxPx / std::max(1.0, tip_radius_px));
   return t;
 }
 

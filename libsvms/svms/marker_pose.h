@@ -103,8 +103,9 @@ struct MarkerPose {
 // to the pixel centres), with the fit's own sigma; below a pixel its light is spread over two
 // to four pixels and no pixel reaches the midpoint, so the brightest must stand out by
 // min_contrast x min(1, pi r^2 / 2) only and be ringed by dark pixels (nothing else bright
-// within 2 px). Larger tops, and a top with something else bright next to it, give the
-// blob's centroid weighted by brightness.
+// within 2 px). Larger tops, and a top with something else bright next to it or too near the
+// image's border for the fit's window, give the blob's centroid weighted by brightness (with a
+// sigma that counts its pixel locking, for a top of at most 5 px).
 std::optional<TipObservation> FindTip(const cv::Mat& image, const Eigen::Vector2d& predicted,
                                       double radius, double black, double white,
                                       double min_contrast, double tip_radius_px = 1e9);

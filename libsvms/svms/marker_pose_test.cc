@@ -79,18 +79,66 @@ TEST(FindTip, FindsTopsOfEverySizeWhereTheyAreWithAnHonestSigma) {
   }
 }
 
+// The brightness-weighted centroid of the pixels of `img` at least halfway from black to white
+// within `reach` of `c`: what FindTip falls back to for a full-contrast top.
+Eigen::Vector2d ThresholdedCentroid(const cv::Mat& img, const Eigen::Vector2d& c, double reach) {
+  Eigen::Vector2d m = Eigen::Vector2d::Zero();
+  double w = 0;
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x) {
+      const double v = img.at<uint8_t>(y, x) - kBlack;
+      if (v < 0.5 * (kWhite - kBlack) || (Eigen::Vector2d(x, y) - c).norm() > reach) continue;
+      m += v * Eigen::Vector2d(x, y);
+      w += v;
+    }
+  return m / w;
+}
+
 // Something else bright next to a 2 px top (a corner of the white stripe on an oblique
-// marker) keeps the disc fit off, whose background would take it in: the centroid of the top's
-// own pixels instead.
+// marker) keeps the disc fit off, whose background would take it in (0.15 px RMS against the
+// centroid's 0.05 on random places): the centroid of the top's own pixels instead, with a
+// sigma that counts its pixel locking.
 TEST(FindTip, ABrightNeighbourLeavesTheTopToItsCentroid) {
   std::mt19937 rng(3);
-  const Eigen::Vector2d c(24.3, 23.6);
-  cv::Mat img = DiscImage(2.0, c, 0.5, &rng);
-  img(cv::Rect(28, 19, 4, 3)).setTo(kWhite);  // 1 px clear of the top, inside its window
-  const std::optional<TipObservation> t = FindTip(img, c, 6, kBlack, kWhite, 0.35, 2.0);
+  std::uniform_real_distribution<double> off(-0.5, 0.5);
+  const double r = 2.0;
+  for (int k = 0; k < 20; ++k) {
+    const Eigen::Vector2d c(24 + off(rng), 23.5 + off(rng));
+    cv::Mat img = DiscImage(r, c, 0.5, &rng);
+    img(cv::Rect(28, 19, 4, 3)).setTo(kWhite);  // a pixel or two clear of the top
+    const std::optional<TipObservation> t = FindTip(img, c, 6, kBlack, kWhite, 0.35, r);
+    ASSERT_TRUE(t);
+    EXPECT_LT((t->pixel - ThresholdedCentroid(img, c, r + 0.9)).norm(), 1e-9) << c.transpose();
+    EXPECT_GE(t->sigma_px, 0.15 / r);
+  }
+}
+
+// A top whose fit window would leave the image: the centroid, as above.
+TEST(FindTip, ATopAtTheImageBorderIsLeftToItsCentroid) {
+  std::mt19937 rng(6);
+  const double r = 3.0;
+  const Eigen::Vector2d c(3.2, 20.4);  // the window, 9 px across, would start at x = -1
+  const cv::Mat img = DiscImage(r, c, 0.5, &rng);
+  const std::optional<TipObservation> t = FindTip(img, c, 5, kBlack, kWhite, 0.35, r);
   ASSERT_TRUE(t);
-  EXPECT_LT((t->pixel - c).norm(), 0.3);
-  EXPECT_GE(t->sigma_px, 0.05);  // the centroid's floor, not the disc fit's sigma
+  EXPECT_LT((t->pixel - ThresholdedCentroid(img, c, r + 0.9)).norm(), 1e-9);
+  EXPECT_GE(t->sigma_px, 0.15 / r);
+}
+
+// The same top in a 16-bit image (grey levels x 256) is found at the same place.
+TEST(FindTip, SixteenBitImagesGiveTheSameTop) {
+  for (double r : {0.6, 1.5, 4.0}) {
+    std::mt19937 rng(8);
+    const Eigen::Vector2d c(23.7, 24.2);
+    const cv::Mat img8 = DiscImage(r, c, 0.5, &rng);
+    cv::Mat img16;
+    img8.convertTo(img16, CV_16U, 256);
+    const auto a = FindTip(img8, c, r + 4, kBlack, kWhite, 0.35, r);
+    const auto b = FindTip(img16, c, r + 4, 256 * kBlack, 256 * kWhite, 0.35, r);
+    ASSERT_TRUE(a && b) << r;
+    EXPECT_LT((a->pixel - b->pixel).norm(), 1e-6) << r;
+    EXPECT_LT((a->pixel - c).norm(), 0.05) << r;
+  }
 }
 
 TEST(FindTip, NothingBrightNearThePredictionIsNoTop) {
