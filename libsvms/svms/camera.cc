@@ -307,8 +307,11 @@ std::string Diagnose(const std::string& text) {
 // mrcal 2.2's scanner reads past the end of its buffer (and crashes, or reads whatever memory
 // follows) when the text ends inside a quoted string or inside a comment: found by fuzzing
 // (fuzz/fuzz_camera.cc; docs/reliability.md). Returns why `text` ends inside a string, or "".
-// Backslash escapes are honoured, so this is at least as strict as mrcal about where a string
-// ends. (A comment at the end is made safe by appending a newline.)
+// Strings are delimited exactly as mrcal's scanner delimits them (cameramodel-parser.re:
+// ["'] [^"'\x00]* ["']): either quote opens one, the next quote of either kind closes it, and
+// a backslash escapes nothing. (Until session 11 this honoured escapes and matched the quote
+// kinds, and so passed 'lensmodel": 'LENS... , on which mrcal reads past the end: fuzzing found
+// it.) A comment at the end is made safe by appending a newline.
 std::string UnclosedString(const std::string& text) {
   std::size_t line = 1;
   for (std::size_t i = 0; i < text.size(); ++i) {
@@ -320,9 +323,9 @@ std::string UnclosedString(const std::string& text) {
     } else if (c == '\'' || c == '"') {
       const std::size_t start_line = line;
       std::size_t k = i + 1;
-      while (k < text.size() && text[k] != c) {
+      while (k < text.size() && text[k] != '\'' && text[k] != '"') {
         if (text[k] == '\n') ++line;
-        k += text[k] == '\\' ? 2 : 1;
+        ++k;
       }
       if (k >= text.size()) {
         return "the string opened on line " + std::to_string(start_line) +

@@ -546,6 +546,13 @@ TEST(CameraModelErrors, ReadTruncatedAtEveryByte) {
   ExpectReadError("unclosed_key.cameramodel",
                   ModelText("LENSMODEL_PINHOLE", "[1, 1, 1, 1]").substr(0, 100) + "'imagersiz",
                   {"is not closed before the end of the file"});
+  // mrcal closes a string at the next quote of either kind and knows no escapes: these are
+  // unclosed strings to it (and read past its buffer), whatever the quotes look like.
+  // (The first was found by the fuzzer in session 11.)
+  ExpectReadError("mixed_quotes.cameramodel", "{\n  'lensmodel\": 'LENSMODEL_PINHOLE\n}\n",
+                  {"the string opened on line 2 is not closed before the end of the file"});
+  ExpectReadError("escaped_quote.cameramodel", "{\n  'lensmodel': 'a\\' 'b\n}\n",
+                  {"the string opened on line 2 is not closed before the end of the file"});
 }
 
 TEST(CameraModelErrors, ReadBadFocalLength) {
