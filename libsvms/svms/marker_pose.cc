@@ -1,6 +1,7 @@
 #include "svms/marker_pose.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -49,6 +50,7 @@ struct PoseScratch {
   std::vector<Eigen::Vector3d> X;  // EstimateMarkerPose's points, pixels and sigmas
   std::vector<Eigen::Vector2d> px;
   std::vector<double> sigma;
+  TipSearchMemo tip_memo;  // EstimateMarkerPose's, shared by its planar candidates
 };
 PoseScratch& Scratch() {
   thread_local PoseScratch scratch;
@@ -83,6 +85,13 @@ double WeightedSquaredResiduals(const CameraModel& camera, const std::vector<Eig
 std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d& pred,
                                       double radius, double black, double white,
                                       double min_contrast, double tip_radius_px) {
+  return FindTip(img, pred, radius, black, white, min_contrast, tip_radius_px, nullptr);
+}
+
+std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d& pred,
+                                      double radius, double black, double white,
+                                      double min_contrast, double tip_radius_px,
+                                      TipSearchMemo* memo) {
   const double thr = black + 0.5 * (white - black);
   const int x0 = std::max(0, static_cast<int>(std::floor(pred.x() - radius)));
   const int x1 = std::min(img.cols - 1, static_cast<int>(std::ceil(pred.x() + radius)));
@@ -111,10 +120,57 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
       sub_pixel ? std::min(1.0, 0.5 * M_PI * tip_radius_px * tip_radius_px) : 1.0;
   if (bx < 0 || at(by, bx) - black < min_contrast * peak_fraction * (white - black))
     return std::nullopt;
+  // The blob's threshold (a top of a pixel or more): halfway to white, or to the seed if that
+  // is dimmer.
+  const double local_thr = std::min(thr, black + 0.5 * (at(by, bx) - black));
+  // What follows depends, below a pixel, on the seed only; above, on the blob that the seed
+  // and threshold flood, and on the window only through whether that blob reaches its edge.
+  // So the memo answers for the same seed below a pixel, and above for a seed in its blob with
+  // the same threshold when the whole blob lies strictly inside this window (or at the image's
+  // border).
+  if (memo && memo->valid && memo->data == img.data && memo->rows == img.rows &&
+      memo->cols == img.cols && memo->type == img.type() && memo->radius == radius &&
+      memo->black == black && memo->white == white && memo->min_contrast == min_contrast &&
+      memo->tip_radius_px == tip_radius_px &&
+      (sub_pixel
+           ? memo->seed_x == bx && memo->seed_y == by
+           : memo->local_thr == local_thr && memo->blob_x0 > x0 - (x0 == 0) &&
+                 memo->blob_x1 < x1 + (x1 == img.cols - 1) && memo->blob_y0 > y0 - (y0 == 0) &&
+                 memo->blob_y1 < y1 + (y1 == img.rows - 1) &&
+                 std::find(memo->blob.begin(), memo->blob.end(), std::make_pair(bx, by)) !=
+                     memo->blob.end())) {
+    ++memo->reused;
+    return memo->tip;
+  }
+  if (memo) {
+    memo->valid = false;
+    memo->data = img.data;
+    memo->rows = img.rows;
+    memo->cols = img.cols;
+    memo->type = img.type();
+    memo->radius = radius;
+    memo->black = black;
+    memo->white = white;
+    memo->min_contrast = min_contrast;
+    memo->tip_radius_px = tip_radius_px;
+    memo->seed_x = bx;
+    memo->seed_y = by;
+    memo->local_thr = local_thr;
+    memo->blob.clear();
+  }
+  // The answer, kept in the memo: every answer below but a blob's that reaches the window's
+  // edge (which depends on the window).
+  auto answer = [&](const std::optional<TipObservation>& t) {
+    if (memo) {
+      memo->valid = true;
+      memo->tip = t;
+    }
+    return t;
+  };
   if (sub_pixel) {
     // A sub-pixel disc: the 3 x 3 around the seed hold its light; the ring around them must be
     // dark (a bright ring means the stripe, a bit cell or a glint, not an isolated top).
-    if (bx < 2 || by < 2 || bx > img.cols - 3 || by > img.rows - 3) return std::nullopt;
+    if (bx < 2 || by < 2 || bx > img.cols - 3 || by > img.rows - 3) return answer(std::nullopt);
     const double ring_max = black + 0.5 * (at(by, bx) - black);
     std::array<double, 25> window;
     for (int dy = -2; dy <= 2; ++dy)
@@ -124,7 +180,7 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
         // 15-20 degrees off-axis the top sits that close to a corner of the white stripe.
         const bool ring = std::abs(dx) == 2 || std::abs(dy) == 2;
         const bool ring_corner = std::abs(dx) == 2 && std::abs(dy) == 2;
-        if (ring && !ring_corner && v > ring_max) return std::nullopt;
+        if (ring && !ring_corner && v > ring_max) return answer(std::nullopt);
         window[(dy + 2) * 5 + dx + 2] = v;
       }
     // Not the centroid: it locks to pixel centres (disc_fit.h). A top of at most half a pixel
@@ -138,13 +194,13 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
     } else {
       fit = FitDisc(window.data(), 5, bx - 2, by - 2, tip_radius_px);
     }
-    if (!fit) return std::nullopt;
+    if (!fit) return answer(std::nullopt);
     TipObservation t;
     t.pixel = fit->centre;
     // The fit's own sigma, and a floor for what it does not model: the top is an ellipse in
     // an oblique view, and the lens and sensor blur it.
     t.sigma_px = std::hypot(fit->sigma_px, kTipDiscModelSigma);
-    return t;
+    return answer(t);
   }
   // Flood the connected bright region from the seed (bounded by the window).
   PoseScratch& sc = Scratch();
@@ -153,7 +209,6 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
   blob.clear();
   std::vector<uint8_t>& seen = sc.seen;
   seen.assign(static_cast<size_t>(x1 - x0 + 1) * (y1 - y0 + 1), 0);
-  const double local_thr = std::min(thr, black + 0.5 * (at(by, bx) - black));
   while (!stack.empty()) {
     auto [x, y] = stack.back();
     stack.pop_back();
@@ -168,10 +223,23 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
     stack.push_back({x, y - 1});
   }
   // Touching the window's edge means it is not a small blob (e.g. the white stripe).
-  for (auto [x, y] : blob)
+  int bx0 = bx, bx1 = bx, by0 = by, by1 = by;
+  for (auto [x, y] : blob) {
     if ((x == x0 && x0 > 0) || (x == x1 && x1 < img.cols - 1) || (y == y0 && y0 > 0) ||
         (y == y1 && y1 < img.rows - 1))
       return std::nullopt;
+    bx0 = std::min(bx0, x);
+    bx1 = std::max(bx1, x);
+    by0 = std::min(by0, y);
+    by1 = std::max(by1, y);
+  }
+  if (memo) {
+    memo->blob_x0 = bx0;
+    memo->blob_x1 = bx1;
+    memo->blob_y0 = by0;
+    memo->blob_y1 = by1;
+    memo->blob.assign(blob.begin(), blob.end());
+  }
   double w = 0, w2 = 0;
   Eigen::Vector2d c = Eigen::Vector2d::Zero();
   for (auto [x, y] : blob) {
@@ -179,7 +247,7 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
     c += wi * Eigen::Vector2d(x, y);
     w += wi;
   }
-  if (w <= 0) return std::nullopt;
+  if (w <= 0) return answer(std::nullopt);
   c /= w;
   if (tip_radius_px <= kMaxDiscFitRadiusPx) {
     // A top of a few pixels: the disc fit on a window about the centroid with a pixel and a
@@ -204,7 +272,7 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
         TipObservation t;
         t.pixel = fit->centre;
         t.sigma_px = std::hypot(fit->sigma_px, kTipDiscModelSigma);
-        return t;
+        return answer(t);
       }
     }
   }
@@ -217,7 +285,7 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
   t.sigma_px = std::sqrt(0.05 * 0.05 + 1.0 / std::max(1.0, w2) * blob.size() * 0.25);
   if (tip_radius_px <= kMaxDiscFitRadiusPx)
     t.sigma_px = std::max(t.sigma_px, kCentroidLockingPxPx / std::max(1.0, tip_radius_px));
-  return t;
+  return answer(t);
 }
 
 Eigen::Vector3d VisibleTipPoint(const MarkerModel& model, const Eigen::Vector3d& cam,
@@ -523,6 +591,10 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
     void push_back(const Candidate& x) { c[n++] = x; }
     const Candidate& operator[](size_t i) const { return c[i]; }
   } cands;
+  // The candidates usually find the same top (kept per thread: its blob's buffer is reused).
+  TipSearchMemo& tip_memo = Scratch().tip_memo;
+  tip_memo.valid = false;
+  tip_memo.reused = 0;
   for (const PlanarPoseCandidate& solution : ippe) {
     Candidate c;
     c.pose = Pose::FromRotation(solution.cam_from_marker_R, solution.cam_from_marker_t);
@@ -539,7 +611,7 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
       Eigen::Vector2d pred;
       if (fraction >= 0.25 && camera.Project(c.pose * tip3, &pred)) {
         c.tip = FindTip(image, pred, search, black, white, o.tip_min_contrast,
-                        model.post->tip_radius * px_per_m);
+                        model.post->tip_radius * px_per_m, &tip_memo);
         if (c.tip) c.tip_error = (c.tip->pixel - pred).norm();
       }
     }

@@ -17,6 +17,8 @@
 #include <array>
 #include <opencv2/core.hpp>
 #include <optional>
+#include <utility>
+#include <vector>
 
 #include "svms/camera.h"
 #include "svms/corner_refine.h"
@@ -109,6 +111,32 @@ struct MarkerPose {
 std::optional<TipObservation> FindTip(const cv::Mat& image, const Eigen::Vector2d& predicted,
                                       double radius, double black, double white,
                                       double min_contrast, double tip_radius_px = 1e9);
+
+// What one FindTip call found, for a later call on the same image with the same radius, black,
+// white, min_contrast and tip_radius_px but another `predicted`: when that search starts in
+// the same top (from the same pixel, for a top below a pixel; else from a pixel of the same
+// blob, at the same threshold) and its window holds that whole blob, the answer is the same,
+// and it is returned without flooding and fitting again (EstimateMarkerPose's two planar
+// candidates usually predict the tip within a pixel or two of each other). Any other call
+// searches afresh and keeps its own answer. The memo holds no pixel values: it must not
+// outlive the image's contents.
+struct TipSearchMemo {
+  int reused = 0;  // calls answered from the memo (for tests)
+  // Internal: the arguments, seed, threshold and blob of the kept answer.
+  bool valid = false;
+  const void* data = nullptr;
+  int rows = 0, cols = 0, type = 0;
+  double radius = 0, black = 0, white = 0, min_contrast = 0, tip_radius_px = 0;
+  int seed_x = -1, seed_y = -1;
+  double local_thr = 0;
+  std::vector<std::pair<int, int>> blob;                     // pixels (x, y)
+  int blob_x0 = 0, blob_x1 = -1, blob_y0 = 0, blob_y1 = -1;  // bounding box, inclusive
+  std::optional<TipObservation> tip;
+};
+std::optional<TipObservation> FindTip(const cv::Mat& image, const Eigen::Vector2d& predicted,
+                                      double radius, double black, double white,
+                                      double min_contrast, double tip_radius_px,
+                                      TipSearchMemo* memo);
 
 // Pose of a marker from its corners (marker order: TL, TR, BR, BL as printed, pixels), each
 // with its sigma from the side fits (pixels; 0: not known, see MarkerPoseOptions).

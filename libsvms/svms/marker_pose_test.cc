@@ -141,6 +141,60 @@ TEST(FindTip, SixteenBitImagesGiveTheSameTop) {
   }
 }
 
+// A second search that starts in the same top (from the same pixel, below a pixel), its window
+// holding the whole blob, is answered from the memo with exactly what a fresh search gives;
+// for a sub-pixel top, for a disc fit of 1-5 px and for a centroid of a larger top.
+TEST(FindTip, TheMemoAnswersASecondSearchInTheSameTopAsAFreshSearchWould) {
+  for (double r : {0.6, 2.0, 4.0, 7.0}) {
+    SCOPED_TRACE("radius " + std::to_string(r) + " px");
+    std::mt19937 rng(21);
+    const Eigen::Vector2d c(23.6, 24.3);
+    const cv::Mat img = DiscImage(r, c, 0.5, &rng);
+    // The two planar candidates' predictions, a pixel apart about the top.
+    const Eigen::Vector2d p1 = c + Eigen::Vector2d(0.4, -0.3), p2 = c + Eigen::Vector2d(-0.5, 0.6);
+    const double search = r + 6;
+    TipSearchMemo memo;
+    const auto first = FindTip(img, p1, search, kBlack, kWhite, 0.35, r, &memo);
+    const auto second = FindTip(img, p2, search, kBlack, kWhite, 0.35, r, &memo);
+    const auto fresh = FindTip(img, p2, search, kBlack, kWhite, 0.35, r);
+    ASSERT_TRUE(first && second && fresh);
+    EXPECT_EQ(memo.reused, 1);
+    EXPECT_EQ(second->pixel, fresh->pixel);
+    EXPECT_EQ(second->sigma_px, fresh->sigma_px);
+    EXPECT_LT((fresh->pixel - c).norm(), 0.1);
+  }
+}
+
+// The memo is not used where the answer could differ: another tip radius (the detector's
+// second pose after refitting the corners), or a window that cuts the blob that the first
+// search saw whole (a fresh search then refuses it, as it touches the window's edge).
+TEST(FindTip, TheMemoIsNotUsedWhereTheAnswerCouldDiffer) {
+  std::mt19937 rng(22);
+  const double r = 3.0;
+  const Eigen::Vector2d c(24.2, 23.7);
+  const cv::Mat img = DiscImage(r, c, 0.5, &rng);
+  {
+    TipSearchMemo memo;
+    ASSERT_TRUE(FindTip(img, c, 8, kBlack, kWhite, 0.35, r, &memo));
+    const auto other_radius = FindTip(img, c, 8, kBlack, kWhite, 0.35, 1.01 * r, &memo);
+    EXPECT_EQ(memo.reused, 0);
+    const auto fresh = FindTip(img, c, 8, kBlack, kWhite, 0.35, 1.01 * r);
+    ASSERT_TRUE(other_radius && fresh);
+    EXPECT_EQ(other_radius->pixel, fresh->pixel);
+  }
+  {
+    TipSearchMemo memo;
+    ASSERT_TRUE(FindTip(img, c, 8, kBlack, kWhite, 0.35, r, &memo));
+    // A search of 3 px about a point 2 px off: the same brightest pixel, but the window ends
+    // inside the top.
+    const Eigen::Vector2d off = c + Eigen::Vector2d(-2.0, 0);
+    const auto cut = FindTip(img, off, 3, kBlack, kWhite, 0.35, r, &memo);
+    EXPECT_EQ(memo.reused, 0);
+    EXPECT_FALSE(cut);
+    EXPECT_FALSE(FindTip(img, off, 3, kBlack, kWhite, 0.35, r));
+  }
+}
+
 TEST(FindTip, NothingBrightNearThePredictionIsNoTop) {
   std::mt19937 rng(4);
   const cv::Mat img = DiscImage(2.0, Eigen::Vector2d(10, 10), 0.5, &rng);
