@@ -32,10 +32,17 @@ for px in 10 16 30; do
   grep -q "^| $px | [0-9]*/[0-9]* ([0-9]*) |" "$out/report.md" || fail "no flips row for $px px"
 done
 # Each pose's distance to the truth's planar twin, and the planar flips counted.
-head -1 "$out/markers.csv" | grep -q ',orientation_err_deg,twin_err_deg,pose_ambiguous$' ||
-  fail "markers.csv has no twin_err_deg"
-grep -q '^size,size_060px_00,060,svms,.*,[0-9.]*,[0-9.]*,0$' "$out/markers.csv" ||
-  fail "no twin error for the 60 px svms pose"
+head -1 "$out/markers.csv" | grep -q ',orientation_err_deg,twin_err_deg,pose_ambiguous,pose_nees$' ||
+  fail "markers.csv has no twin_err_deg or pose_nees"
+grep -q '^size,size_060px_00,060,svms,.*,[0-9.]*,[0-9.]*,0,[0-9.]*$' "$out/markers.csv" ||
+  fail "no twin error or NEES for the 60 px svms pose"
+# SVMS gives a covariance, the peers none: NEES for svms only, and its table in the report.
+grep -q '^size,size_060px_00,060,apriltag_d2,.*,0,-$' "$out/markers.csv" ||
+  fail "a peer's pose has a NEES"
+grep -q '"pose_nees_within_chi2_95"' "$out/summary.json" || fail "summary.json has no NEES"
+grep -q '^| all sweeps | [1-9][0-9]* | [0-9.]* | [0-9.]* | [0-9]* % |$' "$out/report.md" ||
+  fail "report.md has no NEES row for all sweeps"
+grep -q '^Largest NEES: [a-z]' "$out/report.md" || fail "report.md does not name the largest NEES"
 grep -q '"planar_flips"' "$out/summary.json" || fail "summary.json has no planar_flips"
 grep -q '"unflagged_flips"' "$out/summary.json" || fail "summary.json has no unflagged_flips"
 grep -q '^- No pose flips: .*, of them planar [0-9]*, not flagged ambiguous [0-9]*)' "$out/report.md" ||

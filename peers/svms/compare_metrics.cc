@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "svms/ippe.h"
+#include "svms/object_pose.h"
 
 namespace svms {
 namespace {
@@ -91,6 +92,7 @@ ImageOutcome EvaluateImage(const ViewTruth& truth, const std::vector<FoundMarker
       m.pose_ambiguous = f.pose_ambiguous;
       m.twin_err_deg =
           AngleDeg(f.cam_from_marker->Rotation(), PlanarTwin(t.cam_from_marker).Rotation());
+      if (f.covariance) m.pose_nees = Nees(t.cam_from_marker, *f.cam_from_marker, *f.covariance);
     }
   }
   return out;

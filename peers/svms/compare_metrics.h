@@ -23,6 +23,9 @@ struct FoundMarker {
   std::array<Eigen::Vector2d, 4> corners;  // TL, TR, BR, BL as printed, pixels
   std::optional<Pose> cam_from_marker;
   bool pose_ambiguous = false;  // the system flags the pose as possibly its planar twin (SVMS)
+  // The pose's covariance, [rotation, translation] about the camera axes (radians, metres;
+  // pose.h), when the system gives one (SVMS).
+  std::optional<PoseCovariance> covariance;
 };
 
 // One truth marker, for one system, in one image.
@@ -43,6 +46,9 @@ struct MarkerOutcome {
   // degrees (PlanarTwin, ippe.h: twice the view angle from the truth).
   double twin_err_deg = NAN;
   bool pose_ambiguous = false;  // of the hit: the system flagged its pose
+  // Of the hit with a covariance: its pose's normalised estimation error squared against the
+  // truth (6 dof; chi-square with 6 degrees of freedom, mean 6, when the covariance is right).
+  double pose_nees = NAN;
   // A pose flip (orientation error above kFlipDeg) that is the planar ambiguity: nearer the
   // twin than the truth, with the twin itself above kFlipDeg from the truth. The other flips
   // are measurement noise: a head-on marker's twin is its own pose.
@@ -59,6 +65,9 @@ ImageOutcome EvaluateImage(const ViewTruth& truth, const std::vector<FoundMarker
 
 // Pose flip: orientation error above this (the planar two-fold ambiguity), degrees.
 inline constexpr double kFlipDeg = 10;
+// The 95th percentile of chi-square with 6 degrees of freedom: an honest 6-dof covariance
+// leaves 95 % of the poses' NEES below it.
+inline constexpr double kChi2Dof6P95 = 12.5916;
 
 // Small statistics over the finite values of `v` (NaN when there are none): median, and the
 // p-th percentile (0-100) by linear interpolation between order statistics.

@@ -4,6 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+#include <cmath>
+
 namespace svms {
 namespace {
 
@@ -53,6 +56,28 @@ TEST(CompareMetrics, HitsWrongIdsAndFalsePositives) {
   EXPECT_NEAR(o.markers[0].view_angle_deg, 0, 1e-9);
   EXPECT_EQ(o.wrong_ids, 1);
   EXPECT_EQ(o.false_positives, 1);
+}
+
+// NEES, known answer: an error of 2 sigmas in one rotation axis and 1 sigma in one translation
+// axis is 4 + 1; without a covariance (the peers) there is none.
+TEST(CompareMetrics, PoseNeesIsTheErrorInUnitsOfTheCovariance) {
+  ViewTruth v;
+  v.markers = {Square(5, 100, 100, 20)};
+  const Pose& truth = v.markers[0].cam_from_marker;
+  PoseCovariance cov = PoseCovariance::Zero();
+  cov.diagonal() << 1e-6, 4e-6, 9e-6, 1e-4, 4e-4, 9e-4;
+  FoundMarker f = Found(v.markers[0], 5, 0);
+  // The covariance's error is [log(R_truth R_est^T), t_truth - t_est] (object_pose.h): the
+  // estimate turned by 2 sigmas about the camera's y axis and 3 cm (1 sigma) nearer on z.
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(-2 * 2e-3, Eigen::Vector3d::UnitY()).toRotationMatrix() * truth.Rotation();
+  f.cam_from_marker = Pose::FromRotation(R, truth.tvec - Eigen::Vector3d(0, 0, 0.03));
+  f.covariance = cov;
+  const ImageOutcome o = EvaluateImage(v, {f});
+  ASSERT_TRUE(o.markers[0].detected);
+  EXPECT_NEAR(o.markers[0].pose_nees, 4 + 1, 1e-6);
+  f.covariance.reset();
+  EXPECT_TRUE(std::isnan(EvaluateImage(v, {f}).markers[0].pose_nees));
 }
 
 TEST(CompareMetrics, NestedMarkerGoesToTheInnerSquare) {
