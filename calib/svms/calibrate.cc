@@ -157,7 +157,6 @@ Status Calibrate(const std::vector<ViewObservations>& all_views, const Calibrati
   std::vector<const ViewObservations*> views;
   std::vector<std::vector<cv::Point3f>> object_points;
   std::vector<std::vector<cv::Point2f>> image_points;
-  int total_points = 0;
   for (size_t v = 0; v < all_views.size(); ++v) {
     std::vector<cv::Point3f> obj;
     std::vector<cv::Point2f> img;
@@ -177,7 +176,6 @@ Status Calibrate(const std::vector<ViewObservations>& all_views, const Calibrati
     result->views.push_back(static_cast<int>(v));
     object_points.push_back(std::move(obj));
     image_points.push_back(std::move(img));
-    total_points += static_cast<int>(all_views[v].points.size());
   }
   if (static_cast<int>(views.size()) < o.min_views) {
     return Status::Error("too few views: " + std::to_string(views.size()) + " of " +
