@@ -85,12 +85,15 @@ std::optional<DiscFit> FitDisc(const double* values, int size, int origin_x, int
   // profile leaves the place any likelihood: 2-3x fewer places for a disc of a pixel or more,
   // whose place the values pin down to a few hundredths of a pixel.
   constexpr double kStep = 0.01;
-  constexpr int kCoarse = 5;  // fine places per coarse one
+  // Fine places per coarse one; every place where the search is too short for three coarse
+  // ones (search_px under 0.1 px).
+  constexpr int kCoarseStep = 5;
   const double half = 0.5 * (size - 1);
   const double reach = search_px > 0 ? std::min(search_px, half) : half;
   const double first = half - reach;
   const int places = static_cast<int>(std::lround(2 * reach / kStep)) + 1;
   if (places > 1601) return std::nullopt;
+  const int kCoarse = places >= 2 * kCoarseStep + 1 ? kCoarseStep : 1;
   const int coarse_places = (places - 1) / kCoarse + 1;  // fine places 0, kCoarse, ...
   std::array<std::array<double, 16>, 2> sums{};
   std::array<double, 2> sv{}, svv{};
@@ -135,10 +138,6 @@ std::optional<DiscFit> FitDisc(const double* values, int size, int origin_x, int
         best = i;
       }
     }
-    // A restricted search whose best place is at an end of its range has not found the disc
-    // (it lies farther out, or the values hold none): no answer rather than the range's edge
-    // with a sigma that only describes the range.
-    if (reach < half && (best == 0 || best == coarse_places - 1)) return std::nullopt;
     // The coarse minimum refined by a parabola through it and its neighbours: the place at
     // which the pixel noise is read, below.
     double step = 0;
@@ -194,10 +193,19 @@ std::optional<DiscFit> FitDisc(const double* values, int size, int origin_x, int
         hi = std::max(hi, std::min(places - 1, (i + 1) * kCoarse));
       }
     double least = 1e300;
+    int best_j = lo;
     for (int j = lo; j <= hi; ++j) {
       if (j % kCoarse != 0) profile[axis][j] = cost(axis, j);
-      least = std::min(least, profile[axis][j]);
+      if (profile[axis][j] < least) {
+        least = profile[axis][j];
+        best_j = j;
+      }
     }
+    // A restricted search whose best place is at an end of its range has not found the disc
+    // (it lies farther out, or the values hold none): no answer rather than the range's edge
+    // with a sigma that only describes the range. (The fine places run to an end of the range
+    // whenever the coarse best is the coarse place nearest it.)
+    if (reach < half && (best_j == 0 || best_j == places - 1)) return std::nullopt;
     const double origin = axis == 0 ? origin_x : origin_y;
     double w = 0, m1 = 0, m2 = 0;
     for (int j = lo; j <= hi; ++j) {

@@ -159,6 +159,21 @@ TEST(FitDisc, ASearchNearTheMiddleFindsWhatTheWholeWindowsDoes) {
   }
 }
 
+// A search shorter than three coarse steps (under 0.1 px) is walked on the fine grid alone: a
+// disc within it is found, not refused as if the best place were at the search's edge.
+TEST(FitDisc, AVeryShortSearchStillFindsTheDisc) {
+  std::mt19937 rng(23);
+  for (double search : {0.02, 0.05, 0.09}) {
+    const double r = 2.0;
+    const int h = 4, size = 2 * h + 1;
+    const Eigen::Vector2d c(30 + 0.4 * search, 40 - 0.3 * search);
+    const std::vector<double> v = Window(size, r, c, 30 - h, 40 - h, 150, 12, 0.2, &rng);
+    const auto fit = FitDisc(v.data(), size, 30 - h, 40 - h, r, search);
+    ASSERT_TRUE(fit) << "search " << search;
+    EXPECT_LT((fit->centre - c).norm(), 0.02) << "search " << search;
+  }
+}
+
 // Tops of a few pixels under more noise than the simulator's: the sigma still describes the
 // scatter (or overstates it a little, never understates).
 TEST(FitDisc, SigmaOfLargerDiscsMatchesTheScatter) {
