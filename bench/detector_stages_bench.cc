@@ -134,7 +134,7 @@ void BM_Stage4_Refine(benchmark::State& state) {
   for (auto _ : state)
     for (const svms::Detection& d : f.detections)
       benchmark::DoNotOptimize(
-          svms::RefineCorners(f.image, d.corners, &f.camera, f.options.refine));
+          svms::RefineCorners(f.image, d.corners, &f.camera, f.options.refine, {}, d.black));
   state.counters["markers"] = static_cast<double>(f.detections.size());
 }
 BENCHMARK(BM_Stage4_Refine)->Unit(benchmark::kMicrosecond);

@@ -171,10 +171,71 @@ struct Plane {
   }
 };
 
+// The mean of the samples 1.5, 1.75 and 2 px from `edge` along `dir` (pixels).
+double LevelBeside(const Sampler& sample, const Eigen::Vector2d& edge, const Eigen::Vector2d& dir) {
+  double sum = 0;
+  for (double t : {1.5, 1.75, 2.0}) {
+    const Eigen::Vector2d q = edge + t * dir;
+    sum += sample(q.x(), q.y());
+  }
+  return sum / 3;
+}
+
+// True where more than half of a side's located edge points (pixels; `outward` from dark to
+// bright) have their dark side, 1.5-2 px in, more than `fraction` of the way from the square's
+// `black` to their bright side, 1.5-2 px out: the rise located is not the black square's.
+bool InPenumbra(const Sampler& sample, const std::vector<Eigen::Vector2d>& edges,
+                const Eigen::Vector2d& outward, double black, double fraction) {
+  size_t raised = 0;
+  for (const Eigen::Vector2d& e : edges) {
+    const double dark = LevelBeside(sample, e, -outward), bright = LevelBeside(sample, e, outward);
+    if (bright > black && dark - black > fraction * (bright - black)) ++raised;
+  }
+  return 2 * raised > edges.size();
+}
+
+// Where the profile from `edge` inward along -outward (0.25 px steps, up to `reach_px`) first
+// falls to `level`, interpolated between the two samples around it (pixels); *strength: its
+// fall there, grey levels per pixel. False where it does not fall that far within reach.
+bool FallTo(const Sampler& sample, const Eigen::Vector2d& edge, const Eigen::Vector2d& outward,
+            double level, double reach_px, Eigen::Vector2d* at, double* strength) {
+  double prev = sample(edge.x(), edge.y());
+  for (int i = 1; 0.25 * i <= reach_px; ++i) {
+    const Eigen::Vector2d q = edge - 0.25 * i * outward;
+    const double v = sample(q.x(), q.y());
+    if (v <= level) {
+      if (prev <= v) return false;
+      *at = edge - (0.25 * (i - 1) + 0.25 * (prev - level) / (prev - v)) * outward;
+      *strength = (prev - v) / 0.25;
+      return true;
+    }
+    prev = v;
+  }
+  return false;
+}
+
+// The black square's edge under a penumbra, from the located (penumbra's) edge point `edge`:
+// where the profile inward falls half-way from the stripe's shadowed level to `black`. That
+// level is read first 1.5-2 px inside the penumbra's edge, which is already on its rise (the
+// edge came out 0.3-0.5 px outside, on the synthetic penumbra of corner_refine_test and on
+// compare view edge_40deg_09), then again 0.5 px outside the edge so found, at the foot
+// (0.05-0.09 px outside there).
+bool EdgeBelowPenumbra(const Sampler& sample, const Eigen::Vector2d& edge,
+                       const Eigen::Vector2d& outward, double black, double reach_px,
+                       Eigen::Vector2d* inner, double* strength) {
+  Eigen::Vector2d first;
+  if (!FallTo(sample, edge, outward, black + 0.5 * (LevelBeside(sample, edge, -outward) - black),
+              reach_px, &first, strength))
+    return false;
+  const Eigen::Vector2d foot = first + 0.5 * outward;
+  const double stripe = sample(foot.x(), foot.y());
+  return FallTo(sample, edge, outward, black + 0.5 * (stripe - black), reach_px, inner, strength);
+}
+
 // Buffers of RefineCorners, kept per thread between calls (no allocation once grown).
 struct RefineScratch {
   std::vector<double> line, weights, residual, abs_inliers;
-  std::vector<Eigen::Vector2d> pts;
+  std::vector<Eigen::Vector2d> pts, edges;
   std::vector<char> use;
 };
 RefineScratch& Scratch() {
@@ -267,7 +328,7 @@ bool ExcludedRegion::Contains(const Eigen::Vector2d& p) const {
 
 RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2d, 4>& in,
                              const CameraModel* camera, const CornerRefineOptions& o,
-                             const std::vector<ExcludedRegion>& excluded) {
+                             const std::vector<ExcludedRegion>& excluded, double black) {
   RefinedCorners out;
   out.corners = in;
   const Sampler sample(img);
@@ -276,6 +337,7 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
   std::vector<double>& line = sc.line;
   line.resize(2 * steps + 3);
   std::vector<Eigen::Vector2d>& pts = sc.pts;
+  std::vector<Eigen::Vector2d>& edges = sc.edges;  // pixels
   std::vector<double>& weights = sc.weights;
   // A pinhole camera maps straight sides to straight lines: fit in pixels, no unprojection.
   const bool pinhole = camera && camera->lensmodel() == "LENSMODEL_PINHOLE";
@@ -292,6 +354,7 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       const Eigen::Vector2d u = (b - a) / len, outward(u.y(), -u.x());  // dark is screen-right
       const int m = std::clamp(static_cast<int>(len / 1.5), 4, o.max_points);
       pts.clear();
+      edges.clear();
       weights.clear();
       for (int i = 0; i < m; ++i) {
         const double t = o.end_margin + (1 - 2 * o.end_margin) * (i + 0.5) / m;
@@ -305,11 +368,37 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
         double best;
         if (!LocateEdgeWith(sample, line.data(), steps, p, outward, narrow_band, &edge, &best))
           continue;
-        Eigen::Vector2d q;
-        if (!plane.ToPlane(edge, &q)) continue;
-        pts.push_back(q);
+        edges.push_back(edge);
         weights.push_back(best);
       }
+      // A shadow's penumbra running along the side on the white stripe: see
+      // CornerRefineOptions::penumbra_dark_fraction. Only in the last iteration: the earlier
+      // ones converge on the penumbra, a clean line to start from (from the square's edge,
+      // the penumbra's steepest rise may lie beyond the search and no edge would be found).
+      if (it == o.iterations - 1 && std::isfinite(black) && len >= o.penumbra_min_side_px &&
+          InPenumbra(sample, edges, outward, black, o.penumbra_dark_fraction)) {
+        out.penumbra_sides[k] = true;
+        const double reach = std::min(o.search_px + 2.5, 0.3 * len);
+        size_t kept = 0;
+        for (size_t i = 0; i < edges.size(); ++i) {
+          Eigen::Vector2d inner;
+          double strength;
+          if (!EdgeBelowPenumbra(sample, edges[i], outward, black, reach, &inner, &strength))
+            continue;
+          edges[kept] = inner;
+          weights[kept++] = strength;
+        }
+        edges.resize(kept);
+        weights.resize(kept);
+      }
+      size_t mapped = 0;
+      for (size_t i = 0; i < edges.size(); ++i) {
+        Eigen::Vector2d q;
+        if (!plane.ToPlane(edges[i], &q)) continue;
+        pts.push_back(q);
+        weights[mapped++] = weights[i];
+      }
+      weights.resize(mapped);
       if (pts.size() < 3) return out;  // not refined: keep what we had, ok = false
       const LineFit fit = FitLineRobust(pts, weights, plane, o);
       if (fit.inliers < 3) return out;

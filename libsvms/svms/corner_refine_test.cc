@@ -125,6 +125,67 @@ TEST(RefineCorners, TooFewEdgePointsLeavesTheCornersAndSaysSo) {
   for (int k = 0; k < 4; ++k) EXPECT_EQ(r.corners[k], kTruth[k]);
 }
 
+// The quad (grey 2) in a shadow (its stripe grey 12), except beyond side 1 (corners 1 to 2):
+// there the shadow's penumbra starts 1 px outside the side and climbs to the sunlit 130 over
+// 4 px (steepest 3 px out). That rise is steeper than the square's own edge into the shadowed
+// stripe, and the edge locator takes it; given the square's black level, the side is found
+// under it. The quad's first corners are where the segments put side 1: on the penumbra.
+Eigen::Vector2d Side1Outward() {
+  const Eigen::Vector2d u = (kTruth[2] - kTruth[1]).normalized();
+  return Eigen::Vector2d(u.y(), -u.x());  // dark is screen-right
+}
+cv::Mat DrawUnderPenumbra() {
+  const Eigen::Vector2d a = kTruth[1], outward = Side1Outward();
+  auto grey = [&](const Eigen::Vector2d& p) {
+    bool in = true;
+    for (int k = 0; k < 4 && in; ++k)
+      in = Cross2(kTruth[(k + 1) % 4] - kTruth[k], p - kTruth[k]) > 0;
+    if (in) return 2.0;
+    const double d = outward.dot(p - a);  // outward distance from side 1's line
+    return d < 1 ? 12.0 : d < 5 ? 71.0 - 59.0 * std::cos(M_PI * (d - 1) / 4) : 130.0;
+  };
+  cv::Mat img(120, 120, CV_8UC1);
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x) {
+      double sum = 0;
+      for (int j = 0; j < kSuper; ++j)
+        for (int i = 0; i < kSuper; ++i)
+          sum += grey(Eigen::Vector2d(x - 0.5 + (i + 0.5) / kSuper, y - 0.5 + (j + 0.5) / kSuper));
+      img.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(sum / (kSuper * kSuper));
+    }
+  return img;
+}
+
+TEST(RefineCorners, ASideUnderAPenumbraIsFoundUnderIt) {
+  const cv::Mat img = DrawUnderPenumbra();
+  std::array<Eigen::Vector2d, 4> start = Perturbed();
+  start[1] += 3 * Side1Outward();
+  start[2] += 3 * Side1Outward();
+  const RefinedCorners blind = RefineCorners(img, start, nullptr, {});
+  ASSERT_TRUE(blind.ok);
+  EXPECT_GT(WorstError(blind), 1.5) << "without the black level the penumbra is taken";
+  EXPECT_EQ(blind.penumbra_sides, (std::array<bool, 4>{}));
+
+  const RefinedCorners r = RefineCorners(img, start, nullptr, {}, {}, 2.0);
+  ASSERT_TRUE(r.ok);
+  EXPECT_LT(WorstError(r), 0.15);
+  EXPECT_EQ(r.penumbra_sides, (std::array<bool, 4>{false, true, false, false}));
+  EXPECT_GT(r.side_points[1], 20);
+}
+
+// A sunlit quad: no side is taken for a penumbra, and the black level changes nothing.
+TEST(RefineCorners, TheBlackLevelChangesNothingWithoutAPenumbra) {
+  const cv::Mat img = Draw(kTruth, {Bump()});
+  const RefinedCorners plain = RefineCorners(img, Perturbed(), nullptr, {});
+  const RefinedCorners r = RefineCorners(img, Perturbed(), nullptr, {}, {}, 20.0);
+  ASSERT_TRUE(r.ok);
+  EXPECT_EQ(r.penumbra_sides, (std::array<bool, 4>{}));
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_EQ(r.corners[k], plain.corners[k]);
+    EXPECT_EQ(r.corner_sigma[k], plain.corner_sigma[k]);
+  }
+}
+
 // Columns of a vertical band scene through square pixels (exact areas): dark 20 left of
 // `edge`, white 200 over [edge, edge + stripe), then `beyond` (a bit cell's grey).
 cv::Mat Bands(double edge, double stripe, int beyond) {

@@ -195,7 +195,7 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
         break;
       }
       Detection& d = out[i];
-      const RefinedCorners r = RefineCorners(gray, d.corners, cam, o.refine);
+      const RefinedCorners r = RefineCorners(gray, d.corners, cam, o.refine, {}, d.black);
       if (r.ok) {
         d.corners = r.corners;
         d.corner_sigma = r.corner_sigma;
@@ -233,7 +233,8 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
               PostSilhouette(it->second, camera_, mp.cam_from_marker, o.post_silhouette_margin_px);
         if (post && RegionTouchesSides(*post, d.corners)) {
           sc.excluded.assign(1, *post);
-          const RefinedCorners r = RefineCorners(gray, d.corners, cam, o.refine, sc.excluded);
+          const RefinedCorners r =
+              RefineCorners(gray, d.corners, cam, o.refine, sc.excluded, d.black);
           MarkerPose again;
           // Kept only if the sides fit better without those points: on a short side (a small
           // marker at a grazing angle) the post may hide most of it, and the few points left

@@ -6,10 +6,14 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
+#include <cstdio>
+#include <cstdlib>
 #include <memory>
+#include <opencv2/imgcodecs.hpp>
 
 #include "svms/detector.h"
 #include "svms/ippe.h"
+#include "svms/object_pose.h"
 #include "svms/render.h"
 #include "svms/truth.h"
 
@@ -102,6 +106,58 @@ TEST(CompareScenes, ThirtyPixelMarkersAreNotFlagged) {
     ASSERT_TRUE(std::isfinite(p.error_deg));
     EXPECT_LT(p.error_deg, 2);
     EXPECT_FALSE(p.ambiguous);
+  }
+}
+
+// The sun sweep's shadow-edge views (75 px, 20 degrees off-axis, a bar's shadow edge across the
+// marker): where the penumbra runs along a side, just outside it on the white stripe, the
+// strongest rise across that side is the penumbra's, not the black square's (view 09: the side
+// came out 2.9 px outside, the pose 5.4 degrees off with NEES 744). Every marker is found,
+// every corner within 0.15 px of the truth, every pose within 0.5 degrees, and no NEES above
+// chi-square's 99.9 % point.
+TEST(CompareScenes, AShadowEdgeAlongASideDoesNotMoveIt) {
+  for (const CompareSweep& sw : MakeCompareSweeps(CompareOptions{})) {
+    if (sw.name != "sun") continue;
+    std::unique_ptr<Renderer> r;
+    ASSERT_TRUE(Renderer::Create(sw.scene, &r));
+    std::vector<MarkerModel> models;
+    for (const SceneObject& ob : sw.scene.objects)
+      for (const SceneMarker& m : ob.markers) models.push_back(m.model);
+    const Detector det(DetectorOptions{}, sw.scene.camera, models);
+    int views = 0;
+    for (size_t v = 0; v < sw.scene.views.size(); ++v) {
+      const std::string& name = sw.scene.views[v].name;
+      if (name.rfind("edge_", 0) != 0) continue;
+      ++views;
+      SCOPED_TRACE(name);
+      const cv::Mat img = r->Expose(r->RenderRadiance(static_cast<int>(v)), static_cast<int>(v));
+      if (const char* dir = std::getenv("SVMS_TEST_IMAGES"))
+        cv::imwrite(std::string(dir) + "/" + name + ".png", img);
+      const ViewTruth truth = ComputeTruth(*r, static_cast<int>(v));
+      const MarkerTruth& t = truth.markers[0];
+      const Detection* found = nullptr;
+      const std::vector<Detection> dets = det.Detect(img);
+      for (const Detection& d : dets)
+        if (d.id == t.id && d.cam_from_marker) found = &d;
+      ASSERT_NE(found, nullptr);
+      double worst_px = 0, worst_sigmas = 0;
+      for (int k = 0; k < 4; ++k) {
+        const double e = (found->corners[k] - t.corners[k].pixel).norm();
+        worst_px = std::max(worst_px, e);
+        worst_sigmas = std::max(worst_sigmas, e / found->corner_sigma[k]);
+      }
+      const double error_deg = Eigen::AngleAxisd(found->cam_from_marker->Rotation().transpose() *
+                                                 t.cam_from_marker.Rotation())
+                                   .angle() *
+                               180 / M_PI;
+      std::printf("%s: worst corner %.3f px (%.1f sigma), orientation %.3f deg, NEES %.1f\n",
+                  name.c_str(), worst_px, worst_sigmas, error_deg,
+                  Nees(t.cam_from_marker, *found->cam_from_marker, found->covariance));
+      EXPECT_LT(worst_px, 0.15);
+      EXPECT_LT(error_deg, 0.5);
+      EXPECT_LT(Nees(t.cam_from_marker, *found->cam_from_marker, found->covariance), 22.46);
+    }
+    EXPECT_EQ(views, 11);
   }
 }
 
