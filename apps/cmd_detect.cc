@@ -53,6 +53,12 @@ nlohmann::json DetectionJson(const Detection& d) {
       for (int k = 0; k < 6; ++k) cov[r * 6 + k] = d.covariance(r, k);
     j["covariance"] = cov;
     j["pose_ambiguous"] = d.pose_ambiguous;
+    if (d.alternative_pose) {
+      const Pose& a = *d.alternative_pose;
+      j["alternative_pose"] = {{"rvec", {a.rvec(0), a.rvec(1), a.rvec(2)}},
+                               {"tvec", {a.tvec(0), a.tvec(1), a.tvec(2)}},
+                               {"weight", d.alternative_weight}};
+    }
     j["calibration_in_covariance"] = d.calibration_in_covariance;
   }
   if (d.nested_in >= 0) j["nested_in"] = d.nested_in;
@@ -198,7 +204,9 @@ void AddDetectCommands(CLI::App& app, int* exit_code) {
       "corner_sigma (each corner's sigma in px from its line fits), tip (px), tip_sigma (px, each "
       "axis), bit_errors, "
       "cam_from_marker {rvec, tvec}, covariance (36 numbers, row-major,\n"
-      "[rotation, translation] in camera axes), pose_ambiguous, calibration_in_covariance (the\n"
+      "[rotation, translation] in camera axes), pose_ambiguous (and then alternative_pose\n"
+      "{rvec, tvec, weight}: the other planar pose and its share of the likelihood),\n"
+      "calibration_in_covariance (the\n"
       "covariance includes the calibration's uncertainty: CAMERA.covariance.json was next to the\n"
       "camera model), nested_in). Without --camera: IDs and corners only.\n"
       "A bad image gets an \"error\" field and a line on stderr; the batch goes on; exit code 1.\n"

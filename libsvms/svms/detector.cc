@@ -223,6 +223,8 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
         d.tip = mp.tip;
         d.pose_ambiguous = mp.ambiguous;
         d.ambiguity_covariance = mp.ambiguity_covariance;
+        d.alternative_pose = mp.alternative;
+        d.alternative_weight = mp.alternative_weight;
         d.calibration_in_covariance = mp.calibration_in_covariance;
         d.pose_rms_px = mp.rms_px;
         // 10b. At grazing views the post's silhouette crosses a side and moves the edge points
@@ -252,6 +254,8 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
             d.tip = again.tip;
             d.pose_ambiguous = again.ambiguous;
             d.ambiguity_covariance = again.ambiguity_covariance;
+            d.alternative_pose = again.alternative;
+            d.alternative_weight = again.alternative_weight;
             d.calibration_in_covariance = again.calibration_in_covariance;
             d.pose_rms_px = again.rms_px;
           }

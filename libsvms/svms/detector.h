@@ -48,6 +48,10 @@ struct Detection {
   bool pose_ambiguous = false;  // the two planar poses are not told apart (MarkerPose)
   // The other planar solution's share of `covariance` (MarkerPose::ambiguity_covariance).
   PoseCovariance ambiguity_covariance = PoseCovariance::Zero();
+  // Where pose_ambiguous: the other planar pose and its share of the likelihood
+  // (MarkerPose::alternative).
+  std::optional<Pose> alternative_pose;
+  double alternative_weight = 0;
   bool calibration_in_covariance = false;  // `covariance` includes the camera calibration's
   double pose_rms_px = 0;
   int nested_in = -1;           // the outer marker's ID for the inner marker of a dual

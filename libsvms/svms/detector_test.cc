@@ -271,6 +271,16 @@ TEST(Detector, AnAmbiguousPoseCoversBothPlanarSolutions) {
     if (error > 5) {
       EXPECT_TRUE(d[0].pose_ambiguous);
     }
+    // A flagged pose comes with the other planar pose; where the kept one is wrong, that one
+    // is right.
+    ASSERT_EQ(d[0].alternative_pose.has_value(), d[0].pose_ambiguous);
+    if (d[0].alternative_pose) {
+      EXPECT_GT(d[0].alternative_weight, 0.01);
+      EXPECT_LE(d[0].alternative_weight, 0.5);
+      if (error > 5) {
+        EXPECT_LT(AngleDeg(*d[0].alternative_pose, truth), 5);
+      }
+    }
     EXPECT_LT(nees, 16.3);  // chi-square, 3 dof, 99.9 %
   }
   RecordProperty("ambiguous", ambiguous);

@@ -715,6 +715,8 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
   // when w is above 1 % (dchi2 below 9.2).
   out->ambiguous = false;
   out->ambiguity_covariance.setZero();
+  out->alternative.reset();
+  out->alternative_weight = 0;
   bool weighed = false;  // the other solution's likelihood is known
   const size_t other = 1 - pick;
   if (cands.size() > 1 && refined[other].ok) {
@@ -731,6 +733,10 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
       out->ambiguity_covariance = w * (b.covariance - out->covariance + d * d.transpose());
       out->covariance += out->ambiguity_covariance;
       out->ambiguous = w > kAmbiguousWeight && delta.angle() > kAmbiguousMinDeg * M_PI / 180;
+      if (out->ambiguous) {
+        out->alternative = b.pose;
+        out->alternative_weight = w;
+      }
     }
     weighed = separation > 9;
   }
@@ -759,6 +765,10 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
       out->ambiguity_covariance = w * d * d.transpose();
       out->covariance += out->ambiguity_covariance;
       out->ambiguous = w > kAmbiguousWeight && delta.angle() > kAmbiguousMinDeg * M_PI / 180;
+      if (out->ambiguous) {
+        out->alternative = twin;
+        out->alternative_weight = w;
+      }
     }
   }
   out->calibration_in_covariance = false;

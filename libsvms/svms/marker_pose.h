@@ -93,6 +93,11 @@ struct MarkerPose {
   // What the other planar solution adds to `covariance` (same axes): w (C' - C + d d^T), zero
   // when it is the same pose or negligible. A fit over other points (fusion) adds it likewise.
   PoseCovariance ambiguity_covariance = PoseCovariance::Zero();
+  // Where `ambiguous`: the other planar solution (the other candidate as refined, or the kept
+  // pose's planar twin) and its share of the likelihood, in (0.01, 0.5]: what a consumer that
+  // can check against other data (another marker, the previous frame) may take instead.
+  std::optional<Pose> alternative;
+  double alternative_weight = 0;
   double rms_px = 0;                       // RMS of the corner (and tip) residuals after the fit
   int solutions = 0;                       // planar solutions considered
   bool calibration_in_covariance = false;  // the camera calibration's uncertainty is included

@@ -93,6 +93,9 @@ ImageOutcome EvaluateImage(const ViewTruth& truth, const std::vector<FoundMarker
       m.twin_err_deg =
           AngleDeg(f.cam_from_marker->Rotation(), PlanarTwin(t.cam_from_marker).Rotation());
       if (f.covariance) m.pose_nees = Nees(t.cam_from_marker, *f.cam_from_marker, *f.covariance);
+      if (f.alternative_pose)
+        m.alternative_err_deg =
+            AngleDeg(f.alternative_pose->Rotation(), t.cam_from_marker.Rotation());
     }
   }
   return out;

@@ -26,6 +26,8 @@ struct FoundMarker {
   // The pose's covariance, [rotation, translation] about the camera axes (radians, metres;
   // pose.h), when the system gives one (SVMS).
   std::optional<PoseCovariance> covariance;
+  // With a flagged pose: the other planar pose the system gives beside it (SVMS).
+  std::optional<Pose> alternative_pose;
 };
 
 // One truth marker, for one system, in one image.
@@ -46,6 +48,8 @@ struct MarkerOutcome {
   // degrees (PlanarTwin, ippe.h: twice the view angle from the truth).
   double twin_err_deg = NAN;
   bool pose_ambiguous = false;  // of the hit: the system flagged its pose
+  // Of the hit with an alternative pose: that pose's orientation error, degrees (NaN otherwise).
+  double alternative_err_deg = NAN;
   // Of the hit with a covariance: its pose's normalised estimation error squared against the
   // truth (6 dof; chi-square with 6 degrees of freedom, mean 6, when the covariance is right).
   double pose_nees = NAN;

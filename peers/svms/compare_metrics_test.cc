@@ -80,6 +80,26 @@ TEST(CompareMetrics, PoseNeesIsTheErrorInUnitsOfTheCovariance) {
   EXPECT_TRUE(std::isnan(EvaluateImage(v, {f}).markers[0].pose_nees));
 }
 
+// The alternative pose beside a flagged one is scored like the pose: its orientation error.
+TEST(CompareMetrics, TheAlternativePoseIsScoredToo) {
+  ViewTruth v;
+  v.markers = {Square(5, 100, 100, 20)};
+  const Pose& truth = v.markers[0].cam_from_marker;
+  FoundMarker f = Found(v.markers[0], 5, 0);
+  const Eigen::Matrix3d off =
+      Eigen::AngleAxisd(12 * M_PI / 180, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  f.cam_from_marker = Pose::FromRotation(off * truth.Rotation(), truth.tvec);
+  f.pose_ambiguous = true;
+  EXPECT_TRUE(std::isnan(EvaluateImage(v, {f}).markers[0].alternative_err_deg));
+  f.alternative_pose = Pose::FromRotation(
+      Eigen::AngleAxisd(3 * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix() *
+          truth.Rotation(),
+      truth.tvec);
+  const ImageOutcome o = EvaluateImage(v, {f});
+  EXPECT_NEAR(o.markers[0].orientation_err_deg, 12, 1e-9);
+  EXPECT_NEAR(o.markers[0].alternative_err_deg, 3, 1e-9);
+}
+
 TEST(CompareMetrics, NestedMarkerGoesToTheInnerSquare) {
   ViewTruth v;
   v.markers = {Square(1, 200, 200, 100), Square(2, 200, 200, 25, 1)};

@@ -33,6 +33,7 @@ double RotationNees(const Pose& truth, const Pose& estimate, const PoseCovarianc
 struct Posed {
   std::string view;
   double error_deg = NAN, nees = NAN, twin_way_sigmas = NAN;
+  double alternative_error_deg = NAN;  // of the alternative pose, where flagged
   bool ambiguous = false;
 };
 std::vector<Posed> PoseSizeViews(const std::string& px) {
@@ -65,6 +66,10 @@ std::vector<Posed> PoseSizeViews(const std::string& px) {
         p.twin_way_sigmas = std::abs((e.angle() * e.axis()).dot(way)) /
                             std::sqrt(way.dot(d.covariance.topLeftCorner<3, 3>() * way));
         p.ambiguous = d.pose_ambiguous;
+        if (d.alternative_pose)
+          p.alternative_error_deg =
+              Eigen::AngleAxisd(d.alternative_pose->Rotation().transpose() * t.Rotation()).angle() *
+              180 / M_PI;
       }
       out.push_back(p);
     }
@@ -90,6 +95,7 @@ TEST(CompareScenes, EightPixelMarkersArePosedRightOrFlagged) {
     if (p.error_deg > 10) {
       EXPECT_TRUE(p.ambiguous);
       EXPECT_LT(p.twin_way_sigmas, 3);
+      EXPECT_LT(p.alternative_error_deg, 5);  // the other planar pose is the right one
     } else {
       EXPECT_LT(p.nees, 16.3);  // chi-square, 3 dof, 99.9 %
     }
