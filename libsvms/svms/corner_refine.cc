@@ -200,6 +200,7 @@ bool InPenumbra(const Sampler& sample, const std::vector<Eigen::Vector2d>& edges
 bool FallTo(const Sampler& sample, const Eigen::Vector2d& edge, const Eigen::Vector2d& outward,
             double level, double reach_px, Eigen::Vector2d* at, double* strength) {
   double prev = sample(edge.x(), edge.y());
+  if (!(prev > level)) return false;  // already below it: no fall to place
   for (int i = 1; 0.25 * i <= reach_px; ++i) {
     const Eigen::Vector2d q = edge - 0.25 * i * outward;
     const double v = sample(q.x(), q.y());
