@@ -13,6 +13,22 @@ namespace {
 
 constexpr int kSuper = 16;  // supersampling of the synthetic images
 
+// A 120 x 120 image, each pixel the mean of grey(p) over its kSuper x kSuper sub-pixel centres
+// p (pixel-centre coordinates): what the scene gives through square pixels.
+template <typename Grey>
+cv::Mat Rasterise(const Grey& grey) {
+  cv::Mat img(120, 120, CV_8UC1);
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x) {
+      double sum = 0;
+      for (int j = 0; j < kSuper; ++j)
+        for (int i = 0; i < kSuper; ++i)
+          sum += grey(Eigen::Vector2d(x - 0.5 + (i + 0.5) / kSuper, y - 0.5 + (j + 0.5) / kSuper));
+      img.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(sum / (kSuper * kSuper));
+    }
+  return img;
+}
+
 // A dark quad (grey 20) on a bright surround (grey 200), plus dark convex `extra` polygons:
 // each pixel's grey from the fraction of its kSuper x kSuper sub-pixel centres inside (what a
 // perfect step edge gives through square pixels). Vertices in pixel-centre coordinates, the
@@ -33,17 +49,7 @@ cv::Mat Draw(const std::array<Eigen::Vector2d, 4>& quad,
     }
     return false;
   };
-  cv::Mat img(120, 120, CV_8UC1);
-  for (int y = 0; y < img.rows; ++y)
-    for (int x = 0; x < img.cols; ++x) {
-      int dark = 0;
-      for (int j = 0; j < kSuper; ++j)
-        for (int i = 0; i < kSuper; ++i)
-          dark +=
-              inside(Eigen::Vector2d(x - 0.5 + (i + 0.5) / kSuper, y - 0.5 + (j + 0.5) / kSuper));
-      img.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(200 - 180.0 * dark / (kSuper * kSuper));
-    }
-  return img;
+  return Rasterise([&](const Eigen::Vector2d& p) { return inside(p) ? 20.0 : 200.0; });
 }
 
 // Clockwise on screen (y down), a little rotated and not square.
@@ -144,16 +150,7 @@ cv::Mat DrawUnderPenumbra() {
     const double d = outward.dot(p - a);  // outward distance from side 1's line
     return d < 1 ? 12.0 : d < 5 ? 71.0 - 59.0 * std::cos(M_PI * (d - 1) / 4) : 130.0;
   };
-  cv::Mat img(120, 120, CV_8UC1);
-  for (int y = 0; y < img.rows; ++y)
-    for (int x = 0; x < img.cols; ++x) {
-      double sum = 0;
-      for (int j = 0; j < kSuper; ++j)
-        for (int i = 0; i < kSuper; ++i)
-          sum += grey(Eigen::Vector2d(x - 0.5 + (i + 0.5) / kSuper, y - 0.5 + (j + 0.5) / kSuper));
-      img.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(sum / (kSuper * kSuper));
-    }
-  return img;
+  return Rasterise(grey);
 }
 
 TEST(RefineCorners, ASideUnderAPenumbraIsFoundUnderIt) {
