@@ -80,11 +80,11 @@ std::vector<FoundMarker> Run(const System& sys, const cv::Mat& img, const Camera
     for (const Detection& d : sys.svms->Detect(img)) {
       out.push_back(FoundMarker{d.id, d.corners, d.cam_from_marker, d.pose_ambiguous,
                                 d.cam_from_marker ? std::optional(d.covariance) : std::nullopt,
-                                d.alternative_pose});
+                                d.alternative_pose, d.alternative_weight});
     }
   } else {
     for (const PeerDetection& d : sys.peer->Detect(img)) {
-      FoundMarker f{d.id, d.corners, std::nullopt, false, std::nullopt, std::nullopt};
+      FoundMarker f{d.id, d.corners, std::nullopt, false, std::nullopt, std::nullopt, 0};
       Pose p;
       if (marker_size > 0 && PeerPose(camera, d.corners, marker_size, &p)) f.cam_from_marker = p;
       out.push_back(f);
@@ -130,6 +130,9 @@ struct Tally {
   std::vector<double> side, corner, range_rel, orient, nees;
   int flips = 0, planar_flips = 0, unflagged_flips = 0, flagged = 0, posed = 0;
   int flips_alternative_right = 0;  // flips whose alternative pose is within kFlipDeg
+  // The flips the system's own ambiguity weights predict: the sum of the alternative poses'
+  // likelihood shares, where an alternative lies more than kFlipDeg from its pose.
+  double expected_flips = 0;
   void Add(const MarkerOutcome& m) {
     if (!m.eligible) return;
     ++eligible;
@@ -147,6 +150,7 @@ struct Tally {
       unflagged_flips += m.orientation_err_deg > kFlipDeg && !m.pose_ambiguous;
       flips_alternative_right +=
           m.orientation_err_deg > kFlipDeg && m.alternative_err_deg <= kFlipDeg;
+      if (m.alternative_sep_deg > kFlipDeg) expected_flips += m.alternative_weight;
       flagged += m.pose_ambiguous;
       if (std::isfinite(m.pose_nees)) nees.push_back(m.pose_nees);
     }
@@ -179,6 +183,7 @@ struct Tally {
             {"unflagged_flips", unflagged_flips},
             {"poses_flagged_ambiguous", flagged},
             {"flips_alternative_right", flips_alternative_right},
+            {"expected_flips", expected_flips},
             {"posed", posed},
             {"flip_rate", posed ? json(static_cast<double>(flips) / posed) : json()},
             {"pose_nees_count", nees.size()},
@@ -424,7 +429,8 @@ int RunCompare(const CompareCliOptions& o) {
     std::ofstream f(dir / "markers.csv");
     f << "sweep,view,condition,config,family,truth_id,eligible,detected,wrong_id,min_side_px,"
          "view_angle_deg,occluded_fraction,distance_m,corner_rms_px,range_err_m,"
-         "orientation_err_deg,twin_err_deg,pose_ambiguous,pose_nees,alternative_err_deg\n";
+         "orientation_err_deg,twin_err_deg,pose_ambiguous,pose_nees,alternative_err_deg,"
+         "alternative_weight\n";
     for (const MarkerRecord& r : markers) {
       const MarkerOutcome& m = r.m;
       f << r.sweep << "," << r.view << "," << r.condition << "," << r.config << "," << r.family
@@ -434,7 +440,8 @@ int RunCompare(const CompareCliOptions& o) {
         << "," << F(m.orientation_err_deg, 4) << "," << F(m.twin_err_deg, 4) << ","
         << (m.detected && std::isfinite(m.orientation_err_deg) ? std::to_string(m.pose_ambiguous)
                                                                : "-")
-        << "," << F(m.pose_nees, 3) << "," << F(m.alternative_err_deg, 4) << "\n";
+        << "," << F(m.pose_nees, 3) << "," << F(m.alternative_err_deg, 4) << ","
+        << (std::isfinite(m.alternative_err_deg) ? F(m.alternative_weight, 4) : "-") << "\n";
     }
     std::ofstream g(dir / "images.csv");
     g << "sweep,view,config,time_ms,detections,false_positives,wrong_ids\n";
@@ -786,6 +793,26 @@ int RunCompare(const CompareCliOptions& o) {
     md << "\n";
   }
   md << "\n";
+  // The flag's weight is a probability: do the flips it predicts match the flips seen?
+  md << "SVMS ambiguity flags by size, up to 30 px: poses flagged, flips, and the flips the "
+        "detector's own weights predict (the sum of each flagged pose's alternative's share of "
+        "the likelihood, where the alternative is more than "
+     << F(kFlipDeg, 0)
+     << " deg from the pose). Honest weights give about as many flips as predicted.\n\n"
+        "| size (px) | posed | flagged | flips | predicted |\n|---|---|---|---|---|\n";
+  {
+    for (const auto& [c, cfgs] : by["size"]) {
+      if (std::stoi(c) > 30) continue;
+      const auto it = cfgs.find("svms");
+      if (it == cfgs.end()) continue;
+      const Tally& t = it->second;
+      md << "| " << std::stoi(c) << " | " << t.posed << " | " << t.flagged << " | " << t.flips
+         << " | " << F(t.expected_flips, 2) << " |\n";
+    }
+    const Tally& all = overall["svms"];
+    md << "| all sweeps | " << all.posed << " | " << all.flagged << " | " << all.flips << " | "
+       << F(all.expected_flips, 2) << " |\n\n";
+  }
   // The covariance is what a user fuses and gates with: is it honest, by size and sweep?
   md << "SVMS pose covariance (the peers give none): each pose's 6-dof NEES against the truth, "
         "with the detector's covariance (the planar twin's share included where the pose is "

@@ -33,13 +33,13 @@ for px in 10 16 30; do
 done
 # Each pose's distance to the truth's planar twin, and the planar flips counted.
 head -1 "$out/markers.csv" |
-  grep -q ',orientation_err_deg,twin_err_deg,pose_ambiguous,pose_nees,alternative_err_deg$' ||
-  fail "markers.csv has no twin_err_deg, pose_nees or alternative_err_deg"
+  grep -q ',orientation_err_deg,twin_err_deg,pose_ambiguous,pose_nees,alternative_err_deg,alternative_weight$' ||
+  fail "markers.csv has no twin_err_deg, pose_nees or alternative pose columns"
 # The 60 px pose is not flagged, so it has no alternative pose.
-grep -q '^size,size_060px_00,060,svms,.*,[0-9.]*,[0-9.]*,0,[0-9.]*,-$' "$out/markers.csv" ||
+grep -q '^size,size_060px_00,060,svms,.*,[0-9.]*,[0-9.]*,0,[0-9.]*,-,-$' "$out/markers.csv" ||
   fail "no twin error or NEES for the 60 px svms pose, or an alternative pose for it"
 # SVMS gives a covariance, the peers none: NEES for svms only, and its table in the report.
-grep -q '^size,size_060px_00,060,apriltag_d2,.*,0,-,-$' "$out/markers.csv" ||
+grep -q '^size,size_060px_00,060,apriltag_d2,.*,0,-,-,-$' "$out/markers.csv" ||
   fail "a peer's pose has a NEES or an alternative pose"
 grep -q '"pose_nees_within_chi2_95"' "$out/summary.json" || fail "summary.json has no NEES"
 grep -q '^| all sweeps | [1-9][0-9]* | [0-9.]* | [0-9.]* | [0-9]* % |$' "$out/report.md" ||
@@ -50,6 +50,9 @@ grep -q '"unflagged_flips"' "$out/summary.json" || fail "summary.json has no unf
 grep -q '^- No pose flips: .*, of them planar [0-9]*, not flagged ambiguous [0-9]*, with the alternative pose given beside the flag within 10 deg of the truth [0-9]*)' "$out/report.md" ||
   fail "the flips target does not count the planar ones and the right alternatives"
 grep -q '"flips_alternative_right"' "$out/summary.json" || fail "summary.json has no flips_alternative_right"
+grep -q '"expected_flips"' "$out/summary.json" || fail "summary.json has no expected_flips"
+grep -q '^| all sweeps | [0-9]* | [0-9]* | [0-9]* | [0-9.]* |$' "$out/report.md" ||
+  fail "report.md has no row of flags, flips and predicted flips over all sweeps"
 # A bad --size-views is refused with its name, before any work.
 if "$svms" bench compare --size-views 0 --out "$out/bad" > /dev/null 2> "$out/bad.txt"; then
   fail "--size-views 0 was accepted"

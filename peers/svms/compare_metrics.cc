@@ -93,9 +93,13 @@ ImageOutcome EvaluateImage(const ViewTruth& truth, const std::vector<FoundMarker
       m.twin_err_deg =
           AngleDeg(f.cam_from_marker->Rotation(), PlanarTwin(t.cam_from_marker).Rotation());
       if (f.covariance) m.pose_nees = Nees(t.cam_from_marker, *f.cam_from_marker, *f.covariance);
-      if (f.alternative_pose)
+      if (f.alternative_pose) {
         m.alternative_err_deg =
             AngleDeg(f.alternative_pose->Rotation(), t.cam_from_marker.Rotation());
+        m.alternative_sep_deg =
+            AngleDeg(f.alternative_pose->Rotation(), f.cam_from_marker->Rotation());
+        m.alternative_weight = f.alternative_weight;
+      }
     }
   }
   return out;

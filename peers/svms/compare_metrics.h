@@ -26,8 +26,10 @@ struct FoundMarker {
   // The pose's covariance, [rotation, translation] about the camera axes (radians, metres;
   // pose.h), when the system gives one (SVMS).
   std::optional<PoseCovariance> covariance;
-  // With a flagged pose: the other planar pose the system gives beside it (SVMS).
+  // With a flagged pose: the other planar pose the system gives beside it, and the share of
+  // the likelihood the system gives that pose (SVMS).
   std::optional<Pose> alternative_pose;
+  double alternative_weight = 0;
 };
 
 // One truth marker, for one system, in one image.
@@ -50,6 +52,10 @@ struct MarkerOutcome {
   bool pose_ambiguous = false;  // of the hit: the system flagged its pose
   // Of the hit with an alternative pose: that pose's orientation error, degrees (NaN otherwise).
   double alternative_err_deg = NAN;
+  // Of the hit with an alternative pose: its share of the likelihood (0 without one) and its
+  // rotation angle from the pose, degrees (NaN without one). Where that angle is above kFlipDeg,
+  // the share is the system's own probability that the pose is a flip.
+  double alternative_weight = 0, alternative_sep_deg = NAN;
   // Of the hit with a covariance: its pose's normalised estimation error squared against the
   // truth (6 dof; chi-square with 6 degrees of freedom, mean 6, when the covariance is right).
   double pose_nees = NAN;

@@ -98,6 +98,17 @@ TEST(CompareMetrics, TheAlternativePoseIsScoredToo) {
   const ImageOutcome o = EvaluateImage(v, {f});
   EXPECT_NEAR(o.markers[0].orientation_err_deg, 12, 1e-9);
   EXPECT_NEAR(o.markers[0].alternative_err_deg, 3, 1e-9);
+  EXPECT_EQ(o.markers[0].alternative_weight, 0);
+  f.alternative_weight = 0.3;
+  const ImageOutcome w = EvaluateImage(v, {f});
+  EXPECT_EQ(w.markers[0].alternative_weight, 0.3);
+  const double sep =
+      Eigen::AngleAxisd(f.alternative_pose->Rotation().transpose() * f.cam_from_marker->Rotation())
+          .angle() *
+      180 / M_PI;
+  EXPECT_NEAR(w.markers[0].alternative_sep_deg, sep, 1e-9);
+  EXPECT_GT(w.markers[0].alternative_sep_deg, 12);  // 12 about x, 3 about y: about 12.4
+  EXPECT_LT(w.markers[0].alternative_sep_deg, 13);
 }
 
 TEST(CompareMetrics, NestedMarkerGoesToTheInnerSquare) {
