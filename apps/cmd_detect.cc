@@ -42,6 +42,12 @@ nlohmann::json DetectionJson(const Detection& d) {
   if (d.corner_sigma[0] > 0)
     j["corner_sigma"] = {d.corner_sigma[0], d.corner_sigma[1], d.corner_sigma[2],
                          d.corner_sigma[3]};
+  if (d.penumbra_sides[0] || d.penumbra_sides[1] || d.penumbra_sides[2] || d.penumbra_sides[3]) {
+    nlohmann::json sides = nlohmann::json::array();
+    for (int k = 0; k < 4; ++k)
+      if (d.penumbra_sides[k]) sides.push_back(k);
+    j["penumbra_sides"] = sides;
+  }
   j["tip"] = d.tip ? nlohmann::json{d.tip->pixel.x(), d.tip->pixel.y()} : nlohmann::json();
   if (d.tip) j["tip_sigma"] = d.tip->sigma_px;
   if (d.cam_from_marker) {
@@ -201,7 +207,9 @@ void AddDetectCommands(CLI::App& app, int* exit_code) {
   det->footer(
       "Output: one JSON line per image: image, ms, detections (id, corners TL/TR/BR/BL as "
       "printed,\n"
-      "corner_sigma (each corner's sigma in px from its line fits), tip (px), tip_sigma (px, each "
+      "corner_sigma (each corner's sigma in px from its line fits), penumbra_sides (where any:\n"
+      "the sides, 0-3 from corner k to k + 1, found under a shadow's penumbra), tip (px), "
+      "tip_sigma (px, each "
       "axis), bit_errors, "
       "cam_from_marker {rvec, tvec}, covariance (36 numbers, row-major,\n"
       "[rotation, translation] in camera axes), pose_ambiguous (and then alternative_pose\n"

@@ -199,6 +199,7 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
       if (r.ok) {
         d.corners = r.corners;
         d.corner_sigma = r.corner_sigma;
+        d.penumbra_sides = r.penumbra_sides;
       }
     }
   }
@@ -249,6 +250,7 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
                                  &again, r.corner_sigma)) {
             d.corners = r.corners;
             d.corner_sigma = r.corner_sigma;
+            d.penumbra_sides = r.penumbra_sides;
             d.cam_from_marker = again.cam_from_marker;
             d.covariance = again.covariance;
             d.tip = again.tip;

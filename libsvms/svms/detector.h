@@ -42,8 +42,11 @@ struct Detection {
   int bit_errors = 0;  // corrected bits
   std::array<Eigen::Vector2d, 4> corners;  // TL, TR, BR, BL as printed; pixels
   std::array<double, 4> corner_sigma{};  // each corner's sigma from its line fits (px); 0: unknown
-  std::optional<TipObservation> tip;     // the post tip, when found
-  std::optional<Pose> cam_from_marker;   // with a camera and the marker's model
+  // Sides (k: from corner k to corner k + 1) whose edge was taken from under a shadow's
+  // penumbra (RefinedCorners::penumbra_sides).
+  std::array<bool, 4> penumbra_sides{};
+  std::optional<TipObservation> tip;                   // the post tip, when found
+  std::optional<Pose> cam_from_marker;                 // with a camera and the marker's model
   PoseCovariance covariance = PoseCovariance::Zero();  // [rotation, translation], camera axes
   bool pose_ambiguous = false;  // the two planar poses are not told apart (MarkerPose)
   // The other planar solution's share of `covariance` (MarkerPose::ambiguity_covariance).

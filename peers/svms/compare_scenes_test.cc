@@ -159,6 +159,9 @@ TEST(CompareScenes, AShadowEdgeAlongASideDoesNotMoveIt) {
       std::printf("%s: worst corner %.3f px (%.1f sigma), orientation %.3f deg, NEES %.1f\n",
                   name.c_str(), worst_px, worst_sigmas, error_deg,
                   Nees(t.cam_from_marker, *found->cam_from_marker, found->covariance));
+      // Only view 09 has the penumbra along a side (its right side, 1 to 2, as printed).
+      EXPECT_EQ(found->penumbra_sides,
+                (std::array<bool, 4>{false, name == "edge_40deg_09", false, false}));
       EXPECT_LT(worst_px, 0.15);
       EXPECT_LT(error_deg, 0.5);
       EXPECT_LT(Nees(t.cam_from_marker, *found->cam_from_marker, found->covariance), 22.46);
