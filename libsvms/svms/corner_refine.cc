@@ -181,17 +181,21 @@ double LevelBeside(const Sampler& sample, const Eigen::Vector2d& edge, const Eig
   return sum / 3;
 }
 
-// True where more than half of a side's located edge points (pixels; `outward` from dark to
-// bright) have their dark side, 1.5-2 px in, more than `fraction` of the way from the square's
-// `black` to their bright side, 1.5-2 px out: the rise located is not the black square's.
+// True where more than half of up to 8 of a side's located edge points, evenly spread (pixels;
+// `outward` from dark to bright), have their dark side, 1.5-2 px in, more than `fraction` of
+// the way from the square's `black` to their bright side, 1.5-2 px out: the rise located is
+// not the black square's. Eight, as in the study that set the threshold (BM_Detect, three
+// markers: step 8 takes 0.230 ms without the check, 0.241 with it on 8 points, 0.248 on all).
 bool InPenumbra(const Sampler& sample, const std::vector<Eigen::Vector2d>& edges,
                 const Eigen::Vector2d& outward, double black, double fraction) {
+  const size_t n = std::min<size_t>(8, edges.size());
   size_t raised = 0;
-  for (const Eigen::Vector2d& e : edges) {
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d& e = edges[(2 * i + 1) * edges.size() / (2 * n)];
     const double dark = LevelBeside(sample, e, -outward), bright = LevelBeside(sample, e, outward);
     if (bright > black && dark - black > fraction * (bright - black)) ++raised;
   }
-  return 2 * raised > edges.size();
+  return 2 * raised > n;
 }
 
 // Where the profile from `edge` inward along -outward (0.25 px steps, up to `reach_px`) first
