@@ -35,6 +35,10 @@ struct DetectOptions {
   bool json = true;
 };
 
+nlohmann::json PoseJson(const Pose& p) {
+  return {{"rvec", {p.rvec(0), p.rvec(1), p.rvec(2)}}, {"tvec", {p.tvec(0), p.tvec(1), p.tvec(2)}}};
+}
+
 nlohmann::json DetectionJson(const Detection& d) {
   nlohmann::json c = nlohmann::json::array();
   for (const auto& p : d.corners) c.push_back({p.x(), p.y()});
@@ -51,19 +55,15 @@ nlohmann::json DetectionJson(const Detection& d) {
   j["tip"] = d.tip ? nlohmann::json{d.tip->pixel.x(), d.tip->pixel.y()} : nlohmann::json();
   if (d.tip) j["tip_sigma"] = d.tip->sigma_px;
   if (d.cam_from_marker) {
-    const Pose& p = *d.cam_from_marker;
-    j["cam_from_marker"] = {{"rvec", {p.rvec(0), p.rvec(1), p.rvec(2)}},
-                            {"tvec", {p.tvec(0), p.tvec(1), p.tvec(2)}}};
+    j["cam_from_marker"] = PoseJson(*d.cam_from_marker);
     std::vector<double> cov(36);
     for (int r = 0; r < 6; ++r)
       for (int k = 0; k < 6; ++k) cov[r * 6 + k] = d.covariance(r, k);
     j["covariance"] = cov;
     j["pose_ambiguous"] = d.pose_ambiguous;
     if (d.alternative_pose) {
-      const Pose& a = *d.alternative_pose;
-      j["alternative_pose"] = {{"rvec", {a.rvec(0), a.rvec(1), a.rvec(2)}},
-                               {"tvec", {a.tvec(0), a.tvec(1), a.tvec(2)}},
-                               {"weight", d.alternative_weight}};
+      j["alternative_pose"] = PoseJson(*d.alternative_pose);
+      j["alternative_pose"]["weight"] = d.alternative_weight;
     }
     j["calibration_in_covariance"] = d.calibration_in_covariance;
   }

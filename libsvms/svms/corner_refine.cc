@@ -208,8 +208,7 @@ bool FallTo(const Sampler& sample, const Eigen::Vector2d& edge, const Eigen::Vec
   for (int i = 1; 0.25 * i <= reach_px; ++i) {
     const Eigen::Vector2d q = edge - 0.25 * i * outward;
     const double v = sample(q.x(), q.y());
-    if (v <= level) {
-      if (prev <= v) return false;
+    if (v <= level) {  // prev > level >= v
       *at = edge - (0.25 * (i - 1) + 0.25 * (prev - level) / (prev - v)) * outward;
       *strength = (prev - v) / 0.25;
       return true;

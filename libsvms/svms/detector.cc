@@ -54,6 +54,19 @@ bool Inside(const Eigen::Vector2d& p, const std::array<Eigen::Vector2d, 4>& q) {
   return true;
 }
 
+// The pose, its covariance, tip and flags of `mp` into `d` (steps 9-10 and 10b's refit).
+void SetPose(const MarkerPose& mp, Detection* d) {
+  d->cam_from_marker = mp.cam_from_marker;
+  d->covariance = mp.covariance;
+  d->tip = mp.tip;
+  d->pose_ambiguous = mp.ambiguous;
+  d->ambiguity_covariance = mp.ambiguity_covariance;
+  d->alternative_pose = mp.alternative;
+  d->alternative_weight = mp.alternative_weight;
+  d->calibration_in_covariance = mp.calibration_in_covariance;
+  d->pose_rms_px = mp.rms_px;
+}
+
 }  // namespace
 
 double Detection::side_px() const {
@@ -219,15 +232,7 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
       MarkerPose mp;
       if (EstimateMarkerPose(gray, d.corners, it->second, camera_, d.black, d.white, o.pose, &mp,
                              d.corner_sigma)) {
-        d.cam_from_marker = mp.cam_from_marker;
-        d.covariance = mp.covariance;
-        d.tip = mp.tip;
-        d.pose_ambiguous = mp.ambiguous;
-        d.ambiguity_covariance = mp.ambiguity_covariance;
-        d.alternative_pose = mp.alternative;
-        d.alternative_weight = mp.alternative_weight;
-        d.calibration_in_covariance = mp.calibration_in_covariance;
-        d.pose_rms_px = mp.rms_px;
+        SetPose(mp, &d);
         // 10b. At grazing views the post's silhouette crosses a side and moves the edge points
         // there by pixels: refit the sides without them and solve the pose again.
         std::optional<ExcludedRegion> post;
@@ -251,15 +256,7 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
             d.corners = r.corners;
             d.corner_sigma = r.corner_sigma;
             d.penumbra_sides = r.penumbra_sides;
-            d.cam_from_marker = again.cam_from_marker;
-            d.covariance = again.covariance;
-            d.tip = again.tip;
-            d.pose_ambiguous = again.ambiguous;
-            d.ambiguity_covariance = again.ambiguity_covariance;
-            d.alternative_pose = again.alternative;
-            d.alternative_weight = again.alternative_weight;
-            d.calibration_in_covariance = again.calibration_in_covariance;
-            d.pose_rms_px = again.rms_px;
+            SetPose(again, &d);
           }
         }
       }
