@@ -31,6 +31,14 @@ struct PoseCliOptions {
   double max_megapixels = 100;
 };
 
+// {rvec, tvec, quaternion [w, x, y, z]} of a pose.
+nlohmann::json PoseJson(const Pose& pose) {
+  const Eigen::Quaterniond q(pose.Rotation());
+  return {{"rvec", {pose.rvec(0), pose.rvec(1), pose.rvec(2)}},
+          {"tvec", {pose.tvec(0), pose.tvec(1), pose.tvec(2)}},
+          {"quaternion", {q.w(), q.x(), q.y(), q.z()}}};
+}
+
 }  // namespace
 
 nlohmann::json FrameJson(const FrameResult& r) {
@@ -39,15 +47,15 @@ nlohmann::json FrameJson(const FrameResult& r) {
   j["timestamp"] = r.timestamp;
   j["valid"] = p.valid;
   if (p.valid) {
-    const Pose& c = p.cam_from_object;
-    const Eigen::Quaterniond q(c.Rotation());
-    j["cam_from_object"] = {{"rvec", {c.rvec(0), c.rvec(1), c.rvec(2)}},
-                            {"tvec", {c.tvec(0), c.tvec(1), c.tvec(2)}},
-                            {"quaternion", {q.w(), q.x(), q.y(), q.z()}}};
+    j["cam_from_object"] = PoseJson(p.cam_from_object);
     std::vector<double> cov(36);
     for (int a = 0; a < 6; ++a)
       for (int b = 0; b < 6; ++b) cov[a * 6 + b] = p.covariance(a, b);
     j["covariance"] = cov;
+    if (p.alternative_cam_from_object) {
+      j["alternative"] = PoseJson(*p.alternative_cam_from_object);
+      j["alternative"]["weight"] = p.alternative_weight;
+    }
   } else {
     j["cam_from_object"] = nullptr;
     j["covariance"] = nullptr;
@@ -215,7 +223,9 @@ void AddPoseCommands(CLI::App& app, int* exit_code) {
       "markers_rejected, points_rejected, markers_seen, points, rms (px), chi2, dof, flags "
       "{ambiguous,\n"
       "poorly_conditioned, budget_exceeded, calibration_in_covariance}, latency_ms, detect_ms;\n"
-      "message when not valid. The covariance includes the camera calibration's uncertainty\n"
+      "alternative {rvec, tvec, quaternion, weight} where ambiguous: the pose under the one\n"
+      "marker's other planar pose and its share of the likelihood; message when not valid. The "
+      "covariance includes the camera calibration's uncertainty\n"
       "when CAMERA.covariance.json (written by svms calibrate) is next to the camera model.\n"
       "An unreadable frame gets an \"error\" field and a line on stderr; the stream goes on;\n"
       "exit code 1 at the end. See docs/flight-interface.md.\n"

@@ -108,8 +108,8 @@ void AddRenderCommands(CLI::App& app, int* exit_code) {
   render->add_flag("--quiet", o->quiet, "No progress on stderr");
   render->footer(
       "Examples:\n"
-      "  svms render datasets/scenes/single.json --out out/single\n"
-      "  svms dataset range --out out/range && svms render out/range/scene.json --out out/range");
+      "  svms dataset range --out out/range && svms render out/range/scene.json --out out/range\n"
+      "  svms render out/range/scene.json --out out/range_radiance --radiance");
   render->callback([o, exit_code] { *exit_code = RunRender(*o); });
 }
 

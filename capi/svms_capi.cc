@@ -48,6 +48,19 @@ bool IsLive(const svms_estimator* e) {
   return Live().count(e) > 0;
 }
 
+// A pose as rvec[3], tvec[3] and quaternion[4] ([w, x, y, z]).
+void PoseOut(const svms::Pose& pose, double* rvec, double* tvec, double* quaternion) {
+  const Eigen::Quaterniond q(pose.Rotation());
+  for (int i = 0; i < 3; ++i) {
+    rvec[i] = pose.rvec[i];
+    tvec[i] = pose.tvec[i];
+  }
+  quaternion[0] = q.w();
+  quaternion[1] = q.x();
+  quaternion[2] = q.y();
+  quaternion[3] = q.z();
+}
+
 void Fill(const svms::FrameResult& r, svms_pose* out) {
   const svms::ObjectPose& p = r.pose;
   *out = svms_pose{};
@@ -68,18 +81,15 @@ void Fill(const svms::FrameResult& r, svms_pose* out) {
                (p.calibration_in_covariance ? SVMS_FLAG_CALIBRATION_IN_COVARIANCE : 0u);
   out->latency_ms = r.latency_ms;
   if (!p.valid) return;
-  const svms::Pose& c = p.cam_from_object;
-  const Eigen::Quaterniond q(c.Rotation());
-  for (int i = 0; i < 3; ++i) {
-    out->rvec[i] = c.rvec[i];
-    out->tvec[i] = c.tvec[i];
-  }
-  out->quaternion[0] = q.w();
-  out->quaternion[1] = q.x();
-  out->quaternion[2] = q.y();
-  out->quaternion[3] = q.z();
+  PoseOut(p.cam_from_object, out->rvec, out->tvec, out->quaternion);
   for (int a = 0; a < 6; ++a)
     for (int b = 0; b < 6; ++b) out->covariance[a * 6 + b] = p.covariance(a, b);
+  if (p.alternative_cam_from_object) {
+    out->has_alternative = 1;
+    PoseOut(*p.alternative_cam_from_object, out->alternative_rvec, out->alternative_tvec,
+            out->alternative_quaternion);
+    out->alternative_weight = p.alternative_weight;
+  }
 }
 
 svms_status Process(svms_estimator* e, const void* pixels, int width, int height, ptrdiff_t stride,

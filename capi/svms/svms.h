@@ -74,6 +74,15 @@ typedef struct svms_pose {
   int dof;                                   /* 2 * points_used - 6 */
   uint32_t flags;                            /* SVMS_FLAG_* */
   double latency_ms;                         /* detection and fusion, wall clock */
+  /* With SVMS_FLAG_AMBIGUOUS, where the one marker's other planar pose is known
+   * (has_alternative = 1): cam_from_object under that pose, as rvec, tvec and quaternion above,
+   * and its share of the likelihood, in (0.01, 0.5]. A filter can carry both hypotheses until a
+   * second marker or a closer view settles them. Added in 0.2.0 (svms_pose grew: rebuild). */
+  int has_alternative;
+  double alternative_rvec[3];
+  double alternative_tvec[3];
+  double alternative_quaternion[4];
+  double alternative_weight;
 } svms_pose;
 
 typedef struct svms_estimator svms_estimator;

@@ -9,6 +9,7 @@
 
 #include "svms/camera_covariance.h"
 #include "svms/datasets.h"
+#include "svms/model_io.h"
 #include "svms/render.h"
 #include "svms/truth.h"
 
@@ -56,6 +57,33 @@ int main(int argc, char** argv) {
         f.precision(17);
         f << pose.rvec.transpose() << " " << pose.tvec.transpose() << "\n";
       }
+  }
+  // A lone flat 0.1 m marker (no post, ID 206) 17 degrees off-axis at 5.5 m, 20 px in a
+  // 320 x 240 pinhole camera: its two planar poses cannot be told apart, and the detector keeps
+  // the wrong one (lone.cameramodel, lone_layout.json, lone.raw, lone.txt: width, height, the
+  // true cam_from_object's rvec and tvec; lone_scene.json for svms render).
+  const svms::CameraModel lone_camera = svms::CameraModel::Pinhole(1111.1, 320, 240);
+  svms::MarkerModel lone = svms::MarkerModel::Standard(206, 0.1, 0.02);
+  lone.post.reset();
+  const svms::Scene lone_scene =
+      svms::LoneMarkerScene(lone_camera, lone,
+                            svms::LookAt(Eigen::Vector3d(0, -1.608, 5.26), Eigen::Vector3d::Zero(),
+                                         Eigen::Vector3d(0, 1, 0.2)));
+  if (!lone_camera.Write(dir + "/lone.cameramodel").ok() ||
+      !svms::WriteTextFile(dir + "/lone_layout.json",
+                           svms::LayoutToJson(svms::LoneMarkerLayout(lone)))
+           .ok() ||
+      !svms::Renderer::Create(lone_scene, &r).ok())
+    return 1;
+  if (!svms::WriteTextFile(dir + "/lone_scene.json", svms::SceneToJson(lone_scene)).ok()) return 1;
+  const cv::Mat lone_image = r->Expose(r->RenderRadiance(0), 0);
+  std::ofstream(dir + "/lone.raw", std::ios::binary)
+      .write(reinterpret_cast<const char*>(lone_image.data), lone_image.total());
+  for (const auto& [object, pose] : svms::ComputeTruth(*r, 0).cam_from_object) {
+    std::ofstream f(dir + "/lone.txt");
+    f.precision(17);
+    f << lone_image.cols << " " << lone_image.rows << " " << pose.rvec.transpose() << " "
+      << pose.tvec.transpose() << "\n";
   }
   std::cout << "svms_capi_fixture: wrote " << dir << "\n";
   return 0;

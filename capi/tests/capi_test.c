@@ -58,6 +58,50 @@ static void* Worker(void* arg) {
   return NULL;
 }
 
+/* The angle between a rotation vector and a unit quaternion [w, x, y, z], radians. */
+static double AngleToQuaternion(const double* rvec, const double* q) {
+  const double a = sqrt(rvec[0] * rvec[0] + rvec[1] * rvec[1] + rvec[2] * rvec[2]);
+  const double s = a > 0 ? sin(a / 2) / a : 0.5;
+  const double qt[4] = {cos(a / 2), s * rvec[0], s * rvec[1], s * rvec[2]};
+  double dot = 0;
+  for (int i = 0; i < 4; ++i) dot += qt[i] * q[i];
+  return 2 * acos(fmin(1, fabs(dot)));
+}
+
+static void CheckLoneAmbiguousMarker(void) {
+  char cam[4096], layout[4096], path[4096];
+  snprintf(cam, sizeof cam, "%s/lone.cameramodel", fixture_dir);
+  snprintf(layout, sizeof layout, "%s/lone_layout.json", fixture_dir);
+  snprintf(path, sizeof path, "%s/lone.txt", fixture_dir);
+  int w = 0, h = 0;
+  double truth[6];
+  FILE* tf = fopen(path, "r");
+  CHECK(tf && fscanf(tf, "%d %d %lf %lf %lf %lf %lf %lf", &w, &h, &truth[0], &truth[1], &truth[2],
+                     &truth[3], &truth[4], &truth[5]) == 8);
+  if (tf) fclose(tf);
+  if (w <= 0 || h <= 0) return;
+  snprintf(path, sizeof path, "%s/lone.raw", fixture_dir);
+  unsigned char* pixels = ReadRaw(path, (size_t)w * h);
+  svms_estimator* e = NULL;
+  CHECK_STATUS(svms_create(cam, layout, NULL, &e), SVMS_OK);
+  svms_pose p;
+  CHECK_STATUS(svms_process_frame(e, pixels, w, h, w, 4, &p), SVMS_OK);
+  const double deg = 3.14159265358979 / 180;
+  CHECK(p.valid && p.markers_used == 1);
+  CHECK((p.flags & SVMS_FLAG_AMBIGUOUS) != 0);
+  CHECK(p.has_alternative == 1);
+  CHECK(p.alternative_weight > 0.01 && p.alternative_weight <= 0.5);
+  CHECK(AngleToQuaternion(truth, p.quaternion) > 10 * deg);
+  CHECK(AngleToQuaternion(truth, p.alternative_quaternion) < 2 * deg);
+  CHECK(AngleToQuaternion(p.alternative_rvec, p.alternative_quaternion) < 1e-6);
+  double dt = 0;
+  for (int i = 0; i < 3; ++i)
+    dt += (p.alternative_tvec[i] - truth[3 + i]) * (p.alternative_tvec[i] - truth[3 + i]);
+  CHECK(sqrt(dt) < 0.01 * truth[5]);
+  svms_destroy(e);
+  free(pixels);
+}
+
 int main(int argc, char** argv) {
   if (argc != 2) {
     fprintf(stderr, "usage: svms_capi_c_test FIXTURE_DIR\n");
@@ -124,6 +168,12 @@ int main(int argc, char** argv) {
   }
   CHECK(pose.latency_ms > 0);
   CHECK((pose.flags & SVMS_FLAG_CALIBRATION_IN_COVARIANCE) == 0);
+  CHECK((pose.flags & SVMS_FLAG_AMBIGUOUS) == 0 && pose.has_alternative == 0);
+  CHECK(pose.alternative_weight == 0);
+
+  /* A lone flat marker whose two planar poses the detector cannot tell apart, and where it
+   * keeps the wrong one: flagged, with the right one as the alternative. */
+  CheckLoneAmbiguousMarker();
 
   /* A camera with its calibration's covariance (cal.cameramodel.covariance.json): the same
    * pose, flagged, with a wider covariance. */

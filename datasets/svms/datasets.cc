@@ -518,6 +518,36 @@ Dataset Gallery(const DatasetOptions& o) {
 
 }  // namespace
 
+Scene LoneMarkerScene(const CameraModel& camera, const MarkerModel& marker,
+                      const Pose& cam_from_world) {
+  Scene s;
+  s.seed = 3;
+  s.camera = camera;
+  s.light.sun = Sun{Vec3(0.3, -0.2, 1).normalized(), 1.0, 0.53};
+  s.light.ambient = 0.08;
+  s.background.kind = Background::Kind::kEarth;
+  SceneObject plate;
+  plate.name = "plate";
+  plate.shape = SceneObject::Shape::kBox;
+  plate.size = Vec3(2, 2, 0.02);
+  plate.world_from_object.tvec = Vec3(0, 0, -0.01);
+  plate.material.reflectance = 0.15;
+  SceneMarker m;
+  m.model = marker;
+  m.object_from_marker = LoneMarkerLayout(marker).markers[0].object_from_marker;
+  plate.markers.push_back(m);
+  s.objects.push_back(plate);
+  s.views.push_back(View{"v", cam_from_world});
+  return s;
+}
+
+Layout LoneMarkerLayout(const MarkerModel& marker) {
+  Layout layout;
+  layout.markers.push_back(
+      {marker, Pose{Vec3::Zero(), Vec3(0, 0, 0.01)}, std::nullopt, std::nullopt});
+  return layout;
+}
+
 Pose LookAt(const Vec3& eye, const Vec3& target, const Vec3& up) {
   const Vec3 z = (target - eye).normalized();
   Vec3 y = -(up - up.dot(z) * z);

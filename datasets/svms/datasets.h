@@ -41,6 +41,13 @@ Pose LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target, const Eig
 // is +/- axis `axis` (0 x, 1 y, 2 z), at (u, v) along the face's other two axes (in increasing
 // axis order), turned by `spin` radians about the face normal.
 Pose OnBoxFace(const Eigen::Vector3d& half, int axis, int sign, double u, double v, double spin);
+// One marker, its frame the world's, on a dark 2 m plate (object "plate", its front at world
+// z = 0, its frame 1 cm behind), sunlit from above and to one side, seen once from
+// `cam_from_world` ("v"): end-to-end tests of a lone marker. The plate's layout entry is
+// `LoneMarkerLayout(marker)`.
+Scene LoneMarkerScene(const CameraModel& camera, const MarkerModel& marker,
+                      const Pose& cam_from_world);
+Layout LoneMarkerLayout(const MarkerModel& marker);
 // The 1024 x 1024 camera of the range geometry: a pinhole whose focal length makes 0.432 m
 // 30 px wide at 16 m (f = 1111.1 px).
 CameraModel RangeCamera();

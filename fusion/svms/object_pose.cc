@@ -24,6 +24,11 @@ using MatR6 = Eigen::Matrix<double, Eigen::Dynamic, 6, 0, kMaxRows, 6>;
 using MatR7 = Eigen::Matrix<double, Eigen::Dynamic, 7, 0, kMaxRows, 7>;
 using MatRR = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxRows, kMaxRows>;
 
+// The angle between two poses' rotations, radians.
+double AngleBetween(const Pose& a, const Pose& b) {
+  return Eigen::AngleAxisd(a.Rotation() * b.Rotation().transpose()).angle();
+}
+
 Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
   Eigen::Matrix3d S;
   S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
@@ -246,6 +251,8 @@ void ObservationsFromDetections(const std::vector<Detection>& detections, const 
       o.cam_from_marker = d->cam_from_marker;
       o.pose_ambiguous = d->pose_ambiguous;
       o.ambiguity_covariance = d->ambiguity_covariance;
+      o.alternative_cam_from_marker = d->alternative_pose;
+      o.alternative_weight = d->alternative_weight;
       // One tip per physical post: the inner marker of a dual shares the outer's post, whether
       // the layout has them as one entry or (as the survey writes) as two.
       if (d->tip && o.model.post) {
@@ -297,32 +304,40 @@ void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservat
     blocks[i].t_om = obs[i].object_from_marker.tvec;
   }
 
-  // 1. Start: the per-marker candidate with the least robust cost over all markers.
+  // 1. Start: the per-marker candidate with the least robust cost over all markers. With
+  // several markers, one flagged ambiguous offers both its planar poses (its kept one may be
+  // the wrong one, and the others tell). A lone marker starts from the detector's pose alone:
+  // the detector chose it on more than these points (the stripe's edges, each point's own
+  // sigma), and on a flat marker the robust cost below may prefer the wrong one.
   Eigen::Matrix3d R;
   Eigen::Vector3d t;
   double best = std::numeric_limits<double>::infinity();
   for (const MarkerObservation& m : obs) {
-    if (!m.cam_from_marker) continue;
-    const Pose candidate = *m.cam_from_marker * m.object_from_marker.Inverse();
-    const Eigen::Matrix3d Rc = candidate.Rotation();
-    double cost = 0;
-    for (Block& b : blocks) {
-      UpdatePoints(&b, Rc, candidate.tvec, o);
-      VecR r;
-      MatR6 J;
-      if (!Evaluate(camera, b, Rc, candidate.tvec, &r, &J, nullptr)) {
-        cost += 1e6;
-        continue;
+    for (const std::optional<Pose>* cam_from_marker :
+         {&m.cam_from_marker, &m.alternative_cam_from_marker}) {
+      if (!*cam_from_marker || (obs.size() == 1 && cam_from_marker != &m.cam_from_marker)) continue;
+      const Pose candidate = **cam_from_marker * m.object_from_marker.Inverse();
+      const Eigen::Matrix3d Rc = candidate.Rotation();
+      double cost = 0;
+      for (Block& b : blocks) {
+        UpdatePoints(&b, Rc, candidate.tvec, o);
+        VecR r;
+        MatR6 J;
+        if (!Evaluate(camera, b, Rc, candidate.tvec, &r, &J, nullptr)) {
+          cost += 1e6;
+          continue;
+        }
+        for (int i = 0; i < r.size(); i += 2) {
+          const double e =
+              r.segment<2>(i).norm() / o.corner_sigma_px;  // Cauchy: robust to outliers
+          cost += std::log1p(e * e / 9);
+        }
       }
-      for (int i = 0; i < r.size(); i += 2) {
-        const double e = r.segment<2>(i).norm() / o.corner_sigma_px;  // Cauchy: robust to outliers
-        cost += std::log1p(e * e / 9);
+      if (cost < best) {
+        best = cost;
+        R = Rc;
+        t = candidate.tvec;
       }
-    }
-    if (cost < best) {
-      best = cost;
-      R = Rc;
-      t = candidate.tvec;
     }
   }
   if (!std::isfinite(best)) {
@@ -533,6 +548,17 @@ void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservat
   result.chi2 = chi2;
   result.dof = 2 * points - 6;
   result.ambiguous = result.markers_used == 1 && ambiguous_single;
+  if (result.ambiguous && last->alternative_cam_from_marker && last->cam_from_marker) {
+    // Should the fit have ended nearer the detector's other pose than its kept one, the kept
+    // one is the alternative instead.
+    const Pose marker_from_object = last->object_from_marker.Inverse();
+    const Pose cam_from_marker = result.cam_from_object * last->object_from_marker;
+    const Pose& kept = *last->cam_from_marker;
+    const Pose& other = *last->alternative_cam_from_marker;
+    const bool swapped = AngleBetween(cam_from_marker, other) < AngleBetween(cam_from_marker, kept);
+    result.alternative_cam_from_object = (swapped ? kept : other) * marker_from_object;
+    result.alternative_weight = swapped ? 1 - last->alternative_weight : last->alternative_weight;
+  }
   const double rot_sigma_deg =
       std::sqrt(result.covariance.topLeftCorner<3, 3>().diagonal().maxCoeff()) * 180 / M_PI;
   const double trans_sigma = std::sqrt(result.covariance.bottomRightCorner<3, 3>().trace());

@@ -103,6 +103,10 @@ struct MarkerObservation {
   // ([rotation, translation], camera axes, about the marker's origin): added, moved to the
   // object's origin, to the fused covariance when this is the only marker used.
   PoseCovariance ambiguity_covariance = PoseCovariance::Zero();
+  // Where the detector flagged the pose ambiguous: its other planar pose, and that pose's share
+  // of the likelihood, in (0.01, 0.5] (Detection::alternative_pose, alternative_weight).
+  std::optional<Pose> alternative_cam_from_marker;
+  double alternative_weight = 0;
 };
 
 struct ObjectPose {
@@ -119,6 +123,11 @@ struct ObjectPose {
   int dof = 0;                 // 2 * points_used - 6
   double variance_factor = 1;  // the scale applied to the covariance (variance_prior_dof)
   bool ambiguous = false;      // one marker, and its planar pose could not be told apart
+  // With `ambiguous`, where the detector gave the marker's other planar pose: the object's pose
+  // under it, and its share of the likelihood, in (0.01, 0.5]. The one marker's alternative
+  // moved to the object by the same marker_from_object.
+  std::optional<Pose> alternative_cam_from_object;
+  double alternative_weight = 0;
   // The covariance includes the camera calibration's uncertainty (the camera carried one).
   bool calibration_in_covariance = false;
   bool poorly_conditioned = false;  // sigmas above ObjectPoseOptions' limits

@@ -7,6 +7,7 @@
 #include <random>
 
 #include "svms/datasets.h"
+#include "svms/ippe.h"
 #include "svms/random_draws.h"
 
 namespace svms {
@@ -63,6 +64,11 @@ void AddNoise(std::mt19937_64* rng, double sigma, double tip_sigma, MarkerObserv
   std::normal_distribution<double> g(0, 1);
   for (auto& c : o->corners) c += sigma * DrawVector2(g, *rng);  // fixed order (random_draws.h)
   if (o->tip) o->tip->pixel += tip_sigma * DrawVector2(g, *rng);
+}
+
+// The angle between two poses' rotations, degrees.
+double AngleDeg(const Pose& a, const Pose& b) {
+  return Eigen::AngleAxisd(a.Rotation() * b.Rotation().transpose()).angle() * 180 / M_PI;
 }
 
 TEST(ObjectPose, ExactObservationsGiveTheTruth) {
@@ -316,6 +322,81 @@ TEST(ObjectPose, ASingleMarkersMirrorPoseWidensTheFusedCovariance) {
   ASSERT_TRUE(p2.valid && p2_plain.valid);
   EXPECT_FALSE(p2.ambiguous);
   EXPECT_LT((p2.covariance - p2_plain.covariance).cwiseAbs().maxCoeff(), 1e-15);
+}
+
+// A single ambiguous marker's other planar pose becomes the object's alternative, moved by the
+// same marker_from_object; where the fit leaves the detector's pose for the other one (the tip
+// settles it), the two swap and so do their weights. With two markers there is none.
+TEST(ObjectPose, ASingleMarkersAlternativePoseIsTheObjectsAlternative) {
+  const Rig rig;
+  const Pose& object_from_marker = rig.layout.markers[0].object_from_marker;
+  const Pose truth = rig.cam_from_object * object_from_marker;
+  const Pose twin = PlanarTwin(truth);
+  ASSERT_GT(AngleDeg(truth, twin), 10);
+  MarkerObservation o = rig.Observe(0, object_from_marker);
+  o.pose_ambiguous = true;
+  o.ambiguity_covariance = 1e-6 * PoseCovariance::Identity();
+  o.alternative_cam_from_marker = twin;
+  o.alternative_weight = 0.2;
+  const ObjectPose right = SolveObjectPose(rig.camera, {o}, ObjectPoseOptions{});
+  ASSERT_TRUE(right.valid && right.ambiguous) << right.message;
+  ASSERT_TRUE(right.alternative_cam_from_object.has_value());
+  EXPECT_LT(AngleDeg(right.cam_from_object, rig.cam_from_object), 1e-6);
+  const Pose expected = twin * object_from_marker.Inverse();
+  EXPECT_LT(AngleDeg(*right.alternative_cam_from_object, expected), 1e-9);
+  EXPECT_LT((right.alternative_cam_from_object->tvec - expected.tvec).norm(), 1e-12);
+  EXPECT_DOUBLE_EQ(right.alternative_weight, 0.2);
+
+  // Where the fit ends nearer the detector's other pose than its kept one, the two swap, and
+  // so do their weights.
+  MarkerObservation near = o;
+  near.cam_from_marker = Pose::FromRotation(
+      Eigen::AngleAxisd(3 * M_PI / 180, Vec3::UnitX()).toRotationMatrix() * truth.Rotation(),
+      truth.tvec);
+  near.alternative_cam_from_marker = truth;
+  near.alternative_weight = 0.3;
+  const ObjectPose swapped = SolveObjectPose(rig.camera, {near}, ObjectPoseOptions{});
+  ASSERT_TRUE(swapped.valid && swapped.ambiguous) << swapped.message;
+  EXPECT_LT(AngleDeg(swapped.cam_from_object, rig.cam_from_object), 1e-6);
+  ASSERT_TRUE(swapped.alternative_cam_from_object.has_value());
+  EXPECT_LT(AngleDeg(*swapped.alternative_cam_from_object,
+                     *near.cam_from_marker * object_from_marker.Inverse()),
+            1e-9);
+  EXPECT_DOUBLE_EQ(swapped.alternative_weight, 0.7);
+
+  // Not flagged, or not alone: no alternative.
+  MarkerObservation plain = o;
+  plain.pose_ambiguous = false;
+  EXPECT_FALSE(
+      SolveObjectPose(rig.camera, {plain}, ObjectPoseOptions{}).alternative_cam_from_object);
+  const ObjectPose two =
+      SolveObjectPose(rig.camera, {o, rig.Observe(1, rig.layout.markers[1].object_from_marker)},
+                      ObjectPoseOptions{});
+  ASSERT_TRUE(two.valid);
+  EXPECT_FALSE(two.ambiguous);
+  EXPECT_FALSE(two.alternative_cam_from_object);
+  EXPECT_EQ(two.alternative_weight, 0);
+}
+
+// Two markers, and the only single-marker pose to start from is the wrong planar one of the
+// first (the second's detection gave none): its alternative is a start too, and the fit
+// over both ends at the truth with both markers kept.
+TEST(ObjectPose, AnAmbiguousMarkersAlternativeIsAStart) {
+  const Rig rig;
+  std::vector<MarkerObservation> obs = {rig.Observe(0, rig.layout.markers[0].object_from_marker),
+                                        rig.Observe(1, rig.layout.markers[1].object_from_marker)};
+  const Pose truth = *obs[0].cam_from_marker;
+  obs[0].cam_from_marker = PlanarTwin(truth);
+  obs[0].pose_ambiguous = true;
+  obs[0].alternative_cam_from_marker = truth;
+  obs[0].alternative_weight = 0.4;
+  obs[1].cam_from_marker.reset();
+  const ObjectPose p = SolveObjectPose(rig.camera, obs, ObjectPoseOptions{});
+  ASSERT_TRUE(p.valid) << p.message;
+  EXPECT_LT(AngleDeg(p.cam_from_object, rig.cam_from_object), 1e-6);
+  EXPECT_EQ(p.markers_used, 2);
+  EXPECT_FALSE(p.ambiguous);
+  EXPECT_FALSE(p.alternative_cam_from_object);
 }
 
 TEST(ObjectPose, NeesOfAKnownErrorIsItsMahalanobisNorm) {

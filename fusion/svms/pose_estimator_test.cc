@@ -72,6 +72,64 @@ TEST(PoseEstimator, RenderedApproachFramesMatchTheTruthWithinTheirSigmas) {
   EXPECT_GE(several, 1);
 }
 
+// A lone flat marker (no post) of about 20 px, 5-27 degrees off-axis, the only marker of its
+// layout: where the detector cannot tell its planar poses apart, the fused pose is flagged and
+// carries the object's pose under the other one, and where the kept pose is the wrong one the
+// alternative is right.
+TEST(PoseEstimator, ALoneAmbiguousMarkerGivesTheOtherPlanarPoseToo) {
+  const CameraModel cam = CameraModel::Pinhole(1111.1, 320, 240);
+  int ambiguous = 0, wrong = 0;
+  for (int v = 0; v < 12; ++v) {
+    MarkerModel m = MarkerModel::Standard(200 + v, 0.1, 0.02);
+    m.post.reset();
+    const double a = (5 + 2 * v) * M_PI / 180, b = v * M_PI / 4;
+    const Eigen::Vector3d eye =
+        5.5 * Eigen::Vector3d(std::sin(a) * std::cos(b), std::sin(a) * std::sin(b), std::cos(a));
+    const Scene scene =
+        LoneMarkerScene(cam, m, LookAt(eye, Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 1, 0.2)));
+    std::unique_ptr<Renderer> renderer;
+    ASSERT_TRUE(Renderer::Create(scene, &renderer).ok());
+    std::unique_ptr<PoseEstimator> est;
+    ASSERT_TRUE(PoseEstimator::Create(cam, LoneMarkerLayout(m), {}, &est).ok());
+    FrameResult r;
+    est->Estimate(renderer->Expose(renderer->RenderRadiance(0), 0), 0, &r);
+    SCOPED_TRACE("view " + std::to_string(v));
+    ASSERT_TRUE(r.pose.valid) << r.pose.message;
+    ASSERT_EQ(r.detections.size(), 1u);
+    Pose truth;
+    for (const auto& [name, pose] : ComputeTruth(*renderer, 0).cam_from_object)
+      if (name == "plate") truth = pose;
+    const double error = PoseError(truth, r.pose.cam_from_object).head<3>().norm() * 180 / M_PI;
+    EXPECT_EQ(r.pose.ambiguous, r.detections[0].pose_ambiguous);
+    ASSERT_EQ(r.pose.alternative_cam_from_object.has_value(), r.pose.ambiguous);
+    ambiguous += r.pose.ambiguous;
+    wrong += error > 5;
+    if (error > 5) {
+      EXPECT_TRUE(r.pose.ambiguous) << error;
+    }
+    if (r.pose.alternative_cam_from_object) {
+      EXPECT_GT(r.pose.alternative_weight, 0.01);
+      EXPECT_LE(r.pose.alternative_weight, 0.5);
+      const double alternative_error =
+          PoseError(truth, *r.pose.alternative_cam_from_object).head<3>().norm() * 180 / M_PI;
+      std::printf("view %d: error %.2f deg, alternative %.2f deg, weight %.3f\n", v, error,
+                  alternative_error, r.pose.alternative_weight);
+      if (error > 5) {
+        EXPECT_LT(alternative_error, 5);
+      }
+      // The alternative is one of the detector's two poses moved to the object.
+      const Pose marker_from_object = LoneMarkerLayout(m).markers[0].object_from_marker.Inverse();
+      const Eigen::Vector3d t = r.pose.alternative_cam_from_object->tvec;
+      EXPECT_LT(std::min((t - (*r.detections[0].alternative_pose * marker_from_object).tvec).norm(),
+                         (t - (*r.detections[0].cam_from_marker * marker_from_object).tvec).norm()),
+                1e-9);
+    }
+  }
+  RecordProperty("ambiguous", ambiguous);
+  RecordProperty("wrong_solution_kept", wrong);
+  EXPECT_GT(ambiguous, 0);
+}
+
 TEST(PoseEstimator, ABudgetTooSmallIsFlaggedAndNeverCrashes) {
   const Approach& a = Shared();
   std::unique_ptr<PoseEstimator> est;
