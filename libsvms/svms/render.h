@@ -22,6 +22,11 @@
 
 namespace svms {
 
+// Radiance (units of white paper facing the sun) by which a pixel must differ from one of its
+// eight neighbours to be rendered again with sensor.edge_rays_per_pixel rays: under a sixth of
+// the shot noise of a sunlit white print.
+constexpr double kEdgeRadianceStep = 0.002;
+
 // What a ray hits first.
 struct RayHit {
   double t = 0;           // distance along the (unit) ray, metres
@@ -38,7 +43,8 @@ class Renderer {
 
   // Noise-free radiance of view `view` (CV_32FC1, the camera's size): the mean of
   // rays_per_pixel stratified samples per pixel, each shaded with sun (finite disc, shadows),
-  // ambient, earthshine, ring light and specular glare.
+  // ambient, earthshine, ring light and specular glare; with sensor.edge_rays_per_pixel, the
+  // pixels on an edge (kEdgeRadianceStep) the mean of that many instead.
   cv::Mat RenderRadiance(int view) const;
 
   // The sensor: vignetting, defocus blur, shot and read noise, quantisation to 8 or 16 bits

@@ -183,6 +183,93 @@ TEST(Render, FrontoParallelSquareCoversTheExpectedArea) {
   EXPECT_NEAR(dark, expected, 0.005 * expected);
 }
 
+// The area of the unit pixel square about (x, y) inside the convex polygon `poly`
+// (counter-clockwise or clockwise): the pixel clipped by each of its edges, then the shoelace.
+double CoveredArea(const std::vector<Eigen::Vector2d>& poly, int x, int y) {
+  std::vector<Eigen::Vector2d> p = {
+      {x - 0.5, y - 0.5}, {x + 0.5, y - 0.5}, {x + 0.5, y + 0.5}, {x - 0.5, y + 0.5}};
+  double orient = 0;
+  for (size_t i = 0; i < poly.size(); ++i) {
+    const Eigen::Vector2d &a = poly[i], &b = poly[(i + 1) % poly.size()];
+    orient += a.x() * b.y() - b.x() * a.y();
+  }
+  for (size_t i = 0; i < poly.size() && !p.empty(); ++i) {
+    const Eigen::Vector2d a = poly[i], b = poly[(i + 1) % poly.size()];
+    auto inside = [&](const Eigen::Vector2d& q) {
+      return orient * ((b.x() - a.x()) * (q.y() - a.y()) - (b.y() - a.y()) * (q.x() - a.x())) >= 0;
+    };
+    std::vector<Eigen::Vector2d> next;
+    for (size_t k = 0; k < p.size(); ++k) {
+      const Eigen::Vector2d &u = p[k], &v = p[(k + 1) % p.size()];
+      if (inside(u)) next.push_back(u);
+      if (inside(u) != inside(v)) {
+        const Eigen::Vector2d d = b - a;
+        const double t = (d.x() * (a.y() - u.y()) - d.y() * (a.x() - u.x())) /
+                         (d.x() * (v.y() - u.y()) - d.y() * (v.x() - u.x()));
+        next.push_back(u + t * (v - u));
+      }
+    }
+    p = next;
+  }
+  double area = 0;
+  for (size_t k = 0; k < p.size(); ++k)
+    area += p[k].x() * p[(k + 1) % p.size()].y() - p[(k + 1) % p.size()].x() * p[k].y();
+  return 0.5 * std::abs(area);
+}
+
+// A black square's edges, slanted, against its white stripe: 16 jittered rays give an edge
+// pixel's coverage to a few percent of the contrast; sensor.edge_rays_per_pixel = 256 renders
+// those pixels again and brings it under 1 %, leaves every pixel whose neighbours all match it
+// to the bit, and renders the same bytes twice.
+TEST(Render, EdgeRaysRenderEdgePixelsAtTheirExactCoverage) {
+  Scene s = BaseScene(CameraModel::Pinhole(1000, 200, 200));
+  MarkerModel m = MarkerModel::Standard(7, 0.1, 0);
+  s.objects.push_back(
+      PlateWithMarker(m, Pose{Eigen::Vector3d(0, 0, 0.3), Eigen::Vector3d::Zero()}));
+  s.objects[0].markers[0].black = 0.0;
+  s.objects[0].markers[0].white = 1.0;
+  s.views.push_back(View{"v", LookDown(2.0, 0.0003, -0.0007)});
+  const cv::Mat coarse = Make(s)->RenderRadiance(0);
+  s.sensor.edge_rays_per_pixel = 256;
+  const std::unique_ptr<Renderer> r = Make(s);
+  const cv::Mat fine = r->RenderRadiance(0);
+  EXPECT_EQ(cv::norm(fine, r->RenderRadiance(0), cv::NORM_INF), 0);
+  // The black square in the image, from the truth's corners.
+  const ViewTruth t = ComputeTruth(*r, 0);
+  ASSERT_EQ(t.markers.size(), 1u);
+  std::vector<Eigen::Vector2d> square;
+  for (const PointTruth& c : t.markers[0].corners) square.push_back(c.pixel);
+  double e2_coarse = 0, e2_fine = 0;
+  int edge = 0, kept = 0;
+  for (int y = 1; y + 1 < coarse.rows; ++y)
+    for (int x = 1; x + 1 < coarse.cols; ++x) {
+      const double covered = CoveredArea(square, x, y);
+      if (covered > 0.02 && covered < 0.98) {
+        e2_coarse += std::pow(coarse.at<float>(y, x) - (1 - covered), 2);
+        e2_fine += std::pow(fine.at<float>(y, x) - (1 - covered), 2);
+        ++edge;
+      }
+      double step = 0;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx)
+          step = std::max<double>(
+              step, std::abs(coarse.at<float>(y, x) - coarse.at<float>(y + dy, x + dx)));
+      if (step <= kEdgeRadianceStep) {
+        EXPECT_EQ(fine.at<float>(y, x), coarse.at<float>(y, x)) << x << ", " << y;
+        ++kept;
+      }
+    }
+  const double rms_coarse = std::sqrt(e2_coarse / edge), rms_fine = std::sqrt(e2_fine / edge);
+  std::printf(
+      "%d edge pixels: coverage error RMS %.4f at 16 rays, %.4f with 256 on edges; %d "
+      "pixels kept\n",
+      edge, rms_coarse, rms_fine, kept);
+  EXPECT_GT(edge, 150);
+  EXPECT_GT(rms_coarse, 0.02);
+  EXPECT_LT(rms_fine, 0.01);
+  EXPECT_GT(kept, coarse.total() / 2);
+}
+
 TEST(Render, PostLitAt45DegreesCastsAShadowAsLongAsItIsTall) {
   Scene s = BaseScene(CameraModel::Pinhole(2000, 400, 400));
   s.light.ambient = 0.05;
@@ -308,6 +395,11 @@ TEST(SceneFile, ErrorsNameTheField) {
          "sensor.rays_per_pixel: expected a square number");
   expect("\"views\": [", "\"sensor\": {\"bits\": 12}, \"views\": [",
          "sensor.bits: expected 8 or 16");
+  expect("\"views\": [", "\"sensor\": {\"edge_rays_per_pixel\": 20}, \"views\": [",
+         "sensor.edge_rays_per_pixel: expected 0, or a square number above rays_per_pixel (16)");
+  expect("\"views\": [",
+         "\"sensor\": {\"rays_per_pixel\": 64, \"edge_rays_per_pixel\": 64}, \"views\": [",
+         "sensor.edge_rays_per_pixel: expected 0, or a square number above rays_per_pixel (64)");
   expect("\"views\": [",
          "\"light\": {\"sun\": {\"to_sun\": [0,0,0], \"irradiance\": 1}}, \"views\": [",
          "light.sun.to_sun: expected a nonzero direction");
@@ -377,10 +469,12 @@ TEST(SceneFile, RoundTripsThroughJson) {
   s.light.sun = Sun{Eigen::Vector3d(0, 0.6, 0.8), 2.0, 0.53};
   s.objects.push_back(PlateWithMarker(MarkerModel::Standard(9, 0.1, -0.02), Pose{}));
   s.views.push_back(View{"v0", LookDown(1)});
+  s.sensor.edge_rays_per_pixel = 256;
   Scene back;
   const Status st = ParseSceneJson(SceneToJson(s), "x.json", "", &back);
   ASSERT_TRUE(st.ok()) << st.message();
   EXPECT_EQ(SceneToJson(back), SceneToJson(s));
+  EXPECT_EQ(back.sensor.edge_rays_per_pixel, 256);
 }
 
 }  // namespace

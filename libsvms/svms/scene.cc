@@ -172,7 +172,7 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
     const std::string p = "sensor";
     CheckKeys(j, p,
               {"bits", "exposure", "full_well", "read_noise", "shot_noise", "defocus_sigma_px",
-               "vignetting", "rays_per_pixel", "motion_blur"});
+               "vignetting", "rays_per_pixel", "edge_rays_per_pixel", "motion_blur"});
     Sensor& s = scene->sensor;
     if (j.contains("bits")) {
       s.bits = Integer(j, p, "bits");
@@ -191,6 +191,14 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
       const int r = static_cast<int>(std::lround(std::sqrt(std::max(0, s.rays_per_pixel))));
       if (s.rays_per_pixel < 1 || s.rays_per_pixel > 1024 || r * r != s.rays_per_pixel)
         Fail(Join(p, "rays_per_pixel"), "a square number from 1 to 1024", j["rays_per_pixel"]);
+    }
+    if (j.contains("edge_rays_per_pixel")) {
+      s.edge_rays_per_pixel = Integer(j, p, "edge_rays_per_pixel");
+      if (!ValidEdgeRays(s))
+        Fail(Join(p, "edge_rays_per_pixel"),
+             "0, or a square number above rays_per_pixel (" + std::to_string(s.rays_per_pixel) +
+                 ") and at most 4096",
+             j["edge_rays_per_pixel"]);
     }
   }
   if (root.contains("light")) {
@@ -418,6 +426,13 @@ Status ReadSceneFile(const std::string& path, Scene* out) {
   return ParseSceneJson(text, path, std::filesystem::path(path).parent_path().string(), out);
 }
 
+bool ValidEdgeRays(const Sensor& s) {
+  if (s.edge_rays_per_pixel == 0) return true;
+  const int r = static_cast<int>(std::lround(std::sqrt(std::max(0, s.edge_rays_per_pixel))));
+  return s.edge_rays_per_pixel > s.rays_per_pixel && s.edge_rays_per_pixel <= 4096 &&
+         r * r == s.edge_rays_per_pixel;
+}
+
 std::string SceneToJson(const Scene& s) {
   json root;
   root["type"] = "svms.scene";
@@ -433,6 +448,7 @@ std::string SceneToJson(const Scene& s) {
                     {"vignetting", se.vignetting},
                     {"rays_per_pixel", se.rays_per_pixel},
                     {"motion_blur", se.motion_blur}};
+  if (se.edge_rays_per_pixel > 0) root["sensor"]["edge_rays_per_pixel"] = se.edge_rays_per_pixel;
   json light = {{"ambient", s.light.ambient},
                 {"ring_light", s.light.ring_light},
                 {"narrow_band_filter", s.light.narrow_band_filter},
