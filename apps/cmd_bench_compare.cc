@@ -511,7 +511,8 @@ int RunCompare(const CompareCliOptions& o) {
                        {"full_well", sweeps[0].scene.sensor.full_well},
                        {"read_noise", sweeps[0].scene.sensor.read_noise},
                        {"shot_noise", sweeps[0].scene.sensor.shot_noise},
-                       {"rays_per_pixel", sweeps[0].scene.sensor.rays_per_pixel}};
+                       {"rays_per_pixel", sweeps[0].scene.sensor.rays_per_pixel},
+                       {"edge_rays_per_pixel", sweeps[0].scene.sensor.edge_rays_per_pixel}};
   json res = json::object();
   for (const std::string& n : names) {
     const Timing& t = timing[n];

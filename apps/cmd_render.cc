@@ -90,8 +90,11 @@ int RenderScene(const Scene& scene, const std::string& source, const std::string
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   for (const std::string& f : failures) std::cerr << "svms render: " << f << "\n";
   std::cout << "rendered " << n << " views of " << scene.camera.width() << "x"
-            << scene.camera.height() << " at " << scene.sensor.rays_per_pixel << " rays/pixel in "
-            << secs << " s to " << o.out << " (truth: " << truth_file << ")\n";
+            << scene.camera.height() << " at " << scene.sensor.rays_per_pixel << " rays/pixel ("
+            << (scene.sensor.edge_rays_per_pixel > scene.sensor.rays_per_pixel
+                    ? std::to_string(scene.sensor.edge_rays_per_pixel) + " on edges"
+                    : std::string("none more on edges"))
+            << ") in " << secs << " s to " << o.out << " (truth: " << truth_file << ")\n";
   return failures.empty() ? kExitOk : kExitFailed;
 }
 

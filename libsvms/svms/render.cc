@@ -1075,9 +1075,8 @@ Status Renderer::Impl::Build() {
                            "].sun.to_sun: expected a nonzero direction");
   if (!ValidEdgeRays(scene.sensor))
     return Status::Error(
-        "sensor.edge_rays_per_pixel: expected 0, or a square number above "
-        "rays_per_pixel (" +
-        std::to_string(scene.sensor.rays_per_pixel) + ") and at most 4096, got " +
+        "sensor.edge_rays_per_pixel: expected 0 (off), or a square number of at "
+        "most 4096, got " +
         std::to_string(scene.sensor.edge_rays_per_pixel));
   W = scene.camera.width();
   H = scene.camera.height();
@@ -2143,7 +2142,8 @@ cv::Mat Renderer::RenderRadiance(int view) const {
                         &scratch, &out);
     }
   }
-  if (I.scene.sensor.edge_rays_per_pixel > 0) I.RefineEdges(f, tile_candidates, candidates, &out);
+  if (I.scene.sensor.edge_rays_per_pixel > I.scene.sensor.rays_per_pixel)
+    I.RefineEdges(f, tile_candidates, candidates, &out);
   return out;
 }
 

@@ -229,6 +229,7 @@ TEST(Render, EdgeRaysRenderEdgePixelsAtTheirExactCoverage) {
   s.objects[0].markers[0].black = 0.0;
   s.objects[0].markers[0].white = 1.0;
   s.views.push_back(View{"v", LookDown(2.0, 0.0003, -0.0007)});
+  s.sensor.edge_rays_per_pixel = 0;
   const cv::Mat coarse = Make(s)->RenderRadiance(0);
   s.sensor.edge_rays_per_pixel = 256;
   const std::unique_ptr<Renderer> r = Make(s);
@@ -396,10 +397,9 @@ TEST(SceneFile, ErrorsNameTheField) {
   expect("\"views\": [", "\"sensor\": {\"bits\": 12}, \"views\": [",
          "sensor.bits: expected 8 or 16");
   expect("\"views\": [", "\"sensor\": {\"edge_rays_per_pixel\": 20}, \"views\": [",
-         "sensor.edge_rays_per_pixel: expected 0, or a square number above rays_per_pixel (16)");
-  expect("\"views\": [",
-         "\"sensor\": {\"rays_per_pixel\": 64, \"edge_rays_per_pixel\": 64}, \"views\": [",
-         "sensor.edge_rays_per_pixel: expected 0, or a square number above rays_per_pixel (64)");
+         "sensor.edge_rays_per_pixel: expected 0 (off), or a square number of at most 4096");
+  expect("\"views\": [", "\"sensor\": {\"edge_rays_per_pixel\": 8100}, \"views\": [",
+         "sensor.edge_rays_per_pixel: expected 0 (off), or a square number of at most 4096");
   expect("\"views\": [",
          "\"light\": {\"sun\": {\"to_sun\": [0,0,0], \"irradiance\": 1}}, \"views\": [",
          "light.sun.to_sun: expected a nonzero direction");
@@ -469,12 +469,12 @@ TEST(SceneFile, RoundTripsThroughJson) {
   s.light.sun = Sun{Eigen::Vector3d(0, 0.6, 0.8), 2.0, 0.53};
   s.objects.push_back(PlateWithMarker(MarkerModel::Standard(9, 0.1, -0.02), Pose{}));
   s.views.push_back(View{"v0", LookDown(1)});
-  s.sensor.edge_rays_per_pixel = 256;
+  s.sensor.edge_rays_per_pixel = 64;
   Scene back;
   const Status st = ParseSceneJson(SceneToJson(s), "x.json", "", &back);
   ASSERT_TRUE(st.ok()) << st.message();
   EXPECT_EQ(SceneToJson(back), SceneToJson(s));
-  EXPECT_EQ(back.sensor.edge_rays_per_pixel, 256);
+  EXPECT_EQ(back.sensor.edge_rays_per_pixel, 64);
 }
 
 }  // namespace

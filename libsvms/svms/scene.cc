@@ -195,9 +195,7 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
     if (j.contains("edge_rays_per_pixel")) {
       s.edge_rays_per_pixel = Integer(j, p, "edge_rays_per_pixel");
       if (!ValidEdgeRays(s))
-        Fail(Join(p, "edge_rays_per_pixel"),
-             "0, or a square number above rays_per_pixel (" + std::to_string(s.rays_per_pixel) +
-                 ") and at most 4096",
+        Fail(Join(p, "edge_rays_per_pixel"), "0 (off), or a square number of at most 4096",
              j["edge_rays_per_pixel"]);
     }
   }
@@ -429,7 +427,7 @@ Status ReadSceneFile(const std::string& path, Scene* out) {
 bool ValidEdgeRays(const Sensor& s) {
   if (s.edge_rays_per_pixel == 0) return true;
   const int r = static_cast<int>(std::lround(std::sqrt(std::max(0, s.edge_rays_per_pixel))));
-  return s.edge_rays_per_pixel > s.rays_per_pixel && s.edge_rays_per_pixel <= 4096 &&
+  return s.edge_rays_per_pixel > 0 && s.edge_rays_per_pixel <= 4096 &&
          r * r == s.edge_rays_per_pixel;
 }
 
@@ -448,7 +446,7 @@ std::string SceneToJson(const Scene& s) {
                     {"vignetting", se.vignetting},
                     {"rays_per_pixel", se.rays_per_pixel},
                     {"motion_blur", se.motion_blur}};
-  if (se.edge_rays_per_pixel > 0) root["sensor"]["edge_rays_per_pixel"] = se.edge_rays_per_pixel;
+  root["sensor"]["edge_rays_per_pixel"] = se.edge_rays_per_pixel;
   json light = {{"ambient", s.light.ambient},
                 {"ring_light", s.light.ring_light},
                 {"narrow_band_filter", s.light.narrow_band_filter},

@@ -113,9 +113,10 @@ struct Sensor {
   double vignetting = 0;        // brightness falls by this fraction at the image corners
   int rays_per_pixel = 16;      // stratified supersampling: a square number >= 1
   // Pixels on an edge (radiance differing from a neighbour's by more than kEdgeRadianceStep,
-  // render.h) rendered again with this many rays, a square number above rays_per_pixel; 0: off.
-  // 16 jittered rays estimate an edge pixel's coverage to about 6 % of the edge's contrast,
-  // several times the shot noise of a sunlit white (about 1 %); 256 bring that under 1 %.
+  // render.h) rendered again with this many rays, a square number up to 4096, where that is
+  // above rays_per_pixel; 0: off. 16 jittered rays estimate an edge pixel's coverage to about
+  // 5 % of the edge's contrast, several times the shot noise of a sunlit white (about 1 %);
+  // 256 bring that under 1 %.
   int edge_rays_per_pixel = 0;
   double motion_blur = 0;  // exposure as a fraction of the way to the next view, [0, 1]
 };
@@ -161,7 +162,7 @@ Status ParseSceneJson(const std::string& text, const std::string& source,
 Status ReadSceneFile(const std::string& path, Scene* out);
 // The scene as JSON (camera inline), such that ParseSceneJson gives it back.
 std::string SceneToJson(const Scene& scene);
-// sensor.edge_rays_per_pixel is 0, or a square number above rays_per_pixel and at most 4096.
+// sensor.edge_rays_per_pixel is 0, or a square number of at most 4096.
 bool ValidEdgeRays(const Sensor& sensor);
 
 }  // namespace svms

@@ -112,6 +112,7 @@ std::string TruthToJson(const Scene& s, const std::vector<ViewTruth>& views) {
   root["camera"] = json_fields::CameraJson(s.camera);
   root["seed"] = s.seed;
   root["rays_per_pixel"] = s.sensor.rays_per_pixel;
+  root["edge_rays_per_pixel"] = s.sensor.edge_rays_per_pixel;
   root["bits"] = s.sensor.bits;
   json jv = json::array();
   for (const ViewTruth& v : views) {
