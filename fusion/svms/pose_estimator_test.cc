@@ -9,6 +9,7 @@
 #include "svms/model_io.h"
 #include "svms/render.h"
 #include "svms/truth.h"
+#include "svms_testing/flat_marker_views.h"
 
 namespace svms {
 namespace {
@@ -79,14 +80,12 @@ TEST(PoseEstimator, RenderedApproachFramesMatchTheTruthWithinTheirSigmas) {
 TEST(PoseEstimator, ALoneAmbiguousMarkerGivesTheOtherPlanarPoseToo) {
   const CameraModel cam = CameraModel::Pinhole(1111.1, 320, 240);
   int ambiguous = 0, wrong = 0;
-  for (int v = 0; v < 12; ++v) {
-    MarkerModel m = MarkerModel::Standard(200 + v, 0.1, 0.02);
-    m.post.reset();
-    const double a = (5 + 2 * v) * M_PI / 180, b = v * M_PI / 4;
-    const Eigen::Vector3d eye =
-        5.5 * Eigen::Vector3d(std::sin(a) * std::cos(b), std::sin(a) * std::sin(b), std::cos(a));
+  for (int v = 0; v < svms_testing::kFlatMarkerViews; ++v) {
+    const MarkerModel m = svms_testing::FlatMarker(v);
     const Scene scene =
-        LoneMarkerScene(cam, m, LookAt(eye, Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 1, 0.2)));
+        LoneMarkerScene(cam, m,
+                        LookAt(svms_testing::FlatMarkerEye(v), Eigen::Vector3d::Zero(),
+                               Eigen::Vector3d(0, 1, 0.2)));
     std::unique_ptr<Renderer> renderer;
     ASSERT_TRUE(Renderer::Create(scene, &renderer).ok());
     std::unique_ptr<PoseEstimator> est;

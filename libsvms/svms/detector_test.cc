@@ -9,6 +9,7 @@
 
 #include "svms/render.h"
 #include "svms/truth.h"
+#include "svms_testing/flat_marker_views.h"
 #include "svms_testing/scratch_dir.h"
 
 namespace svms {
@@ -252,13 +253,10 @@ double RotationNees(const Pose& truth, const Pose& estimate, const PoseCovarianc
 TEST(Detector, AnAmbiguousPoseCoversBothPlanarSolutions) {
   const CameraModel cam = CameraModel::Pinhole(1111.1, 320, 240);
   int ambiguous = 0, wrong = 0;
-  for (int v = 0; v < 12; ++v) {
-    MarkerModel m = MarkerModel::Standard(200 + v, 0.1, 0.02);
-    m.post.reset();
-    const double a = (5 + 2 * v) * M_PI / 180, b = v * M_PI / 4;
-    const Eigen::Vector3d eye =
-        5.5 * Eigen::Vector3d(std::sin(a) * std::cos(b), std::sin(a) * std::sin(b), std::cos(a));
-    const Rendered r = Render(Base(cam, {{m, Pose{}}}, Look(eye, {0, 0, 0})));
+  for (int v = 0; v < svms_testing::kFlatMarkerViews; ++v) {
+    const MarkerModel m = svms_testing::FlatMarker(v);
+    const Rendered r =
+        Render(Base(cam, {{m, Pose{}}}, Look(svms_testing::FlatMarkerEye(v), {0, 0, 0})));
     const std::vector<Detection> d = Detector(DetectorOptions{}, cam, {m}).Detect(r.image);
     ASSERT_EQ(d.size(), 1u) << v;
     ASSERT_TRUE(d[0].cam_from_marker);
