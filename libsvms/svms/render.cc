@@ -2193,12 +2193,11 @@ void Renderer::Impl::RefineEdges(const Frame& f, TileCandidates& tile_candidates
       for (int y = ty; y < y1; ++y)
         for (int x = tx; x < x1; ++x) {
           if (!edge.at<uint8_t>(y, x)) continue;
-          const auto& c00 = corner_dirs[static_cast<size_t>(y) * (W + 1) + x];
-          const auto& c11 = corner_dirs[static_cast<size_t>(y + 1) * (W + 1) + x + 1];
-          if (!c00.allFinite() || !c11.allFinite() ||
-              !corner_dirs[static_cast<size_t>(y) * (W + 1) + x + 1].allFinite() ||
-              !corner_dirs[static_cast<size_t>(y + 1) * (W + 1) + x].allFinite())
-            continue;
+          auto finite = [&](int i, int j) {
+            return corner_dirs[static_cast<size_t>(j) * (W + 1) + i].allFinite();
+          };
+          if (!finite(x, y) || !finite(x + 1, y) || !finite(x, y + 1) || !finite(x + 1, y + 1))
+            continue;  // as in the first pass: a pixel the lens cannot see stays 0
           PixelJob J;
           J.x = x;
           J.y = y;
