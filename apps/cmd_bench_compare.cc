@@ -44,7 +44,8 @@ struct CompareCliOptions {
   bool quick = false;
   uint64_t seed = 1;
   int size_views = 8;  // views per marker size in the size sweep
-  int threads = 2;     // rendering only; every detector runs on one core
+  double post_height = CompareOptions{}.post_height_fraction;  // over the square's side
+  int threads = 2;  // rendering only; every detector runs on one core
   bool save_images = false;
 };
 
@@ -261,6 +262,7 @@ int RunCompare(const CompareCliOptions& o) {
   co.seed = o.seed;
   co.quick = o.quick;
   co.size_views = o.size_views;
+  co.post_height_fraction = o.post_height;
   const std::vector<CompareSweep> sweeps = MakeCompareSweeps(co);
 
   std::vector<ImageRecord> images;
@@ -488,6 +490,7 @@ int RunCompare(const CompareCliOptions& o) {
   summary["quick"] = o.quick;
   summary["size_views"] = o.quick ? 1 : o.size_views;
   summary["marker_size_m"] = co.marker_size;
+  summary["svms_post_height_m"] = co.post_height_fraction * co.marker_size;
   summary["fairness"] = {
       {"size", "every tag's outer black edge = the SVMS black square (same corners in space)"},
       {"peer_cells", "8 x 8 cells of size/8 at that edge; SVMS data ring outside it (2x size)"},
@@ -671,14 +674,18 @@ int RunCompare(const CompareCliOptions& o) {
   std::ostringstream md;
   md << "## Comparison with AprilTag 3 and OpenCV ArUco\n\n"
      << "Written by `svms bench compare" << (o.quick ? " --quick" : "")
-     << (o.size_views != 8 ? " --size-views " + std::to_string(o.size_views) : "") << " --seed "
-     << o.seed << "` (" << F(Ms(std::chrono::steady_clock::now() - start) / 1000, 0)
+     << (o.size_views != 8 ? " --size-views " + std::to_string(o.size_views) : "")
+     << (o.post_height != CompareOptions{}.post_height_fraction
+             ? " --post-height " + F(o.post_height, 2)
+             : "")
+     << " --seed " << o.seed << "` (" << F(Ms(std::chrono::steady_clock::now() - start) / 1000, 0)
      << " s). The same scenes are rendered three times, with an SVMS marker, an AprilTag "
         "tag36h11 and an ArUco DICT_6X6_1000 tag printed on the same geometry: same camera "
         "(1024x1024 pinhole, f = 1111.1 px), poses, light, occluders, sensor noise and seed. "
         "Every tag's outer black edge is the SVMS black square (side "
-     << F(co.marker_size * 1000, 0)
-     << " mm), so all systems report the same four corners in space; the peers' 8x8 cells are "
+     << F(co.marker_size * 1000, 0) << " mm; the SVMS post "
+     << F(co.post_height_fraction * co.marker_size * 1000, 0)
+     << " mm tall), so all systems report the same four corners in space; the peers' 8x8 cells are "
         "side/8, and the SVMS data ring lies outside the square (its decal is twice as wide: for "
         "equal footprint, read the SVMS curves at twice the pixel size). Every system decodes its "
         "whole family (SVMS 32768 IDs, no known-ID filter). Peer poses: IPPE "
@@ -924,6 +931,11 @@ void AddBenchCompare(CLI::App& bench, int* exit_code) {
                 "flips at 8 px)")
       ->capture_default_str()
       ->check(CLI::Range(1, 200));
+  c->add_option("--post-height", o->post_height,
+                "The SVMS post's height as a fraction of the black square's side (a taller post "
+                "tells a small marker's tilt better, and leaves the square sooner off-axis)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.05, 1.0));
   c->add_flag("--save-images", o->save_images,
               "Also write every rendered sweep image (DIR/images/SWEEP_FAMILY/VIEW.png)");
   c->add_option("--threads", o->threads, "Rendering threads (detectors always run on one core)")

@@ -58,5 +58,12 @@ if "$svms" bench compare --size-views 0 --out "$out/bad" > /dev/null 2> "$out/ba
   fail "--size-views 0 was accepted"
 fi
 grep -q -- "--size-views" "$out/bad.txt" || fail "the error does not name --size-views"
+# The default post, written down; a post beyond the square's side refused with its name.
+grep -q '"svms_post_height_m": 0.025' "$out/summary.json" || fail "summary.json has no svms_post_height_m"
+grep -q 'the SVMS post 25 mm tall' "$out/report.md" || fail "report.md does not give the post's height"
+if "$svms" bench compare --post-height 2 --out "$out/bad" > /dev/null 2> "$out/bad2.txt"; then
+  fail "--post-height 2 was accepted"
+fi
+grep -q -- "--post-height" "$out/bad2.txt" || fail "the error does not name --post-height"
 [[ ! -e "$out/bad" ]] || fail "--size-views 0 wrote output"
 echo "bench compare --quick: ok"

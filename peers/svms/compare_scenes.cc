@@ -41,7 +41,7 @@ Scene Base(const CompareOptions& o, uint64_t salt) {
   plate.world_from_object.tvec = Vec3(0, 0, -0.01);
   plate.material.reflectance = 0.15;
   SceneMarker m;
-  m.model = MarkerModel::Standard(1, o.marker_size, 0.25 * o.marker_size);
+  m.model = MarkerModel::Standard(1, o.marker_size, o.post_height_fraction * o.marker_size);
   m.object_from_marker.tvec = Vec3(0, 0, 0.01);  // on the plate's front face
   plate.markers.push_back(m);
   s.objects.push_back(plate);

@@ -23,6 +23,9 @@ struct CompareOptions {
   bool quick = false;        // a few views per sweep (smoke test, < 2 min in all)
   int size_views = 8;        // views per marker size in the size sweep (quick: 1)
   double marker_size = 0.1;  // black square side (= a peer's outer black edge), metres
+  // The SVMS post's height over the black square's side (the size sweep's 8 px markers: a
+  // 2 px lever at 0.25).
+  double post_height_fraction = 0.25;
 };
 
 struct CompareSweep {

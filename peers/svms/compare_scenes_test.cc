@@ -77,6 +77,23 @@ std::vector<Posed> PoseSizeViews(const std::string& px) {
   return out;
 }
 
+// The post's height follows CompareOptions in every sweep's SVMS marker (svms bench compare
+// --post-height).
+TEST(CompareScenes, ThePostIsAsTallAsAsked) {
+  CompareOptions o;
+  o.quick = true;
+  o.post_height_fraction = 0.4;
+  int markers = 0;
+  for (const CompareSweep& sw : MakeCompareSweeps(o))
+    for (const SceneObject& ob : sw.scene.objects)
+      for (const SceneMarker& m : ob.markers) {
+        ASSERT_TRUE(m.model.post.has_value()) << sw.name;
+        EXPECT_DOUBLE_EQ(m.model.post->height, 0.4 * o.marker_size) << sw.name;
+        ++markers;
+      }
+  EXPECT_GE(markers, 4);
+}
+
 // 8 px markers at 14 m, 0-18 degrees off-axis: the post's top is 0.4 px in radius, found to
 // about 0.15 px, and a corner 3 sigmas off can outweigh it. In view size_008px_05 (6 degrees
 // off-axis) both planar solutions refine to the twin, 12 degrees off; no second solution is
