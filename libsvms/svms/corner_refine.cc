@@ -55,10 +55,11 @@ constexpr double kNarrowBandDrop = 0.02;
 
 // The edge crossing `p` where the intensity rises along `outward` (unit, pixels), searched
 // over +-steps half-pixel steps; `line` has room for 2 steps + 3 samples. *strength: the
-// derivative's peak (grey levels per pixel). False where no rising edge stands out.
+// derivative's peak (grey levels per pixel). False where no rising edge stands out; then
+// *rises_past_end (when given) says whether the steepest rise was at the search's outward end.
 bool LocateEdgeWith(const Sampler& sample, double* line, int steps, const Eigen::Vector2d& p,
                     const Eigen::Vector2d& outward, bool narrow_band, Eigen::Vector2d* edge_out,
-                    double* strength) {
+                    double* strength, bool* rises_past_end = nullptr) {
   // Derivative of intensity along the outward normal at 0.5 px steps s: the difference
   // of the samples 0.5 px either side, I(s + 1) - I(s - 1) on the half-pixel grid.
   double best = 0;
@@ -74,6 +75,7 @@ bool LocateEdgeWith(const Sampler& sample, double* line, int steps, const Eigen:
       best_s = s;
     }
   }
+  if (rises_past_end) *rises_past_end = best > 0 && best_s == steps - 1;
   if (best <= 0 || best_s == -steps + 1 || best_s == steps - 1) return false;
   // The edge position from the area under the normalised profile, in a window centred on
   // the derivative's peak: for a step seen through box-filtered pixels (and any
@@ -239,7 +241,7 @@ bool EdgeBelowPenumbra(const Sampler& sample, const Eigen::Vector2d& edge,
 // Buffers of RefineCorners, kept per thread between calls (no allocation once grown).
 struct RefineScratch {
   std::vector<double> line, weights, residual, abs_inliers;
-  std::vector<Eigen::Vector2d> pts, edges;
+  std::vector<Eigen::Vector2d> pts, edges, past_end;
   std::vector<char> use;
 };
 RefineScratch& Scratch() {
@@ -342,6 +344,8 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
   line.resize(2 * steps + 3);
   std::vector<Eigen::Vector2d>& pts = sc.pts;
   std::vector<Eigen::Vector2d>& edges = sc.edges;  // pixels
+  // Where the steepest rise was at the search's outward end: the search's end (pixels).
+  std::vector<Eigen::Vector2d>& past_end = sc.past_end;
   std::vector<double>& weights = sc.weights;
   // A pinhole camera maps straight sides to straight lines: fit in pixels, no unprojection.
   const bool pinhole = camera && camera->lensmodel() == "LENSMODEL_PINHOLE";
@@ -359,6 +363,7 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       const int m = std::clamp(static_cast<int>(len / 1.5), 4, o.max_points);
       pts.clear();
       edges.clear();
+      past_end.clear();
       weights.clear();
       for (int i = 0; i < m; ++i) {
         const double t = o.end_margin + (1 - 2 * o.end_margin) * (i + 0.5) / m;
@@ -370,18 +375,33 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
         }
         Eigen::Vector2d edge;
         double best;
-        if (!LocateEdgeWith(sample, line.data(), steps, p, outward, narrow_band, &edge, &best))
+        bool rises_on;
+        if (!LocateEdgeWith(sample, line.data(), steps, p, outward, narrow_band, &edge, &best,
+                            &rises_on)) {
+          if (rises_on) past_end.push_back(p + 0.5 * steps * outward);
           continue;
+        }
         edges.push_back(edge);
         weights.push_back(best);
       }
       // A shadow's penumbra running along the side on the white stripe: see
-      // CornerRefineOptions::penumbra_dark_fraction. Only in the last iteration: the earlier
-      // ones converge on the penumbra, a clean line to start from (from the square's edge,
-      // the penumbra's steepest rise may lie beyond the search and no edge would be found).
-      if (it == o.iterations - 1 && std::isfinite(black) && len >= o.penumbra_min_side_px &&
-          InPenumbra(sample, edges, outward, black, o.penumbra_dark_fraction)) {
-        out.penumbra_sides[k] = true;
+      // CornerRefineOptions::penumbra_dark_fraction. Taken from the located edges only in the
+      // last iteration: the earlier ones converge on the penumbra, a clean line to start from.
+      // But where the line is already on the square's edge and the penumbra's steepest rise
+      // lies beyond the search, most of the side's points find no edge, the rise running on
+      // past the search's end (compare view edge_40deg_09 rendered with 256 rays on edges):
+      // those ends are on the penumbra, and the edge is found under it from there, in any
+      // iteration.
+      const bool may_be_penumbra = std::isfinite(black) && len >= o.penumbra_min_side_px;
+      const bool from_ends = may_be_penumbra && past_end.size() > edges.size() &&
+                             InPenumbra(sample, past_end, outward, black, o.penumbra_dark_fraction);
+      if (from_ends || (may_be_penumbra && it == o.iterations - 1 &&
+                        InPenumbra(sample, edges, outward, black, o.penumbra_dark_fraction))) {
+        if (it == o.iterations - 1) out.penumbra_sides[k] = true;
+        if (from_ends) {
+          edges.swap(past_end);
+          weights.resize(edges.size());
+        }
         const double reach = std::min(o.search_px + 2.5, 0.3 * len);
         size_t kept = 0;
         for (size_t i = 0; i < edges.size(); ++i) {

@@ -54,6 +54,10 @@ struct CornerRefineOptions {
   // inward to where the profile falls half-way from the penumbra's foot to black. Measured on
   // every simulated set (sides of 12 px or more within 0.3 px of the truth): that fraction's
   // median 0.000, 99th percentile 0.020, largest 0.042; the penumbra side 0.16.
+  // A smooth penumbra whose steepest rise lies beyond the search from a side already on the
+  // square's edge gives no located edge: where most of a side's points see the rise run on past
+  // the search's outward end and those ends pass the same check, the side is found under the
+  // penumbra from there, in any iteration.
   double penumbra_dark_fraction = 0.08;
   double penumbra_min_side_px = 12;
 };

@@ -140,7 +140,8 @@ Eigen::Vector2d Side1Outward() {
   const Eigen::Vector2d u = (kTruth[2] - kTruth[1]).normalized();
   return Eigen::Vector2d(u.y(), -u.x());  // dark is screen-right
 }
-cv::Mat DrawUnderPenumbra() {
+// The penumbra starts `start` px outside side 1 and climbs over `width` px.
+cv::Mat DrawUnderPenumbra(double start = 1, double width = 4) {
   const Eigen::Vector2d a = kTruth[1], outward = Side1Outward();
   auto grey = [&](const Eigen::Vector2d& p) {
     bool in = true;
@@ -148,7 +149,9 @@ cv::Mat DrawUnderPenumbra() {
       in = Cross2(kTruth[(k + 1) % 4] - kTruth[k], p - kTruth[k]) > 0;
     if (in) return 2.0;
     const double d = outward.dot(p - a);  // outward distance from side 1's line
-    return d < 1 ? 12.0 : d < 5 ? 71.0 - 59.0 * std::cos(M_PI * (d - 1) / 4) : 130.0;
+    return d < start           ? 12.0
+           : d < start + width ? 71.0 - 59.0 * std::cos(M_PI * (d - start) / width)
+                               : 130.0;
   };
   return Rasterise(grey);
 }
@@ -164,6 +167,23 @@ TEST(RefineCorners, ASideUnderAPenumbraIsFoundUnderIt) {
   EXPECT_EQ(blind.penumbra_sides, (std::array<bool, 4>{}));
 
   const RefinedCorners r = RefineCorners(img, start, nullptr, {}, {}, 2.0);
+  ASSERT_TRUE(r.ok);
+  EXPECT_LT(WorstError(r), 0.15);
+  EXPECT_EQ(r.penumbra_sides, (std::array<bool, 4>{false, true, false, false}));
+  EXPECT_GT(r.side_points[1], 20);
+}
+
+// A wider penumbra that starts 0.5 px outside side 1 (steepest 3.5 px out), with the quad's first
+// corners already on the square's edge: the search about the side (+-2.5 px) sees the rise run
+// on past its end and locates no edge; the side is found under the penumbra from the search's
+// ends. Before, the side kept no edge point and no corner was refined (the smooth penumbra of
+// compare view edge_40deg_09 with 256 rays on edge pixels).
+TEST(RefineCorners, ASideUnderAPenumbraBeyondTheSearchIsFoundFromItsEnd) {
+  const cv::Mat img = DrawUnderPenumbra(0.5, 6);
+  const RefinedCorners blind = RefineCorners(img, Perturbed(), nullptr, {});
+  EXPECT_FALSE(blind.ok) << "without the black level the side finds no edge";
+
+  const RefinedCorners r = RefineCorners(img, Perturbed(), nullptr, {}, {}, 2.0);
   ASSERT_TRUE(r.ok);
   EXPECT_LT(WorstError(r), 0.15);
   EXPECT_EQ(r.penumbra_sides, (std::array<bool, 4>{false, true, false, false}));
