@@ -225,6 +225,55 @@ cv::Mat Bands(double edge, double stripe, int beyond) {
 // The white stripe of an 8 px marker is 2.7 px wide and a black bit cell may lie beyond it:
 // with narrow_band the edge is placed from the profile up to its brightest point, not from a
 // bright level read where the cell already darkens it (0.05 px off here).
+// Area of the pixel square centred at `c` (side 1) where normal . (p - origin) >= 0: the square
+// clipped by the half-plane (Sutherland-Hodgman), then the shoelace formula. Exact.
+double HalfPlaneCoverage(const Eigen::Vector2d& c, const Eigen::Vector2d& normal,
+                         const Eigen::Vector2d& origin) {
+  const std::array<Eigen::Vector2d, 4> sq = {
+      c + Eigen::Vector2d(-0.5, -0.5), c + Eigen::Vector2d(0.5, -0.5),
+      c + Eigen::Vector2d(0.5, 0.5), c + Eigen::Vector2d(-0.5, 0.5)};
+  std::vector<Eigen::Vector2d> poly;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d &p = sq[k], &q = sq[(k + 1) % 4];
+    const double dp = normal.dot(p - origin), dq = normal.dot(q - origin);
+    if (dp >= 0) poly.push_back(p);
+    if ((dp >= 0) != (dq >= 0)) poly.push_back(p + dp / (dp - dq) * (q - p));
+  }
+  double area = 0;
+  for (size_t k = 0; k < poly.size(); ++k) area += Cross2(poly[k], poly[(k + 1) % poly.size()]);
+  return 0.5 * std::abs(area);
+}
+
+// A straight step edge (16-bit, 20 to 200 x 256, each pixel's exact coverage) at angles from 0
+// to 45 degrees to the pixel columns and at eight pixel phases each: every located point lies
+// on the edge to a thousandth of a pixel (measured: 2e-5), whatever the angle and phase (the
+// area is taken along the pixel row, AreaAlongPixelRow). Along the normal, from bilinear
+// samples, the same points were up to 0.049 px off (RMS 0.022), an error that moves with the
+// phase along a side.
+TEST(LocateEdge, AStraightEdgeIsFoundWhateverItsAngleAndPixelPhase) {
+  double worst = 0;
+  for (double deg : {0.0, 7.0, 15.0, 26.0, 33.0, 45.0}) {
+    const double a = deg * M_PI / 180;
+    const Eigen::Vector2d normal(std::cos(a), std::sin(a));  // dark to bright
+    const Eigen::Vector2d origin(60.2, 59.7);
+    cv::Mat img(120, 120, CV_16UC1);
+    for (int y = 0; y < img.rows; ++y)
+      for (int x = 0; x < img.cols; ++x)
+        img.at<uint16_t>(y, x) = cv::saturate_cast<uint16_t>(
+            256 * (20 + 180 * HalfPlaneCoverage(Eigen::Vector2d(x, y), normal, origin)));
+    const Eigen::Vector2d along(-normal.y(), normal.x());
+    for (int phase = 0; phase < 8; ++phase) {
+      const Eigen::Vector2d on = origin + (phase / 8.0 * 5 - 2.5) * along;
+      Eigen::Vector2d found;
+      double strength;
+      ASSERT_TRUE(LocateEdge(img, on - 0.4 * normal, normal, 2.5, &found, &strength))
+          << deg << " deg, phase " << phase;
+      worst = std::max(worst, std::abs(normal.dot(found - origin)));
+    }
+  }
+  EXPECT_LT(worst, 0.001);
+}
+
 TEST(LocateEdge, ANarrowStripeBeforeADarkCellDoesNotMoveTheEdge) {
   for (int beyond : {20, 200}) {
     double worst = 0, worst_wide_rule = 0;  // with and without narrow_band
