@@ -45,6 +45,7 @@ struct CompareCliOptions {
   uint64_t seed = 1;
   int size_views = 8;  // views per marker size in the size sweep
   double post_height = CompareOptions{}.post_height_fraction;  // over the square's side
+  int edge_rays = CompareOptions{}.edge_rays_per_pixel;
   int threads = 2;  // rendering only; every detector runs on one core
   bool save_images = false;
 };
@@ -263,6 +264,7 @@ int RunCompare(const CompareCliOptions& o) {
   co.quick = o.quick;
   co.size_views = o.size_views;
   co.post_height_fraction = o.post_height;
+  co.edge_rays_per_pixel = o.edge_rays;
   const std::vector<CompareSweep> sweeps = MakeCompareSweeps(co);
 
   std::vector<ImageRecord> images;
@@ -334,7 +336,8 @@ int RunCompare(const CompareCliOptions& o) {
   {
     Dataset d;
     MakeDataset("clutter", DatasetOptions{o.seed, o.quick}, &d);
-    const Scene& scene = d.scenes.front().second;
+    Scene& scene = d.scenes.front().second;
+    scene.sensor.edge_rays_per_pixel = co.edge_rays_per_pixel;
     std::unique_ptr<Renderer> r;
     if (Status s = Renderer::Create(scene, &r); !s) {
       std::cerr << "svms bench compare: clutter: " << s.message() << "\n";
@@ -376,7 +379,8 @@ int RunCompare(const CompareCliOptions& o) {
   {
     Dataset d;
     MakeDataset("range", DatasetOptions{o.seed, o.quick}, &d);
-    const Scene& scene = d.scenes.front().second;
+    Scene& scene = d.scenes.front().second;
+    scene.sensor.edge_rays_per_pixel = co.edge_rays_per_pixel;
     std::unique_ptr<Renderer> r;
     if (Status s = Renderer::Create(scene, &r); !s) {
       std::cerr << "svms bench compare: range: " << s.message() << "\n";
@@ -678,10 +682,18 @@ int RunCompare(const CompareCliOptions& o) {
      << (o.post_height != CompareOptions{}.post_height_fraction
              ? " --post-height " + F(o.post_height, 2)
              : "")
+     << (o.edge_rays != CompareOptions{}.edge_rays_per_pixel
+             ? " --edge-rays " + std::to_string(o.edge_rays)
+             : "")
      << " --seed " << o.seed << "` (" << F(Ms(std::chrono::steady_clock::now() - start) / 1000, 0)
      << " s). The same scenes are rendered three times, with an SVMS marker, an AprilTag "
         "tag36h11 and an ArUco DICT_6X6_1000 tag printed on the same geometry: same camera "
-        "(1024x1024 pinhole, f = 1111.1 px), poses, light, occluders, sensor noise and seed. "
+        "(1024x1024 pinhole, f = 1111.1 px), poses, light, occluders, sensor noise and seed; "
+     << sweeps[0].scene.sensor.rays_per_pixel << " rays per pixel"
+     << (co.edge_rays_per_pixel > sweeps[0].scene.sensor.rays_per_pixel
+             ? ", " + std::to_string(co.edge_rays_per_pixel) + " on edge pixels"
+             : "")
+     << ". "
         "Every tag's outer black edge is the SVMS black square (side "
      << F(co.marker_size * 1000, 0) << " mm; the SVMS post "
      << F(co.post_height_fraction * co.marker_size * 1000, 0)
@@ -936,6 +948,24 @@ void AddBenchCompare(CLI::App& bench, int* exit_code) {
                 "tells a small marker's tilt better, and leaves the square sooner off-axis)")
       ->capture_default_str()
       ->check(CLI::Range(0.05, 1.0));
+  c->add_option("--edge-rays", o->edge_rays,
+                "Rays per pixel on edge pixels (0: off; a square number up to 4096): the "
+                "rendered coverage of edge pixels, which sets every system's corner error on "
+                "small markers")
+      ->capture_default_str()
+      ->check([](const std::string& v) -> std::string {
+        Sensor sensor;
+        try {
+          size_t used = 0;
+          sensor.edge_rays_per_pixel = std::stoi(v, &used);
+          if (used != v.size()) sensor.edge_rays_per_pixel = -1;
+        } catch (const std::exception&) {
+          sensor.edge_rays_per_pixel = -1;
+        }
+        if (!ValidEdgeRays(sensor))
+          return "expected 0 (off) or a square number up to 4096, got " + v;
+        return "";
+      });
   c->add_flag("--save-images", o->save_images,
               "Also write every rendered sweep image (DIR/images/SWEEP_FAMILY/VIEW.png)");
   c->add_option("--threads", o->threads, "Rendering threads (detectors always run on one core)")

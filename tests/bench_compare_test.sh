@@ -65,5 +65,13 @@ if "$svms" bench compare --post-height 2 --out "$out/bad" > /dev/null 2> "$out/b
   fail "--post-height 2 was accepted"
 fi
 grep -q -- "--post-height" "$out/bad2.txt" || fail "the error does not name --post-height"
+# Edge pixels rendered with 256 rays by default, written down; a count that is not a square
+# refused with its name and value.
+grep -q '"edge_rays_per_pixel": 256' "$out/summary.json" || fail "summary.json has no edge_rays_per_pixel 256"
+grep -q '16 rays per pixel, 256 on edge pixels' "$out/report.md" || fail "report.md does not give the rays per pixel"
+if "$svms" bench compare --edge-rays 17 --out "$out/bad" > /dev/null 2> "$out/bad3.txt"; then
+  fail "--edge-rays 17 was accepted"
+fi
+grep -q -- "--edge-rays.*17" "$out/bad3.txt" || fail "the error does not name --edge-rays and 17"
 [[ ! -e "$out/bad" ]] || fail "--size-views 0 wrote output"
 echo "bench compare --quick: ok"

@@ -20,14 +20,16 @@ Sun SunAt(double elevation_deg, double azimuth_deg) {
   return Sun{Vec3(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e)), 1.0, 0.53};
 }
 
-// The standard sensor and camera of the datasets (taken from the range set, so they stay the
-// same as everything else measured on it), sun from elevation 50, a little ambient; one marker
-// of side `size` on a dark plate 4 sides wide (its front at world z = 0, marker frame = world).
+// The standard sensor (with o.edge_rays_per_pixel) and camera of the datasets (taken from the
+// range set, so they stay the same as everything else measured on it), sun from elevation 50, a
+// little ambient; one marker of side `size` on a dark plate 4 sides wide (its front at world z = 0,
+// marker frame = world).
 Scene Base(const CompareOptions& o, uint64_t salt) {
   Dataset range;
   MakeDataset("range", DatasetOptions{o.seed, true}, &range);
   Scene s = range.scenes.front().second;
   s.seed = o.seed * 1000 + salt;
+  s.sensor.edge_rays_per_pixel = o.edge_rays_per_pixel;
   s.objects.clear();
   s.views.clear();
   s.occluders.clear();

@@ -26,6 +26,12 @@ struct CompareOptions {
   // The SVMS post's height over the black square's side (the size sweep's 8 px markers: a
   // 2 px lever at 0.25).
   double post_height_fraction = 0.25;
+  // Rays per pixel where a pixel differs from a neighbour (Sensor::edge_rays_per_pixel), in
+  // every scene of the comparison, the clutter and range sets included: 0 (off) or a square
+  // number of at most 4096. At the datasets' 16 rays an edge pixel's coverage is 5 % of the
+  // edge's contrast off, several times a sunlit white's shot noise, and it sets every system's
+  // corner error on small markers (docs/simulator.md); 256 takes it to 0.6 %.
+  int edge_rays_per_pixel = 256;
 };
 
 struct CompareSweep {

@@ -94,6 +94,20 @@ TEST(CompareScenes, ThePostIsAsTallAsAsked) {
   EXPECT_GE(markers, 4);
 }
 
+// Edge pixels get CompareOptions' rays in every sweep (svms bench compare --edge-rays), 256 by
+// default, over the datasets' 16 everywhere else.
+TEST(CompareScenes, EdgePixelsGetTheRaysAsked) {
+  CompareOptions o;
+  o.quick = true;
+  for (const CompareSweep& sw : MakeCompareSweeps(o)) {
+    EXPECT_EQ(sw.scene.sensor.edge_rays_per_pixel, 256) << sw.name;
+    EXPECT_EQ(sw.scene.sensor.rays_per_pixel, 16) << sw.name;
+  }
+  o.edge_rays_per_pixel = 0;
+  for (const CompareSweep& sw : MakeCompareSweeps(o))
+    EXPECT_EQ(sw.scene.sensor.edge_rays_per_pixel, 0) << sw.name;
+}
+
 // 8 px markers at 14 m, 0-18 degrees off-axis: the post's top is 0.4 px in radius, found to
 // about 0.15 px, and a corner 3 sigmas off can outweigh it. In view size_008px_05 (6 degrees
 // off-axis) both planar solutions refine to the twin, 12 degrees off; no second solution is
