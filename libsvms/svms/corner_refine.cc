@@ -119,9 +119,11 @@ constexpr double kNarrowBandDrop = 0.02;
 // over +-steps half-pixel steps; `line` has room for 2 steps + 3 samples. *strength: the
 // derivative's peak (grey levels per pixel). False where no rising edge stands out; then
 // *rises_past_end (when given) says whether the steepest rise was at the search's outward end.
+// `along_rows`: across a wide band, the area is taken again along the pixel row through the
+// point found (AreaAlongPixelRow).
 bool LocateEdgeWith(const Sampler& sample, double* line, int steps, const Eigen::Vector2d& p,
                     const Eigen::Vector2d& outward, bool narrow_band, Eigen::Vector2d* edge_out,
-                    double* strength, bool* rises_past_end = nullptr) {
+                    double* strength, bool* rises_past_end = nullptr, bool along_rows = true) {
   // Derivative of intensity along the outward normal at 0.5 px steps s: the difference
   // of the samples 0.5 px either side, I(s + 1) - I(s - 1) on the half-pixel grid.
   double best = 0;
@@ -196,7 +198,8 @@ bool LocateEdgeWith(const Sampler& sample, double* line, int steps, const Eigen:
     area += 0.5 * (prof[i] + prof[i + 1] - 2 * dark) / (bright - dark) * h;
   const double offset = top * h - area - W;  // from the centre: -W + (top h - area)
   const Eigen::Vector2d edge = centre + std::clamp(offset, -W, W) * outward;
-  if (!narrow_band) return AreaAlongPixelRow(sample, edge, outward, W, best, edge_out, strength);
+  if (!narrow_band && along_rows)
+    return AreaAlongPixelRow(sample, edge, outward, W, best, edge_out, strength);
   *edge_out = edge;
   *strength = best;
   return true;
@@ -208,11 +211,11 @@ double SampleImage(const cv::Mat& img, double u, double v) { return Sampler(img)
 
 bool LocateEdge(const cv::Mat& image, const Eigen::Vector2d& p,
                 const Eigen::Vector2d& dark_to_bright, double search_px, Eigen::Vector2d* edge,
-                double* strength, bool narrow_band) {
+                double* strength, bool narrow_band, bool along_rows) {
   const int steps = std::clamp(static_cast<int>(std::ceil(search_px / 0.5)), 2, 30);
   std::array<double, 2 * 30 + 3> line;
   return LocateEdgeWith(Sampler(image), line.data(), steps, p, dark_to_bright, narrow_band, edge,
-                        strength);
+                        strength, nullptr, along_rows);
 }
 
 namespace {

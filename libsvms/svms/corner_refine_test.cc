@@ -246,12 +246,12 @@ double HalfPlaneCoverage(const Eigen::Vector2d& c, const Eigen::Vector2d& normal
 
 // A straight step edge (16-bit, 20 to 200 x 256, each pixel's exact coverage) at angles from 0
 // to 45 degrees to the pixel columns and at eight pixel phases each: every located point lies
-// on the edge to a thousandth of a pixel (measured: 2e-5), whatever the angle and phase (the
-// area is taken along the pixel row, AreaAlongPixelRow). Along the normal, from bilinear
-// samples, the same points were up to 0.049 px off (RMS 0.022), an error that moves with the
-// phase along a side.
+// on the edge to a thousandth of a pixel (measured: 2e-5), whatever the angle and phase, with
+// the area taken along the pixel row (along_rows, as RefineCorners does). Along the normal, from
+// bilinear samples, the same points were up to 0.049 px off (RMS 0.022), an error that moves with
+// the phase along a side.
 TEST(LocateEdge, AStraightEdgeIsFoundWhateverItsAngleAndPixelPhase) {
-  double worst = 0;
+  double worst = 0, worst_normal = 0;  // along the rows, and along the normal alone
   for (double deg : {0.0, 7.0, 15.0, 26.0, 33.0, 45.0}) {
     const double a = deg * M_PI / 180;
     const Eigen::Vector2d normal(std::cos(a), std::sin(a));  // dark to bright
@@ -266,12 +266,15 @@ TEST(LocateEdge, AStraightEdgeIsFoundWhateverItsAngleAndPixelPhase) {
       const Eigen::Vector2d on = origin + (phase / 8.0 * 5 - 2.5) * along;
       Eigen::Vector2d found;
       double strength;
-      ASSERT_TRUE(LocateEdge(img, on - 0.4 * normal, normal, 2.5, &found, &strength))
+      ASSERT_TRUE(LocateEdge(img, on - 0.4 * normal, normal, 2.5, &found, &strength, false, true))
           << deg << " deg, phase " << phase;
       worst = std::max(worst, std::abs(normal.dot(found - origin)));
+      ASSERT_TRUE(LocateEdge(img, on - 0.4 * normal, normal, 2.5, &found, &strength));
+      worst_normal = std::max(worst_normal, std::abs(normal.dot(found - origin)));
     }
   }
   EXPECT_LT(worst, 0.001);
+  EXPECT_GT(worst_normal, 0.03);
 }
 
 TEST(LocateEdge, ANarrowStripeBeforeADarkCellDoesNotMoveTheEdge) {
