@@ -447,7 +447,7 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
         double best;
         bool rises_on;
         if (!LocateEdgeWith(sample, line.data(), steps, p, outward, narrow_band, &edge, &best,
-                            &rises_on)) {
+                            &rises_on, o.edges_along_rows)) {
           if (rises_on) past_end.push_back(p + 0.5 * steps * outward);
           continue;
         }

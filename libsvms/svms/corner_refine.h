@@ -22,6 +22,16 @@ struct CornerRefineOptions {
   int iterations = 2;
   double search_px = 2.5;    // half-width of the search across each side, pixels
   double end_margin = 0.12;  // fraction of each side left out next to the corners
+  // Take each edge point's area again along the pixel row through it (LocateEdge's along_rows;
+  // quads of narrow_stripe_side_px or more). Exact whatever the edge's angle and pixel phase,
+  // where the bilinear profile across the pixels is not: corners of 60 px markers without
+  // sensor noise 0.0109 -> 0.0027 px RMS; with noise on renders with 256 rays on edge pixels
+  // (compare size sweep, seed 2, 72-140 views) 60 px 0.0108 -> 0.0061, 30 px 0.0171 ->
+  // 0.0088, 16 px 0.0213 -> 0.0144; on the datasets' 16-ray renders 30 px 0.0326 -> 0.0300.
+  // Off by default: with it (and kCornerFitScale recalibrated to 0.90 on the mockup), `svms
+  // bench detect`'s range set at 16 m gave 0.90 degrees RMS orientation (4 views; 0.71 without,
+  // target 0.85), and its 3-3.4 m rows were worse too; not yet understood (session 15).
+  bool edges_along_rows = false;
   // The same on quads narrower than narrow_stripe_side_px, whose edges are placed along the
   // normal (LocateEdge's narrow_band). Measured on the compare size sweep (seed 2, 256 rays on
   // edge pixels, 128-142 views per size; corner per-axis Z^2 against its sigma, and RMS): at
@@ -30,7 +40,7 @@ struct CornerRefineOptions {
   // the corners err together, more than their scatter says. Wider quads, placed along the
   // pixel rows, are best at 0.12 (60 px: RMS 0.0061 at 0.12, 0.0069 at 0.15).
   double narrow_end_margin = 0.15;
-  int max_points = 64;       // edge points per side
+  int max_points = 64;  // edge points per side
   // Each side's line is refitted without the edge points farther from it than
   // max(trim_sigmas x robust sigma, trim_floor_px), trim_passes times (0: plain fit).
   int trim_passes = 2;

@@ -35,15 +35,11 @@ struct TipObservation {
 // The factor between a refined corner's error and the sigma its side fits give
 // (RefinedCorners::corner_sigma), shared by single-marker pose, fusion and the survey.
 // Calibrated on the simulator's mockup survey images with the true layout (200 views,
-// `svms bench pose --data MOCKUP --layout MOCKUP/true_layout.json --repeat 1`): 0.90 makes
-// their mean NEES 6.03 (0.92: 5.65, 0.88: 6.32). It was 1.01 (NEES 5.99) until the edge points
-// were placed along the pixel rows (corner_refine.cc), which took out most of the error that
-// varied slowly along a side and so was not in the side's scatter; since then the scatter
-// overstates the corners' error on the datasets' renders (16 rays per pixel). On renders with
-// 256 rays on edge pixels (svms bench compare) corners of 16 px and more have a per-axis Z^2
-// of about 1.1 against the unscaled sigma: there 0.90 leaves small markers' rotation NEES
-// about 25 % high. The approach is the test (docs/flight-interface.md).
-inline constexpr double kCornerFitScale = 0.90;
+// `svms bench pose --data MOCKUP --layout MOCKUP/true_layout.json --repeat 1`): 1.01 makes
+// their mean NEES 5.99 with the sides' pooled scatter (1.02 gave 5.99 with each side's own
+// and gives 5.81 pooled). With CornerRefineOptions::edges_along_rows it must be 0.90 (NEES
+// 6.03; at 1.01 4.58). The approach is the test (docs/flight-interface.md).
+inline constexpr double kCornerFitScale = 1.01;
 
 struct MarkerPoseOptions {
   // Standard deviation of a refined corner, each axis, pixels: corner_fit_scale x the sigma
