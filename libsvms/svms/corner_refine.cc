@@ -123,7 +123,7 @@ constexpr double kNarrowBandDrop = 0.02;
 // point found (AreaAlongPixelRow).
 bool LocateEdgeWith(const Sampler& sample, double* line, int steps, const Eigen::Vector2d& p,
                     const Eigen::Vector2d& outward, bool narrow_band, Eigen::Vector2d* edge_out,
-                    double* strength, bool* rises_past_end = nullptr, bool along_rows = true) {
+                    double* strength, bool* rises_past_end = nullptr, bool along_rows = false) {
   // Derivative of intensity along the outward normal at 0.5 px steps s: the difference
   // of the samples 0.5 px either side, I(s + 1) - I(s - 1) on the half-pixel grid.
   double best = 0;
@@ -144,8 +144,8 @@ bool LocateEdgeWith(const Sampler& sample, double* line, int steps, const Eigen:
   // The edge position from the area under the normalised profile, in a window centred on
   // the derivative's peak: for a step seen through box-filtered pixels (and any
   // symmetric blur) the bright length is the integral, whatever the pixel phase -- the
-  // peak of the derivative alone locks toward pixel centres on sharp edges. Across a wide band
-  // that point is then the centre of the same area taken along the pixel row
+  // peak of the derivative alone locks toward pixel centres on sharp edges. With along_rows,
+  // across a wide band, that point is then the centre of the same area taken along the pixel row
   // (AreaAlongPixelRow), which the bilinear profile's pixel-phase error does not reach.
   const Eigen::Vector2d centre = p + 0.5 * best_s * outward;
   constexpr double W = 2.0, h = 0.25;
