@@ -2147,6 +2147,32 @@ cv::Mat Renderer::RenderRadiance(int view) const {
   return out;
 }
 
+cv::Mat EdgePixels(const cv::Mat& radiance) {
+  const int H = radiance.rows, W = radiance.cols;
+  cv::Mat edge(H, W, CV_8U, cv::Scalar(0));
+  auto at = [&](int x, int y) { return static_cast<double>(radiance.ptr<float>(y)[x]); };
+  auto inside = [&](int x, int y) { return x >= 0 && y >= 0 && x < W && y < H; };
+  // Half the eight neighbours: each direction through the pixel once.
+  constexpr int kDirs[4][2] = {{1, 0}, {0, 1}, {1, 1}, {1, -1}};
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const double c = at(x, y);
+      bool on = false;
+      for (const auto& d : kDirs) {
+        const bool a = inside(x - d[0], y - d[1]), b = inside(x + d[0], y + d[1]);
+        const double va = a ? at(x - d[0], y - d[1]) : c, vb = b ? at(x + d[0], y + d[1]) : c;
+        if ((a && std::abs(va - c) > kEdgeRadianceJump) ||
+            (b && std::abs(vb - c) > kEdgeRadianceJump) ||
+            (a && b && std::abs(va - 2 * c + vb) > kEdgeRadianceStep)) {
+          on = true;
+          break;
+        }
+      }
+      edge.ptr<uint8_t>(y)[x] = on;
+    }
+  return edge;
+}
+
 // Why a second pass and not more rays everywhere: on a 1024 x 1024 view of a 120 px marker,
 // 256 rays per pixel take ten times as long as 16 (108 s against 10 s for 40 views), and all
 // but about 1.5 % of the pixels (the print's and the silhouettes' edges) gain nothing.
@@ -2155,20 +2181,7 @@ void Renderer::Impl::RefineEdges(const Frame& f, TileCandidates& tile_candidates
                                  const std::vector<Candidate>& candidates, cv::Mat* out) const {
   // 1. The edge pixels, from the first pass alone (so the result does not depend on the order
   // in which they are refined).
-  cv::Mat edge(H, W, CV_8U, cv::Scalar(0));
-  for (int y = 0; y < H; ++y) {
-    const float* r = out->ptr<float>(y);
-    for (int x = 0; x < W; ++x)
-      for (int dy = -1; dy <= 1 && !edge.at<uint8_t>(y, x); ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int xx = x + dx, yy = y + dy;
-          if ((dx == 0 && dy == 0) || xx < 0 || yy < 0 || xx >= W || yy >= H) continue;
-          if (std::abs(r[x] - out->ptr<float>(yy)[xx]) > kEdgeRadianceStep) {
-            edge.at<uint8_t>(y, x) = 1;
-            break;
-          }
-        }
-  }
+  const cv::Mat edge = EdgePixels(*out);
   // 2. Each rendered again, tile by tile, with the finer grid of jittered samples, through the
   // general per-sample path.
   Frame fine = f;

@@ -112,8 +112,8 @@ struct Sensor {
   double defocus_sigma_px = 0;  // Gaussian blur of the optics, pixels
   double vignetting = 0;        // brightness falls by this fraction at the image corners
   int rays_per_pixel = 16;      // stratified supersampling: a square number >= 1
-  // Pixels on an edge (radiance differing from a neighbour's by more than kEdgeRadianceStep,
-  // render.h) rendered again with this many rays, a square number up to 4096, where that is
+  // Pixels on an edge (EdgePixels, render.h: a bend or a jump in the first pass's radiance)
+  // rendered again with this many rays, a square number up to 4096, where that is
   // above rays_per_pixel; 0: off. 16 jittered rays estimate an edge pixel's coverage to about
   // 5 % of the edge's contrast, several times the shot noise of a sunlit white (about 1 %);
   // 256 bring that under 1 %.
