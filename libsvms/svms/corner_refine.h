@@ -28,10 +28,11 @@ struct CornerRefineOptions {
   // sensor noise 0.0109 -> 0.0027 px RMS; with noise on renders with 256 rays on edge pixels
   // (compare size sweep, seed 2, 72-140 views) 60 px 0.0108 -> 0.0061, 30 px 0.0171 ->
   // 0.0088, 16 px 0.0213 -> 0.0144; on the datasets' 16-ray renders 30 px 0.0326 -> 0.0300.
-  // Off by default: with it (and kCornerFitScale recalibrated to 0.90 on the mockup), `svms
-  // bench detect`'s range set at 16 m gave 0.90 degrees RMS orientation (4 views; 0.71 without,
-  // target 0.85), and its 3-3.4 m rows were worse too; not yet understood (session 15).
-  bool edges_along_rows = false;
+  // On since session 16. It had been left off because on the datasets' 16-ray renders `svms
+  // bench detect`'s range set at 16 m gave 0.90 degrees RMS orientation with it against 0.71
+  // without (4 views); rendered with 256 rays on edge pixels, as every dataset now is, it gives
+  // 0.245 against 0.301, and the other distances agree within their 4-view noise.
+  bool edges_along_rows = true;
   // The same on quads narrower than narrow_stripe_side_px, whose edges are placed along the
   // normal (LocateEdge's narrow_band). Measured on the compare size sweep (seed 2, 256 rays on
   // edge pixels, 128-142 views per size; corner per-axis Z^2 against its sigma, and RMS): at
