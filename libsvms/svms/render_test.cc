@@ -281,8 +281,7 @@ TEST(EdgePixels, AStraightGradientIsNotAnEdgeButAStepItsRampAndNoiseAre) {
   s.colRange(31, 60).setTo(0.8);
   s.col(30).setTo(0.5);
   cv::Mat e = EdgePixels(s);
-  for (int x = 0; x < s.cols; ++x)
-    EXPECT_EQ(e.at<uint8_t>(20, x), x >= 29 && x <= 31 ? 1 : 0) << x;
+  for (int x = 0; x < s.cols; ++x) EXPECT_EQ(e.at<uint8_t>(20, x), x >= 29 && x <= 31 ? 1 : 0) << x;
   EXPECT_EQ(cv::countNonZero(e), 3 * s.rows);
   // A faint step (0.01, under the jump) is still found where it bends the profile.
   cv::Mat f(40, 60, CV_32F, cv::Scalar(0.3));
