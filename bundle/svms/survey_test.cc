@@ -504,10 +504,14 @@ TEST(Survey, RepeatedCornerErrorIsPropagated) {
   const TestObject m = MakeTestObject(60);
   const Layout truth = InFrameOf(m.truth, 100);
   const double contrast = 4;  // grey levels: white 4.5, black 0.5
-  const double sigma = SurveyOptions{}.corner_repeat_px_grey / contrast;
+  // A repeated error of its own (not the default, which is fitted to the rendered mockup), so
+  // that leaving it out must show.
+  const double repeat_px_grey = 0.29;
+  const double sigma = repeat_px_grey / contrast;
   std::mt19937_64 rng(23);
   std::normal_distribution<double> g(0, 1);
   SurveyOptions with, without;
+  with.corner_repeat_px_grey = repeat_px_grey;
   without.corner_repeat_px_grey = 0;
   const int trials = 30;
   double nees_with = 0, nees_without = 0;
