@@ -22,6 +22,10 @@ TEST(Datasets, EveryDatasetBuildsValidScenesThatRoundTrip) {
         const Status s = ParseSceneJson(SceneToJson(scene), name, "", &back);
         ASSERT_TRUE(s.ok()) << s.message();
         EXPECT_EQ(back.views.size(), scene.views.size());
+        // Edge pixels at 256 rays, as in the compare scenes: one simulator for calibration,
+        // test and comparison.
+        EXPECT_EQ(scene.sensor.edge_rays_per_pixel, 256) << name << "/" << sub;
+        EXPECT_EQ(back.sensor.edge_rays_per_pixel, 256) << name << "/" << sub;
       }
     }
   }
