@@ -4,20 +4,21 @@
 #include <atomic>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <set>
+#include <sstream>
 #include <thread>
 
+#include "cli_io.h"
 #include "commands.h"
 #include "gnuplot.h"
 #include "progress.h"
 #include "svms/camera_covariance.h"
 #include "svms/detector.h"
+#include "svms/file_io.h"
 #include "svms/image_io.h"
 #include "svms/observations.h"
 
@@ -39,13 +40,15 @@ std::string IdList(const std::set<int>& ids, size_t max = 12) {
 // The uncertainty grid: cell centres of a 32 x 32 grid over the image.
 constexpr int kGrid = 32;
 
+// Adds the report's files to `files` (committed by the caller with the model).
 Status WriteReport(const CalibrateRunOptions& o, const std::vector<calib::ViewObservations>& views,
-                   CalibrateRunOutcome* out) {
+                   CalibrateRunOutcome* out, AtomicFileSet* files_out) {
+  AtomicFileSet& files = *files_out;
   const calib::CalibrationResult& r = out->result;
   const std::string& dir = o.report_dir;
   const int W = r.camera.width(), H = r.camera.height();
   // Residuals (inliers and outliers), vectors over the image, coverage.
-  std::ofstream res(dir + "/residuals.dat"), outl(dir + "/outliers.dat");
+  std::ostringstream res, outl;
   nlohmann::json outliers = nlohmann::json::array();
   std::vector<int> cells(16 * 16, 0);
   std::vector<double> comps;
@@ -56,13 +59,15 @@ Status WriteReport(const CalibrateRunOptions& o, const std::vector<calib::ViewOb
       const Eigen::Vector2d& e = r.residuals[v][i];
       if (r.outlier[v][i]) {
         outl << p.pixel.x() << " " << p.pixel.y() << " " << e.x() << " " << e.y() << "\n";
-        outliers.push_back({{"image", out->image_of_view[r.views[v]]},
-                            {"marker", p.marker_id},
-                            {"point", p.corner == calib::PointObservation::kTip
-                                          ? std::string("tip")
-                                          : "corner " + std::to_string(p.corner)},
-                            {"pixel", {p.pixel.x(), p.pixel.y()}},
-                            {"residual_px", {e.x(), e.y()}}});
+        nlohmann::json oj;
+        SetPath(oj, "image", out->image_of_view[r.views[v]]);
+        oj.update({{"marker", p.marker_id},
+                   {"point", p.corner == calib::PointObservation::kTip
+                                 ? std::string("tip")
+                                 : "corner " + std::to_string(p.corner)},
+                   {"pixel", {p.pixel.x(), p.pixel.y()}},
+                   {"residual_px", {e.x(), e.y()}}});
+        outliers.push_back(oj);
         continue;
       }
       res << p.pixel.x() << " " << p.pixel.y() << " " << e.x() << " " << e.y() << "\n";
@@ -72,15 +77,17 @@ Status WriteReport(const CalibrateRunOptions& o, const std::vector<calib::ViewOb
       ++cells[cy * 16 + cx];
     }
   }
-  res.close(), outl.close();
+  files.Add(dir + "/residuals.dat", res.str());
+  files.Add(dir + "/outliers.dat", outl.str());
   out->coverage = std::count_if(cells.begin(), cells.end(), [](int c) { return c > 0; }) / 256.0;
   {
-    std::ofstream cov(dir + "/coverage.dat");
+    std::ostringstream cov;
     for (int y = 0; y < 16; ++y) {
       for (int x = 0; x < 16; ++x)
         cov << (x + 0.5) * W / 16 << " " << (y + 0.5) * H / 16 << " " << cells[y * 16 + x] << "\n";
       cov << "\n";
     }
+    files.Add(dir + "/coverage.dat", cov.str());
   }
   // Histogram of residual components.
   double lim = 0;
@@ -91,19 +98,20 @@ Status WriteReport(const CalibrateRunOptions& o, const std::vector<calib::ViewOb
   for (double c : comps)
     ++hist[std::clamp(static_cast<int>((c + lim) / (2 * lim) * bins), 0, bins - 1)];
   {
-    std::ofstream h(dir + "/histogram.dat");
+    std::ostringstream h;
     for (int b = 0; b < bins; ++b) {
       const double x = -lim + (b + 0.5) * 2 * lim / bins;
       const double gauss = comps.size() * (2 * lim / bins) / (std::sqrt(2 * M_PI) * r.sigma_px) *
                            std::exp(-0.5 * x * x / (r.sigma_px * r.sigma_px));
       h << x << " " << hist[b] << " " << gauss << "\n";
     }
+    files.Add(dir + "/histogram.dat", h.str());
   }
   // Uncertainty over the image.
   double u2 = 0, umax = 0;
   int un = 0;
   {
-    std::ofstream u(dir + "/uncertainty.dat");
+    std::ostringstream u;
     for (int y = 0; y < kGrid; ++y) {
       for (int x = 0; x < kGrid; ++x) {
         const Eigen::Vector2d px((x + 0.5) * W / kGrid - 0.5, (y + 0.5) * H / kGrid - 0.5);
@@ -117,6 +125,7 @@ Status WriteReport(const CalibrateRunOptions& o, const std::vector<calib::ViewOb
       }
       u << "\n";
     }
+    files.Add(dir + "/uncertainty.dat", u.str());
   }
   out->uncertainty_rms = un > 0 ? std::sqrt(u2 / un) : NAN;
   out->uncertainty_max = umax;
@@ -154,14 +163,14 @@ Status WriteReport(const CalibrateRunOptions& o, const std::vector<calib::ViewOb
                 out->uncertainty_range, W, H);
   plots.emplace_back("uncertainty", buf);
   for (const auto& [name, body] : plots)
-    if (Status s = Gnuplot(dir, name, body); !s) return s;
+    if (Status s = Gnuplot(dir, name, body, "900,700", &files); !s) return s;
 
   nlohmann::json j;
   j["camera"] = {{"lensmodel", r.camera.lensmodel()},
                  {"intrinsics", r.camera.intrinsics()},
                  {"imagersize", {W, H}}};
-  if (!o.out.empty()) j["camera"]["file"] = o.out;
-  j["board"] = o.board;
+  if (!o.out.empty()) SetPath(j["camera"], "file", o.out);
+  SetPath(j, "board", o.board);
   j["images"] = out->image_of_view.size();
   j["views_used"] = r.views.size();
   nlohmann::json skipped = nlohmann::json::array();
@@ -184,10 +193,7 @@ Status WriteReport(const CalibrateRunOptions& o, const std::vector<calib::ViewOb
                   {"noise_sigma_px", out->pass1.noise_sigma_px}};
   j["solver"] = {
       {"iterations", r.iterations}, {"outlier_rounds", r.outlier_rounds}, {"final", r.report}};
-  std::ofstream f(dir + "/summary.json");
-  f << j.dump(2) << "\n";
-  if (!f) return Status::Error(dir + "/summary.json: cannot write");
-  return Status::Ok();
+  return files.Add(dir + "/summary.json", DumpJson(j, 2) + "\n");
 }
 
 }  // namespace
@@ -195,17 +201,32 @@ Status WriteReport(const CalibrateRunOptions& o, const std::vector<calib::ViewOb
 int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
   *out = CalibrateRunOutcome();
   const char* prog = "svms calibrate: ";
-  if (!o.report_dir.empty()) {
-    std::error_code ec;
-    fs::create_directories(o.report_dir, ec);
-    if (!fs::is_directory(o.report_dir)) {
-      std::cerr << prog << "--report " << o.report_dir << ": cannot create the directory\n";
-      return kExitBadInput;
-    }
-  }
   if (o.images.empty()) {
     std::cerr << prog << "no images given; expected image files, directories or globs\n";
     return kExitBadInput;
+  }
+  // Everything that can be checked is checked before the first image is read.
+  if (Status s =
+          calib::CheckCalibrationRequest(o.calib.lensmodel, static_cast<int>(o.images.size()));
+      !s) {
+    std::cerr << prog << "--lensmodel: " << s.message() << "\n";
+    return kExitBadInput;
+  }
+  if (!o.out.empty()) {
+    std::vector<std::string> inputs = o.images;
+    inputs.push_back(o.board);
+    for (const std::string& out_file : {o.out, CovarianceSidecarPath(o.out)}) {
+      if (Status s = CheckNotAnInput("--out", out_file, inputs); !s) {
+        std::cerr << prog << s.message() << "\n";
+        return kExitBadInput;
+      }
+    }
+  }
+  if (!o.report_dir.empty()) {
+    if (Status s = PrepareOutputDirectory("--report", o.report_dir); !s) {
+      std::cerr << prog << s.message() << "\n";
+      return kExitBadInput;
+    }
   }
   std::vector<MarkerModel> models;
   for (const LayoutEntry& e : o.layout.markers) models.push_back(e.marker);
@@ -232,12 +253,16 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
     auto worker = [&] {
       for (size_t i; (i = next++) < n;) {
         cv::Mat img;
-        if (Status s = LoadImage(files[i], kDefaultMaxImagePixels, &img); !s) {
-          errors[i] = s.message();
-        } else {
-          sizes[i] = img.size();
-          all[i] = calib::ObservationsFromDetections(detector.Detect(img), o.layout, files[i],
-                                                     corner_sigma);
+        try {
+          if (Status s = LoadImage(files[i], kDefaultMaxImagePixels, &img); !s) {
+            errors[i] = s.message();
+          } else {
+            sizes[i] = img.size();
+            all[i] = calib::ObservationsFromDetections(detector.Detect(img), o.layout, files[i],
+                                                       corner_sigma);
+          }
+        } catch (const std::bad_alloc&) {
+          errors[i] = files[i] + ": out of memory while detecting";
         }
         std::lock_guard<std::mutex> lock(io);
         progress.Update(++done);
@@ -337,24 +362,23 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
     std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
     out->uncertainty_range = d[d.size() / 2];
   }
-  if (!o.out.empty()) {
-    if (Status s = out->result.camera.Write(o.out); !s) {
-      std::cerr << prog << s.message() << "\n";
-      return kExitFailed;
-    }
-    if (Status s = WriteCovarianceSidecar(CovarianceSidecarPath(o.out), out->result.camera,
-                                          out->result.noise_sigma_px,
-                                          static_cast<int>(out->result.views.size()));
-        !s) {
-      std::cerr << prog << s.message() << "\n";
+  // The report and the model with its sidecar are written as one group: a failed write (a full
+  // disk) leaves every earlier output as it was, and a model is never left without its report.
+  AtomicFileSet files;
+  if (!o.report_dir.empty()) {
+    if (Status s = WriteReport(o, views, out, &files); !s) {
+      std::cerr << prog << "--report: " << s.message() << "; nothing written\n";
       return kExitFailed;
     }
   }
-  if (!o.report_dir.empty()) {
-    if (Status s = WriteReport(o, views, out); !s) {
-      std::cerr << prog << s.message() << "\n";
-      return kExitFailed;
-    }
+  Status written;
+  if (!o.out.empty())
+    written = AddCameraWithSidecar(o.out, out->result.camera, out->result.noise_sigma_px,
+                                   static_cast<int>(out->result.views.size()), &files);
+  if (written) written = files.Commit();
+  if (Status s = written; !s) {
+    std::cerr << prog << s.message() << "; nothing written\n";
+    return kExitFailed;
   }
   return out->errors.empty() ? kExitOk : kExitFailed;
 }

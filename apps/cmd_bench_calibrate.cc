@@ -20,9 +20,11 @@
 #include <thread>
 
 #include "calibrate_run.h"
+#include "cli_io.h"
 #include "commands.h"
 #include "gnuplot.h"
 #include "progress.h"
+#include "run_program.h"
 #include "svms/datasets.h"
 #include "svms/model_io.h"
 #include "svms/random_draws.h"
@@ -194,7 +196,7 @@ int RunBench(const BenchOptions& o) {
   const int W = truth.width(), H = truth.height();
   const std::vector<Eigen::Vector2d> grid = GridPixels(W, H);
   {
-    std::ofstream g(fs::path(o.out) / "grid.txt");
+    OutputFile g(fs::path(o.out) / "grid.txt");
     g.precision(17);
     for (const auto& p : grid) g << p.x() << " " << p.y() << "\n";
   }
@@ -270,7 +272,7 @@ int RunBench(const BenchOptions& o) {
   std::vector<std::vector<cv::Point2f>> chess_corners;
   std::vector<Pose> chess_true;
   {
-    std::ofstream vnl(fs::path(o.out) / "corners.vnl");
+    OutputFile vnl(fs::path(o.out) / "corners.vnl");
     vnl << "# filename x y level\n";
     vnl.precision(10);
     const auto& views = d.scenes[1].second.views;
@@ -306,17 +308,31 @@ int RunBench(const BenchOptions& o) {
     t.name = "mrcal (chessboard)";
     const fs::path mdir = fs::path(o.out) / "mrcal";
     fs::create_directories(mdir, ec);
-    char cmd[2048];
-    std::snprintf(cmd, sizeof cmd,
-                  "cd '%s' && mrcal-calibrate-cameras --corners-cache '%s' --lensmodel %s "
-                  "--focal %.0f --object-spacing %g --object-width-n %d --object-height-n %d "
-                  "--outdir '%s' 'calib_*.png' > '%s/mrcal.log' 2>&1",
-                  fs::absolute(fs::path(o.out) / "data" / "chessboard").c_str(),
-                  fs::absolute(fs::path(o.out) / "corners.vnl").c_str(), truth.lensmodel().c_str(),
-                  truth.intrinsics()[0], kSquare, kCornersX, kCornersY, fs::absolute(mdir).c_str(),
-                  fs::absolute(mdir).c_str());
+    char focal[32], spacing[32];
+    std::snprintf(focal, sizeof focal, "%.0f", truth.intrinsics()[0]);
+    std::snprintf(spacing, sizeof spacing, "%g", kSquare);
+    RunOptions ro;
+    ro.cwd = fs::absolute(fs::path(o.out) / "data" / "chessboard").string();
+    ro.stdout_path = ro.stderr_path = fs::absolute(mdir / "mrcal.log").string();
+    // mrcal-calibrate-cameras expands the image glob itself.
+    const std::vector<std::string> argv{"mrcal-calibrate-cameras",
+                                        "--corners-cache",
+                                        fs::absolute(fs::path(o.out) / "corners.vnl").string(),
+                                        "--lensmodel",
+                                        truth.lensmodel(),
+                                        "--focal",
+                                        focal,
+                                        "--object-spacing",
+                                        spacing,
+                                        "--object-width-n",
+                                        std::to_string(kCornersX),
+                                        "--object-height-n",
+                                        std::to_string(kCornersY),
+                                        "--outdir",
+                                        fs::absolute(mdir).string(),
+                                        "calib_*.png"};
     const double t0 = Now();
-    const int rc = std::system(cmd);
+    const int rc = RunProgram(argv, ro);
     t.seconds = Now() - t0;
     const std::string model = (mdir / "camera-0.cameramodel").string();
     if (rc != 0 || !CameraModel::Read(model, &t.r.camera).ok()) {
@@ -324,23 +340,24 @@ int RunBench(const BenchOptions& o) {
     } else {
       // Frames, residual RMS and mrcal's own projection uncertainty from its Python API.
       const std::string py = (mdir / "uncertainty.py").string();
-      std::ofstream(py) << "import sys, numpy as np, mrcal\n"
-                           "m = mrcal.cameramodel(sys.argv[1]); R = float(sys.argv[2])\n"
-                           "grid = np.loadtxt(sys.argv[3])\n"
-                           "oi = m.optimization_inputs()\n"
-                           "np.savetxt(sys.argv[4], oi['frames_rt_toref'])\n"
-                           "v = mrcal.unproject(grid, *m.intrinsics(), normalize=True)\n"
-                           "s = mrcal.projection_uncertainty(v*R, model=m, what='rms-stdev')\n"
-                           "np.savetxt(sys.argv[5], s*np.sqrt(2.))\n"
-                           "x = mrcal.optimizer_callback(**oi)[1]\n"
-                           "r = mrcal.residuals_chessboard(oi, residuals=x).reshape(-1,2)\n"
-                           "print(np.sqrt(np.mean(np.sum(r*r,axis=-1))))\n";
-      const std::string pycmd =
-          "/usr/bin/python3 '" + py + "' '" + model + "' " + std::to_string(kRange) + " '" +
-          (fs::path(o.out) / "grid.txt").string() + "' '" + (mdir / "frames.txt").string() + "' '" +
-          (mdir / "predicted.txt").string() + "' > '" + (mdir / "rms.txt").string() + "' 2>'" +
-          (mdir / "py.log").string() + "'";
-      if (std::system(pycmd.c_str()) != 0) {
+      OutputFile(py) << "import sys, numpy as np, mrcal\n"
+                        "m = mrcal.cameramodel(sys.argv[1]); R = float(sys.argv[2])\n"
+                        "grid = np.loadtxt(sys.argv[3])\n"
+                        "oi = m.optimization_inputs()\n"
+                        "np.savetxt(sys.argv[4], oi['frames_rt_toref'])\n"
+                        "v = mrcal.unproject(grid, *m.intrinsics(), normalize=True)\n"
+                        "s = mrcal.projection_uncertainty(v*R, model=m, what='rms-stdev')\n"
+                        "np.savetxt(sys.argv[5], s*np.sqrt(2.))\n"
+                        "x = mrcal.optimizer_callback(**oi)[1]\n"
+                        "r = mrcal.residuals_chessboard(oi, residuals=x).reshape(-1,2)\n"
+                        "print(np.sqrt(np.mean(np.sum(r*r,axis=-1))))\n";
+      RunOptions pro;
+      pro.stdout_path = (mdir / "rms.txt").string();
+      pro.stderr_path = (mdir / "py.log").string();
+      if (RunProgram({"/usr/bin/python3", py, model, std::to_string(kRange),
+                      (fs::path(o.out) / "grid.txt").string(), (mdir / "frames.txt").string(),
+                      (mdir / "predicted.txt").string()},
+                     pro) != 0) {
         t.failure = "mrcal's Python uncertainty failed (see mrcal/py.log)";
       } else {
         std::ifstream fr(mdir / "frames.txt"), pr(mdir / "predicted.txt"), rr(mdir / "rms.txt");
@@ -418,12 +435,12 @@ int RunBench(const BenchOptions& o) {
     const fs::path dir = fs::path(o.out) / "projection_diff";
     fs::create_directories(dir, ec);
     truth.Write((dir / "true.cameramodel").string());
-    std::string models;
+    std::vector<std::string> models;
     for (size_t k = 0; k < tools.size(); ++k) {
       const std::string f = (dir / ("tool" + std::to_string(k) + ".cameramodel")).string();
-      if (tools[k].ok && tools[k].r.camera.Write(f).ok()) models += " '" + f + "'";
+      if (tools[k].ok && tools[k].r.camera.Write(f).ok()) models.push_back(f);
     }
-    std::ofstream(dir / "diff.py")
+    OutputFile(dir / "diff.py")
         << "import sys, numpy as np, mrcal\n"
            "mt = mrcal.cameramodel(sys.argv[1]); R = float(sys.argv[2]); rad = float(sys.argv[3])\n"
            "grid = np.loadtxt(sys.argv[4]); cells = np.loadtxt(sys.argv[5])\n"
@@ -437,17 +454,22 @@ int RunBench(const BenchOptions& o) {
            "        *m.intrinsics()) - grid, axis=-1)\n"
            "    print(f, np.sqrt(np.mean(d[cells == 3]**2)), np.sqrt(np.mean(d**2)), d.max())\n";
     if (!models.empty()) {
-      const std::string cmd =
-          "/usr/bin/python3 '" + (dir / "diff.py").string() + "' '" +
-          (dir / "true.cameramodel").string() + "' " + std::to_string(kRange) + " " +
-          std::to_string(focus_radius) + " '" + (fs::path(o.out) / "grid.txt").string() + "' '" +
-          (dir / "cells.txt").string() + "'" + models + " > '" + (dir / "diff.txt").string() +
-          "' 2> '" + (dir / "diff.log").string() + "'";
       {
-        std::ofstream cf(dir / "cells.txt");
+        OutputFile cf(dir / "cells.txt");
         for (int c : cells) cf << c << "\n";
       }
-      if (std::system(cmd.c_str()) != 0)
+      std::vector<std::string> argv{"/usr/bin/python3",
+                                    (dir / "diff.py").string(),
+                                    (dir / "true.cameramodel").string(),
+                                    std::to_string(kRange),
+                                    std::to_string(focus_radius),
+                                    (fs::path(o.out) / "grid.txt").string(),
+                                    (dir / "cells.txt").string()};
+      argv.insert(argv.end(), models.begin(), models.end());
+      RunOptions dro;
+      dro.stdout_path = (dir / "diff.txt").string();
+      dro.stderr_path = (dir / "diff.log").string();
+      if (RunProgram(argv, dro) != 0)
         std::cerr << "svms bench calibrate: mrcal.projection_diff failed (see "
                   << (dir / "diff.log").string() << ")\n";
       std::ifstream in(dir / "diff.txt");
@@ -551,7 +573,7 @@ int RunBench(const BenchOptions& o) {
   int region_cells = 0;
   for (int c : cells) region_cells += c == kBoth;
   {
-    std::ofstream csv(fs::path(o.out) / "calibrate.csv");
+    OutputFile csv(fs::path(o.out) / "calibrate.csv");
     csv << "tool,ok,views,reprojection_rms_px,region_error_rms_px,region_error_worst_px,"
            "region_predicted_rms_px,error_rms_px,error_worst_px,direct_error_rms_px,"
            "predicted_rms_px,seconds\n";
@@ -562,7 +584,7 @@ int RunBench(const BenchOptions& o) {
           << "," << t.pred_rms << "," << t.seconds << "\n";
     // Per grid cell: x y, then |error| and predicted for svms, mrcal, OpenCV, then the cell's
     // data flags (1 SVMS board, 2 chessboard, 3 both = the region).
-    std::ofstream g(fs::path(o.out) / "calibrate_grid.dat");
+    OutputFile g(fs::path(o.out) / "calibrate_grid.dat");
     for (size_t k = 0; k < grid.size(); ++k) {
       g << grid[k].x() << " " << grid[k].y();
       for (const ToolResult& t : tools)
@@ -611,7 +633,7 @@ int RunBench(const BenchOptions& o) {
                       {"region_error_rms_px", mc_err},
                       {"region_predicted_rms_px", mc_pred},
                       {"seconds", mc_seconds}};
-  std::ofstream(fs::path(o.out) / "calibrate.json") << j.dump(2) << "\n";
+  OutputFile(fs::path(o.out) / "calibrate.json") << j.dump(2) << "\n";
   char body[4096];
   std::snprintf(
       body, sizeof body,
@@ -659,7 +681,7 @@ int RunBench(const BenchOptions& o) {
                     fs::copy_options::overwrite_existing, ec);
   }
 
-  std::ofstream md(fs::path(o.out) / "report.md");
+  OutputFile md(fs::path(o.out) / "report.md");
   md << "## Camera calibration (issue 6)\n\n"
      << "`svms bench calibrate" << (o.quick ? " --quick" : "")
      << "` on the simulator's calibration dataset: " << nviews
@@ -816,7 +838,8 @@ void AddBenchCalibrate(CLI::App& bench, int* exit_code) {
   cmd->add_option("--threads", o->threads, "Rendering and detection threads")
       ->check(CLI::Range(1, 256));
   cmd->footer("Example:\n  svms bench calibrate --out out/bench/calibrate");
-  cmd->callback([o, exit_code] { *exit_code = RunBench(*o); });
+  cmd->callback(
+      [o, exit_code] { *exit_code = FinishOutputs("svms bench calibrate", RunBench(*o)); });
 }
 
 }  // namespace svms::cli

@@ -20,12 +20,14 @@
 #include <sstream>
 #include <thread>
 
+#include "cli_io.h"
 #include "commands.h"
 #include "gnuplot.h"
 #include "svms/compare_metrics.h"
 #include "svms/compare_scenes.h"
 #include "svms/datasets.h"
 #include "svms/detector.h"
+#include "svms/image_io.h"
 #include "svms/model_io.h"
 #include "svms/peer_detectors.h"
 #include "svms/peer_pose.h"
@@ -311,7 +313,10 @@ int RunCompare(const CompareCliOptions& o) {
           if (o.save_images) {
             const fs::path idir = dir / "images" / (sw.name + "_" + fam);
             fs::create_directories(idir, ec);
-            cv::imwrite((idir / (scene.views[v].name + ".png")).string(), imgs[v - b]);
+            if (Status w =
+                    WriteImage((idir / (scene.views[v].name + ".png")).string(), imgs[v - b]);
+                !w)
+              NoteOutputFailure(w.message());
           }
           for (const System& sys : systems) {
             if (sys.family != fam) continue;
@@ -432,7 +437,7 @@ int RunCompare(const CompareCliOptions& o) {
 
   // --- CSV.
   {
-    std::ofstream f(dir / "markers.csv");
+    OutputFile f(dir / "markers.csv");
     f << "sweep,view,condition,config,family,truth_id,eligible,detected,wrong_id,min_side_px,"
          "view_angle_deg,occluded_fraction,distance_m,corner_rms_px,range_err_m,"
          "orientation_err_deg,twin_err_deg,pose_ambiguous,pose_nees,alternative_err_deg,"
@@ -449,12 +454,12 @@ int RunCompare(const CompareCliOptions& o) {
         << "," << F(m.pose_nees, 3) << "," << F(m.alternative_err_deg, 4) << ","
         << (std::isfinite(m.alternative_err_deg) ? F(m.alternative_weight, 4) : "-") << "\n";
     }
-    std::ofstream g(dir / "images.csv");
+    OutputFile g(dir / "images.csv");
     g << "sweep,view,config,time_ms,detections,false_positives,wrong_ids\n";
     for (const ImageRecord& r : images)
       g << r.sweep << "," << r.view << "," << r.config << "," << F(r.ms, 3) << "," << r.detections
         << "," << r.false_positives << "," << r.wrong_ids << "\n";
-    std::ofstream h(dir / "fig9.csv");
+    OutputFile h(dir / "fig9.csv");
     h << "view,distance_m,used,range_err_mm,orientation_err_deg\n";
     for (const Fig9Row& r : fig9)
       h << r.view << "," << F(r.distance, 4) << "," << r.used << "," << F(r.range_err_mm, 3) << ","
@@ -549,7 +554,7 @@ int RunCompare(const CompareCliOptions& o) {
   for (const Fig9Row& r : fig9) by_d[std::round(r.distance * 20) / 20].push_back(&r);
   json jf = json::array();
   {
-    std::ofstream f(dir / "fig9_summary.csv");
+    OutputFile f(dir / "fig9_summary.csv");
     f << "distance_m,views,found,range_err_mm_rms,orientation_err_deg_rms\n";
     for (const auto& [D, rows] : by_d) {
       double sr = 0, so = 0;
@@ -575,12 +580,12 @@ int RunCompare(const CompareCliOptions& o) {
                       {{{"distance_m", 0.8}, {"range_err_mm", 1}, {"orientation_err_deg", 0.16}},
                        {{"distance_m", 16}, {"range_err_mm", 42}, {"orientation_err_deg", 1.7}}}},
                      {"by_distance", jf}};
-  std::ofstream(dir / "summary.json") << summary.dump(1) << "\n";
+  OutputFile(dir / "summary.json") << summary.dump(1) << "\n";
 
   // --- Plot data: one CSV per sweep, a row per condition, two columns per system.
   auto write_sweep = [&](const std::string& sweep, const std::string& file, bool numeric_x,
                          const std::vector<std::string>& order) {
-    std::ofstream f(dir / file);
+    OutputFile f(dir / file);
     f << "condition,x";
     for (const std::string& n : names) f << "," << n << "_rate," << n << "_orient_med";
     f << "\n";
@@ -654,7 +659,7 @@ int RunCompare(const CompareCliOptions& o) {
                    "plot 'compare_occlusion.csv' skip 1 " +
                        lines_rate);
   {
-    std::ofstream paper(dir / "fig9_paper.csv");
+    OutputFile paper(dir / "fig9_paper.csv");
     paper << "distance_m,range_err_mm,orientation_err_deg\n0.8,1,0.16\n16,42,1.7\n";
   }
   plots_ok &= Plot(dir, "fig9",
@@ -917,7 +922,7 @@ int RunCompare(const CompareCliOptions& o) {
                : F(r["orientation_err_deg_rms"].get<double>(), 3))
        << " |\n";
   md << "| paper | | | 1 at 0.8 m, 42 at 16 m | 0.16 at 0.8 m, 1.7 at 16 m |\n\n![](fig9.png)\n";
-  std::ofstream(dir / "report.md") << md.str();
+  OutputFile(dir / "report.md") << md.str();
   std::cout << md.str();
   std::cout << "wrote " << (dir / "report.md").string() << ", summary.json, markers.csv, "
             << "images.csv, fig9.csv and plots\n";
@@ -972,7 +977,7 @@ void AddBenchCompare(CLI::App& bench, int* exit_code) {
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
   c->footer("Example:\n  svms bench compare --out out/bench/compare --quick");
-  c->callback([o, exit_code] { *exit_code = RunCompare(*o); });
+  c->callback([o, exit_code] { *exit_code = FinishOutputs("svms bench compare", RunCompare(*o)); });
 }
 
 }  // namespace svms::cli

@@ -25,12 +25,14 @@
 #include <sstream>
 #include <thread>
 
+#include "cli_io.h"
 #include "commands.h"
 #include "gnuplot.h"
 #include "overlay.h"
 #include "progress.h"
 #include "svms/datasets.h"
 #include "svms/detector.h"
+#include "svms/image_io.h"
 #include "svms/render.h"
 #include "svms/truth.h"
 
@@ -195,7 +197,7 @@ void WriteMissImage(const cv::Mat& image, const ViewTruth& truth,
     if (poly.size() == 4) cv::polylines(bgr, poly, true, {0, 0, 255}, 1, cv::LINE_AA, 4);
   }
   DrawOverlay(bgr, found);
-  cv::imwrite(file, bgr);
+  if (Status w = WriteImage(file, bgr); !w) NoteOutputFailure(w.message());
 }
 
 struct SetResult {
@@ -344,7 +346,7 @@ bool WriteReport(const BenchDetectOptions& o, const std::map<std::string, SetRes
   for (size_t i = 0; i < rate_sets.size(); ++i) md << "---|";
   md << "\n";
   std::map<std::string, Rate> at30, at20;
-  std::ofstream dat(dir / "detection_vs_size.dat");
+  OutputFile dat(dir / "detection_vs_size.dat");
   dat << "# bin_centre_px";
   for (const auto& s : rate_sets) dat << " " << s << "_percent";
   dat << "\n";
@@ -525,7 +527,7 @@ bool WriteReport(const BenchDetectOptions& o, const std::map<std::string, SetRes
     std::map<double, std::vector<const MarkerRow*>> by_distance;  // rounded to 1 %
     for (const auto& [view, m] : best)
       by_distance[std::round(std::log(m->distance_m) * 50) / 50].push_back(m);
-    std::ofstream f9(dir / "fig9.dat");
+    OutputFile f9(dir / "fig9.dat");
     f9 << "# distance_m range_rms_mm range_sigma_mm orient_rms_deg views orient_sigma_deg\n";
     md << "\n### Range and orientation error against distance (the paper's Fig. 9)\n\n"
        << "Range set: the dual marker (0.432 m outer, 0.108 m inner, post 27 mm) nearly head-on "
@@ -638,13 +640,13 @@ bool WriteReport(const BenchDetectOptions& o, const std::map<std::string, SetRes
   summary["all_targets_met"] = all_met;
   summary["seconds"] = seconds;
   summary["quick"] = o.quick;
-  std::ofstream(dir / "report.md") << md.str();
-  std::ofstream(dir / "summary.json") << summary.dump(2) << "\n";
+  OutputFile(dir / "report.md") << md.str();
+  OutputFile(dir / "summary.json") << summary.dump(2) << "\n";
   return all_met;
 }
 
 void WriteCsv(const BenchDetectOptions& o, const std::map<std::string, SetResult>& results) {
-  std::ofstream m(fs::path(o.out) / "markers.csv");
+  OutputFile m(fs::path(o.out) / "markers.csv");
   m << "set,view,id,nested_in,min_side_px,side_px,view_angle_deg,distance_m,bits_occluded,"
        "bits_in_shadow,fully_visible,corners_visible,has_tip,found,bit_errors,tip_found,"
        "ambiguous,corner_rms_px,corner_max_px,range_err_m,range_sigma_m,orient_err_deg\n";
@@ -657,7 +659,7 @@ void WriteCsv(const BenchDetectOptions& o, const std::map<std::string, SetResult
         << r.corners_visible << "," << r.has_tip << "," << r.found << "," << r.bit_errors << ","
         << r.tip_found << "," << r.ambiguous << "," << r.corner_rms_px << "," << r.corner_max_px
         << "," << r.range_err_m << "," << r.range_sigma_m << "," << r.orient_err_deg << "\n";
-  std::ofstream v(fs::path(o.out) / "views.csv");
+  OutputFile v(fs::path(o.out) / "views.csv");
   v << "set,view,detect_ms,detections,false_positives,problems\n";
   for (const auto& [name, res] : results)
     for (const ViewRow& r : res.views) {
@@ -720,7 +722,8 @@ void AddBenchDetect(CLI::App& bench, int* exit_code) {
       ->check(CLI::Range(1, 256));
   c->add_option("--sets", o->sets, "Only these sets (default: all)")->delimiter(',');
   c->footer("Example:\n  svms bench detect --quick --out out/bench/detect");
-  c->callback([o, exit_code] { *exit_code = RunBenchDetect(*o); });
+  c->callback(
+      [o, exit_code] { *exit_code = FinishOutputs("svms bench detect", RunBenchDetect(*o)); });
 }
 
 }  // namespace svms::cli

@@ -15,8 +15,10 @@
 #include <sstream>
 
 #include "bench_util.h"
+#include "cli_io.h"
 #include "commands.h"
 #include "gnuplot.h"
+#include "run_program.h"
 #include "svms/frame_alignment.h"
 #include "svms/model_io.h"
 #include "svms/pose_estimator.h"
@@ -52,9 +54,11 @@ double RssMiB() {
   return resident * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
 }
 
-int Run(const std::string& cmd) {
-  std::cerr << "svms bench pose: " << cmd << "\n";
-  return std::system(cmd.c_str());
+int Run(const std::vector<std::string>& argv) {
+  std::string line;
+  for (const std::string& a : argv) line += (line.empty() ? "" : " ") + a;
+  std::cerr << "svms bench pose: " << line << "\n";
+  return RunProgram(argv);
 }
 
 struct FrameRow {
@@ -85,28 +89,31 @@ int RunBenchPose(const BenchPoseOptions& o) {
     return kExitBadInput;
   }
   const std::string exe = fs::read_symlink("/proc/self/exe", ec).string();
-  const std::string threads = " --threads " + std::to_string(o.threads);
-  const std::string quick = o.quick ? " --quick" : "";
+  const std::string threads = std::to_string(o.threads);
+  // `svms dataset NAME --out DIR`, with this run's threads and --quick.
+  auto dataset = [&](const std::string& name, const std::string& dir) {
+    std::vector<std::string> argv{exe, "dataset", name, "--out", dir, "--threads", threads};
+    if (o.quick) argv.push_back("--quick");
+    return Run(argv);
+  };
   // 1. The approach (rendered here unless --data), and the layout: surveyed here from the
   // rendered mockup unless --layout names one.
   const std::string D = o.data.empty() ? (fs::path(o.out) / "approach").string() : o.data;
-  if (!fs::exists(fs::path(D) / "truth.json") &&
-      Run("'" + exe + "' dataset approach --out '" + D + "'" + threads + quick) != 0) {
+  if (!fs::exists(fs::path(D) / "truth.json") && dataset("approach", D) != 0) {
     std::cerr << "svms bench pose: rendering the approach failed\n";
     return kExitFailed;
   }
   std::string layout_path = o.layout;
   if (layout_path.empty()) {
     const std::string M = o.mockup.empty() ? (fs::path(o.out) / "mockup").string() : o.mockup;
-    if (!fs::exists(fs::path(M) / "truth.json") &&
-        Run("'" + exe + "' dataset mockup --out '" + M + "'" + threads + quick) != 0) {
+    if (!fs::exists(fs::path(M) / "truth.json") && dataset("mockup", M) != 0) {
       std::cerr << "svms bench pose: rendering the mockup failed\n";
       return kExitFailed;
     }
     layout_path = (fs::path(o.out) / "layout.json").string();
     const std::string survey_camera = o.camera.empty() ? M + "/true.cameramodel" : o.camera;
-    if (Run("'" + exe + "' survey '" + M + "' --camera '" + survey_camera + "' --markers '" + M +
-            "/markers.json' --reference 10 --out '" + layout_path + "' --quiet" + threads) != 0) {
+    if (Run({exe, "survey", M, "--camera", survey_camera, "--markers", M + "/markers.json",
+             "--reference", "10", "--out", layout_path, "--quiet", "--threads", threads}) != 0) {
       std::cerr << "svms bench pose: the survey failed\n";
       return kExitFailed;
     }
@@ -262,7 +269,7 @@ int RunBenchPose(const BenchPoseOptions& o) {
 
   // 4. Files: frames.csv, soak.csv, summary.json, plots, report.md.
   {
-    std::ofstream f(fs::path(o.out) / "frames.csv");
+    OutputFile f(fs::path(o.out) / "frames.csv");
     f << "frame,name,range_m,valid,markers,rejected,ex_rad,ey_rad,ez_rad,ex_m,ey_m,ez_m,"
          "sx_rad,sy_rad,sz_rad,sx_m,sy_m,sz_m,nees,position_mm,orientation_deg,"
          "single_position_mm,single_orientation_deg,latency_ms,chi2,dof,"
@@ -279,10 +286,10 @@ int RunBenchPose(const BenchPoseOptions& o) {
         << w.chi2 << "," << w.dof << "," << w.aligned_nees << "," << w.aligned_position_mm << ","
         << w.aligned_orientation_deg << "\n";
     }
-    std::ofstream s(fs::path(o.out) / "soak.csv");
+    OutputFile s(fs::path(o.out) / "soak.csv");
     s << "frames,rss_mib\n";
     for (const auto& [n, m] : rss) s << n << "," << m << "\n";
-    std::ofstream l(fs::path(o.out) / "latency.csv");
+    OutputFile l(fs::path(o.out) / "latency.csv");
     l << "frame,latency_ms\n";
     for (size_t i = 0; i < latency.size(); ++i) l << i << "," << latency[i] << "\n";
   }
@@ -368,7 +375,7 @@ int RunBenchPose(const BenchPoseOptions& o) {
       {"rss_mib_after_first_100", rss_first},
       {"rss_mib_end", rss_last},
       {"rss_mib_max", rss_max}};
-  std::ofstream(fs::path(o.out) / "summary.json") << summary.dump(2) << "\n";
+  OutputFile(fs::path(o.out) / "summary.json") << summary.dump(2) << "\n";
 
   Status plot = Gnuplot(
       o.out, "pose_error",
@@ -494,7 +501,7 @@ int RunBenchPose(const BenchPoseOptions& o) {
      << "Files: frames.csv (per frame: errors, sigmas, NEES, single-marker errors, latency; with "
         "--camera also NEES and errors in the given camera's frame), "
         "soak.csv (RSS every 100 frames), latency.csv, summary.json.\n";
-  std::ofstream(fs::path(o.out) / "report.md") << md.str();
+  OutputFile(fs::path(o.out) / "report.md") << md.str();
   std::cout << md.str();
   return kExitOk;
 }
@@ -546,7 +553,8 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
   cmd->footer("Example:\n  svms bench pose --out out/bench/pose");
-  cmd->callback([o, exit_code] { *exit_code = RunBenchPose(*o); });
+  cmd->callback(
+      [o, exit_code] { *exit_code = FinishOutputs("svms bench pose", RunBenchPose(*o)); });
 }
 
 }  // namespace svms::cli

@@ -15,9 +15,11 @@
 #include <thread>
 
 #include "bench_util.h"
+#include "cli_io.h"
 #include "commands.h"
 #include "gnuplot.h"
 #include "progress.h"
+#include "run_program.h"
 #include "svms/detector.h"
 #include "svms/model_io.h"
 #include "svms/survey.h"
@@ -167,10 +169,11 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
   std::string D = o.data.empty() ? (fs::path(o.out) / "mockup").string() : o.data;
   if (!fs::exists(fs::path(D) / "truth.json")) {
     const std::string exe = fs::read_symlink("/proc/self/exe", ec).string();
-    const std::string cmd = "'" + exe + "' dataset mockup --out '" + D + "' --threads " +
-                            std::to_string(o.threads) + (o.quick ? " --quick" : "");
-    std::cerr << "svms bench survey: rendering the mockup dataset: " << cmd << "\n";
-    if (std::system(cmd.c_str()) != 0) {
+    std::vector<std::string> argv{
+        exe, "dataset", "mockup", "--out", D, "--threads", std::to_string(o.threads)};
+    if (o.quick) argv.push_back("--quick");
+    std::cerr << "svms bench survey: rendering the mockup dataset into " << D << "\n";
+    if (RunProgram(argv) != 0) {
       std::cerr << "svms bench survey: rendering failed\n";
       return kExitFailed;
     }
@@ -224,8 +227,20 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
   const Status st = bundle::RunSurvey(images, models.markers, camera, sopt, cfg, &result);
   const double solve_s = std::chrono::duration<double>(Clock::now() - t0).count();
   std::cerr << result.summary.BriefReport();
-  bundle::WriteSurveyReport(result, (fs::path(o.out) / "survey_report").string());
-  if (st) WriteTextFile((fs::path(o.out) / "layout.json").string(), LayoutToJson(result.layout));
+  if (Status w =
+          bundle::WriteSurveyReport(result, (fs::path(o.out) / "survey_report").string(), Gnuplot);
+      !w) {
+    std::cerr << "svms bench survey: " << w.message() << "\n";
+    return kExitFailed;
+  }
+  if (st) {
+    if (Status w =
+            WriteTextFile((fs::path(o.out) / "layout.json").string(), LayoutToJson(result.layout));
+        !w) {
+      std::cerr << "svms bench survey: " << w.message() << "\n";
+      return kExitFailed;
+    }
+  }
   std::set<int> surveyed;
   for (const LayoutEntry& e : result.layout.markers) surveyed.insert(e.marker.id);
   const std::vector<MarkerError> ba =
@@ -361,11 +376,11 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
   }
 
   // 6. Tables, plots, report.
-  std::ofstream csv(fs::path(o.out) / "markers.csv");
+  OutputFile csv(fs::path(o.out) / "markers.csv");
   csv << "id,detections,ba_position_mm,ba_orientation_deg,ba_post_error_mm,init_position_mm,"
          "naive_position_mm,naive_orientation_deg,mc_nees_mean,mc_ba_position_rms_mm,"
          "mc_naive_position_rms_mm,mc_ba_orientation_rms_deg,mc_naive_orientation_rms_deg\n";
-  std::ofstream dat(fs::path(o.out) / "errors.dat");
+  OutputFile dat(fs::path(o.out) / "errors.dat");
   dat << "# id ba_mm naive_mm init_mm mc_ba_mm mc_naive_mm nees\n";
   for (size_t i = 0; i < ba.size(); ++i) {
     const MarkerError& b = ba[i];
@@ -539,7 +554,7 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
         "the fewest hops (`bundle::PairwiseAverageLayout`); no robust step, no adjustment, no "
         "covariance. Per-marker numbers: markers.csv; the survey's own report: "
         "survey_report/report.md.\n";
-  std::ofstream(fs::path(o.out) / "report.md") << md.str();
+  OutputFile(fs::path(o.out) / "report.md") << md.str();
   std::cout << md.str();
   return st ? kExitOk : kExitFailed;
 }
@@ -559,7 +574,8 @@ void AddBenchSurvey(CLI::App& bench, int* exit_code) {
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
   cmd->footer("Example:\n  svms bench survey --out out/bench/survey");
-  cmd->callback([o, exit_code] { *exit_code = RunBenchSurvey(*o); });
+  cmd->callback(
+      [o, exit_code] { *exit_code = FinishOutputs("svms bench survey", RunBenchSurvey(*o)); });
 }
 
 }  // namespace svms::cli

@@ -4,6 +4,7 @@
 #include <memory>
 #include <thread>
 
+#include "cli_io.h"
 #include "commands.h"
 #include "svms/datasets.h"
 #include "svms/model_io.h"
@@ -37,32 +38,52 @@ int RunDataset(const DatasetCliOptions& o) {
     return kExitBadInput;
   }
   namespace fs = std::filesystem;
-  std::error_code ec;
-  fs::create_directories(o.out, ec);
+  if (Status s = PrepareOutputDirectory("--out", o.out); !s) {
+    std::cerr << "svms dataset: " << s.message() << "\n";
+    return kExitBadInput;
+  }
+  // Every file of the dataset is written as one group, committed when all are complete: a
+  // failure leaves an earlier dataset in the directory as it was.
+  AtomicFileSet files;
+  std::vector<std::string> wrote;
+  auto add = [&](const std::string& path, const std::string& text) {
+    if (Status s = files.Add(path, text); !s) {
+      std::cerr << "svms dataset: " << s.message() << "\n";
+      return false;
+    }
+    wrote.push_back(path);
+    return true;
+  };
   for (const auto& [rel, text] : d.files) {
     const std::string path = (fs::path(o.out) / rel).string();
-    Status s = rel.size() > 12 && rel.substr(rel.size() - 12) == ".cameramodel"
-                   ? d.scenes.front().second.camera.Write(path)
-                   : WriteTextFile(path, text);
-    if (!s) {
-      std::cerr << "svms dataset: " << s.message() << "\n";
-      return kExitFailed;
+    std::string bytes = text;
+    if (rel.size() > 12 && rel.substr(rel.size() - 12) == ".cameramodel") {
+      if (Status s = d.scenes.front().second.camera.ToText(path, &bytes); !s) {
+        std::cerr << "svms dataset: " << s.message() << "\n";
+        return kExitFailed;
+      }
     }
-    std::cout << "wrote " << path << "\n";
+    if (!add(path, bytes)) return kExitFailed;
   }
   int rc = kExitOk;
   for (const auto& [sub, scene] : d.scenes) {
     const fs::path dir = sub.empty() ? fs::path(o.out) : fs::path(o.out) / sub;
-    fs::create_directories(dir, ec);
-    const std::string scene_file = (dir / "scene.json").string();
-    if (Status s = WriteTextFile(scene_file, SceneToJson(scene)); !s) {
+    if (Status s = PrepareOutputDirectory("--out", dir.string()); !s) {
       std::cerr << "svms dataset: " << s.message() << "\n";
       return kExitFailed;
     }
-    std::cout << "wrote " << scene_file << " (" << scene.views.size() << " views)\n";
+    const std::string scene_file = (dir / "scene.json").string();
+    if (!add(scene_file, SceneToJson(scene))) return kExitFailed;
     if (!o.no_render)
-      rc = std::max(rc, RenderScene(scene, scene_file, dir.string(), o.threads, false, o.quiet));
+      rc = std::max(
+          rc, RenderScene(scene, scene_file, dir.string(), o.threads, false, o.quiet, &files));
+    if (rc != kExitOk) return rc;
   }
+  if (Status s = files.Commit(); !s) {
+    std::cerr << "svms dataset: " << s.message() << "; nothing written\n";
+    return kExitFailed;
+  }
+  for (const std::string& w : wrote) std::cout << "wrote " << w << "\n";
   return rc;
 }
 

@@ -5,13 +5,15 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <set>
 #include <thread>
 
+#include "cli_io.h"
 #include "commands.h"
 #include "image_inputs.h"
 #include "overlay.h"
@@ -67,34 +69,53 @@ nlohmann::json DetectionJson(const Detection& d) {
     }
     j["calibration_in_covariance"] = d.calibration_in_covariance;
   }
+  if (!d.pose_error.empty()) j["pose_error"] = d.pose_error;
   if (d.nested_in >= 0) j["nested_in"] = d.nested_in;
   return j;
 }
 
+// Where --overlay puts the overlay of `image`.
+std::string OverlayPath(const std::string& dir, const std::string& image) {
+  return (fs::path(dir) / (fs::path(image).stem().string() + ".png")).string();
+}
+
 int RunDetect(const DetectOptions& o) {
+  auto bad_input = [](const std::string& m) {
+    std::cerr << "svms detect: " << m << "\n";
+    return kExitBadInput;
+  };
   CameraModel camera;
   if (!o.camera.empty()) {
-    if (Status s = ReadCameraWithSidecar(o.camera, &camera); !s) {
-      std::cerr << "svms detect: " << s.message() << "\n";
-      return kExitBadInput;
-    }
+    if (Status s = ReadCameraWithSidecar(o.camera, &camera); !s) return bad_input(s.message());
   }
   std::vector<MarkerModel> models;
   if (!o.markers.empty()) {
     ModelFile f;
-    if (Status s = ReadModelFile(o.markers, &f); !s) {
-      std::cerr << "svms detect: " << s.message() << "\n";
-      return kExitBadInput;
-    }
+    if (Status s = ReadModelFile(o.markers, &f); !s) return bad_input(s.message());
     models = f.markers;
   }
+  const std::vector<std::string> files = ExpandImageInputs(o.inputs);
+  if (files.empty())
+    return bad_input(
+        "no image files in the inputs (directories are searched for .png, .jpg, .jpeg, .tif, "
+        ".tiff, .bmp, .pgm, .ppm)");
+  // Outputs are checked before any work: none may replace an input, and no two inputs may
+  // write the same overlay.
   if (!o.overlay.empty()) {
-    std::error_code ec;
-    fs::create_directories(o.overlay, ec);
-    if (!fs::is_directory(o.overlay)) {
-      std::cerr << "svms detect: --overlay " << o.overlay << ": cannot create the directory\n";
-      return kExitBadInput;
+    if (Status s = PrepareOutputDirectory("--overlay", o.overlay); !s)
+      return bad_input(s.message());
+    std::map<std::string, std::string> first_of;
+    for (const std::string& f : files) {
+      const std::string out = OverlayPath(o.overlay, f);
+      if (Status s = CheckNotAnInput("--overlay", out, files); !s) return bad_input(s.message());
+      auto [it, fresh] = first_of.emplace(out, f);
+      if (!fresh)
+        return bad_input("--overlay " + o.overlay + ": " + f + " and " + it->second +
+                         " would both write " + out + "; expected inputs with distinct names");
     }
+  }
+  if (!o.debug.empty()) {
+    if (Status s = PrepareOutputDirectory("--debug", o.debug); !s) return bad_input(s.message());
   }
   // LoadImage refuses absurd images from their headers before decoding them; OpenCV's own limit
   // (read once, at its first use) is a second line.
@@ -104,11 +125,10 @@ int RunDetect(const DetectOptions& o) {
   DetectorOptions dopt;
   dopt.debug_dir = o.debug;
   const Detector detector(dopt, camera, models);
-  const std::vector<std::string> files = ExpandImageInputs(o.inputs);
-  if (files.empty()) {
-    std::cerr << "svms detect: no image files in the inputs (directories are searched for .png, "
-                 ".jpg, .jpeg, .tif, .tiff, .bmp, .pgm, .ppm)\n";
-    return kExitBadInput;
+  std::set<int> model_ids;
+  for (const MarkerModel& m : models) {
+    model_ids.insert(m.id);
+    if (m.inner) model_ids.insert(m.inner->id);
   }
   std::vector<std::string> lines(files.size()), errors(files.size());
   std::vector<bool> ready(files.size(), false);
@@ -116,49 +136,74 @@ int RunDetect(const DetectOptions& o) {
   std::atomic<size_t> next{0};
   size_t done = 0;  // under io
   std::mutex io;
+  std::string stdout_error;  // under io
   Progress progress("svms detect:", files.size(), " images", !o.quiet && files.size() > 1);
+  // One image: its JSON line; a failure in errors[i].
+  auto process = [&](size_t i) {
+    const std::string& f = files[i];
+    nlohmann::json j;
+    SetPath(j, "image", f);
+    cv::Mat img;
+    if (Status s = LoadImage(f, max_pixels, &img); !s) {
+      errors[i] = s.message();
+    } else if (img.cols < 16 || img.rows < 16) {
+      errors[i] = f + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
+                  " pixels is too small to hold a marker (at least 16x16 expected)";
+    } else if (!camera.empty() && (img.cols != camera.width() || img.rows != camera.height())) {
+      errors[i] = f + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
+                  " pixels, but the camera model is " + std::to_string(camera.width()) + "x" +
+                  std::to_string(camera.height());
+    }
+    if (errors[i].empty()) {
+      const auto t0 = std::chrono::steady_clock::now();
+      DetectionStats stats;
+      const std::vector<Detection> found = detector.Detect(img, &stats);
+      j["ms"] =
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      nlohmann::json ds = nlohmann::json::array();
+      for (const Detection& d : found) {
+        nlohmann::json dj = DetectionJson(d);
+        if (!camera.empty() && !d.cam_from_marker && d.pose_error.empty())
+          dj["pose_error"] = model_ids.count(d.id)
+                                 ? "no pose"
+                                 : "no marker model for this ID (--markers): its size is unknown";
+        ds.push_back(dj);
+      }
+      j["detections"] = ds;
+      if (!stats.debug_error.empty()) errors[i] = "--debug: " + stats.debug_error;
+      if (!o.overlay.empty()) {
+        cv::Mat bgr, eight;
+        img.convertTo(eight, CV_8U, img.depth() == CV_16U ? 1.0 / 256 : 1.0);
+        cv::cvtColor(eight, bgr, cv::COLOR_GRAY2BGR);
+        DrawOverlay(bgr, found);
+        if (Status w = WriteImage(OverlayPath(o.overlay, f), bgr); !w)
+          errors[i] = "--overlay: " + w.message();
+      }
+    }
+    if (!errors[i].empty()) j["error"] = errors[i];
+    return DumpJson(j);
+  };
   auto worker = [&] {
     for (size_t i; (i = next++) < files.size();) {
-      const std::string& f = files[i];
-      nlohmann::json j = {{"image", f}};
-      cv::Mat img;
-      if (Status s = LoadImage(f, max_pixels, &img); !s) {
-        errors[i] = s.message();
-      } else if (img.cols < 16 || img.rows < 16) {
-        errors[i] = f + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
-                    " pixels is too small to hold a marker (at least 16x16 expected)";
-      } else if (!camera.empty() && (img.cols != camera.width() || img.rows != camera.height())) {
-        errors[i] = f + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
-                    " pixels, but the camera model is " + std::to_string(camera.width()) + "x" +
-                    std::to_string(camera.height());
-      }
-      if (errors[i].empty()) {
-        const auto t0 = std::chrono::steady_clock::now();
-        const std::vector<Detection> found = detector.Detect(img);
-        j["ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                      .count();
-        nlohmann::json ds = nlohmann::json::array();
-        for (const Detection& d : found) ds.push_back(DetectionJson(d));
-        j["detections"] = ds;
-        if (!o.overlay.empty()) {
-          cv::Mat bgr, eight;
-          img.convertTo(eight, CV_8U, img.depth() == CV_16U ? 1.0 / 256 : 1.0);
-          cv::cvtColor(eight, bgr, cv::COLOR_GRAY2BGR);
-          DrawOverlay(bgr, found);
-          const std::string out =
-              (fs::path(o.overlay) / (fs::path(f).stem().string() + ".png")).string();
-          if (!cv::imwrite(out, bgr)) errors[i] = out + ": cannot write the overlay";
-        }
-      } else {
+      std::string line;
+      try {
+        line = process(i);
+      } catch (const std::bad_alloc&) {
+        errors[i] = files[i] +
+                    ": out of memory while detecting; expected a smaller image "
+                    "(--max-megapixels) or fewer --threads";
+        nlohmann::json j;
+        SetPath(j, "image", files[i]);
         j["error"] = errors[i];
+        line = DumpJson(j);
       }
       std::lock_guard<std::mutex> lock(io);
       // Lines go out in input order as soon as every earlier image is done, so that memory does
       // not grow with the batch (only the errors are kept for the summary).
-      lines[i] = j.dump();
+      lines[i] = std::move(line);
       ready[i] = true;
       for (; printed < files.size() && ready[printed]; ++printed) {
-        std::cout << lines[printed] << "\n";
+        WriteStdout(lines[printed] + "\n", false, &stdout_error);
         std::string().swap(lines[printed]);
       }
       progress.Update(++done);
@@ -169,7 +214,7 @@ int RunDetect(const DetectOptions& o) {
     pool.emplace_back(worker);
   for (auto& t : pool) t.join();
   progress.Finish();
-  std::cout << std::flush;
+  WriteStdout("", true, &stdout_error);
   int failed = 0;
   for (const std::string& e : errors)
     if (!e.empty()) {
@@ -178,6 +223,10 @@ int RunDetect(const DetectOptions& o) {
     }
   if (failed)
     std::cerr << "svms detect: " << failed << " of " << files.size() << " images failed\n";
+  if (!stdout_error.empty()) {
+    std::cerr << "svms detect: " << stdout_error << "; the results are lost\n";
+    return kExitFailed;
+  }
   return failed ? kExitFailed : kExitOk;
 }
 
@@ -216,8 +265,12 @@ void AddDetectCommands(CLI::App& app, int* exit_code) {
       "{rvec, tvec, weight}: the other planar pose and its share of the likelihood),\n"
       "calibration_in_covariance (the\n"
       "covariance includes the calibration's uncertainty: CAMERA.covariance.json was next to the\n"
-      "camera model), nested_in). Without --camera: IDs and corners only.\n"
+      "camera model), pose_error (with --camera, why a detection has no pose), nested_in).\n"
+      "Without --camera: IDs and corners only. A path that is not valid UTF-8 is written with\n"
+      "U+FFFD for its bad bytes and its exact bytes in image_hex.\n"
       "A bad image gets an \"error\" field and a line on stderr; the batch goes on; exit code 1.\n"
+      "Output files (overlays, debug pictures) never replace an input, and are written whole\n"
+      "or not at all; a failed write is exit code 1.\n"
       "Examples:\n"
       "  svms detect frame.png\n"
       "  svms detect out/mockup --camera out/mockup/true.cameramodel --markers "

@@ -3,16 +3,18 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
+#include "cli_io.h"
 #include "commands.h"
 #include "image_inputs.h"
 #include "overlay.h"
 #include "svms/camera_covariance.h"
+#include "svms/file_io.h"
 #include "svms/image_io.h"
 #include "svms/pose_estimator.h"
 
@@ -80,26 +82,38 @@ nlohmann::json FrameJson(const FrameResult& r) {
 
 namespace {
 
+std::string OverlayPath(const std::string& dir, const std::string& image) {
+  return (fs::path(dir) / (fs::path(image).stem().string() + ".png")).string();
+}
+
 int RunPose(const PoseCliOptions& o) {
-  if (o.from_stdin == !o.inputs.empty()) {
-    std::cerr << "svms pose: give IMAGES or --stdin (a path, and optionally a timestamp in "
-                 "seconds, per line), not both and not neither\n";
+  auto bad_input = [](const std::string& m) {
+    std::cerr << "svms pose: " << m << "\n";
     return kExitBadInput;
-  }
+  };
+  if (o.from_stdin == !o.inputs.empty())
+    return bad_input(
+        "give IMAGES or --stdin (a path, and optionally a timestamp in seconds, per line), not "
+        "both and not neither");
   PoseEstimatorOptions options;
   options.fusion.corner_sigma_px = o.corner_sigma_px;
   options.budget_ms = o.budget_ms;
   std::unique_ptr<PoseEstimator> est;
-  if (Status s = PoseEstimator::CreateFromFiles(o.camera, o.layout, options, &est); !s) {
-    std::cerr << "svms pose: " << s.message() << "\n";
-    return kExitBadInput;
-  }
+  if (Status s = PoseEstimator::CreateFromFiles(o.camera, o.layout, options, &est); !s)
+    return bad_input(s.message());
+  std::vector<std::string> files;
+  if (!o.from_stdin) files = ExpandImageInputs(o.inputs);
   if (!o.overlay.empty()) {
-    std::error_code ec;
-    fs::create_directories(o.overlay, ec);
-    if (!fs::is_directory(o.overlay)) {
-      std::cerr << "svms pose: --overlay " << o.overlay << ": cannot create the directory\n";
-      return kExitBadInput;
+    if (Status s = PrepareOutputDirectory("--overlay", o.overlay); !s)
+      return bad_input(s.message());
+    std::map<std::string, std::string> first_of;
+    for (const std::string& f : files) {
+      const std::string out = OverlayPath(o.overlay, f);
+      if (Status s = CheckNotAnInput("--overlay", out, files); !s) return bad_input(s.message());
+      auto [it, fresh] = first_of.emplace(out, f);
+      if (!fresh)
+        return bad_input("--overlay " + o.overlay + ": " + f + " and " + it->second +
+                         " would both write " + out + "; expected inputs with distinct names");
     }
   }
   // LoadImage refuses absurd images from their headers; OpenCV's own limit is a second line.
@@ -116,52 +130,70 @@ int RunPose(const PoseCliOptions& o) {
                             ": the pose covariance leaves out the calibration's error\n");
   }
 
-  std::vector<std::string> files;
-  if (!o.from_stdin) files = ExpandImageInputs(o.inputs);
   size_t index = 0, failed = 0, valid = 0;
-  std::string line, first_error;
+  std::string first_error, stdout_error;
   FrameResult r;
   // One frame: read, estimate, print (flushed, so that a reader of the pipe sees it now).
-  auto frame = [&](const std::string& path, double timestamp) {
+  auto frame = [&](const std::string& path, double timestamp, std::string error) {
     nlohmann::json j;
-    std::string error;
     cv::Mat img;
-    if (Status s = LoadImage(path, max_pixels, &img); !s)
+    if (!error.empty()) {
+    } else if (Status s = LoadImage(path, max_pixels, &img); !s) {
       error = s.message();
-    else if (img.cols != camera.width() || img.rows != camera.height())
+    } else if (img.cols != camera.width() || img.rows != camera.height()) {
       error = path + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
               " pixels, but the camera model is " + std::to_string(camera.width()) + "x" +
               std::to_string(camera.height());
+    }
     if (error.empty()) {
-      est->Estimate(img, timestamp, &r);
-      j = FrameJson(r);
-      valid += r.pose.valid;
-      if (!o.overlay.empty()) {
-        cv::Mat bgr, eight;
-        img.convertTo(eight, CV_8U, img.depth() == CV_16U ? 1.0 / 256 : 1.0);
-        cv::cvtColor(eight, bgr, cv::COLOR_GRAY2BGR);
-        DrawOverlay(bgr, r.detections);
-        const std::string out =
-            (fs::path(o.overlay) / (fs::path(path).stem().string() + ".png")).string();
-        if (!cv::imwrite(out, bgr)) error = out + ": cannot write the overlay";
+      try {
+        est->Estimate(img, timestamp, &r);
+        j = FrameJson(r);
+        valid += r.pose.valid;
+        if (!o.overlay.empty()) {
+          const std::string out = OverlayPath(o.overlay, path);
+          if (SameFile(out, path)) {
+            error = "--overlay " + out + ": is the input " + path + "; expected a new file name";
+          } else {
+            cv::Mat bgr, eight;
+            img.convertTo(eight, CV_8U, img.depth() == CV_16U ? 1.0 / 256 : 1.0);
+            cv::cvtColor(eight, bgr, cv::COLOR_GRAY2BGR);
+            DrawOverlay(bgr, r.detections);
+            if (Status w = WriteImage(out, bgr); !w) error = "--overlay: " + w.message();
+          }
+        }
+      } catch (const std::bad_alloc&) {
+        j = nlohmann::json::object();
+        error = path + ": out of memory while estimating the pose";
       }
     }
-    j["image"] = path;
+    SetPath(j, "image", path);
     if (!error.empty()) {
       j["timestamp"] = timestamp;
-      j["valid"] = false;
+      if (!j.contains("valid")) j["valid"] = false;
       j["error"] = error;
       std::cerr << "svms pose: " << error << "\n";
       if (first_error.empty()) first_error = error;
       ++failed;
     }
-    std::cout << j.dump() << std::endl;
+    WriteStdout(DumpJson(j) + "\n", true, &stdout_error);
     ++index;
     if (!o.quiet && index % 50 == 0)
       std::cerr << "svms pose: " << index << " frames, " << valid << " with a pose\n";
   };
   if (o.from_stdin) {
-    while (std::getline(std::cin, line)) {
+    std::string line;
+    bool too_long = false;
+    size_t line_number = 0;
+    while (stdout_error.empty() && ReadBoundedLine(stdin, kMaxStdinLineBytes, &line, &too_long)) {
+      ++line_number;
+      if (too_long) {
+        frame(line.substr(0, 64) + "...", static_cast<double>(index),
+              "standard input, line " + std::to_string(line_number) + ": longer than " +
+                  std::to_string(kMaxStdinLineBytes) +
+                  " bytes; expected PATH [TIMESTAMP] on each line");
+        continue;
+      }
       if (line.empty()) continue;
       // "PATH" or "PATH TIMESTAMP" (the last field, if it parses as a number).
       std::string path = line;
@@ -176,14 +208,21 @@ int RunPose(const PoseCliOptions& o) {
           path = line.substr(0, line.find_last_not_of(" \t", space) + 1);
         }
       }
-      frame(path, timestamp);
+      frame(path, timestamp, "");
     }
   } else {
-    for (const std::string& f : files) frame(f, static_cast<double>(index));
+    for (const std::string& f : files) {
+      if (!stdout_error.empty()) break;
+      frame(f, static_cast<double>(index), "");
+    }
   }
   if (!o.quiet)
     std::cerr << "svms pose: " << index << " frames, " << valid << " with a pose, " << failed
               << " unreadable\n";
+  if (!stdout_error.empty()) {
+    std::cerr << "svms pose: " << stdout_error << "; stopped after " << index << " frames\n";
+    return kExitFailed;
+  }
   if (failed) {
     std::cerr << "svms pose: " << failed << " of " << index
               << " frames failed (first: " << first_error << ")\n";
@@ -228,6 +267,8 @@ void AddPoseCommands(CLI::App& app, int* exit_code) {
       "The covariance includes the camera calibration's uncertainty\n"
       "when CAMERA.covariance.json (written by svms calibrate) is next to the camera model.\n"
       "An unreadable frame gets an \"error\" field and a line on stderr; the stream goes on;\n"
+      "a --stdin line longer than 65536 bytes is such an error. A path that is not valid UTF-8\n"
+      "is written with U+FFFD for its bad bytes and its exact bytes in image_hex.\n"
       "exit code 1 at the end. See docs/flight-interface.md.\n"
       "Examples:\n"
       "  svms pose out/approach --camera cam.cameramodel --layout layout.json\n"

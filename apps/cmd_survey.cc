@@ -4,11 +4,13 @@
 #include <iostream>
 #include <memory>
 #include <mutex>
-#include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <sstream>
 #include <thread>
 
+#include "cli_io.h"
 #include "commands.h"
+#include "gnuplot.h"
 #include "image_inputs.h"
 #include "progress.h"
 #include "svms/camera_covariance.h"
@@ -27,10 +29,10 @@ namespace fs = std::filesystem;
 struct SurveyCliOptions {
   std::vector<std::string> inputs;
   std::string camera, markers, out, report;
-  int reference = -1;
+  std::optional<int> reference;
   std::vector<std::string> scale_bars, control_points;
   bool refine_intrinsics = false, drop_disconnected = false, quiet = false;
-  double corner_sigma = 0;  // 0: each corner's own, from the detector's side fits
+  std::optional<double> corner_sigma;  // unset: each corner's own, from the side fits
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 };
 
@@ -92,13 +94,34 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
   ModelFile models;
   if (Status s = ReadModelFile(o.markers, &models); !s) return bad_input(s.message());
   bundle::SurveyOptions options;
-  if (o.corner_sigma != 0) {
-    options.corner_sigma_px = o.corner_sigma;
+  if (o.corner_sigma) {
+    if (!(std::isfinite(*o.corner_sigma) && *o.corner_sigma > 0))
+      return bad_input("--corner-sigma " +
+                       [&] {
+                         std::ostringstream ss;
+                         ss << *o.corner_sigma;
+                         return ss.str();
+                       }() +
+                       ": expected a positive number of pixels (leave it out for each corner's "
+                       "own sigma)");
+    options.corner_sigma_px = *o.corner_sigma;
     options.corner_sigma_from_fit = false;
   }
   options.num_threads = o.threads;
   bundle::SurveyConfig config;
-  config.reference_id = o.reference;
+  if (o.reference) {
+    if (*o.reference < 0)
+      return bad_input("--reference " + std::to_string(*o.reference) +
+                       ": expected the ID of a marker in " + o.markers + " (0 to 32767)");
+    bool known = false;
+    for (const MarkerModel& m : models.markers)
+      known = known || m.id == *o.reference || (m.inner && m.inner->id == *o.reference);
+    if (!known)
+      return bad_input("--reference " + std::to_string(*o.reference) +
+                       ": no marker with that ID in " + o.markers +
+                       "; expected the ID of one of its markers");
+    config.reference_id = *o.reference;
+  }
   config.refine_intrinsics = o.refine_intrinsics;
   config.drop_disconnected = o.drop_disconnected;
   for (const std::string& t : o.scale_bars) {
@@ -112,18 +135,28 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
     config.control_points.push_back(cp);
   }
   if (!config.control_points.empty()) {
-    if (o.reference >= 0)
+    if (o.reference)
       return bad_input("--reference and --control-point both fix the object frame; give one");
     config.gauge = bundle::SurveyConfig::Gauge::kControlPoints;
-  } else if (o.reference < 0) {
+  } else if (!o.reference) {
     return bad_input("the object frame: expected --reference ID or three --control-point");
   }
   if (Status s = options.Check(); !s) return bad_input(s.message());
   if (Status s = config.Check(); !s) return bad_input(s.message());
 
-  // Detect.
+  // Outputs: none may replace an input; the report directory must be writable (checked now,
+  // not after the solve).
   const std::vector<std::string> files = ExpandImageInputs(o.inputs);
   if (files.empty()) return bad_input("no images given");
+  std::vector<std::string> inputs = files;
+  inputs.push_back(o.camera);
+  inputs.push_back(CovarianceSidecarPath(o.camera));
+  inputs.push_back(o.markers);
+  if (Status s = CheckNotAnInput("--out", o.out, inputs); !s) return bad_input(s.message());
+  if (!o.report.empty())
+    if (Status s = PrepareOutputDirectory("--report", o.report); !s) return bad_input(s.message());
+
+  // Detect.
   const Detector detector(DetectorOptions{}, camera, models.markers);
   std::vector<bundle::SurveyImage> images(files.size());
   std::vector<std::string> errors(files.size());
@@ -135,14 +168,18 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
     for (size_t i; (i = next++) < files.size();) {
       images[i].name = fs::path(files[i]).stem().string();
       cv::Mat img;
-      if (Status s = LoadImage(files[i], kDefaultMaxImagePixels, &img); !s)
-        errors[i] = s.message();
-      else if (img.cols != camera.width() || img.rows != camera.height())
-        errors[i] = files[i] + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
-                    " pixels, but the camera model is " + std::to_string(camera.width()) + "x" +
-                    std::to_string(camera.height());
-      else
-        images[i].detections = detector.Detect(img);
+      try {
+        if (Status s = LoadImage(files[i], kDefaultMaxImagePixels, &img); !s)
+          errors[i] = s.message();
+        else if (img.cols != camera.width() || img.rows != camera.height())
+          errors[i] = files[i] + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
+                      " pixels, but the camera model is " + std::to_string(camera.width()) + "x" +
+                      std::to_string(camera.height());
+        else
+          images[i].detections = detector.Detect(img);
+      } catch (const std::bad_alloc&) {
+        errors[i] = files[i] + ": out of memory while detecting";
+      }
       std::lock_guard<std::mutex> lock(io);
       progress.Update(++done);
     }
@@ -164,9 +201,13 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
   bundle::SurveyResult result;
   const Status s = bundle::RunSurvey(images, models.markers, camera, options, config, &result);
   if (!o.quiet || !s) std::cerr << result.summary.BriefReport();
-  if (!o.report.empty())
-    if (Status w = bundle::WriteSurveyReport(result, o.report); !w)
-      std::cerr << "svms survey: " << w.message() << "\n";
+  bool report_failed = false;
+  if (!o.report.empty()) {
+    if (Status w = bundle::WriteSurveyReport(result, o.report, Gnuplot); !w) {
+      std::cerr << "svms survey: --report: " << w.message() << "\n";
+      report_failed = true;
+    }
+  }
   if (!s) {
     std::cerr << "svms survey: " << s.message() << "\n";
     return kExitFailed;
@@ -180,6 +221,12 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
       (result.summary.corner_repeat_in_covariance
            ? ", plus the repeated corner error of the markers seen with grey levels"
            : "");
+  // The layout last: a report that could not be written (a full disk) leaves the earlier
+  // layout as it was.
+  if (report_failed) {
+    std::cerr << "svms survey: the layout was not written\n";
+    return kExitFailed;
+  }
   if (Status w = WriteTextFile(o.out, LayoutToJson(result.layout)); !w) {
     std::cerr << "svms survey: " << w.message() << "\n";
     return kExitFailed;
@@ -188,7 +235,7 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
   if (unreadable)
     std::cerr << "svms survey: " << unreadable << " of " << files.size()
               << " images could not be used\n";
-  return unreadable ? kExitFailed : kExitOk;
+  return unreadable || report_failed ? kExitFailed : kExitOk;
 }
 
 }  // namespace

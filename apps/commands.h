@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "svms/file_io.h"
 #include "svms/scene.h"
 
 namespace svms {
@@ -40,8 +41,10 @@ void AddBenchPose(CLI::App& bench, int* exit_code);
 nlohmann::json FrameJson(const FrameResult& frame);
 
 // Renders every view of `scene` into `out_dir` (VIEW.png, truth.json) on `threads` threads,
-// progress on stderr; `source` names the scene in messages. Returns an exit code.
+// progress on stderr; `source` names the scene in messages. Returns an exit code. The files
+// are written as one group (file_io.h); with `into` they are added to that group instead, for
+// the caller to commit with its own.
 int RenderScene(const Scene& scene, const std::string& source, const std::string& out_dir,
-                int threads, bool radiance, bool quiet);
+                int threads, bool radiance, bool quiet, AtomicFileSet* into = nullptr);
 
 }  // namespace svms::cli

@@ -1,5 +1,7 @@
 // svms: the command-line front end of the Space Vision Marker System.
+#include <csignal>
 #include <iostream>
+#include <new>
 
 #include "commands.h"
 
@@ -28,11 +30,26 @@ int main(int argc, char** argv) {
   svms::cli::AddSurveyCommands(app, &exit_code);
   svms::cli::AddPoseCommands(app, &exit_code);
   svms::cli::AddBenchCommands(app, &exit_code);
+  // A file-size limit (ulimit -f) would kill us with SIGXFSZ before write(2) could say EFBIG;
+  // ignored, the limit is a write error like a full disk: reported, and the earlier file kept
+  // (file_io.h).
+  std::signal(SIGXFSZ, SIG_IGN);
+  // The commands run inside parse(). What they do not catch themselves ends here as one line
+  // and exit code 1, never as an abort: running out of memory (each command estimates what a
+  // request needs and refuses what is beyond its documented limits first, docs/reliability.md)
+  // or an internal error.
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     const int rc = app.exit(e);  // prints help, version or the usage error
     return rc == 0 ? 0 : svms::cli::kExitBadInput;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "svms: out of memory; expected a smaller request (see the limits in "
+                 "docs/reliability.md)\n";
+    return svms::cli::kExitFailed;
+  } catch (const std::exception& e) {
+    std::cerr << "svms: internal error: " << e.what() << "\n";
+    return svms::cli::kExitFailed;
   }
   return exit_code;
 }

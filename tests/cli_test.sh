@@ -142,7 +142,7 @@ expect 0 "Examples:" "$svms" survey --help
 expect 2 "/nonexistent.cameramodel" "$svms" survey "$tmp/range" --camera /nonexistent.cameramodel --markers "$tmp/range/markers.json" --reference 1 --out "$tmp/l.json"
 expect 2 "expected A:B:DISTANCE" "$svms" survey "$tmp/range" --camera "$tmp/range/true.cameramodel" --markers "$tmp/range/markers.json" --reference 1 --scale-bar 1:2 --out "$tmp/l.json"
 expect 2 "expected --reference ID or three --control-point" "$svms" survey "$tmp/range" --camera "$tmp/range/true.cameramodel" --markers "$tmp/range/markers.json" --out "$tmp/l.json"
-expect 1 "reference marker 999 has no model" "$svms" survey "$tmp/range" --camera "$tmp/range/true.cameramodel" --markers "$tmp/range/markers.json" --reference 999 --out "$tmp/l.json" --quiet
+expect 2 "--reference 999: no marker with that ID" "$svms" survey "$tmp/range" --camera "$tmp/range/true.cameramodel" --markers "$tmp/range/markers.json" --reference 999 --out "$tmp/l.json" --quiet
 
 # pose (fusion/): the range set's dual marker as a one-marker layout; a pose per frame, errors named
 python3 - "$tmp/range/markers.json" "$tmp/range_layout.json" <<'PY'

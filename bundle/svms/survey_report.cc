@@ -3,25 +3,16 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 
+#include "svms/file_io.h"
 #include "svms/format.h"
 
 namespace svms::bundle {
 namespace {
 
 namespace fs = std::filesystem;
-
-Status Write(const std::string& path, const std::string& text) {
-  std::ofstream f(path);
-  f << text;
-  f.close();
-  if (!f) return Status::Error(path + ": cannot write");
-  return Status::Ok();
-}
 
 }  // namespace
 
@@ -42,18 +33,15 @@ std::vector<MarkerSigmas> ComputeMarkerSigmas(const Layout& layout) {
   return out;
 }
 
-bool RunGnuplot(const std::string& dir, const std::string& name, const std::string& script) {
-  const std::string gp = (fs::path(dir) / (name + ".gp")).string();
-  if (!Write(gp, script)) return false;
-  const std::string cmd = "cd '" + dir + "' && gnuplot '" + name + ".gp' > /dev/null 2>&1";
-  return std::system(cmd.c_str()) == 0;
-}
-
-Status WriteSurveyReport(const SurveyResult& r, const std::string& dir) {
+Status WriteSurveyReport(const SurveyResult& r, const std::string& dir, const PlotFunction& plot) {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (!fs::is_directory(dir)) return Status::Error(dir + ": cannot create the directory");
   const SurveySummary& S = r.summary;
+  AtomicFileSet files;
+  auto Write = [&](const std::string& path, const std::string& text) {
+    return files.Add(path, text);
+  };
   const std::vector<MarkerSigmas> sig = ComputeMarkerSigmas(r.layout);
 
   // Tables.
@@ -166,18 +154,16 @@ Status WriteSurveyReport(const SurveyResult& r, const std::string& dir) {
       "  'layout_cameras.dat' with points pt 7 ps 0.4 lc rgb '#2060d0' title 'cameras (in the "
       "box)', \\\n"
       "  'layout_labels.dat' using 1:2:3:4 with labels offset 1,1 notitle\n";
-  const std::string layout_gp =
-      "set terminal pngcairo size 1100,850\nset output 'layout.png'\n" + plot_body +
-      "set terminal svg size 1100,850\nset output 'layout.svg'\n" + "replot\n";
-  const bool layout_ok = RunGnuplot(dir, "layout", layout_gp);
-  const std::string res_gp =
-      "set terminal pngcairo size 1000,400\nset output 'residuals.png'\n"
-      "set datafile separator ','\nset title 'RMS reprojection residual per image'\n"
-      "set xlabel 'image'\nset ylabel 'px'\nset yrange [0:*]\n"
-      "plot 'images.csv' using 0:4 every ::1 with impulses lw 2 title 'RMS', "
-      "'' using 0:5 every ::1 with points pt 1 title 'max'\n"
-      "set terminal svg size 1000,400\nset output 'residuals.svg'\nreplot\n";
-  const bool res_ok = RunGnuplot(dir, "residuals", res_gp);
+  auto draw = [&](const std::string& name, const std::string& body, const std::string& size) {
+    return plot && plot(dir, name, body, size, &files).ok();
+  };
+  const bool layout_ok = draw("layout", plot_body, "1100,850");
+  const bool res_ok = draw("residuals",
+                           "set datafile separator ','\nset title 'RMS reprojection residual "
+                           "per image'\nset xlabel 'image'\nset ylabel 'px'\nset yrange [0:*]\n"
+                           "plot 'images.csv' using 0:4 every ::1 with impulses lw 2 title 'RMS', "
+                           "'' using 0:5 every ::1 with points pt 1 title 'max'\n",
+                           "1000,400");
 
   // report.md
   std::ostringstream md;
@@ -224,7 +210,8 @@ Status WriteSurveyReport(const SurveyResult& r, const std::string& dir) {
   md << "Per image: images.csv; per marker: markers.csv; rejected points: rejected.csv.\n\n";
   md << "Solver (first, robust): " << S.ceres_report_first
      << "\n\nSolver (second): " << S.ceres_report_second << "\n";
-  return Write((fs::path(dir) / "report.md").string(), md.str());
+  Write((fs::path(dir) / "report.md").string(), md.str());
+  return files.Commit();
 }
 
 }  // namespace svms::bundle

@@ -3,8 +3,10 @@
 // uncertainty ellipsoids magnified, and the camera positions) drawn with gnuplot.
 #pragma once
 
+#include <functional>
 #include <string>
 
+#include "svms/file_io.h"
 #include "svms/status.h"
 #include "svms/survey.h"
 
@@ -19,12 +21,20 @@ struct MarkerSigmas {
 };
 std::vector<MarkerSigmas> ComputeMarkerSigmas(const Layout& layout);
 
-// Writes into `dir` (created): report.md, markers.csv, images.csv, rejected.csv,
-// layout.png/.svg (gnuplot; the picture is skipped with a note in report.md when gnuplot is
-// not installed) and residuals.png/.svg. Errors name the file that could not be written.
-Status WriteSurveyReport(const SurveyResult& result, const std::string& dir);
+// Draws dir/NAME.png (and .svg) from a gnuplot `body` (everything but the terminal and output
+// lines) at `size` ("width,height" pixels), adding the files to `files` (committed with the
+// rest of the report). The library does not start programs: the caller passes its plotter
+// (the svms command's runs gnuplot).
+using PlotFunction =
+    std::function<Status(const std::string& dir, const std::string& name, const std::string& body,
+                         const std::string& size, AtomicFileSet* files)>;
 
-// Runs gnuplot on `script` (written to dir/name.gp); false if gnuplot is missing or fails.
-bool RunGnuplot(const std::string& dir, const std::string& name, const std::string& script);
+// Writes into `dir` (created): report.md, markers.csv, images.csv, rejected.csv, and through
+// `plot` (may be empty: no pictures) layout.png/.svg and residuals.png/.svg; a picture that
+// fails is noted in report.md. The files are written as one group (AtomicFileSet): on an
+// error none replaces a file of an earlier report. Errors name the file that could not be
+// written.
+Status WriteSurveyReport(const SurveyResult& result, const std::string& dir,
+                         const PlotFunction& plot);
 
 }  // namespace svms::bundle

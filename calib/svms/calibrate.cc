@@ -13,6 +13,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "svms/camera_covariance.h"
+#include "svms/memory_limit.h"
 
 namespace svms::calib {
 namespace {
@@ -145,6 +146,25 @@ Status CalibrationOptions::Check() const {
   return Status::Ok();
 }
 
+Status CheckCalibrationRequest(const std::string& lensmodel, int num_views) {
+  int n = 0;
+  bool gradients = false;
+  // The bare splined name is resolved from the images (ResolveLensModel): 16 x 12 or so.
+  const std::string name = lensmodel == "LENSMODEL_SPLINED_STEREOGRAPHIC"
+                               ? "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=16_fov_x_deg=100"
+                               : lensmodel;
+  if (Status s = CameraModel::CheckLensModelName(name, &n, &gradients); !s) return s;
+  if (!gradients)
+    return Status::Error("lensmodel: '" + lensmodel +
+                         "' gives no gradients in mrcal 2.2, which the calibration needs; "
+                         "expected e.g. LENSMODEL_PINHOLE, LENSMODEL_OPENCV8, "
+                         "LENSMODEL_SPLINED_STEREOGRAPHIC");
+  const double nstate = n + 6.0 * std::max(num_views, 1) + 2;
+  return CheckMemory("a calibration of " + lensmodel + " (" + std::to_string(n) +
+                         " intrinsics) over " + std::to_string(num_views) + " views",
+                     12 * 8 * nstate * nstate);
+}
+
 Status Calibrate(const std::vector<ViewObservations>& all_views, const CalibrationOptions& o,
                  CalibrationResult* result) {
   if (Status s = o.Check(); !s) return s;
@@ -249,6 +269,8 @@ Status Calibrate(const std::vector<ViewObservations>& all_views, const Calibrati
                          "LENSMODEL_PINHOLE, LENSMODEL_OPENCV8, LENSMODEL_SPLINED_STEREOGRAPHIC");
   }
   const int n = p.lens->num_params();
+  if (Status st = CheckCalibrationRequest(lensmodel, static_cast<int>(views.size())); !st)
+    return st;
   const bool has_distortion = n > 4;
   if (has_distortion && reach < o.min_reach) {
     return Status::Error(

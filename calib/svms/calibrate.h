@@ -57,6 +57,13 @@ struct CalibrationOptions {
   Status Check() const;
 };
 
+// Checks what can be checked before any image is read, so that a command refuses a bad
+// request at once (exit 2) instead of after detecting every image: the lens model's name (a
+// known mrcal model with gradients, or the bare LENSMODEL_SPLINED_STEREOGRAPHIC), and that the
+// covariance of `num_views` views fits in memory (memory_limit.h: about 12 dense matrices of
+// (intrinsics + 6 x views)^2 doubles, and the eigen-decomposition's time grows as its cube).
+Status CheckCalibrationRequest(const std::string& lensmodel, int num_views);
+
 struct CalibrationResult {
   CameraModel camera;
   std::vector<int> views;  // indices (into the input) of the views used, in order

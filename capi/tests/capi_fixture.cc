@@ -40,8 +40,24 @@ int main(int argc, char** argv) {
                                     calibrated, 0.05, 20)
            .ok())
     return 1;
-  for (const auto& [name, text] : d.files)
-    if (name == "true_layout.json") std::ofstream(dir + "/" + name) << text;
+  // A sidecar whose covariance overflows (a factor of 1e300: finite, but L L^T is not).
+  sigma(0) = 1e300;
+  if (!calibrated.set_intrinsics_covariance_factor(sigma.asDiagonal().toDenseMatrix()).ok() ||
+      !calibrated.Write(dir + "/overflow.cameramodel").ok() ||
+      !svms::WriteCovarianceSidecar(svms::CovarianceSidecarPath(dir + "/overflow.cameramodel"),
+                                    calibrated, 0.05, 20)
+           .ok())
+    return 1;
+  for (const auto& [name, text] : d.files) {
+    if (name != "true_layout.json") continue;
+    std::ofstream(dir + "/" + name) << text;
+    // The same layout with a second "object_from_marker" in its first entry (last one would win).
+    std::string dup = text;
+    const size_t at = dup.find("\"object_from_marker\"");
+    if (at == std::string::npos) return 1;
+    dup.insert(at, "\"object_from_marker\": {\"rvec\": [0, 0, 0], \"tvec\": [14, 0, 0]}, ");
+    std::ofstream(dir + "/dup_layout.json") << dup;
+  }
   std::unique_ptr<svms::Renderer> r;
   if (!svms::Renderer::Create(scene, &r).ok()) return 1;
   for (int view : {0, 11}) {

@@ -187,6 +187,17 @@ int main(int argc, char** argv) {
   CHECK(memcmp(pc.tvec, pose.tvec, sizeof pose.tvec) == 0);
   for (int r = 0; r < 6; ++r) CHECK(pc.covariance[r * 6 + r] > pose.covariance[r * 6 + r]);
   svms_destroy(calibrated);
+  /* A sidecar whose covariance overflows, and a layout with a duplicate key: refused at load. */
+  char over_path[4096], dup_path[4096];
+  snprintf(over_path, sizeof over_path, "%s/overflow.cameramodel", fixture_dir);
+  snprintf(dup_path, sizeof dup_path, "%s/dup_layout.json", fixture_dir);
+  svms_estimator* refused = (svms_estimator*)0x1;
+  CHECK_STATUS(svms_create(over_path, layout_path, NULL, &refused), SVMS_ERR_FILE);
+  CHECK(refused == NULL);
+  CHECK(strstr(svms_last_error(), "overflows") != NULL);
+  CHECK_STATUS(svms_create(camera_path, dup_path, NULL, &refused), SVMS_ERR_FILE);
+  CHECK(strstr(svms_last_error(), "markers[0].object_from_marker: the field appears twice") !=
+        NULL);
 
   /* The same pixels with padded rows, and as 16 bits. */
   const ptrdiff_t stride = W + 77;

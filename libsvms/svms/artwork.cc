@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <functional>
 
+#include "svms/file_io.h"
 #include "svms/model_io.h"
 #include "svms/svms44.h"
 
@@ -38,6 +39,14 @@ MarkerBox BoxFor(const MarkerModel& m, const ArtworkOptions& o) {
 }
 
 // The directory that will hold `base`.* must exist: say so plainly before cairo fails.
+// Writes the queued files together (file_io.h): all of them or, on an error, none.
+Status Commit(AtomicFileSet* files, WrittenFiles* written) {
+  const std::vector<std::string> paths = files->paths();
+  if (Status s = files->Commit(); !s) return s;
+  written->insert(written->end(), paths.begin(), paths.end());
+  return Status::Ok();
+}
+
 Status CheckOutputDirectory(const std::string& base) {
   const std::filesystem::path dir = std::filesystem::path(base).parent_path();
   std::error_code ec;
@@ -197,8 +206,7 @@ void DrawBareMarker(cairo_t* cr, const Placement& p) {
 
 // Renders `pages` (each `w` x `h` mm) into SVG, PDF and PNG files named from `base`.
 Status RenderPages(const std::vector<Page>& pages, double w, double h, const std::string& base,
-                   const ArtworkOptions& o, WrittenFiles* written,
-                   const std::string& caption = "") {
+                   const ArtworkOptions& o, AtomicFileSet* files, const std::string& caption = "") {
   auto draw_page = [&](cairo_t* cr, const Page& page) {
     cairo_set_source_rgb(cr, 1, 1, 1);
     cairo_paint(cr);
@@ -222,8 +230,15 @@ Status RenderPages(const std::vector<Page>& pages, double w, double h, const std
   auto check = [&](cairo_surface_t* s, const std::string& file) -> Status {
     const cairo_status_t st = cairo_surface_status(s);
     if (st != CAIRO_STATUS_SUCCESS)
-      return Status::Error(file + ": cannot write (" + cairo_status_to_string(st) + ")");
+      return Status::Error(file + ": cannot draw (" + cairo_status_to_string(st) + ")");
     return Status::Ok();
+  };
+  // Every file is drawn into memory and queued; the caller commits them together.
+  std::string bytes;
+  const cairo_write_func_t append = [](void* closure, const unsigned char* data,
+                                       unsigned int length) {
+    static_cast<std::string*>(closure)->append(reinterpret_cast<const char*>(data), length);
+    return CAIRO_STATUS_SUCCESS;
   };
   const bool multi = pages.size() > 1;
   auto page_name = [&](size_t i, const char* ext) {
@@ -233,7 +248,9 @@ Status RenderPages(const std::vector<Page>& pages, double w, double h, const std
   // PDF: one file, all pages; user units mm.
   {
     const std::string file = base + ".pdf";
-    cairo_surface_t* s = cairo_pdf_surface_create(file.c_str(), w * 72 / 25.4, h * 72 / 25.4);
+    bytes.clear();
+    cairo_surface_t* s =
+        cairo_pdf_surface_create_for_stream(append, &bytes, w * 72 / 25.4, h * 72 / 25.4);
     cairo_t* cr = cairo_create(s);
     cairo_scale(cr, 72 / 25.4, 72 / 25.4);
     for (const Page& page : pages) {
@@ -245,12 +262,13 @@ Status RenderPages(const std::vector<Page>& pages, double w, double h, const std
     const Status st = check(s, file);
     cairo_surface_destroy(s);
     if (!st) return st;
-    written->push_back(file);
+    files->Add(file, std::move(bytes));
   }
   for (size_t i = 0; i < pages.size(); ++i) {
     // SVG: the document unit is mm, so user units are millimetres.
     const std::string svg = page_name(i, ".svg");
-    cairo_surface_t* s = cairo_svg_surface_create(svg.c_str(), w, h);
+    bytes.clear();
+    cairo_surface_t* s = cairo_svg_surface_create_for_stream(append, &bytes, w, h);
     cairo_svg_surface_set_document_unit(s, CAIRO_SVG_UNIT_MM);
     cairo_t* cr = cairo_create(s);
     draw_page(cr, pages[i]);
@@ -259,7 +277,7 @@ Status RenderPages(const std::vector<Page>& pages, double w, double h, const std
     Status st = check(s, svg);
     cairo_surface_destroy(s);
     if (!st) return st;
-    written->push_back(svg);
+    files->Add(svg, std::move(bytes));
     if (!o.write_png) continue;
     // PNG: the page centre at the image centre, dpi / 25.4 pixels per mm.
     const double k = o.dpi / 25.4;
@@ -276,11 +294,12 @@ Status RenderPages(const std::vector<Page>& pages, double w, double h, const std
     draw_page(cr, pages[i]);
     cairo_destroy(cr);
     const std::string png = page_name(i, ".png");
-    const cairo_status_t ws = cairo_surface_write_to_png(img, png.c_str());
+    bytes.clear();
+    const cairo_status_t ws = cairo_surface_write_to_png_stream(img, append, &bytes);
     cairo_surface_destroy(img);
     if (ws != CAIRO_STATUS_SUCCESS)
-      return Status::Error(png + ": cannot write (" + cairo_status_to_string(ws) + ")");
-    written->push_back(png);
+      return Status::Error(png + ": cannot draw (" + cairo_status_to_string(ws) + ")");
+    files->Add(png, std::move(bytes));
   }
   return Status::Ok();
 }
@@ -321,13 +340,12 @@ Status WriteMarkerArtwork(const MarkerModel& model, const std::string& base_in,
   const double margin = 4.0;  // mm of paper around the marks
   const double w = box.width() + 2 * margin;
   const double h = box.width() + 2 * (box.label_mm + margin);  // symmetric: centre stays centred
-  if (Status s = RenderPages({{Placement{&model, 0.5 * w, 0.5 * h}}}, w, h, base, options, written);
+  AtomicFileSet files;
+  if (Status s = RenderPages({{Placement{&model, 0.5 * w, 0.5 * h}}}, w, h, base, options, &files);
       !s)
     return s;
-  const std::string json = base + ".json";
-  if (Status s = WriteTextFile(json, MarkerModelToJson(model)); !s) return s;
-  written->push_back(json);
-  return Status::Ok();
+  files.Add(base + ".json", MarkerModelToJson(model));
+  return Commit(&files, written);
 }
 
 Status WriteSheet(const std::vector<MarkerModel>& models, const std::string& base_in,
@@ -364,11 +382,10 @@ Status WriteSheet(const std::vector<MarkerModel>& models, const std::string& bas
     x += box.width() + o.gap_mm;
     row_h = std::max(row_h, box.height());
   }
-  if (Status s = RenderPages(pages, W, H, base, o, written); !s) return s;
-  const std::string json = base + ".json";
-  if (Status s = WriteTextFile(json, MarkerSetToJson(models)); !s) return s;
-  written->push_back(json);
-  return Status::Ok();
+  AtomicFileSet files;
+  if (Status s = RenderPages(pages, W, H, base, o, &files); !s) return s;
+  files.Add(base + ".json", MarkerSetToJson(models));
+  return Commit(&files, written);
 }
 
 Status WriteLayoutArtwork(const Layout& layout, const std::string& base_in,
@@ -400,14 +417,13 @@ Status WriteLayoutArtwork(const Layout& layout, const std::string& base_in,
   const double caption_mm = options.label ? 6.0 : 0.0;
   const double w = 2 * half_w, h = 2 * (half_h + caption_mm);
   for (Placement& p : page) p.cx += 0.5 * w, p.cy += 0.5 * h;
-  if (Status s = RenderPages({page}, w, h, base, options, written,
+  AtomicFileSet files;
+  if (Status s = RenderPages({page}, w, h, base, options, &files,
                              options.label ? layout.name : std::string());
       !s)
     return s;
-  const std::string json = base + ".json";
-  if (Status s = WriteTextFile(json, LayoutToJson(layout)); !s) return s;
-  written->push_back(json);
-  return Status::Ok();
+  files.Add(base + ".json", LayoutToJson(layout));
+  return Commit(&files, written);
 }
 
 Eigen::Matrix3d ArtworkPixelFromPlane(int width, int height, double dpi) {

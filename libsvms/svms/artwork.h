@@ -39,7 +39,9 @@ struct SheetOptions : ArtworkOptions {
   double gap_mm = 6;      // between markers' cut boxes
 };
 
-// Files written, in order.
+// Files written, in order. Every writer below draws all its files in memory first and writes
+// them as a group (AtomicFileSet, file_io.h): on any error none is written or replaced, and
+// files of an earlier run stay as they were.
 using WrittenFiles = std::vector<std::string>;
 
 // Writes BASE.svg, BASE.pdf, BASE.png (unless !write_png) and BASE.json (the model).

@@ -16,6 +16,8 @@
 #include <sstream>
 #include <utility>
 
+#include "svms/file_io.h"
+
 // mrcal 2.2's header has no extern "C" guard of its own.
 extern "C" {
 #include <mrcal/mrcal.h>
@@ -417,28 +419,11 @@ CameraModel CameraModel::Pinhole(double f, int width, int height) {
 
 Status CameraModel::Read(const std::string& path, CameraModel* out) {
   std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);
-  if (!fs::exists(st)) {
+  if (!fs::exists(fs::status(path, ec))) {
     return Status::Error(path + ": no such file; expected an mrcal .cameramodel file");
   }
-  if (fs::is_directory(st)) {
-    return Status::Error(path + ": is a directory; expected an mrcal .cameramodel file");
-  }
-  std::ifstream file(path, std::ios::binary);
-  if (!file) {
-    return Status::Error(path + ": cannot open the file for reading: " + std::strerror(errno));
-  }
-  // In pieces up to a limit: /dev/zero or a runaway pipe must not exhaust memory.
-  constexpr std::size_t kMaxBytes = std::size_t{64} << 20;
   std::string text;
-  char chunk[1 << 16];
-  while (file.read(chunk, sizeof chunk) || file.gcount() > 0) {
-    text.append(chunk, static_cast<std::size_t>(file.gcount()));
-    if (text.size() > kMaxBytes) {
-      return Status::Error(path + ": more than 64 MiB; " + kExpectedFile);
-    }
-  }
-  if (file.bad()) return Status::Error(path + ": cannot read the file");
+  if (Status s = ReadTextFile(path, &text); !s) return s;
   if (text.find('\0') != std::string::npos) {
     return Status::Error(path + ": contains a NUL byte; " + kExpectedFile);
   }
@@ -478,7 +463,16 @@ Status CameraModel::Read(const std::string& path, CameraModel* out) {
   return Status::Ok();
 }
 
-Status CameraModel::Write(const std::string& path) const {
+Status CameraModel::CheckLensModelName(const std::string& lensmodel, int* num_intrinsics,
+                                       bool* has_gradients) {
+  mrcal_lensmodel_t m{};
+  if (std::string e = CheckLensModel(lensmodel, &m); !e.empty()) return Status::Error(e);
+  if (num_intrinsics) *num_intrinsics = mrcal_lensmodel_num_params(&m);
+  if (has_gradients) *has_gradients = m.type != MRCAL_LENSMODEL_CAHVORE;
+  return Status::Ok();
+}
+
+Status CameraModel::ToText(const std::string& path, std::string* out) const {
   // Not mrcal_write_cameramodel_file: mrcal 2.2's C writer prints every number with "%f"
   // (6 decimals), which loses precision (and turns small distortion terms into 0).
   if (empty()) {
@@ -501,15 +495,53 @@ Status CameraModel::Write(const std::string& path) const {
   text += "    'extrinsics': " + FormatList(rt, 6) + ",\n\n";
   text +=
       "    'imagersize': [ " + std::to_string(width_) + ", " + std::to_string(height_) + ",],\n}\n";
-
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  if (!file) {
-    return Status::Error(path + ": cannot open the file for writing: " + std::strerror(errno));
-  }
-  file << text;
-  file.close();
-  if (!file) return Status::Error(path + ": cannot write the file");
+  *out = std::move(text);
   return Status::Ok();
+}
+
+Status CameraModel::Write(const std::string& path) const {
+  std::string text;
+  if (Status s = ToText(path, &text); !s) return s;
+  return WriteFileAtomically(path, text);
+}
+
+std::string CameraModel::UnusableReason() const {
+  if (empty()) return "an empty camera model";
+  const mrcal_lensmodel_t lm = LoadLensModel(mrcal_lensmodel_.data());
+  if (lm.type == MRCAL_LENSMODEL_CAHVORE)
+    return lensmodel_ +
+           ": mrcal 2.2 can neither unproject this model nor give its gradients, which corner "
+           "fits and poses need; expected another lens model (e.g. LENSMODEL_OPENCV8)";
+  if (mrcal_lensmodel_metadata(&lm).has_core) {
+    for (int i = 0; i < 2; ++i) {
+      const double f = intrinsics_[i];
+      if (!(f >= kMinFocalPx && f <= kMaxFocalPx)) {
+        char range[64];
+        std::snprintf(range, sizeof range, "expected %g to %g", kMinFocalPx, kMaxFocalPx);
+        return "intrinsics[" + std::to_string(i) + "]: " + (i == 0 ? "fx " : "fy ") +
+               FormatDouble(f) + " pixels is not a focal length a lens has; " + range;
+      }
+    }
+  }
+  const double W = width_, H = height_;
+  for (const Eigen::Vector2d q :
+       {Eigen::Vector2d(0.5 * (W - 1), 0.5 * (H - 1)), Eigen::Vector2d(0, 0),
+        Eigen::Vector2d(W - 1, 0), Eigen::Vector2d(0, H - 1), Eigen::Vector2d(W - 1, H - 1),
+        Eigen::Vector2d(0.5 * (W - 1), 0), Eigen::Vector2d(0, 0.5 * (H - 1))}) {
+    Eigen::Vector3d d;
+    Eigen::Vector2d back;
+    Eigen::Matrix<double, 2, 3> J;
+    if (!Unproject(q, &d) || !Project(d, &back, &J) || !J.allFinite() || (back - q).norm() > 1e-3) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf,
+                    "pixel (%.1f, %.1f) of the %dx%d image does not unproject and project back "
+                    "to itself; expected a model that maps its whole image",
+                    q.x(), q.y(), width_, height_);
+      // The image centre must work; a wide-angle model may legitimately fail at the corners.
+      if (q == Eigen::Vector2d(0.5 * (W - 1), 0.5 * (H - 1))) return buf;
+    }
+  }
+  return "";
 }
 
 bool CameraModel::Project(const Eigen::Vector3d& p_cam, Eigen::Vector2d* px,

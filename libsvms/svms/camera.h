@@ -37,8 +37,23 @@ class CameraModel {
   // Writes an mrcal .cameramodel (the layout mrcal's Python writes: a Python-literal dict with
   // 'lensmodel', 'intrinsics', 'extrinsics' = rt_cam_ref, 'imagersize'), every number with the
   // shortest decimal form that reads back to the same double, so Write then Read is exact.
-  // Read by mrcal 2.2's C and Python readers (mrcal.cameramodel(path)).
+  // Read by mrcal 2.2's C and Python readers (mrcal.cameramodel(path)). The file is replaced
+  // atomically (atomic_file.h): a failed write leaves the previous file as it was.
   Status Write(const std::string& path) const;
+  // The text Write writes; `path` only names the file in an error (an empty model, non-finite
+  // extrinsics).
+  Status ToText(const std::string& path, std::string* text) const;
+
+  // Whether poses can be measured with this model: mrcal 2.2 can unproject it (not CAHVORE),
+  // fx and fy (models with a core) are within [kMinFocalPx, kMaxFocalPx], and the image's
+  // centre, corners and edge midpoints unproject and project back to themselves. "" when
+  // usable, else why not (one line, without a file name). Checked where a camera is loaded to
+  // measure with (svms detect, pose, survey; the C API), so that an absurd model is refused at
+  // load instead of giving detections without poses.
+  std::string UnusableReason() const;
+  // No lens has a focal length below a pixel (a pixel would span more than 45 degrees), nor
+  // above 1e8 pixels (a 10 m telescope with 0.1 um pixels).
+  static constexpr double kMinFocalPx = 1, kMaxFocalPx = 1e8;
 
   // Builds a model from a lens model name in mrcal's canonical form ("LENSMODEL_PINHOLE",
   // "LENSMODEL_OPENCV8", "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=12_fov_x_deg=100",
@@ -49,6 +64,12 @@ class CameraModel {
   // "imagersize". cam_from_ref is the identity. On error *out is unchanged.
   static Status Create(const std::string& lensmodel, const std::vector<double>& intrinsics,
                        int width, int height, CameraModel* out);
+
+  // Checks a lens model name as Create does (errors start with "lensmodel"); on success
+  // *num_intrinsics (optional) is its number of intrinsics and *has_gradients (optional)
+  // whether mrcal 2.2 gives its gradients (every model but CAHVORE).
+  static Status CheckLensModelName(const std::string& lensmodel, int* num_intrinsics = nullptr,
+                                   bool* has_gradients = nullptr);
 
   // A pinhole camera with focal length f (pixels, fx = fy = f) and the principal point at the
   // image centre ((width - 1) / 2, (height - 1) / 2). Requires f > 0 and a positive, finite

@@ -2,9 +2,11 @@
 
 #include <Eigen/QR>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "svms/file_io.h"
 #include "svms/json_fields.h"
 #include "svms/model_io.h"
 
@@ -26,6 +28,7 @@ std::string CovarianceSidecarPath(const std::string& cameramodel_path) {
 Status ReadCameraWithSidecar(const std::string& path, CameraModel* camera) {
   CameraModel c;
   if (Status s = CameraModel::Read(path, &c); !s) return s;
+  if (std::string why = c.UnusableReason(); !why.empty()) return Status::Error(path + ": " + why);
   const std::string sidecar = CovarianceSidecarPath(path);
   std::error_code ec;
   if (std::filesystem::exists(sidecar, ec)) {
@@ -45,8 +48,8 @@ Eigen::MatrixXd CompactFactor(const Eigen::MatrixXd& rows_of_factor) {
   return R.transpose();
 }
 
-Status WriteCovarianceSidecar(const std::string& path, const CameraModel& camera,
-                              double noise_sigma_px, int views) {
+Status CovarianceSidecarText(const std::string& path, const CameraModel& camera,
+                             double noise_sigma_px, int views, std::string* out) {
   const Eigen::MatrixXd& L = camera.intrinsics_covariance_factor();
   if (L.size() == 0) return Status::Error(path + ": the camera has no intrinsics covariance");
   json sigma = json::array();
@@ -71,7 +74,44 @@ Status WriteCovarianceSidecar(const std::string& path, const CameraModel& camera
     text += "    " + row.dump() + (i + 1 < L.rows() ? ",\n" : "\n");
   }
   text += "  ]\n}\n";
-  return WriteTextFile(path, text);
+  *out = std::move(text);
+  return Status::Ok();
+}
+
+Status WriteCovarianceSidecar(const std::string& path, const CameraModel& camera,
+                              double noise_sigma_px, int views) {
+  std::string text;
+  if (Status s = CovarianceSidecarText(path, camera, noise_sigma_px, views, &text); !s) return s;
+  return WriteFileAtomically(path, text);
+}
+
+Status AddCameraWithSidecar(const std::string& path, const CameraModel& camera,
+                            double noise_sigma_px, int views, AtomicFileSet* files) {
+  std::string model, sidecar;
+  const std::string sidecar_path = CovarianceSidecarPath(path);
+  if (Status s = camera.ToText(path, &model); !s) return s;
+  if (Status s = CovarianceSidecarText(sidecar_path, camera, noise_sigma_px, views, &sidecar); !s)
+    return s;
+  if (Status s = files->Add(sidecar_path, sidecar); !s) return s;
+  return files->Add(path, model);
+}
+
+Status WriteCameraWithSidecar(const std::string& path, const CameraModel& camera,
+                              double noise_sigma_px, int views) {
+  const bool has_covariance = camera.intrinsics_covariance_factor().size() > 0;
+  AtomicFileSet files;
+  if (has_covariance) {
+    if (Status s = AddCameraWithSidecar(path, camera, noise_sigma_px, views, &files); !s) return s;
+  } else {
+    std::string model;
+    if (Status s = camera.ToText(path, &model); !s) return s;
+    if (Status s = files.Add(path, model); !s) return s;
+  }
+  if (Status s = files.Commit(); !s) return s;
+  // A sidecar of an earlier calibration would be refused next to the new model anyway; it goes,
+  // so that the pair on disk is consistent.
+  if (!has_covariance) std::remove(CovarianceSidecarPath(path).c_str());
+  return Status::Ok();
 }
 
 Status ReadCovarianceSidecar(const std::string& path, CameraModel* camera) {
@@ -140,6 +180,14 @@ Status ReadCovarianceSidecar(const std::string& path, CameraModel* camera) {
     return Status::Error(path + ": " + camera->lensmodel() +
                          " gives no intrinsics gradients in mrcal 2.2, so its calibration's "
                          "uncertainty cannot be propagated; remove the sidecar");
+  // Finite entries can still overflow: the covariance L L^T and the pixel covariance it gives
+  // at the image centre must be finite (L L^T is positive semi-definite by construction).
+  const Eigen::MatrixXd C = L * L.transpose();
+  const Eigen::Matrix2d pixel_cov = dq_dintrinsics * C * dq_dintrinsics.transpose();
+  if (!C.allFinite() || !pixel_cov.allFinite())
+    return Status::Error(path +
+                         ": covariance_factor: the covariance it implies (L L^T) overflows; "
+                         "expected a factor whose products are finite numbers");
   if (Status s = camera->set_intrinsics_covariance_factor(L); !s)
     return Status::Error(path + ": " + s.message());
   return Status::Ok();

@@ -19,6 +19,7 @@
 #include <string>
 
 #include "svms/camera.h"
+#include "svms/file_io.h"
 #include "svms/status.h"
 
 namespace svms {
@@ -28,8 +29,23 @@ std::string CovarianceSidecarPath(const std::string& cameramodel_path);
 
 // Writes the sidecar of `camera`, whose intrinsics_covariance_factor() must be set (error
 // otherwise). noise_sigma_px and views describe the calibration (stored, informational).
+// Atomic (file_io.h).
 Status WriteCovarianceSidecar(const std::string& path, const CameraModel& camera,
                               double noise_sigma_px, int views);
+// The sidecar's text (what WriteCovarianceSidecar writes); `path` names it in errors.
+Status CovarianceSidecarText(const std::string& path, const CameraModel& camera,
+                             double noise_sigma_px, int views, std::string* text);
+
+// Writes the camera model at `path` and, when it has an intrinsics covariance, its sidecar,
+// as a pair (AtomicFileSet): both are complete before either replaces an earlier file, and a
+// failed write leaves both earlier files as they were. A camera without a covariance removes
+// an earlier sidecar (it belonged to another calibration).
+Status WriteCameraWithSidecar(const std::string& path, const CameraModel& camera,
+                              double noise_sigma_px, int views);
+// The same into a group of files that the caller commits (with other outputs); the model must
+// have a covariance factor. On an error the caller must not commit the set.
+Status AddCameraWithSidecar(const std::string& path, const CameraModel& camera,
+                            double noise_sigma_px, int views, AtomicFileSet* files);
 
 // Reads a sidecar and sets camera->intrinsics_covariance_factor(). Errors are one line, start
 // with the path and name the field: not JSON, a missing or mistyped field, a factor of the
@@ -39,7 +55,8 @@ Status WriteCovarianceSidecar(const std::string& path, const CameraModel& camera
 Status ReadCovarianceSidecar(const std::string& path, CameraModel* camera);
 
 // CameraModel::Read, then ReadCovarianceSidecar of CovarianceSidecarPath(path) when that file
-// exists (an unreadable or mismatched sidecar is an error, never silently skipped).
+// exists (an unreadable or mismatched sidecar is an error, never silently skipped). A camera
+// that cannot measure (CameraModel::UnusableReason) is refused: every caller measures with it.
 Status ReadCameraWithSidecar(const std::string& path, CameraModel* camera);
 
 // The factor of a covariance block: L (n x n, lower triangular) with L L^T = F F^T for the

@@ -196,6 +196,39 @@ void ExpectJacobiansMatch(const CameraModel& cam) {
   }
 }
 
+TEST(CameraModel, UnusableModelsSayWhy) {
+  EXPECT_EQ(CameraModel::Pinhole(1000, 1024, 768).UnusableReason(), "");
+  EXPECT_EQ(OpenCv8().UnusableReason(), "");
+  EXPECT_EQ(Splined().UnusableReason(), "");
+  EXPECT_EQ(CameraModel().UnusableReason(), "an empty camera model");
+  CameraModel c;
+  ASSERT_TRUE(
+      CameraModel::Create("LENSMODEL_PINHOLE", {1e-300, 1000, 511.5, 383.5}, 1024, 768, &c).ok());
+  EXPECT_EQ(
+      c.UnusableReason(),
+      "intrinsics[0]: fx 1e-300 pixels is not a focal length a lens has; expected 1 to 1e+08");
+  ASSERT_TRUE(
+      CameraModel::Create("LENSMODEL_PINHOLE", {1000, 1e300, 511.5, 383.5}, 1024, 768, &c).ok());
+  EXPECT_NE(c.UnusableReason().find("intrinsics[1]: fy 1e+300 pixels"), std::string::npos);
+  ASSERT_TRUE(CameraModel::Create("LENSMODEL_CAHVORE_linearity=0.00",
+                                  {1000, 1000, 511.5, 383.5, 0, 0, 0, 0, 0, 0, 0, 0}, 1024, 768, &c)
+                  .ok());
+  EXPECT_NE(c.UnusableReason().find("mrcal 2.2 can neither unproject this model"),
+            std::string::npos);
+  int n = 0;
+  bool gradients = true;
+  EXPECT_TRUE(CameraModel::CheckLensModelName("LENSMODEL_OPENCV8", &n, &gradients).ok());
+  EXPECT_EQ(n, 12);
+  EXPECT_TRUE(gradients);
+  EXPECT_TRUE(
+      CameraModel::CheckLensModelName("LENSMODEL_CAHVORE_linearity=0.00", &n, &gradients).ok());
+  EXPECT_FALSE(gradients);
+  EXPECT_EQ(CameraModel::CheckLensModelName("LENSMODEL_FOO")
+                .message()
+                .rfind("lensmodel: unknown lens model 'LENSMODEL_FOO'", 0),
+            0u);
+}
+
 TEST(CameraModel, PinholeKnownAnswer) {
   const CameraModel cam = CameraModel::Pinhole(1000, 1024, 768);
   EXPECT_EQ(cam.lensmodel(), "LENSMODEL_PINHOLE");
@@ -622,7 +655,7 @@ TEST(CameraModelErrors, CreateChecksEverything) {
 TEST(CameraModelErrors, WriteFailures) {
   const std::string bad_dir = TempPath("no_such_dir/x.cameramodel");
   ExpectError(CameraModel::Pinhole(10, 4, 3).Write(bad_dir), bad_dir + ": ",
-              {"cannot open the file for writing"});
+              {"cannot write: No such file or directory"});
   CameraModel cam = CameraModel::Pinhole(10, 4, 3);
   cam.set_cam_from_ref(Pose{Eigen::Vector3d::Zero(), Eigen::Vector3d(0, std::nan(""), 0)});
   const std::string path = TempPath("nan_pose.cameramodel");

@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "svms/bit_sampler.h"
+#include "svms/image_io.h"
 #include "svms/svms44.h"
 
 namespace svms {
@@ -230,8 +231,10 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
     auto it = models_.find(d.id);
     if (cam && it != models_.end()) {
       MarkerPose mp;
-      if (EstimateMarkerPose(gray, d.corners, it->second, camera_, d.black, d.white, o.pose, &mp,
-                             d.corner_sigma)) {
+      const bool posed = EstimateMarkerPose(gray, d.corners, it->second, camera_, d.black, d.white,
+                                            o.pose, &mp, d.corner_sigma);
+      if (!posed) d.pose_error = mp.failure;
+      if (posed) {
         SetPose(mp, &d);
         // 10b. At grazing views the post's silhouette crosses a side and moves the edge points
         // there by pixels: refit the sides without them and solve the pose again.
@@ -303,20 +306,23 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   stats.ms[5] = Ms(t5, Clock::now());
 
   if (!o.debug_dir.empty()) {
-    std::filesystem::create_directories(o.debug_dir);
+    std::error_code ec;
+    std::filesystem::create_directories(o.debug_dir, ec);
     cv::Mat dbg;
     cv::cvtColor(gray, dbg, cv::COLOR_GRAY2BGR);
     for (const Segment& s : segs)
       cv::line(dbg, cv::Point2d(s.a.x(), s.a.y()), cv::Point2d(s.b.x(), s.b.y()),
                cv::Scalar(0, 200, 255), 1);
-    cv::imwrite(o.debug_dir + "/1_segments.png", dbg);
+    if (Status w = WriteImage(o.debug_dir + "/1_segments.png", dbg); !w)
+      stats.debug_error = w.message();
     cv::cvtColor(gray, dbg, cv::COLOR_GRAY2BGR);
     for (const Quad& q : quads)
       for (int k = 0; k < 4; ++k)
         cv::line(dbg, cv::Point2d(q.corners[k].x(), q.corners[k].y()),
                  cv::Point2d(q.corners[(k + 1) % 4].x(), q.corners[(k + 1) % 4].y()),
                  cv::Scalar(255, 100, 0), 1);
-    cv::imwrite(o.debug_dir + "/2_quads.png", dbg);
+    if (Status w = WriteImage(o.debug_dir + "/2_quads.png", dbg); !w)
+      stats.debug_error = w.message();
   }
   if (stats_out) *stats_out = stats;
 }

@@ -57,6 +57,8 @@ struct Detection {
   double alternative_weight = 0;
   bool calibration_in_covariance = false;  // `covariance` includes the camera calibration's
   double pose_rms_px = 0;
+  // With a camera and the marker's model but no pose: why (MarkerPose::failure).
+  std::string pose_error;
   int nested_in = -1;           // the outer marker's ID for the inner marker of a dual
   double black = 0, white = 0;  // grey levels of the square and the stripe
   double side_px() const;
@@ -98,6 +100,8 @@ struct DetectionStats {
   int segments = 0, quads = 0, decoded = 0, rejected_for_evidence = 0;
   // The deadline passed before every quad was processed: what was finished is returned.
   bool budget_exceeded = false;
+  // With DetectorOptions::debug_dir: why a picture could not be written ("" when all were).
+  std::string debug_error;
 };
 
 class Detector {

@@ -7,6 +7,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <vector>
 
+#include "svms/file_io.h"
+
 namespace svms {
 namespace {
 
@@ -257,6 +259,53 @@ Status LoadImage(const std::string& path, int64_t max_pixels, cv::Mat* out) {
                          " pixels; expected 8- or 16-bit unsigned");
   *out = img;
   return Status::Ok();
+}
+
+namespace {
+
+// `image` encoded in the format `path`'s extension names.
+Status EncodeImage(const std::string& path, const cv::Mat& image, std::string* bytes) {
+  const std::string ext = fs::path(path).extension().string();
+  if (ext.empty())
+    return Status::Error(path +
+                         ": cannot write an image without an extension; expected .png, "
+                         ".jpg, .pgm, .tif or .exr");
+  try {
+    if (ext == ".exr" || ext == ".EXR") {
+      // OpenCV 4.6's OpenEXR encoder writes only to files: a temporary with the same extension,
+      // read back (the atomic write stays the one way files are replaced).
+      const fs::path tmp = fs::path(path).parent_path() /
+                           ("." + fs::path(path).filename().string() + ".svms-exr" + ext);
+      const bool ok = cv::imwrite(tmp.string(), image);
+      const Status read =
+          ok ? ReadFileBytes(tmp.string(), size_t{1} << 40, bytes) : Status::Error("");
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      if (!ok || !read) return Status::Error(path + ": cannot write (OpenEXR encoder failed)");
+      return Status::Ok();
+    }
+    std::vector<unsigned char> buf;
+    if (!cv::imencode(ext, image, buf))
+      return Status::Error(path + ": cannot encode the image as " + ext);
+    bytes->assign(reinterpret_cast<const char*>(buf.data()), buf.size());
+  } catch (const cv::Exception& e) {
+    return Status::Error(path + ": cannot encode the image as " + ext + ": " + e.err);
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status WriteImage(const std::string& path, const cv::Mat& image) {
+  std::string bytes;
+  if (Status s = EncodeImage(path, image, &bytes); !s) return s;
+  return WriteFileAtomically(path, bytes);
+}
+
+Status AddImage(const std::string& path, const cv::Mat& image, AtomicFileSet* files) {
+  std::string bytes;
+  if (Status s = EncodeImage(path, image, &bytes); !s) return s;
+  return files->Add(path, bytes);
 }
 
 }  // namespace svms

@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 #include <string>
 
+#include "svms/file_io.h"
 #include "svms/status.h"
 
 namespace svms {
@@ -41,5 +42,12 @@ std::string ReadImageHeader(const unsigned char* data, size_t size, bool complet
 // `max_pixels` pixels (checked from the header, before decoding), and other pixel depths
 // (float or 32-bit). Reads the whole file into memory first (at most 8 * max_pixels + 16 MB).
 Status LoadImage(const std::string& path, int64_t max_pixels, cv::Mat* out);
+
+// Writes `image` in the format its extension names (OpenCV's encoders: .png, .jpg, .pgm, .tif,
+// .exr, ...) atomically (file_io.h): encoded in memory first, then written to a temporary and
+// renamed into place, so a failure leaves an earlier file as it was. Errors name the path.
+Status WriteImage(const std::string& path, const cv::Mat& image);
+// The same into a group of files that the caller commits (AtomicFileSet).
+Status AddImage(const std::string& path, const cv::Mat& image, AtomicFileSet* files);
 
 }  // namespace svms

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
+#include <vector>
 
 namespace svms::json_fields {
 
@@ -105,10 +107,81 @@ json PoseJson(const Pose& p) {
   return {{"rvec", {p.rvec(0), p.rvec(1), p.rvec(2)}}, {"tvec", {p.tvec(0), p.tvec(1), p.tvec(2)}}};
 }
 
+namespace {
+
+// Thrown from the parser's callback to stop at a duplicate key or at the depth limit.
+struct StructureError {
+  std::string message;
+};
+
+// Follows the parser's events to know the path of the value being read, and checks that no
+// object repeats a key and that nesting stays within kMaxJsonDepth.
+class StructureChecker {
+ public:
+  bool operator()(int depth, json::parse_event_t event, json& parsed) {
+    switch (event) {
+      case json::parse_event_t::object_start:
+      case json::parse_event_t::array_start:
+        if (depth >= kMaxJsonDepth)
+          throw StructureError{Path().substr(0, 48) + "...: nested deeper than " +
+                               std::to_string(kMaxJsonDepth) +
+                               " levels; expected an SVMS file (a few levels deep)"};
+        frames_.push_back(Frame{event == json::parse_event_t::object_start, {}, "", 0});
+        break;
+      case json::parse_event_t::key: {
+        Frame& f = frames_.back();
+        f.key = parsed.get<std::string>();
+        if (!f.keys.insert(f.key).second)
+          throw StructureError{Path() +
+                               ": the field appears twice in one object; expected "
+                               "each field once (JSON does not say which would count)"};
+        break;
+      }
+      case json::parse_event_t::object_end:
+      case json::parse_event_t::array_end:
+        frames_.pop_back();
+        Advance();
+        break;
+      case json::parse_event_t::value:
+        Advance();
+        break;
+    }
+    return true;
+  }
+
+ private:
+  struct Frame {
+    bool object;
+    std::set<std::string> keys;
+    std::string key;  // objects: the current key
+    size_t index;     // arrays: the current element
+  };
+  void Advance() {
+    if (!frames_.empty() && !frames_.back().object) ++frames_.back().index;
+  }
+  std::string Path() const {
+    std::string p;
+    for (const Frame& f : frames_) {
+      if (f.object)
+        p += (p.empty() ? "" : ".") + f.key;
+      else
+        p += "[" + std::to_string(f.index) + "]";
+    }
+    return p.empty() ? "(top level)" : p;
+  }
+  std::vector<Frame> frames_;
+};
+
+}  // namespace
+
 bool ParseText(const std::string& text, const std::string& source, json* out, std::string* error) {
   try {
-    *out = json::parse(text);
+    StructureChecker checker;
+    *out = json::parse(text, std::ref(checker));
     return true;
+  } catch (const StructureError& e) {
+    *error = source + ": " + e.message;
+    return false;
   } catch (const json::parse_error& e) {
     size_t line = 1, col = 1;
     for (size_t i = 0; i + 1 < e.byte && i < text.size(); ++i) {

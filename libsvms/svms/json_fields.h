@@ -65,6 +65,11 @@ MarkerModel ParseMarker(const json& j, const std::string& path, bool top_level);
 json MarkerJson(const MarkerModel& m);
 
 // Parses `text`; a syntax error becomes "<source>: line L, column C: not valid JSON: ...".
+// Also refused, with the field's path: a key that appears twice in one object (JSON leaves it
+// undefined; nlohmann would keep the last, so a second "id" or pose would silently win), and
+// nesting deeper than kMaxJsonDepth (no SVMS file nests beyond 6; 66 MB of "[" would take
+// gigabytes as a DOM).
+constexpr int kMaxJsonDepth = 64;
 bool ParseText(const std::string& text, const std::string& source, json* out, std::string* error);
 
 }  // namespace svms::json_fields

@@ -573,11 +573,19 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
   std::array<Eigen::Vector2d, 4> normalized;
   for (int k = 0; k < 4; ++k) {
     Eigen::Vector3d d;
-    if (!camera.Unproject(corners[k], &d) || d.z() <= 0) return false;
+    if (!camera.Unproject(corners[k], &d) || d.z() <= 0) {
+      out->failure = "corner " + std::to_string(k) +
+                     " does not unproject to a direction in front "
+                     "of the camera";
+      return false;
+    }
     normalized[k] = d.head<2>() / d.z();
   }
   std::array<PlanarPoseCandidate, 2> ippe;
-  if (!SolveSquareIppe(normalized, model.size, &ippe)) return false;
+  if (!SolveSquareIppe(normalized, model.size, &ippe)) {
+    out->failure = "the corners give no planar pose (degenerate quadrilateral)";
+    return false;
+  }
   const double side_px =
       0.25 * ((corners[1] - corners[0]).norm() + (corners[2] - corners[1]).norm() +
               (corners[3] - corners[2]).norm() + (corners[0] - corners[3]).norm());
@@ -621,7 +629,10 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
     }
     cands.push_back(c);
   }
-  if (cands.empty()) return false;
+  if (cands.empty()) {
+    out->failure = "both planar poses put the marker behind the camera";
+    return false;
+  }
   out->solutions = static_cast<int>(cands.size());
   // The tip observation: the white top found nearest its candidate's prediction.
   size_t tip_from = 0;
@@ -689,7 +700,10 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
       f.ok = std::isfinite(f.chi2);
       if (f.ok && (!refined[pick].ok || s == 0 || f.chi2 < refined[pick].chi2)) pick = s;
     }
-    if (!refined[pick].ok) return false;
+    if (!refined[pick].ok) {
+      out->failure = "the pose refinement over the corners did not converge";
+      return false;
+    }
     if (!use_tip) break;
     // A tip that the kept pose cannot explain is dropped (a reflection, a bright speck), and
     // the candidates are weighed again on their corners alone.

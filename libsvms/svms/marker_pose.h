@@ -17,6 +17,7 @@
 #include <array>
 #include <opencv2/core.hpp>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -105,6 +106,7 @@ struct MarkerPose {
   double rms_px = 0;                       // RMS of the corner (and tip) residuals after the fit
   int solutions = 0;                       // planar solutions considered
   bool calibration_in_covariance = false;  // the camera calibration's uncertainty is included
+  std::string failure;  // when EstimateMarkerPose returns false: why (one phrase)
 };
 
 // The white blob nearest `predicted` within `radius` pixels: the connected pixels brighter
@@ -149,7 +151,8 @@ std::optional<TipObservation> FindTip(const cv::Mat& image, const Eigen::Vector2
 
 // Pose of a marker from its corners (marker order: TL, TR, BR, BL as printed, pixels), each
 // with its sigma from the side fits (pixels; 0: not known, see MarkerPoseOptions).
-// False if the camera cannot unproject the corners or no solution is valid.
+// False if the camera cannot unproject the corners or no solution is valid; out->failure says
+// which.
 bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 4>& corners,
                         const MarkerModel& model, const CameraModel& camera, double black,
                         double white, const MarkerPoseOptions& options, MarkerPose* out,

@@ -201,5 +201,23 @@ TEST(FindTip, NothingBrightNearThePredictionIsNoTop) {
   EXPECT_FALSE(FindTip(img, Eigen::Vector2d(35, 35), 5, kBlack, kWhite, 0.35, 2.0));
 }
 
+TEST(EstimateMarkerPose, AFailureSaysWhy) {
+  const CameraModel camera = CameraModel::Pinhole(800, 640, 480);
+  const MarkerModel model = MarkerModel::Standard(3, 0.1, 0.02);
+  const cv::Mat image(480, 640, CV_8UC1, cv::Scalar(128));
+  MarkerPose mp;
+  // Four corners on one line: no planar pose.
+  const std::array<Eigen::Vector2d, 4> collinear = {
+      Eigen::Vector2d(100, 100), {150, 100}, {200, 100}, {250, 100}};
+  EXPECT_FALSE(EstimateMarkerPose(image, collinear, model, camera, 20, 220, {}, &mp));
+  EXPECT_EQ(mp.failure, "the corners give no planar pose (degenerate quadrilateral)");
+  // A corner no pixel of this camera maps to.
+  const std::array<Eigen::Vector2d, 4> outside = {
+      Eigen::Vector2d(100, 100), {NAN, 100}, {200, 200}, {100, 200}};
+  mp = MarkerPose();
+  EXPECT_FALSE(EstimateMarkerPose(image, outside, model, camera, 20, 220, {}, &mp));
+  EXPECT_EQ(mp.failure, "corner 1 does not unproject to a direction in front of the camera");
+}
+
 }  // namespace
 }  // namespace svms

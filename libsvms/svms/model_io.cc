@@ -1,6 +1,5 @@
 #include "svms/model_io.h"
 
-#include <fstream>
 #include <set>
 #include <sstream>
 
@@ -128,33 +127,6 @@ std::string LayoutToJson(const Layout& layout) {
     arr.push_back(je);
   }
   return Dump(json{{"type", "svms.layout"}, {"name", layout.name}, {"markers", arr}});
-}
-
-Status ReadTextFile(const std::string& path, std::string* text) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Status::Error(path + ": cannot open for reading");
-  // Read in pieces up to the limit, so that /dev/zero or a runaway pipe cannot exhaust memory.
-  std::string out;
-  char buf[1 << 16];
-  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
-    out.append(buf, static_cast<size_t>(in.gcount()));
-    if (out.size() > kMaxTextFileBytes) {
-      return Status::Error(path + ": more than " + std::to_string(kMaxTextFileBytes >> 20) +
-                           " MiB; expected a text file of a sensible size");
-    }
-  }
-  if (in.bad()) return Status::Error(path + ": read error");
-  *text = std::move(out);
-  return Status::Ok();
-}
-
-Status WriteTextFile(const std::string& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary);
-  if (!out) return Status::Error(path + ": cannot open for writing");
-  out << text;
-  out.close();
-  if (!out) return Status::Error(path + ": write error");
-  return Status::Ok();
 }
 
 }  // namespace svms

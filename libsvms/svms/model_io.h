@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "svms/file_io.h"  // ReadTextFile, WriteTextFile (for the parsers' callers)
 #include "svms/layout.h"
 #include "svms/marker_model.h"
 #include "svms/status.h"
@@ -29,11 +30,5 @@ Status ReadModelFile(const std::string& path, ModelFile* out);
 std::string MarkerModelToJson(const MarkerModel& model);
 std::string MarkerSetToJson(const std::vector<MarkerModel>& models);
 std::string LayoutToJson(const Layout& layout);
-
-// Whole-file helpers; errors name the path. ReadTextFile refuses files (or pipes, or devices)
-// longer than kMaxTextFileBytes.
-constexpr size_t kMaxTextFileBytes = size_t{64} << 20;
-Status ReadTextFile(const std::string& path, std::string* text);
-Status WriteTextFile(const std::string& path, const std::string& text);
 
 }  // namespace svms

@@ -101,7 +101,7 @@ TEST(ModelIo, MissingFileIsNamed) {
   ModelFile f;
   const Status s = ReadModelFile("/nonexistent/m.json", &f);
   ASSERT_FALSE(s.ok());
-  EXPECT_EQ(s.message(), "/nonexistent/m.json: cannot open for reading");
+  EXPECT_EQ(s.message(), "/nonexistent/m.json: cannot open for reading: No such file or directory");
 }
 
 TEST(ModelIo, EachBadFieldIsNamed) {
@@ -277,6 +277,45 @@ TEST(ModelIo, LayoutOverlapsAndDuplicatesAreNamed) {
   ExpectError(l, {"markers[2].marker.id: ID 1 appears twice (also in markers[0])"});
   json set = {{"type", "svms.markers"}, {"markers", {m, m}}};
   ExpectError(set, {"markers[1].id: ID 17 appears twice"});
+}
+
+// A key written twice would otherwise be read as its last value (nlohmann's choice; JSON leaves
+// it undefined): every JSON reader refuses it, naming where.
+TEST(ModelIo, DuplicateKeysAreRefusedWithTheirPath) {
+  const std::string marker = MarkerModelToJson(MarkerModel::Standard(17, 0.2, 0.05));
+  std::string twice = marker;
+  twice.insert(twice.find("\"id\""), "\"id\": 18, ");
+  ModelFile f;
+  Status s = ParseModelJson(twice, "m.json", &f);
+  EXPECT_EQ(s.message(),
+            "m.json: id: the field appears twice in one object; expected each field once (JSON "
+            "does not say which would count)");
+  Layout layout;
+  layout.name = "t";
+  layout.markers.push_back({MarkerModel::Standard(1, 0.2, 0), Pose(), {}, {}});
+  layout.markers.push_back({MarkerModel::Standard(2, 0.2, 0), Pose{{0, 0, 0}, {1, 0, 0}}, {}, {}});
+  std::string text = LayoutToJson(layout);
+  ASSERT_TRUE(ParseModelJson(text, "l.json", &f).ok());
+  const size_t second =
+      text.find("\"object_from_marker\"", text.find("\"object_from_marker\"") + 1);
+  text.insert(second, "\"object_from_marker\": {\"rvec\": [0, 0, 0], \"tvec\": [14, 0, 0]}, ");
+  s = ParseModelJson(text, "l.json", &f);
+  EXPECT_NE(s.message().find("l.json: markers[1].object_from_marker: the field appears twice"),
+            std::string::npos)
+      << s.message();
+  // The same key in two different objects is fine; so are equal values in an array.
+  EXPECT_TRUE(ParseModelJson(LayoutToJson(layout), "l.json", &f).ok());
+}
+
+TEST(ModelIo, NestingIsBounded) {
+  ModelFile f;
+  const Status s = ParseModelJson(std::string(100000, '['), "deep.json", &f);
+  EXPECT_NE(s.message().find("deep.json: "), std::string::npos);
+  EXPECT_NE(s.message().find("nested deeper than 64 levels"), std::string::npos) << s.message();
+  // 63 levels are read (and refused for what they are, not for their depth).
+  const Status ok_depth =
+      ParseModelJson(std::string(63, '[') + std::string(63, ']'), "shallow.json", &f);
+  EXPECT_EQ(ok_depth.message().find("nested"), std::string::npos) << ok_depth.message();
 }
 
 TEST(MarkerModel, GeometryFollowsTheConventions) {

@@ -48,6 +48,12 @@ struct RayHit {
   int primitive = -1;     // internal index; -1 = background
 };
 
+// The memory a render of `scene` needs with `threads` views in flight, bytes: the renderer's
+// per-pixel state and, per view, its radiance, edge map, exposure and encoded image. Measured
+// (docs/reliability.md) and rounded up, so that `svms render` refuses a scene that cannot fit
+// (memory_limit.h) before it starts.
+double RenderMemoryBytes(const Scene& scene, int threads);
+
 class Renderer {
  public:
   // Prepares the geometry and unprojects the camera's pixel-corner grid (about 1 s for a
