@@ -206,6 +206,11 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
     return kExitBadInput;
   }
   // Everything that can be checked is checked before the first image is read.
+  Photometry photometry;
+  if (Status s = Photometry::Create(o.photometry, "", &photometry); !s) {
+    std::cerr << prog << s.message() << "\n";
+    return kExitBadInput;
+  }
   if (Status s =
           calib::CheckCalibrationRequest(o.calib.lensmodel, static_cast<int>(o.images.size()));
       !s) {
@@ -254,7 +259,7 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
       for (size_t i; (i = next++) < n;) {
         cv::Mat img;
         try {
-          if (Status s = LoadImage(files[i], kDefaultMaxImagePixels, &img); !s) {
+          if (Status s = photometry.Load(files[i], kDefaultMaxImagePixels, &img, nullptr); !s) {
             errors[i] = s.message();
           } else {
             sizes[i] = img.size();

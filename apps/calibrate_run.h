@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "image_inputs.h"
 #include "svms/calibrate.h"
 #include "svms/layout.h"
 
@@ -23,6 +24,7 @@ struct CalibrateRunOptions {
   // Detect again with the first pass's lens model (corners fitted in the undistorted plane, so
   // the curved image of a marker's side does not bias them) and calibrate again.
   bool redetect = true;
+  PhotometryOptions photometry;  // how the images become linear light (image_inputs.h)
 };
 
 struct CalibrateRunOutcome {

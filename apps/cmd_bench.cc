@@ -14,6 +14,7 @@ void AddBenchCommands(CLI::App& app, int* exit_code) {
   AddBenchCompare(*bench, exit_code);
   AddBenchSurvey(*bench, exit_code);
   AddBenchPose(*bench, exit_code);
+  AddBenchProfiles(*bench, exit_code);
 }
 
 }  // namespace svms::cli

@@ -18,6 +18,7 @@ struct CalibrateCliOptions {
   bool warp = false, quiet = false, no_redetect = false;
   double range = 0, max_rms = 2.0;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  PhotometryOptions photometry;
 };
 
 int RunCalibrate(const CalibrateCliOptions& c) {
@@ -46,6 +47,7 @@ int RunCalibrate(const CalibrateCliOptions& c) {
   o.threads = c.threads;
   o.quiet = c.quiet;
   o.redetect = !c.no_redetect;
+  o.photometry = c.photometry;
   CalibrateRunOutcome out;
   const int rc = RunCalibration(o, &out);
   if (rc == kExitBadInput || out.result.camera.empty() || out.result.num_inliers == 0) return rc;
@@ -103,6 +105,7 @@ void AddCalibrateCommands(CLI::App& app, int* exit_code) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("--threads", c->threads, "Detection threads")->check(CLI::Range(1, 256));
+  AddPhotometryOptions(cmd, &c->photometry);
   cmd->add_flag("--quiet", c->quiet, "No progress on stderr");
   cmd->add_flag("--no-redetect", c->no_redetect,
                 "One pass only: do not re-detect the corners with the first pass's lens model");

@@ -14,6 +14,7 @@ namespace {
 
 struct DatasetCliOptions {
   std::string name, out;
+  std::string profile;  // a sensor profile (scene.h) for every scene
   uint64_t seed = 1;
   bool quick = false, no_render = false, list = false, quiet = false;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
@@ -29,6 +30,11 @@ int RunDataset(const DatasetCliOptions& o) {
     std::cerr << "svms dataset: --out DIR is required\n";
     return kExitBadInput;
   }
+  Sensor probe;
+  if (Status s = o.profile.empty() ? Status::Ok() : ApplySensorProfile(o.profile, &probe); !s) {
+    std::cerr << "svms dataset: --profile: " << s.message() << "\n";
+    return kExitBadInput;
+  }
   Dataset d;
   DatasetOptions opts;
   opts.seed = o.seed;
@@ -37,6 +43,7 @@ int RunDataset(const DatasetCliOptions& o) {
     std::cerr << "svms dataset: " << s.message() << "\n";
     return kExitBadInput;
   }
+  if (!o.profile.empty()) ApplySensorProfile(o.profile, &d);  // checked above
   namespace fs = std::filesystem;
   if (Status s = PrepareOutputDirectory("--out", o.out); !s) {
     std::cerr << "svms dataset: " << s.message() << "\n";
@@ -98,6 +105,12 @@ void AddDatasetCommands(CLI::App& app, int* exit_code) {
   ds->add_option("--seed", o->seed, "Seed (everything is deterministic from it)")
       ->capture_default_str();
   ds->add_flag("--quick", o->quick, "A small subset of the views (smoke tests)");
+  std::string profiles;
+  for (const std::string& p : SensorProfileNames()) profiles += (profiles.empty() ? "" : ", ") + p;
+  ds->add_option("--profile", o->profile,
+                 "Sensor profile for every scene: the camera pipeline (response, bits, black "
+                 "level, Bayer mosaic, file format; docs/simulator.md): " +
+                     profiles);
   ds->add_flag("--no-render", o->no_render, "Only write the scene JSON and companion files");
   ds->add_flag("--list", o->list, "List the datasets");
   ds->add_flag("--quiet", o->quiet, "No progress on stderr");
@@ -107,7 +120,7 @@ void AddDatasetCommands(CLI::App& app, int* exit_code) {
   ds->footer(
       "Examples:\n  svms dataset --list\n  svms dataset range --out out/range\n"
       "  svms dataset mockup --out out/mockup --seed 2\n  svms dataset calibration --quick --out "
-      "out/calib");
+      "out/calib\n  svms dataset range --quick --profile raw12_bayer --out out/range_raw");
   ds->callback([o, exit_code] { *exit_code = RunDataset(*o); });
 }
 

@@ -1,7 +1,9 @@
 // svms detect: markers in images, one JSON line per image.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -22,6 +24,7 @@
 #include "svms/detector.h"
 #include "svms/image_io.h"
 #include "svms/model_io.h"
+#include "svms/photometric.h"
 
 namespace svms::cli {
 namespace {
@@ -33,6 +36,7 @@ struct DetectOptions {
   std::string camera, markers, overlay, debug;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   double max_megapixels = kDefaultMaxImagePixels / 1e6;
+  PhotometryOptions photometry;
   bool quiet = false;
   bool json = true;
 };
@@ -74,9 +78,11 @@ nlohmann::json DetectionJson(const Detection& d) {
   return j;
 }
 
-// Where --overlay puts the overlay of `image`.
-std::string OverlayPath(const std::string& dir, const std::string& image) {
-  return (fs::path(dir) / (fs::path(image).stem().string() + ".png")).string();
+// Where --overlay puts the overlay of `image` (of its frame `frame` for a video).
+std::string OverlayPath(const std::string& dir, const std::string& image, int frame = -1) {
+  char suffix[32] = "";
+  if (frame >= 0) std::snprintf(suffix, sizeof suffix, "_%06d", frame);
+  return (fs::path(dir) / (fs::path(image).stem().string() + suffix + ".png")).string();
 }
 
 int RunDetect(const DetectOptions& o) {
@@ -88,6 +94,9 @@ int RunDetect(const DetectOptions& o) {
   if (!o.camera.empty()) {
     if (Status s = ReadCameraWithSidecar(o.camera, &camera); !s) return bad_input(s.message());
   }
+  Photometry photometry;
+  if (Status s = Photometry::Create(o.photometry, o.camera, &photometry); !s)
+    return bad_input(s.message());
   std::vector<MarkerModel> models;
   if (!o.markers.empty()) {
     ModelFile f;
@@ -99,6 +108,7 @@ int RunDetect(const DetectOptions& o) {
     return bad_input(
         "no image files in the inputs (directories are searched for .png, .jpg, .jpeg, .tif, "
         ".tiff, .bmp, .pgm, .ppm)");
+  const bool any_video = std::any_of(files.begin(), files.end(), IsVideoFile);
   // Outputs are checked before any work: none may replace an input, and no two inputs may
   // write the same overlay.
   if (!o.overlay.empty()) {
@@ -106,7 +116,7 @@ int RunDetect(const DetectOptions& o) {
       return bad_input(s.message());
     std::map<std::string, std::string> first_of;
     for (const std::string& f : files) {
-      const std::string out = OverlayPath(o.overlay, f);
+      const std::string out = OverlayPath(o.overlay, f, IsVideoFile(f) ? 0 : -1);
       if (Status s = CheckNotAnInput("--overlay", out, files); !s) return bad_input(s.message());
       auto [it, fresh] = first_of.emplace(out, f);
       if (!fresh)
@@ -117,8 +127,8 @@ int RunDetect(const DetectOptions& o) {
   if (!o.debug.empty()) {
     if (Status s = PrepareOutputDirectory("--debug", o.debug); !s) return bad_input(s.message());
   }
-  // LoadImage refuses absurd images from their headers before decoding them; OpenCV's own limit
-  // (read once, at its first use) is a second line.
+  // LoadStoredImage refuses absurd images from their headers before decoding them; OpenCV's
+  // own limit (read once, at its first use) is a second line.
   const auto max_pixels = static_cast<int64_t>(std::llround(o.max_megapixels * 1e6));
   setenv("OPENCV_IO_MAX_IMAGE_PIXELS", std::to_string(max_pixels).c_str(), 1);
 
@@ -130,103 +140,155 @@ int RunDetect(const DetectOptions& o) {
     model_ids.insert(m.id);
     if (m.inner) model_ids.insert(m.inner->id);
   }
-  std::vector<std::string> lines(files.size()), errors(files.size());
-  std::vector<bool> ready(files.size(), false);
-  size_t printed = 0;
-  std::atomic<size_t> next{0};
-  size_t done = 0;  // under io
-  std::mutex io;
-  std::string stdout_error;  // under io
-  Progress progress("svms detect:", files.size(), " images", !o.quiet && files.size() > 1);
-  // One image: its JSON line; a failure in errors[i].
+  // One linear image (of `name`, frame `frame` of a video or -1) into its JSON line `j`; the
+  // first failure in *error.
+  auto measure = [&](const cv::Mat& linear, const std::string& name, int frame, nlohmann::json* j,
+                     std::string* error) {
+    if (linear.cols < 16 || linear.rows < 16) {
+      *error = name + ": " + std::to_string(linear.cols) + "x" + std::to_string(linear.rows) +
+               " pixels is too small to hold a marker (at least 16x16 expected)";
+      return;
+    }
+    if (!camera.empty() && (linear.cols != camera.width() || linear.rows != camera.height())) {
+      *error = name + ": " + std::to_string(linear.cols) + "x" + std::to_string(linear.rows) +
+               " pixels, but the camera model is " + std::to_string(camera.width()) + "x" +
+               std::to_string(camera.height());
+      return;
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    DetectionStats stats;
+    const std::vector<Detection> found = detector.Detect(linear, &stats);
+    (*j)["ms"] =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    nlohmann::json ds = nlohmann::json::array();
+    for (const Detection& d : found) {
+      nlohmann::json dj = DetectionJson(d);
+      if (!camera.empty() && !d.cam_from_marker && d.pose_error.empty())
+        dj["pose_error"] = model_ids.count(d.id)
+                               ? "no pose"
+                               : "no marker model for this ID (--markers): its size is unknown";
+      ds.push_back(dj);
+    }
+    (*j)["detections"] = ds;
+    if (!stats.debug_error.empty()) *error = "--debug: " + stats.debug_error;
+    if (!o.overlay.empty()) {
+      cv::Mat bgr = DisplayImage(linear);
+      DrawOverlay(bgr, found);
+      if (Status w = WriteImage(OverlayPath(o.overlay, name, frame), bgr); !w)
+        *error = "--overlay: " + w.message();
+    }
+  };
+  // One image file: its JSON line; a failure in errors[i].
+  std::vector<std::string> errors(files.size());
   auto process = [&](size_t i) {
     const std::string& f = files[i];
     nlohmann::json j;
     SetPath(j, "image", f);
-    cv::Mat img;
-    if (Status s = LoadImage(f, max_pixels, &img); !s) {
-      errors[i] = s.message();
-    } else if (img.cols < 16 || img.rows < 16) {
-      errors[i] = f + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
-                  " pixels is too small to hold a marker (at least 16x16 expected)";
-    } else if (!camera.empty() && (img.cols != camera.width() || img.rows != camera.height())) {
-      errors[i] = f + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
-                  " pixels, but the camera model is " + std::to_string(camera.width()) + "x" +
-                  std::to_string(camera.height());
-    }
-    if (errors[i].empty()) {
-      const auto t0 = std::chrono::steady_clock::now();
-      DetectionStats stats;
-      const std::vector<Detection> found = detector.Detect(img, &stats);
-      j["ms"] =
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-      nlohmann::json ds = nlohmann::json::array();
-      for (const Detection& d : found) {
-        nlohmann::json dj = DetectionJson(d);
-        if (!camera.empty() && !d.cam_from_marker && d.pose_error.empty())
-          dj["pose_error"] = model_ids.count(d.id)
-                                 ? "no pose"
-                                 : "no marker model for this ID (--markers): its size is unknown";
-        ds.push_back(dj);
-      }
-      j["detections"] = ds;
-      if (!stats.debug_error.empty()) errors[i] = "--debug: " + stats.debug_error;
-      if (!o.overlay.empty()) {
-        cv::Mat bgr, eight;
-        img.convertTo(eight, CV_8U, img.depth() == CV_16U ? 1.0 / 256 : 1.0);
-        cv::cvtColor(eight, bgr, cv::COLOR_GRAY2BGR);
-        DrawOverlay(bgr, found);
-        if (Status w = WriteImage(OverlayPath(o.overlay, f), bgr); !w)
-          errors[i] = "--overlay: " + w.message();
-      }
+    cv::Mat linear;
+    nlohmann::json photometric;
+    try {
+      if (Status s = photometry.Load(f, max_pixels, &linear, &photometric); !s)
+        errors[i] = s.message();
+      else
+        measure(linear, f, -1, &j, &errors[i]);
+      if (!photometric.is_null()) j["photometry"] = photometric;
+    } catch (const std::bad_alloc&) {
+      errors[i] = f +
+                  ": out of memory while detecting; expected a smaller image "
+                  "(--max-megapixels) or fewer --threads";
     }
     if (!errors[i].empty()) j["error"] = errors[i];
     return DumpJson(j);
   };
-  auto worker = [&] {
-    for (size_t i; (i = next++) < files.size();) {
-      std::string line;
-      try {
-        line = process(i);
-      } catch (const std::bad_alloc&) {
-        errors[i] = files[i] +
-                    ": out of memory while detecting; expected a smaller image "
-                    "(--max-megapixels) or fewer --threads";
+
+  std::string stdout_error;  // under io
+  int failed = 0;
+  bool unopenable_video = false;  // bad input: exit 2 at the end
+  size_t units = files.size();
+  if (any_video) {
+    // Videos are read frame by frame in order, one line per frame (with its frame index and
+    // the container's time stamp), streamed; everything on this thread.
+    for (size_t i = 0; i < files.size() && stdout_error.empty(); ++i) {
+      if (!IsVideoFile(files[i])) {
+        WriteStdout(process(i) + "\n", false, &stdout_error);
+        continue;
+      }
+      VideoFrames video;
+      if (Status s = video.Open(files[i]); !s) {
+        unopenable_video = true;
+        errors[i] = s.message();
         nlohmann::json j;
         SetPath(j, "image", files[i]);
         j["error"] = errors[i];
-        line = DumpJson(j);
+        WriteStdout(DumpJson(j) + "\n", false, &stdout_error);
+        continue;
       }
-      std::lock_guard<std::mutex> lock(io);
-      // Lines go out in input order as soon as every earlier image is done, so that memory does
-      // not grow with the batch (only the errors are kept for the summary).
-      lines[i] = std::move(line);
-      ready[i] = true;
-      for (; printed < files.size() && ready[printed]; ++printed) {
-        WriteStdout(lines[printed] + "\n", false, &stdout_error);
-        std::string().swap(lines[printed]);
+      cv::Mat frame, linear;
+      double t = 0;
+      int index = 0;
+      while (stdout_error.empty() && video.Next(&frame, &t, &index)) {
+        nlohmann::json j, photometric;
+        SetPath(j, "image", files[i]);
+        j["frame"] = index;
+        j["timestamp"] = t;
+        std::string error;
+        if (Status s = photometry.LinearizeFrame(frame, "srgb", &linear, &photometric); !s)
+          error = files[i] + ", frame " + std::to_string(index) + ": " + s.message();
+        else
+          measure(linear, files[i], index, &j, &error);
+        j["photometry"] = photometric;
+        if (!error.empty()) {
+          j["error"] = error;
+          std::cerr << "svms detect: " << error << "\n";
+          ++failed;
+        }
+        WriteStdout(DumpJson(j) + "\n", false, &stdout_error);
       }
-      progress.Update(++done);
+      if (index == 0 && frame.empty()) errors[i] = files[i] + ": the video has no frames";
     }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 0; t < std::max(1, std::min<int>(o.threads, static_cast<int>(files.size()))); ++t)
-    pool.emplace_back(worker);
-  for (auto& t : pool) t.join();
-  progress.Finish();
+  } else {
+    std::vector<std::string> lines(files.size());
+    std::vector<bool> ready(files.size(), false);
+    size_t printed = 0;
+    std::atomic<size_t> next{0};
+    size_t done = 0;  // under io
+    std::mutex io;
+    Progress progress("svms detect:", files.size(), " images", !o.quiet && files.size() > 1);
+    auto worker = [&] {
+      for (size_t i; (i = next++) < files.size();) {
+        std::string line = process(i);
+        std::lock_guard<std::mutex> lock(io);
+        // Lines go out in input order as soon as every earlier image is done, so that memory
+        // does not grow with the batch (only the errors are kept for the summary).
+        lines[i] = std::move(line);
+        ready[i] = true;
+        for (; printed < files.size() && ready[printed]; ++printed) {
+          WriteStdout(lines[printed] + "\n", false, &stdout_error);
+          std::string().swap(lines[printed]);
+        }
+        progress.Update(++done);
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int t = 0; t < std::max(1, std::min<int>(o.threads, static_cast<int>(files.size()))); ++t)
+      pool.emplace_back(worker);
+    for (auto& t : pool) t.join();
+    progress.Finish();
+  }
   WriteStdout("", true, &stdout_error);
-  int failed = 0;
   for (const std::string& e : errors)
     if (!e.empty()) {
       std::cerr << "svms detect: " << e << "\n";
       ++failed;
     }
   if (failed)
-    std::cerr << "svms detect: " << failed << " of " << files.size() << " images failed\n";
+    std::cerr << "svms detect: " << failed << " of " << units
+              << (any_video ? " inputs failed\n" : " images failed\n");
   if (!stdout_error.empty()) {
     std::cerr << "svms detect: " << stdout_error << "; the results are lost\n";
     return kExitFailed;
   }
+  if (unopenable_video) return kExitBadInput;
   return failed ? kExitFailed : kExitOk;
 }
 
@@ -235,7 +297,8 @@ int RunDetect(const DetectOptions& o) {
 void AddDetectCommands(CLI::App& app, int* exit_code) {
   auto o = std::make_shared<DetectOptions>();
   CLI::App* det = app.add_subcommand("detect", "Find, identify and measure markers in images");
-  det->add_option("IMAGES", o->inputs, "Image files, directories or globs")->required();
+  det->add_option("IMAGES", o->inputs, "Image files, directories, globs or video files")
+      ->required();
   det->add_option("--camera", o->camera,
                   "mrcal .cameramodel: enables poses and undistorted corner fits");
   det->add_option("--markers", o->markers,
@@ -251,6 +314,7 @@ void AddDetectCommands(CLI::App& app, int* exit_code) {
       ->capture_default_str();
   det->add_option("--debug", o->debug,
                   "Write each step's picture of the last image to this directory");
+  AddPhotometryOptions(det, &o->photometry);
   det->add_flag("--json", o->json, "JSON Lines output (the only format; accepted for clarity)");
   det->add_flag("--quiet", o->quiet, "No progress on stderr");
   det->footer(
@@ -265,7 +329,11 @@ void AddDetectCommands(CLI::App& app, int* exit_code) {
       "{rvec, tvec, weight}: the other planar pose and its share of the likelihood),\n"
       "calibration_in_covariance (the\n"
       "covariance includes the calibration's uncertainty: CAMERA.covariance.json was next to the\n"
-      "camera model), pose_error (with --camera, why a detection has no pose), nested_in).\n"
+      "camera model), pose_error (with --camera, why a detection has no pose), nested_in),\n"
+      "photometry {response, black_level, white_level, bayer, source}: how the pixels were\n"
+      "turned into linear light before measuring (option, camera, image or default).\n"
+      "A video file (.mp4 .mkv .avi .mov ...) gives one line per frame with frame and timestamp\n"
+      "(seconds, from the container), read on one thread.\n"
       "Without --camera: IDs and corners only. A path that is not valid UTF-8 is written with\n"
       "U+FFFD for its bad bytes and its exact bytes in image_hex.\n"
       "A bad image gets an \"error\" field and a line on stderr; the batch goes on; exit code 1.\n"

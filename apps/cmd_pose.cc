@@ -1,5 +1,6 @@
 // svms pose: the fused object pose of every frame, streamed as JSON Lines.
 #include <Eigen/Geometry>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -31,6 +32,7 @@ struct PoseCliOptions {
   double corner_sigma_px = ObjectPoseOptions{}.corner_sigma_px;
   double budget_ms = 0;
   double max_megapixels = 100;
+  PhotometryOptions photometry;
 };
 
 // {rvec, tvec, quaternion [w, x, y, z]} of a pose.
@@ -101,6 +103,9 @@ int RunPose(const PoseCliOptions& o) {
   std::unique_ptr<PoseEstimator> est;
   if (Status s = PoseEstimator::CreateFromFiles(o.camera, o.layout, options, &est); !s)
     return bad_input(s.message());
+  Photometry photometry;
+  if (Status s = Photometry::Create(o.photometry, o.camera, &photometry); !s)
+    return bad_input(s.message());
   std::vector<std::string> files;
   if (!o.from_stdin) files = ExpandImageInputs(o.inputs);
   if (!o.overlay.empty()) {
@@ -131,15 +136,22 @@ int RunPose(const PoseCliOptions& o) {
   }
 
   size_t index = 0, failed = 0, valid = 0;
+  bool unopenable_video = false;  // bad input: exit 2 at the end
   std::string first_error, stdout_error;
   FrameResult r;
-  // One frame: read, estimate, print (flushed, so that a reader of the pipe sees it now).
-  auto frame = [&](const std::string& path, double timestamp, std::string error) {
-    nlohmann::json j;
+  // One frame: read (from `path`, or the decoded video frame `frame`), estimate, print (flushed,
+  // so that a reader of the pipe sees it now).
+  auto frame = [&](const std::string& path, double timestamp, std::string error,
+                   const cv::Mat* video_frame = nullptr, int frame_index = -1) {
+    nlohmann::json j, photometric;
     cv::Mat img;
     if (!error.empty()) {
-    } else if (Status s = LoadImage(path, max_pixels, &img); !s) {
-      error = s.message();
+    } else if (Status s = video_frame
+                              ? photometry.LinearizeFrame(*video_frame, "srgb", &img, &photometric)
+                              : photometry.Load(path, max_pixels, &img, &photometric);
+               !s) {
+      error = video_frame ? path + ", frame " + std::to_string(frame_index) + ": " + s.message()
+                          : s.message();
     } else if (img.cols != camera.width() || img.rows != camera.height()) {
       error = path + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
               " pixels, but the camera model is " + std::to_string(camera.width()) + "x" +
@@ -147,17 +159,18 @@ int RunPose(const PoseCliOptions& o) {
     }
     if (error.empty()) {
       try {
-        est->Estimate(img, timestamp, &r);
+        est->EstimateLinear(img, timestamp, &r);
         j = FrameJson(r);
         valid += r.pose.valid;
         if (!o.overlay.empty()) {
-          const std::string out = OverlayPath(o.overlay, path);
+          char suffix[32] = "";
+          if (frame_index >= 0) std::snprintf(suffix, sizeof suffix, "_%06d", frame_index);
+          const std::string out =
+              (fs::path(o.overlay) / (fs::path(path).stem().string() + suffix + ".png")).string();
           if (SameFile(out, path)) {
             error = "--overlay " + out + ": is the input " + path + "; expected a new file name";
           } else {
-            cv::Mat bgr, eight;
-            img.convertTo(eight, CV_8U, img.depth() == CV_16U ? 1.0 / 256 : 1.0);
-            cv::cvtColor(eight, bgr, cv::COLOR_GRAY2BGR);
+            cv::Mat bgr = DisplayImage(img);
             DrawOverlay(bgr, r.detections);
             if (Status w = WriteImage(out, bgr); !w) error = "--overlay: " + w.message();
           }
@@ -168,6 +181,8 @@ int RunPose(const PoseCliOptions& o) {
       }
     }
     SetPath(j, "image", path);
+    if (frame_index >= 0) j["frame"] = frame_index;
+    if (!photometric.is_null()) j["photometry"] = photometric;
     if (!error.empty()) {
       j["timestamp"] = timestamp;
       if (!j.contains("valid")) j["valid"] = false;
@@ -180,6 +195,18 @@ int RunPose(const PoseCliOptions& o) {
     ++index;
     if (!o.quiet && index % 50 == 0)
       std::cerr << "svms pose: " << index << " frames, " << valid << " with a pose\n";
+  };
+  // A video: every frame, with the container's time stamp.
+  auto video = [&](const std::string& path) {
+    VideoFrames v;
+    if (Status s = v.Open(path); !s) {
+      unopenable_video = true;
+      return frame(path, static_cast<double>(index), s.message());
+    }
+    cv::Mat f;
+    double t = 0;
+    int i = 0;
+    while (stdout_error.empty() && v.Next(&f, &t, &i)) frame(path, t, "", &f, i);
   };
   if (o.from_stdin) {
     std::string line;
@@ -208,12 +235,18 @@ int RunPose(const PoseCliOptions& o) {
           path = line.substr(0, line.find_last_not_of(" \t", space) + 1);
         }
       }
-      frame(path, timestamp, "");
+      if (IsVideoFile(path))
+        video(path);
+      else
+        frame(path, timestamp, "");
     }
   } else {
     for (const std::string& f : files) {
       if (!stdout_error.empty()) break;
-      frame(f, static_cast<double>(index), "");
+      if (IsVideoFile(f))
+        video(f);
+      else
+        frame(f, static_cast<double>(index), "");
     }
   }
   if (!o.quiet)
@@ -226,7 +259,7 @@ int RunPose(const PoseCliOptions& o) {
   if (failed) {
     std::cerr << "svms pose: " << failed << " of " << index
               << " frames failed (first: " << first_error << ")\n";
-    return kExitFailed;
+    return unopenable_video ? kExitBadInput : kExitFailed;
   }
   return kExitOk;
 }
@@ -254,6 +287,7 @@ void AddPoseCommands(CLI::App& app, int* exit_code) {
   cmd->add_option("--max-megapixels", o->max_megapixels, "Refuse larger images")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  AddPhotometryOptions(cmd, &o->photometry);
   cmd->add_flag("--quiet", o->quiet, "No progress on stderr");
   cmd->footer(
       "Output: one JSON line per frame, flushed: image, timestamp (given, or the frame index),\n"
@@ -269,7 +303,9 @@ void AddPoseCommands(CLI::App& app, int* exit_code) {
       "An unreadable frame gets an \"error\" field and a line on stderr; the stream goes on;\n"
       "a --stdin line longer than 65536 bytes is such an error. A path that is not valid UTF-8\n"
       "is written with U+FFFD for its bad bytes and its exact bytes in image_hex.\n"
-      "exit code 1 at the end. See docs/flight-interface.md.\n"
+      "exit code 1 at the end. A video file gives every frame, timestamp from the container.\n"
+      "photometry: how the frame was turned into linear light (docs/conventions.md).\n"
+      "See docs/flight-interface.md.\n"
       "Examples:\n"
       "  svms pose out/approach --camera cam.cameramodel --layout layout.json\n"
       "  ls frames/*.png | svms pose --stdin --camera cam.cameramodel --layout layout.json");

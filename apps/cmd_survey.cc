@@ -34,6 +34,7 @@ struct SurveyCliOptions {
   bool refine_intrinsics = false, drop_disconnected = false, quiet = false;
   std::optional<double> corner_sigma;  // unset: each corner's own, from the side fits
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  PhotometryOptions photometry;
 };
 
 std::vector<std::string> Split(const std::string& s, char sep) {
@@ -91,6 +92,9 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
   };
   CameraModel camera;
   if (Status s = ReadCameraWithSidecar(o.camera, &camera); !s) return bad_input(s.message());
+  Photometry photometry;
+  if (Status s = Photometry::Create(o.photometry, o.camera, &photometry); !s)
+    return bad_input(s.message());
   ModelFile models;
   if (Status s = ReadModelFile(o.markers, &models); !s) return bad_input(s.message());
   bundle::SurveyOptions options;
@@ -169,7 +173,7 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
       images[i].name = fs::path(files[i]).stem().string();
       cv::Mat img;
       try {
-        if (Status s = LoadImage(files[i], kDefaultMaxImagePixels, &img); !s)
+        if (Status s = photometry.Load(files[i], kDefaultMaxImagePixels, &img, nullptr); !s)
           errors[i] = s.message();
         else if (img.cols != camera.width() || img.rows != camera.height())
           errors[i] = files[i] + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
@@ -268,6 +272,7 @@ void AddSurveyCommands(CLI::App& app, int* exit_code) {
   cmd->add_option("--threads", o->threads, "Threads for detection and the solver")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
+  AddPhotometryOptions(cmd, &o->photometry);
   cmd->add_flag("--quiet", o->quiet, "No progress on stderr");
   cmd->footer(
       "Each marker's pose in the object frame with a 6x6 covariance ([rotation, translation],\n"

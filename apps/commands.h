@@ -36,6 +36,7 @@ void AddBenchCalibrate(CLI::App& bench, int* exit_code);
 void AddBenchCompare(CLI::App& bench, int* exit_code);
 void AddBenchSurvey(CLI::App& bench, int* exit_code);
 void AddBenchPose(CLI::App& bench, int* exit_code);
+void AddBenchProfiles(CLI::App& bench, int* exit_code);
 
 // One frame of `svms pose` as its JSON line (cmd_pose.cc; docs/flight-interface.md).
 nlohmann::json FrameJson(const FrameResult& frame);

@@ -1,19 +1,91 @@
-// Image inputs on the command line: the one expansion of IMAGE | DIR | GLOB that every
-// subcommand taking images uses (detect, calibrate, survey).
+// Image inputs on the command line: the one expansion of IMAGE | DIR | GLOB | VIDEO that every
+// subcommand taking images uses (detect, pose, calibrate, survey), and the one way an image
+// file becomes the linear-light image the detector measures (photometric.h).
 #pragma once
 
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/videoio.hpp>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include "svms/image_io.h"
+#include "svms/photometric.h"
+#include "svms/status.h"
 
 namespace svms::cli {
 
 // True when `path`'s extension (any case) is one of the image types the CLI reads:
 // .png .jpg .jpeg .tif .tiff .bmp .pgm .ppm.
 bool IsImageFile(const std::string& path);
+// True for the video containers read through OpenCV's VideoCapture (FFmpeg): .mp4 .m4v .mov
+// .avi .mkv .webm .mpg .mpeg.
+bool IsVideoFile(const std::string& path);
 
 // Expands each input in order: a directory gives its image files (IsImageFile), sorted by name;
 // a name with a glob character (*?[) gives its matches in glob order; anything else, and a glob
-// that matches nothing, is kept as given (so that it fails to read later, named).
+// that matches nothing, is kept as given (so that it fails to read later, named). Video files
+// are kept as one input (VideoFrames reads them).
 std::vector<std::string> ExpandImageInputs(const std::vector<std::string>& inputs);
+
+// The photometry options every command that reads images takes (--response, --black-level,
+// --white-level, --bayer). Each given option overrides that part of the model that would
+// apply otherwise (photometric.h: the camera's photometric file, the file's own declaration,
+// the default by depth).
+struct PhotometryOptions {
+  std::string response;  // Response::Parse text; "" = not given
+  std::string bayer;     // "" = not given
+  std::optional<double> black_level, white_level;
+  bool any() const { return !response.empty() || !bayer.empty() || black_level || white_level; }
+};
+void AddPhotometryOptions(CLI::App* command, PhotometryOptions* options);
+
+// How every image of a run is turned into linear light: the options, checked, and the
+// camera's photometric file (CAMERA.cameramodel.photometric.json) when there is one.
+class Photometry {
+ public:
+  // Checks the options (exit-2 errors name them) and reads the camera's file ("" = no camera).
+  static Status Create(const PhotometryOptions& options, const std::string& camera_path,
+                       Photometry* out);
+
+  // The model for an image of `depth_max` (255 or 65535) that declares `declared` ("" when it
+  // declares nothing), and where it came from.
+  PhotometricModel Resolve(double depth_max, const std::string& declared,
+                           PhotometrySource* source) const;
+
+  // Loads an image file and linearises it (LoadStoredImage, LinearizeImage). *json gets
+  // {"response", "black_level", "white_level", "bayer", "source"}.
+  Status Load(const std::string& path, int64_t max_pixels, cv::Mat* linear,
+              nlohmann::json* json) const;
+  // Linearises a decoded frame (a video's: 8-bit BGR, which declares sRGB).
+  Status LinearizeFrame(const cv::Mat& frame, const std::string& declared, cv::Mat* linear,
+                        nlohmann::json* json) const;
+
+ private:
+  PhotometryOptions options_;
+  Response option_response_;
+  BayerPattern option_bayer_ = BayerPattern::kNone;
+  std::optional<PhotometricModel> camera_;
+  std::string camera_file_;
+};
+
+// The frames of a video file, through OpenCV's VideoCapture (its FFmpeg backend), each with its
+// time stamp from the container (CAP_PROP_POS_MSEC, seconds).
+class VideoFrames {
+ public:
+  // Errors name the file and the backend's reason ("cannot open ... with OpenCV's FFmpeg
+  // backend").
+  Status Open(const std::string& path);
+  // The next frame (as decoded: 8-bit BGR or grey); false at the end.
+  bool Next(cv::Mat* frame, double* timestamp_s, int* index);
+  std::string backend() const { return backend_; }
+
+ private:
+  cv::VideoCapture capture_;
+  std::string backend_;
+  int index_ = 0;
+};
 
 }  // namespace svms::cli

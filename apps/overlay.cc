@@ -3,6 +3,8 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
+#include "svms/photometric.h"
+
 namespace svms::cli {
 
 // The paper's Fig. 4 style: a coloured outline per marker, a star at the post tip, the ID.
@@ -34,6 +36,20 @@ void DrawOverlay(cv::Mat& bgr, const std::vector<Detection>& found) {
                 cv::Point(cvRound(d.corners[0].x()), cvRound(d.corners[0].y()) - 4 * thick),
                 cv::FONT_HERSHEY_SIMPLEX, 0.5 * thick, c, thick, cv::LINE_AA);
   }
+}
+
+cv::Mat DisplayImage(const cv::Mat& linear) {
+  const double full = linear.depth() == CV_16U ? 65535.0 : 255.0;
+  cv::Mat lut(1, 256, CV_8U);
+  cv::Mat eight;
+  linear.convertTo(eight, CV_8U, 255.0 / full);
+  const Response srgb = Response::Srgb();
+  for (int v = 0; v < 256; ++v)
+    lut.at<uchar>(v) = cv::saturate_cast<uchar>(255 * srgb.FromLinear(v / 255.0));
+  cv::Mat display, bgr;
+  cv::LUT(eight, lut, display);
+  cv::cvtColor(display, bgr, cv::COLOR_GRAY2BGR);
+  return bgr;
 }
 
 }  // namespace svms::cli

@@ -13,4 +13,8 @@ namespace svms::cli {
 // number of corrected bits.
 void DrawOverlay(cv::Mat& bgr, const std::vector<Detection>& found);
 
+// An 8-bit BGR picture of a linear-light image (8- or 16-bit) for people: sRGB-encoded, as
+// screens show it, for overlays.
+cv::Mat DisplayImage(const cv::Mat& linear);
+
 }  // namespace svms::cli

@@ -619,6 +619,13 @@ std::string DatasetDescription(const std::string& name) {
   return "";
 }
 
+Status ApplySensorProfile(const std::string& profile, Dataset* dataset) {
+  Sensor probe;
+  if (Status s = ApplySensorProfile(profile, &probe); !s) return s;
+  for (auto& [sub, scene] : dataset->scenes) ApplySensorProfile(profile, &scene.sensor);
+  return Status::Ok();
+}
+
 Status MakeDataset(const std::string& name, const DatasetOptions& o, Dataset* out) {
   Dataset d;
   if (name == "range")

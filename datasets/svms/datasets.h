@@ -33,6 +33,10 @@ std::string DatasetDescription(const std::string& name);
 
 // Builds a dataset; false with a message for an unknown name.
 Status MakeDataset(const std::string& name, const DatasetOptions& options, Dataset* out);
+// Puts every scene of `dataset` through the sensor profile `profile` (scene.h,
+// ApplySensorProfile): the camera pipeline changes, the light and the views do not. An unknown
+// name is an error that lists the names, and changes nothing.
+Status ApplySensorProfile(const std::string& profile, Dataset* dataset);
 
 // Helpers shared by the generators (and useful for tests):
 // cam_from_world for a camera at `eye` looking at `target`, image "up" close to `up`.

@@ -33,6 +33,39 @@ TEST(Datasets, EveryDatasetBuildsValidScenesThatRoundTrip) {
   EXPECT_FALSE(MakeDataset("moon", DatasetOptions{}, &d).ok());
 }
 
+TEST(Datasets, ASensorProfileChangesEveryScenesPipelineAndNothingElse) {
+  Dataset plain, raw;
+  ASSERT_TRUE(MakeDataset("calibration", DatasetOptions{2, true}, &plain).ok());
+  ASSERT_TRUE(MakeDataset("calibration", DatasetOptions{2, true}, &raw).ok());
+  ASSERT_GE(raw.scenes.size(), 2u);
+  ASSERT_TRUE(ApplySensorProfile("raw12_bayer", &raw).ok());
+  for (size_t i = 0; i < raw.scenes.size(); ++i) {
+    const Sensor& s = raw.scenes[i].second.sensor;
+    EXPECT_EQ(s.bits, 16);
+    EXPECT_EQ(s.signal_bits, 12);
+    EXPECT_EQ(s.black_level, 256);
+    EXPECT_EQ(s.bayer, "RGGB");
+    // The light and the sampling stay the standard sensor's.
+    const Sensor& p = plain.scenes[i].second.sensor;
+    EXPECT_EQ(s.exposure, p.exposure);
+    EXPECT_EQ(s.full_well, p.full_well);
+    EXPECT_EQ(s.edge_rays_per_pixel, 256);
+    // Only the sensor differs, and the scene file carries it.
+    Scene back;
+    ASSERT_TRUE(ParseSceneJson(SceneToJson(raw.scenes[i].second), "x", "", &back).ok());
+    EXPECT_EQ(back.sensor.bayer, "RGGB");
+    back.sensor = p;
+    EXPECT_EQ(SceneToJson(back), SceneToJson(plain.scenes[i].second));
+  }
+  // An unknown name changes nothing and names the choices.
+  const std::string before = SceneToJson(raw.scenes[0].second);
+  const Status st = ApplySensorProfile("raw16", &raw);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("\"raw16\": unknown; expected linear, srgb8"), std::string::npos)
+      << st.message();
+  EXPECT_EQ(SceneToJson(raw.scenes[0].second), before);
+}
+
 TEST(Datasets, AreDeterministicFromTheSeed) {
   Dataset a, b, c;
   ASSERT_TRUE(MakeDataset("mockup", DatasetOptions{5, false}, &a).ok());

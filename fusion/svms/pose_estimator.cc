@@ -1,5 +1,6 @@
 #include "svms/pose_estimator.h"
 
+#include <filesystem>
 #include <memory>
 
 #include "svms/camera_covariance.h"
@@ -22,7 +23,8 @@ PoseEstimator::PoseEstimator(const CameraModel& camera, const Layout& layout,
     : camera_(camera),
       layout_(layout),
       options_(options),
-      detector_(options.detector, camera, Models(layout)) {}
+      detector_(options.detector, camera, Models(layout)),
+      linearizer_(options.photometric.value_or(PhotometricModel())) {}
 
 Status PoseEstimator::Create(const CameraModel& camera, const Layout& layout,
                              const PoseEstimatorOptions& options,
@@ -40,6 +42,9 @@ Status PoseEstimator::Create(const CameraModel& camera, const Layout& layout,
   if (!(options.budget_ms >= 0) || !std::isfinite(options.budget_ms))
     return Status::Error("budget_ms: expected 0 (none) or a positive number of milliseconds, got " +
                          std::to_string(options.budget_ms));
+  if (options.photometric)
+    if (Status s = options.photometric->Check(); !s)
+      return Status::Error("photometric: " + s.message());
   out->reset(new PoseEstimator(camera, layout, options));
   return Status::Ok();
 }
@@ -56,12 +61,33 @@ Status PoseEstimator::CreateFromFiles(const std::string& camera_path,
     return Status::Error(layout_path + ": expected a layout (\"type\": \"svms.layout\"), got a " +
                          (file.kind == ModelFile::Kind::kMarker ? "marker" : "marker set") +
                          " file");
-  Status s = Create(camera, file.layout, options, out);
+  PoseEstimatorOptions with_photometry = options;
+  const std::string photometric_path = PhotometricPath(camera_path);
+  std::error_code ec;
+  if (!options.photometric && std::filesystem::exists(photometric_path, ec)) {
+    PhotometricModel m;
+    if (Status s = ReadPhotometricFile(photometric_path, &m); !s) return s;
+    with_photometry.photometric = m;
+  }
+  Status s = Create(camera, file.layout, with_photometry, out);
   if (!s) return Status::Error(layout_path + ": " + s.message());
   return Status::Ok();
 }
 
 void PoseEstimator::Estimate(const cv::Mat& image, double timestamp, FrameResult* out) const {
+  if (!options_.photometric) return EstimateLinear(image, timestamp, out);
+  thread_local cv::Mat linear;  // reused: no allocation per frame of one size
+  if (Status s = linearizer_.Apply(image, &linear); !s) {
+    *out = FrameResult();
+    out->timestamp = timestamp;
+    out->pose.valid = false;
+    out->pose.message = "the frame cannot be converted to linear light: " + s.message();
+    return;
+  }
+  EstimateLinear(linear, timestamp, out);
+}
+
+void PoseEstimator::EstimateLinear(const cv::Mat& image, double timestamp, FrameResult* out) const {
   const auto t0 = Clock::now();
   out->timestamp = timestamp;
   DetectionStats stats;

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <chrono>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,7 @@
 #include "svms/detector.h"
 #include "svms/layout.h"
 #include "svms/object_pose.h"
+#include "svms/photometric.h"
 #include "svms/status.h"
 
 namespace svms {
@@ -25,6 +27,10 @@ struct PoseEstimatorOptions {
   // Time budget per frame, milliseconds (0: none). When detection runs out of it, the markers
   // found so far are used and ObjectPose is flagged budget_exceeded.
   double budget_ms = 0;
+  // How the frames' values relate to light (photometric.h): Estimate converts each frame to
+  // linear light with it. Unset: frames are linear already (a machine-vision camera's raw
+  // output). CreateFromFiles sets it from the camera's photometric file when there is one.
+  std::optional<PhotometricModel> photometric;
 };
 
 struct FrameResult {
@@ -49,8 +55,12 @@ class PoseEstimator {
                                 const PoseEstimatorOptions& options,
                                 std::unique_ptr<PoseEstimator>* out);
 
-  // One frame: 8-bit or 16-bit grey, or 8-bit colour. `timestamp` is passed through.
+  // One frame as the camera delivers it: 8-bit or 16-bit grey (or a Bayer mosaic, with the
+  // photometric model's pattern), or colour, converted to linear light by
+  // options().photometric. `timestamp` is passed through.
   void Estimate(const cv::Mat& image, double timestamp, FrameResult* out) const;
+  // One frame already in linear light (LinearizeImage): what Estimate does after converting.
+  void EstimateLinear(const cv::Mat& linear, double timestamp, FrameResult* out) const;
 
   const CameraModel& camera() const { return camera_; }
   const Layout& layout() const { return layout_; }
@@ -63,6 +73,7 @@ class PoseEstimator {
   Layout layout_;
   PoseEstimatorOptions options_;
   Detector detector_;
+  Linearizer linearizer_;
 };
 
 }  // namespace svms

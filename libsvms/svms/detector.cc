@@ -7,6 +7,7 @@
 
 #include "svms/bit_sampler.h"
 #include "svms/image_io.h"
+#include "svms/noise_model.h"
 #include "svms/svms44.h"
 
 namespace svms {
@@ -40,7 +41,7 @@ Eigen::Matrix3d UnitHomography(const std::array<Eigen::Vector2d, 4>& q) {
 
 // Buffers of Detect, kept per thread between calls (no allocation once grown).
 struct DetectScratch {
-  cv::Mat gray, gray8, gx, gy;
+  cv::Mat gray, gray8, gx, gy, stabilised;
   std::vector<Segment> segments;
   std::vector<Quad> quads;
   std::vector<Detection> decoded, accepted;
@@ -127,21 +128,45 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   } else {
     gray = source;
   }
+  // Steps 1-7 (edges, quads, bits) need only a coarse image: 8 bits. Steps 8-10 (corners, tip,
+  // pose) measure on `measure`, the image at its full depth: a 16-bit image keeps its
+  // precision there, with the grey levels read in steps 5-7 (Detection::black and white, in
+  // the 8-bit image's units) times `level` in its units.
+  cv::Mat measure;
+  double level = 1;
   if (gray.depth() == CV_16U) {
     double mx;
     cv::minMaxLoc(gray, nullptr, &mx);
-    gray.convertTo(sc.gray8, CV_8U, mx > 0 ? 255.0 / mx : 1.0);
+    const double k = mx > 0 ? 255.0 / mx : 1.0;
+    measure = gray;
+    level = 1 / k;
+    gray.convertTo(sc.gray8, CV_8U, k);
     gray = sc.gray8;
   } else if (gray.depth() != CV_8U) {
     gray.convertTo(sc.gray8, CV_8U);
     gray = sc.gray8;
   }
+  if (measure.empty()) measure = gray;
   if (gray.cols < 8 || gray.rows < 8) return;
 
-  // 1-3. Edges, chains, segments.
+  // 1-3. Edges, chains, segments. A 16-bit image's noise is estimated from the image at its
+  // full depth (noise_model.h: black backgrounds clipped at 0 and saturated glints left out)
+  // and the edges are searched on a scale where it is the same everywhere.
   auto t0 = Clock::now();
   std::vector<Segment>& segs = sc.segments;
-  FindSegments(gray, o.segments, &sc.gx, &sc.gy, &segs);
+  const cv::Mat* edge_image = &gray;
+  SegmentOptions segment_options = o.segments;
+  if (measure.depth() == CV_16U) {
+    stats.noise = EstimateNoise(measure);
+    if (stats.noise.valid() && stats.noise.read_sigma + stats.noise.shot_gain > 0) {
+      const double unit = StabiliseVariance(measure, stats.noise, &sc.stabilised);
+      segment_options.stabilise_variance = false;
+      // Very clean images would put the thresholds under the 8 bits' own steps.
+      segment_options.noise_sigma = std::max(unit, 0.5);
+      edge_image = &sc.stabilised;
+    }
+  }
+  FindSegments(*edge_image, segment_options, &sc.gx, &sc.gy, &segs);
   stats.segments = static_cast<int>(segs.size());
   auto t1 = Clock::now();
   stats.ms[0] = Ms(t0, t1);
@@ -209,7 +234,8 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
         break;
       }
       Detection& d = out[i];
-      const RefinedCorners r = RefineCorners(gray, d.corners, cam, o.refine, {}, d.black);
+      const RefinedCorners r =
+          RefineCorners(measure, d.corners, cam, o.refine, {}, d.black * level);
       if (r.ok) {
         d.corners = r.corners;
         d.corner_sigma = r.corner_sigma;
@@ -245,7 +271,7 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
         if (post && RegionTouchesSides(*post, d.corners)) {
           sc.excluded.assign(1, *post);
           const RefinedCorners r =
-              RefineCorners(gray, d.corners, cam, o.refine, sc.excluded, d.black);
+              RefineCorners(measure, d.corners, cam, o.refine, sc.excluded, d.black * level);
           MarkerPose again;
           // Kept only if the sides fit better without those points: on a short side (a small
           // marker at a grazing angle) the post may hide most of it, and the few points left
@@ -254,8 +280,8 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
             return s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + s[3] * s[3];
           };
           if (r.ok && r.excluded_points > 0 && sum2(r.corner_sigma) < sum2(d.corner_sigma) &&
-              EstimateMarkerPose(gray, r.corners, it->second, camera_, d.black, d.white, o.pose,
-                                 &again, r.corner_sigma)) {
+              EstimateMarkerPose(measure, r.corners, it->second, camera_, d.black * level,
+                                 d.white * level, o.pose, &again, r.corner_sigma)) {
             d.corners = r.corners;
             d.corner_sigma = r.corner_sigma;
             d.penumbra_sides = r.penumbra_sides;

@@ -29,6 +29,7 @@
 #include "svms/corner_refine.h"
 #include "svms/marker_model.h"
 #include "svms/marker_pose.h"
+#include "svms/noise_model.h"
 #include "svms/pose.h"
 #include "svms/quads.h"
 #include "svms/segments.h"
@@ -102,6 +103,8 @@ struct DetectionStats {
   bool budget_exceeded = false;
   // With DetectorOptions::debug_dir: why a picture could not be written ("" when all were).
   std::string debug_error;
+  // A 16-bit image's noise as estimated from it (its units); not estimated for 8-bit images.
+  NoiseModel noise;
 };
 
 class Detector {
@@ -111,8 +114,12 @@ class Detector {
   Detector(const DetectorOptions& options, const CameraModel& camera,
            const std::vector<MarkerModel>& models);
 
-  // All markers in `image` (CV_8UC1, CV_16UC1 or 3-channel 8-bit; any size >= 1x1; other
-  // depths are converted and saturated to 8 bits; 1, 3 or 4 channels, none for other counts).
+  // All markers in `image`, whose values must be linear in light (an image as a camera stores
+  // it goes through LinearizeImage, photometric.h, first): CV_8UC1 or CV_16UC1 (any size >=
+  // 1x1); a 16-bit image is measured at its full depth (corners, tip, pose), only the search
+  // for candidates (steps 1-7) runs on an 8-bit copy scaled to its brightest pixel. Colour
+  // images and other depths are converted to grey with OpenCV's weights (other depths through
+  // float, saturated to 8 bits); 1, 3 or 4 channels, none for other counts.
   std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats = nullptr) const;
   // The same under a deadline: steps 5-10 stop once it has passed (steps 1-4 cost what the
   // image size says and are not interrupted), stats->budget_exceeded is set, and only the

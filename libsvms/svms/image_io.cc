@@ -1,13 +1,20 @@
 #include "svms/image_io.h"
 
+#include <zlib.h>
+
 #include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <vector>
 
 #include "svms/file_io.h"
+#include "svms/photometric.h"
 
 namespace svms {
 namespace {
@@ -32,16 +39,30 @@ std::string Png(const unsigned char* d, size_t n, bool complete, ImageHeader* ou
   out->width = Be32(d + 16);
   out->height = Be32(d + 20);
   if (!complete) return "";
-  // Walk the chunks (length, type, data, CRC) to IEND.
+  // Walk the chunks (length, type, data, CRC) to IEND; the sRGB and gAMA chunks say how the
+  // values encode light (sRGB wins over gAMA, as PNG 1.2 asks of decoders).
   size_t at = 8;
+  bool srgb = false;
+  double gama = 0;
   while (true) {
     if (n - at < 12) return "truncated PNG: the file ends before its IEND chunk";
     const uint32_t len = Be32(d + at);
     if (len > 0x7fffffffu) return "corrupt PNG: a chunk length over 2^31";
-    if (std::memcmp(d + at + 4, "IEND", 4) == 0) return "";
+    if (std::memcmp(d + at + 4, "IEND", 4) == 0) break;
     if (n - at - 12 < len) return "truncated PNG: the file ends inside a chunk";
+    if (std::memcmp(d + at + 4, "sRGB", 4) == 0) srgb = true;
+    if (std::memcmp(d + at + 4, "gAMA", 4) == 0 && len == 4) gama = Be32(d + at + 8) / 100000.0;
     at += 12 + size_t{len};
   }
+  if (srgb) {
+    out->declared_response = "srgb";
+  } else if (gama > 0) {
+    const double g = 1 / gama;
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "gamma:%.4g", g);
+    out->declared_response = std::abs(g - 1) < 1e-3 ? "linear" : buf;
+  }
+  return "";
 }
 
 std::string Jpeg(const unsigned char* d, size_t n, bool complete, ImageHeader* out) {
@@ -192,6 +213,7 @@ std::string ReadImageHeader(const unsigned char* d, size_t n, bool complete, Ima
   }
   if (n >= 3 && d[0] == 0xFF && d[1] == 0xD8 && d[2] == 0xFF) {
     out->format = "JPEG";
+    if (complete) out->declared_response = "srgb";
     return Jpeg(d, n, complete, out);
   }
   if (n >= 2 && d[0] == 'P' && d[1] >= '1' && d[1] <= '6') {
@@ -209,7 +231,10 @@ std::string ReadImageHeader(const unsigned char* d, size_t n, bool complete, Ima
   return std::string("not an image of a supported format; expected ") + kSupported;
 }
 
-Status LoadImage(const std::string& path, int64_t max_pixels, cv::Mat* out) {
+namespace {
+
+Status Load(const std::string& path, int64_t max_pixels, int flags, cv::Mat* out,
+            ImageHeader* header_out) {
   std::error_code ec;
   const fs::file_status st = fs::status(path, ec);
   if (!fs::exists(st)) return Status::Error(path + ": no such file; expected an image");
@@ -245,7 +270,7 @@ Status LoadImage(const std::string& path, int64_t max_pixels, cv::Mat* out) {
     return Status::Error(path + ": " + e);
   cv::Mat img;
   try {
-    img = cv::imdecode(bytes, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
+    img = cv::imdecode(bytes, flags);
   } catch (const cv::Exception&) {
     img.release();
   }
@@ -257,21 +282,80 @@ Status LoadImage(const std::string& path, int64_t max_pixels, cv::Mat* out) {
   if (img.depth() != CV_8U && img.depth() != CV_16U)
     return Status::Error(path + ": " + std::string(cv::depthToString(img.depth())) +
                          " pixels; expected 8- or 16-bit unsigned");
+  if (img.channels() == 4) cv::cvtColor(img, img, cv::COLOR_BGRA2BGR);
+  if (img.channels() != 1 && img.channels() != 3)
+    return Status::Error(path + ": " + std::to_string(img.channels()) +
+                         " channels; expected grey or colour");
   *out = img;
+  if (header_out) *header_out = h;
   return Status::Ok();
+}
+
+}  // namespace
+
+Status LoadImage(const std::string& path, int64_t max_pixels, cv::Mat* out) {
+  return Load(path, max_pixels, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE, out, nullptr);
+}
+
+Status LoadStoredImage(const std::string& path, int64_t max_pixels, cv::Mat* out,
+                       ImageHeader* header) {
+  return Load(path, max_pixels, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR, out, header);
 }
 
 namespace {
 
-// `image` encoded in the format `path`'s extension names.
-Status EncodeImage(const std::string& path, const cv::Mat& image, std::string* bytes) {
-  const std::string ext = fs::path(path).extension().string();
+// A PNG chunk (length, type, data, CRC-32 of type and data; PNG 1.2 section 5.3).
+std::string PngChunk(const char* type, const std::string& data) {
+  std::string c;
+  auto be32 = [&](uint32_t v) {
+    for (int k = 3; k >= 0; --k) c.push_back(static_cast<char>((v >> (8 * k)) & 0xff));
+  };
+  be32(static_cast<uint32_t>(data.size()));
+  const std::string body = std::string(type, 4) + data;
+  c += body;
+  be32(static_cast<uint32_t>(
+      crc32(0, reinterpret_cast<const Bytef*>(body.data()), static_cast<uInt>(body.size()))));
+  return c;
+}
+
+// `png` with a chunk declaring `response` after its IHDR (where PNG wants sRGB and gAMA: before
+// PLTE and IDAT).
+Status DeclareResponse(const std::string& path, const std::string& response, std::string* png) {
+  std::string chunk;
+  if (response == "srgb") {
+    chunk = PngChunk("sRGB", std::string(1, '\0'));  // rendering intent: perceptual
+  } else {
+    double gamma = 1;
+    if (response != "linear") {
+      Response r;
+      if (Status s = Response::Parse(response, &r); !s || r.kind() != Response::Kind::kGamma)
+        return Status::Error(path + ": cannot declare the response \"" + response +
+                             "\" in a PNG; expected linear, srgb or gamma:G");
+      gamma = r.gamma();
+    }
+    const auto g = static_cast<uint32_t>(std::lround(100000 / gamma));
+    std::string data;
+    for (int k = 3; k >= 0; --k) data.push_back(static_cast<char>((g >> (8 * k)) & 0xff));
+    chunk = PngChunk("gAMA", data);
+  }
+  const size_t after_ihdr = 8 + 8 + 13 + 4;
+  if (png->size() < after_ihdr) return Status::Error(path + ": the PNG encoder wrote no IHDR");
+  png->insert(after_ihdr, chunk);
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status EncodeImage(const std::string& path, const cv::Mat& image, const ImageEncoding& encoding,
+                   std::string* bytes) {
+  std::string ext = fs::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext.empty())
     return Status::Error(path +
                          ": cannot write an image without an extension; expected .png, "
                          ".jpg, .pgm, .tif or .exr");
   try {
-    if (ext == ".exr" || ext == ".EXR") {
+    if (ext == ".exr") {
       // OpenCV 4.6's OpenEXR encoder writes only to files: a temporary with the same extension,
       // read back (the atomic write stays the one way files are replaced).
       const fs::path tmp = fs::path(path).parent_path() /
@@ -284,27 +368,35 @@ Status EncodeImage(const std::string& path, const cv::Mat& image, std::string* b
       if (!ok || !read) return Status::Error(path + ": cannot write (OpenEXR encoder failed)");
       return Status::Ok();
     }
+    std::vector<int> params;
+    if (ext == ".jpg" || ext == ".jpeg") {
+      if (encoding.jpeg_quality < 1 || encoding.jpeg_quality > 100)
+        return Status::Error(path + ": JPEG quality " + std::to_string(encoding.jpeg_quality) +
+                             "; expected 1 to 100");
+      params = {cv::IMWRITE_JPEG_QUALITY, encoding.jpeg_quality};
+    }
     std::vector<unsigned char> buf;
-    if (!cv::imencode(ext, image, buf))
+    if (!cv::imencode(ext, image, buf, params))
       return Status::Error(path + ": cannot encode the image as " + ext);
     bytes->assign(reinterpret_cast<const char*>(buf.data()), buf.size());
   } catch (const cv::Exception& e) {
     return Status::Error(path + ": cannot encode the image as " + ext + ": " + e.err);
   }
+  if (ext == ".png" && !encoding.png_response.empty())
+    return DeclareResponse(path, encoding.png_response, bytes);
   return Status::Ok();
 }
 
-}  // namespace
-
-Status WriteImage(const std::string& path, const cv::Mat& image) {
+Status WriteImage(const std::string& path, const cv::Mat& image, const ImageEncoding& encoding) {
   std::string bytes;
-  if (Status s = EncodeImage(path, image, &bytes); !s) return s;
+  if (Status s = EncodeImage(path, image, encoding, &bytes); !s) return s;
   return WriteFileAtomically(path, bytes);
 }
 
-Status AddImage(const std::string& path, const cv::Mat& image, AtomicFileSet* files) {
+Status AddImage(const std::string& path, const cv::Mat& image, AtomicFileSet* files,
+                const ImageEncoding& encoding) {
   std::string bytes;
-  if (Status s = EncodeImage(path, image, &bytes); !s) return s;
+  if (Status s = EncodeImage(path, image, encoding, &bytes); !s) return s;
   return files->Add(path, bytes);
 }
 

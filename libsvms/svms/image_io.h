@@ -24,6 +24,10 @@ struct ImageHeader {
   std::string format;  // "PNG", "JPEG", "PNM", "BMP" or "TIFF"
   int64_t width = 0;   // pixels, as the header states them
   int64_t height = 0;
+  // The response the file declares (photometric.h), read when the whole file is given: a PNG's
+  // sRGB chunk ("srgb") or gAMA chunk ("linear" for gAMA 1.0, else "gamma:G" with G = 1 /
+  // gAMA), a JPEG ("srgb": JFIF is sRGB); "" when the file says nothing.
+  std::string declared_response;
 };
 
 // Reads the format and the size from the bytes of an image file (the whole file, or at least its
@@ -43,11 +47,30 @@ std::string ReadImageHeader(const unsigned char* data, size_t size, bool complet
 // (float or 32-bit). Reads the whole file into memory first (at most 8 * max_pixels + 16 MB).
 Status LoadImage(const std::string& path, int64_t max_pixels, cv::Mat* out);
 
+// Loads an image file as it is stored: 1 channel (grey or a Bayer mosaic) or 3 (BGR; an alpha
+// channel is dropped, a palette expanded), 8- or 16-bit, with the same checks as LoadImage.
+// *header (optional) gets the format, size and declared response.
+Status LoadStoredImage(const std::string& path, int64_t max_pixels, cv::Mat* out,
+                       ImageHeader* header = nullptr);
+
+// How WriteImage encodes: the JPEG quality (1-100), and for PNG the response to declare in a
+// gAMA chunk (PNG 1.2, section 11.3.3.2; "" writes none): "linear" (gAMA 1.0, what svms render
+// writes on its linear images), "srgb" (an sRGB chunk), "gamma:G".
+struct ImageEncoding {
+  int jpeg_quality = 95;
+  std::string png_response;
+};
+
 // Writes `image` in the format its extension names (OpenCV's encoders: .png, .jpg, .pgm, .tif,
 // .exr, ...) atomically (file_io.h): encoded in memory first, then written to a temporary and
 // renamed into place, so a failure leaves an earlier file as it was. Errors name the path.
-Status WriteImage(const std::string& path, const cv::Mat& image);
+Status WriteImage(const std::string& path, const cv::Mat& image,
+                  const ImageEncoding& encoding = {});
 // The same into a group of files that the caller commits (AtomicFileSet).
-Status AddImage(const std::string& path, const cv::Mat& image, AtomicFileSet* files);
+Status AddImage(const std::string& path, const cv::Mat& image, AtomicFileSet* files,
+                const ImageEncoding& encoding = {});
+// The bytes WriteImage would write.
+Status EncodeImage(const std::string& path, const cv::Mat& image, const ImageEncoding& encoding,
+                   std::string* bytes);
 
 }  // namespace svms

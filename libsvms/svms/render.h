@@ -15,8 +15,10 @@
 #include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
+#include <string>
 #include <vector>
 
+#include "svms/image_io.h"
 #include "svms/scene.h"
 #include "svms/status.h"
 
@@ -54,6 +56,21 @@ struct RayHit {
 // (memory_limit.h) before it starts.
 double RenderMemoryBytes(const Scene& scene, int threads);
 
+// The extension of the image file a view is written to: ".png", or ".jpg" for format "jpeg".
+std::string ViewFileExtension(const Sensor& sensor);
+
+// How `svms render` encodes a view: a PNG declares the sensor's response (gAMA 1.0 for linear,
+// an sRGB chunk for srgb, gAMA 1/G for gamma:G) so that a reader recovers the light; a JPEG is
+// written by libjpeg (OpenCV's encoder) at sensor.jpeg_quality.
+ImageEncoding ViewImageEncoding(const Sensor& sensor);
+
+// The pixels a reader decodes from the file `svms render` writes of `exposed` (Expose's output
+// for `sensor`): for a JPEG, `exposed` encoded by the very call that writes the file
+// (EncodeImage, libjpeg) and decoded by cv::imdecode as image_io.h's loaders decode it; a PNG is
+// lossless, so `exposed` itself. For benchmarks that measure in-process what a file would give.
+// Errors: the encoder or decoder failed (an image that is not what Expose makes for `sensor`).
+Status ThroughCodec(const Sensor& sensor, const cv::Mat& exposed, cv::Mat* decoded);
+
 class Renderer {
  public:
   // Prepares the geometry and unprojects the camera's pixel-corner grid (about 1 s for a
@@ -67,9 +84,17 @@ class Renderer {
   // pixels on an edge (EdgePixels) the mean of that many instead.
   cv::Mat RenderRadiance(int view) const;
 
-  // The sensor: vignetting, defocus blur, shot and read noise, quantisation to 8 or 16 bits
-  // (CV_8UC1 or CV_16UC1). Deterministic for a given scene seed and view.
+  // The sensor and the camera's transfer, in a real camera's order: vignetting, defocus blur;
+  // electrons (exposure x radiance, times the pixel's channel_gain under a Bayer filter); shot
+  // and read noise, in electrons; s = electrons / full_well clipped to [0, 1]; the response
+  // e = FromLinear(s); DN = black_level + e * (white_level - black_level), rounded and clipped to
+  // the container (CV_8UC1 or CV_16UC1, one channel also for a mosaic). The default sensor
+  // gives DN = round(electrons * (2^bits - 1) / full_well). Deterministic for a given scene
+  // seed and view.
   cv::Mat Expose(const cv::Mat& radiance, int view) const;
+  // The same through `sensor` (which must pass CheckSensor) in place of the scene's, with the
+  // same noise seed: one render seen through several camera pipelines (sensor profiles).
+  cv::Mat Expose(const cv::Mat& radiance, int view, const Sensor& sensor) const;
 
   // First surface along a world ray (direction need not be unit length) in view `view`
   // (occluders can change per view).

@@ -3,14 +3,18 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "svms/bit_sampler.h"
+#include "svms/image_io.h"
+#include "svms/photometric.h"
 #include "svms/scene.h"
 #include "svms/svms44.h"
 #include "svms/truth.h"
+#include "svms_testing/scratch_dir.h"
 
 namespace svms {
 namespace {
@@ -510,6 +514,450 @@ TEST(SceneFile, RoundTripsThroughJson) {
   ASSERT_TRUE(st.ok()) << st.message();
   EXPECT_EQ(SceneToJson(back), SceneToJson(s));
   EXPECT_EQ(back.sensor.edge_rays_per_pixel, 64);
+}
+
+// The camera pipeline (docs/simulator.md, "Camera pipeline and sensor profiles").
+
+// A wall of reflectance `r` filling a w x h view under uniform light of 1 (radiance r), with
+// exposure = full well, so that the linear signal s is r; no noise.
+Scene FlatWall(double reflectance, int w = 16, int h = 12) {
+  Scene s = BaseScene(CameraModel::Pinhole(20, w, h));
+  s.sensor.exposure = 10000;
+  s.sensor.full_well = 10000;
+  SceneObject wall;
+  wall.name = "wall";
+  wall.size = Eigen::Vector3d(20, 20, 0);
+  wall.material.reflectance = reflectance;
+  s.objects.push_back(wall);
+  s.views.push_back(View{"v", LookDown(1)});
+  return s;
+}
+
+cv::Mat Exposed(const Scene& s) {
+  auto r = Make(s);
+  if (!r) return cv::Mat();
+  return r->Expose(r->RenderRadiance(0), 0);
+}
+
+TEST(CameraPipeline, FlatPatchesFollowTheResponseCurve) {
+  struct Case {
+    const char* response;
+    int bits, signal_bits;
+    double black;
+    int dn_grey, dn_white;  // at s = 0.2 and 0.8, worked out by hand (docs/simulator.md)
+  };
+  const Case cases[] = {
+      {"linear", 8, 0, 0, 51, 204},           {"srgb", 8, 0, 0, 124, 231},
+      {"gamma:2.2", 8, 0, 0, 123, 230},       {"gamma:2.2", 16, 0, 0, 31533, 59214},
+      {"srgb", 16, 12, 256, 2116, 3735},      {"linear", 16, 12, 256, 1024, 3327},
+      {"linear", 8, 0, 16, 16 + 48, 16 + 191}};
+  for (const Case& c : cases) {
+    for (const auto& [r, want] : {std::pair{0.2, c.dn_grey}, std::pair{0.8, c.dn_white}}) {
+      Scene s = FlatWall(r);
+      s.sensor.response = c.response;
+      s.sensor.bits = c.bits;
+      s.sensor.signal_bits = c.signal_bits;
+      s.sensor.black_level = c.black;
+      const std::string what = std::string(c.response) + ", " + std::to_string(c.bits) +
+                               " bits, black " + std::to_string(c.black) + ", s " +
+                               std::to_string(r);
+      auto ren = Make(s);
+      ASSERT_TRUE(ren) << what;
+      const cv::Mat radiance = ren->RenderRadiance(0);
+      ASSERT_NEAR(radiance.at<float>(6, 8), r, 1e-6) << what;
+      const cv::Mat img = ren->Expose(radiance, 0);
+      ASSERT_EQ(img.type(), c.bits == 16 ? CV_16UC1 : CV_8UC1) << what;
+      double lo, hi;
+      cv::minMaxLoc(img, &lo, &hi);
+      EXPECT_EQ(lo, want) << what;
+      EXPECT_EQ(hi, want) << what;
+      // The same as DN = black + FromLinear(s) * (white - black).
+      Response response;
+      ASSERT_TRUE(Response::Parse(c.response, &response).ok());
+      const double white = (1 << (c.signal_bits ? c.signal_bits : c.bits)) - 1;
+      EXPECT_NEAR(want, c.black + response.FromLinear(r) * (white - c.black), 0.5) << what;
+      // Over-exposed: the white level.
+      s.sensor.exposure = 2 * s.sensor.full_well / r;
+      cv::minMaxLoc(Exposed(s), &lo, &hi);
+      EXPECT_EQ(lo, white) << what;
+      EXPECT_EQ(hi, white) << what;
+    }
+  }
+}
+
+TEST(CameraPipeline, TwelveSignalBitsNeverExceedTheirWhiteLevel) {
+  for (double black : {0.0, 256.0}) {
+    Scene s = FlatWall(0.995, 64, 48);
+    s.sensor.bits = 16;
+    s.sensor.signal_bits = 12;
+    s.sensor.black_level = black;
+    s.sensor.shot_noise = true;
+    s.sensor.read_noise = 8;
+    double lo, hi;
+    // Near saturation, noise pushes about a third of the pixels to the white level, none beyond.
+    const cv::Mat img = Exposed(s);
+    cv::minMaxLoc(img, &lo, &hi);
+    EXPECT_EQ(hi, 4095) << black;
+    EXPECT_GT(lo, black + 0.9 * (4095 - black)) << black;
+    EXPECT_GT(cv::countNonZero(img == 4095), static_cast<int>(img.total() / 10)) << black;
+    // A quarter of the well: black + 0.25 * (4095 - black) on average.
+    s.objects[0].material.reflectance = 0.25;
+    const cv::Scalar mean = cv::mean(Exposed(s));
+    EXPECT_NEAR(mean[0], black + 0.25 * (4095 - black), 1.0) << black;
+  }
+  // The limit is signal_bits': all 16 bits saturate at 65535.
+  Scene s = FlatWall(1.0);
+  s.sensor.bits = 16;
+  s.sensor.exposure = 20000;
+  double lo, hi;
+  cv::minMaxLoc(Exposed(s), &lo, &hi);
+  EXPECT_EQ(lo, 65535);
+  EXPECT_EQ(hi, 65535);
+}
+
+TEST(CameraPipeline, BlackLevelOffsetsABlackArea) {
+  for (const char* response : {"linear", "srgb"}) {
+    Scene s = FlatWall(0, 64, 48);  // black: no light
+    s.sensor.response = response;
+    s.sensor.bits = 16;
+    s.sensor.signal_bits = 12;
+    s.sensor.black_level = 256;
+    double lo, hi;
+    cv::minMaxLoc(Exposed(s), &lo, &hi);
+    EXPECT_EQ(lo, 256) << response;
+    EXPECT_EQ(hi, 256) << response;
+    s.sensor.bits = 8;
+    s.sensor.signal_bits = 0;
+    s.sensor.black_level = 16;
+    cv::minMaxLoc(Exposed(s), &lo, &hi);
+    EXPECT_EQ(lo, 16) << response;
+    EXPECT_EQ(hi, 16) << response;
+    // Read noise of 20 electrons (7.7 DN at 12 bits): never below the black level, and the
+    // noise clipped there lifts the mean by 20 * 0.399 electrons (3.1 DN, linear response).
+    s.sensor.bits = 16;
+    s.sensor.signal_bits = 12;
+    s.sensor.black_level = 256;
+    s.sensor.read_noise = 20;
+    const cv::Mat img = Exposed(s);
+    cv::minMaxLoc(img, &lo, &hi);
+    EXPECT_EQ(lo, 256) << response;
+    EXPECT_GT(hi, 256) << response;
+    if (std::string(response) == "linear") {
+      EXPECT_NEAR(cv::mean(img)[0], 256 + 20 * 0.399 * 3839 / 10000, 0.4);
+    }
+  }
+}
+
+TEST(CameraPipeline, BayerMosaicCarriesTheChannelGainsInItsPattern) {
+  // A grey wall at 0.6 of the well: red pixels 0.6 * 0.55, green 0.6, blue 0.6 * 0.75 of 65535.
+  const int kRed = 21627, kGreen = 39321, kBlue = 29491;
+  struct Case {
+    const char* pattern;
+    int at[4];  // pixels (0, 0), (1, 0), (0, 1), (1, 1) as (x, y)
+    int code;   // OpenCV's demosaicing for it (the detector's, photometric.h)
+  };
+  const Case cases[] = {
+      {"RGGB", {kRed, kGreen, kGreen, kBlue}, cv::COLOR_BayerRGGB2BGR},
+      {"BGGR", {kBlue, kGreen, kGreen, kRed}, cv::COLOR_BayerBGGR2BGR},
+      {"GRBG", {kGreen, kRed, kBlue, kGreen}, cv::COLOR_BayerGRBG2BGR},
+      {"GBRG", {kGreen, kBlue, kRed, kGreen}, cv::COLOR_BayerGBRG2BGR},
+  };
+  for (const Case& c : cases) {
+    Scene s = FlatWall(0.6, 32, 24);
+    s.sensor.bits = 16;
+    s.sensor.bayer = c.pattern;
+    const cv::Mat img = Exposed(s);
+    ASSERT_EQ(img.type(), CV_16UC1) << c.pattern;
+    for (int y0 : {0, 10})
+      for (int x0 : {0, 6}) {
+        EXPECT_EQ(img.at<uint16_t>(y0, x0), c.at[0]) << c.pattern;
+        EXPECT_EQ(img.at<uint16_t>(y0, x0 + 1), c.at[1]) << c.pattern;
+        EXPECT_EQ(img.at<uint16_t>(y0 + 1, x0), c.at[2]) << c.pattern;
+        EXPECT_EQ(img.at<uint16_t>(y0 + 1, x0 + 1), c.at[3]) << c.pattern;
+      }
+    // OpenCV's demosaicing for that pattern name recovers each channel's level.
+    cv::Mat bgr;
+    cv::cvtColor(img, bgr, c.code);
+    const cv::Scalar m = cv::mean(bgr(cv::Rect(4, 4, 24, 16)));
+    EXPECT_NEAR(m[0], kBlue, 2) << c.pattern;
+    EXPECT_NEAR(m[1], kGreen, 2) << c.pattern;
+    EXPECT_NEAR(m[2], kRed, 2) << c.pattern;
+  }
+}
+
+// A marker on a plate, sunlit, with the default noise: edges, flat areas and noise to encode.
+Scene MarkerOnPlate(const std::string& profile) {
+  Scene s = BaseScene(CameraModel::Pinhole(250, 160, 120));
+  s.sensor.read_noise = 4;
+  s.sensor.shot_noise = true;
+  s.light.ambient = 0.3;
+  s.light.sun = Sun{Eigen::Vector3d(0.2, 0.1, 1).normalized(), 1.0, 0.53};
+  s.objects.push_back(PlateWithMarker(MarkerModel::Standard(3, 0.1, 0.02), Pose{}));
+  s.views.push_back(View{"v", LookDown(1)});
+  EXPECT_TRUE(ApplySensorProfile(profile, &s.sensor).ok());
+  return s;
+}
+
+TEST(CameraPipeline, JpegThroughTheCodecIsCloseOnAFlatPatchAndLossy) {
+  const Scene s = MarkerOnPlate("jpeg_srgb");
+  ASSERT_EQ(ViewFileExtension(s.sensor), ".jpg");
+  const cv::Mat exposed = Exposed(s);
+  cv::Mat decoded;
+  const Status st = ThroughCodec(s.sensor, exposed, &decoded);
+  ASSERT_TRUE(st.ok()) << st.message();
+  ASSERT_EQ(decoded.type(), CV_8UC1);
+  ASSERT_EQ(decoded.size(), exposed.size());
+  // The plate above the marker (its decal spans x 52-107, y 32-87): smooth but noisy.
+  cv::Mat diff;
+  cv::absdiff(decoded, exposed, diff);
+  const cv::Rect flat(0, 0, 160, 24);
+  double hi;
+  cv::minMaxLoc(diff(flat), nullptr, &hi);
+  if (const char* dir = std::getenv("SVMS_TEST_IMAGES")) {
+    cv::imwrite(std::string(dir) + "/camera_pipeline_exposed.png", exposed);
+    cv::imwrite(std::string(dir) + "/camera_pipeline_through_jpeg.png", decoded);
+  }
+  EXPECT_LT(cv::mean(diff(flat))[0], 2.0);
+  EXPECT_LE(hi, 8);
+  // A real lossy codec: many pixels change, most of all at the marker's edges.
+  EXPECT_GT(cv::countNonZero(diff), static_cast<int>(diff.total() / 10));
+  EXPECT_GT(cv::norm(diff(cv::Rect(50, 30, 60, 60)), cv::NORM_INF), hi);
+  // Exactly the pixels a reader of the written file decodes.
+  static const svms_testing::ScratchDir dir("svms_render_test");
+  const std::string file = dir.File("v" + ViewFileExtension(s.sensor));
+  ASSERT_TRUE(WriteImage(file, exposed, ViewImageEncoding(s.sensor)).ok());
+  cv::Mat read;
+  ImageHeader header;
+  ASSERT_TRUE(LoadStoredImage(file, 1 << 20, &read, &header).ok());
+  EXPECT_EQ(header.format, "JPEG");
+  EXPECT_EQ(cv::norm(read, decoded, cv::NORM_INF), 0);
+  // The quality is the sensor's: a lower one changes more.
+  Sensor low = s.sensor;
+  low.jpeg_quality = 20;
+  cv::Mat coarse;
+  ASSERT_TRUE(ThroughCodec(low, exposed, &coarse).ok());
+  EXPECT_GT(cv::norm(coarse, exposed, cv::NORM_L1), 1.5 * cv::norm(decoded, exposed, cv::NORM_L1));
+}
+
+TEST(CameraPipeline, PngIsLosslessAndDeclaresItsResponse) {
+  static const svms_testing::ScratchDir dir("svms_render_test_png");
+  for (const auto& [profile, declared] :
+       {std::pair{"linear", "linear"}, std::pair{"srgb8", "srgb"}, std::pair{"raw12", "linear"}}) {
+    const Scene s = MarkerOnPlate(profile);
+    ASSERT_EQ(ViewFileExtension(s.sensor), ".png");
+    const cv::Mat exposed = Exposed(s);
+    cv::Mat decoded;
+    ASSERT_TRUE(ThroughCodec(s.sensor, exposed, &decoded).ok());
+    EXPECT_EQ(cv::norm(decoded, exposed, cv::NORM_INF), 0) << profile;
+    const std::string file = dir.File(std::string(profile) + ".png");
+    ASSERT_TRUE(WriteImage(file, exposed, ViewImageEncoding(s.sensor)).ok()) << profile;
+    cv::Mat read;
+    ImageHeader header;
+    ASSERT_TRUE(LoadStoredImage(file, 1 << 20, &read, &header).ok()) << profile;
+    EXPECT_EQ(header.declared_response, declared) << profile;
+    EXPECT_EQ(cv::norm(read, exposed, cv::NORM_INF), 0) << profile;
+  }
+  Sensor gamma;
+  gamma.response = "gamma:2.2";
+  EXPECT_EQ(ViewImageEncoding(gamma).png_response, "gamma:2.2");
+  gamma.response = "sRGB";
+  EXPECT_EQ(ViewImageEncoding(gamma).png_response, "srgb");
+}
+
+TEST(CameraPipeline, TruthRecordsThePhotometry) {
+  for (const char* profile : {"raw12_bayer", "jpeg_srgb"}) {
+    const Scene s = MarkerOnPlate(profile);
+    auto r = Make(s);
+    const nlohmann::json j = nlohmann::json::parse(TruthToJson(s, {ComputeTruth(*r, 0)}));
+    const nlohmann::json& p = j.at("photometry");
+    if (std::string(profile) == "raw12_bayer") {
+      EXPECT_EQ(p.at("response"), "linear");
+      EXPECT_EQ(p.at("bits"), 16);
+      EXPECT_EQ(p.at("signal_bits"), 12);
+      EXPECT_EQ(p.at("black_level"), 256);
+      EXPECT_EQ(p.at("white_level"), 4095);
+      EXPECT_EQ(p.at("bayer"), "RGGB");
+      EXPECT_EQ(p.at("channel_gain"), nlohmann::json({0.55, 1.0, 0.75}));
+      EXPECT_EQ(p.at("format"), "png");
+      EXPECT_FALSE(p.contains("jpeg_quality"));
+      EXPECT_EQ(j.at("views")[0].at("image"), "v.png");
+    } else {
+      EXPECT_EQ(p.at("response"), "srgb");
+      EXPECT_EQ(p.at("bits"), 8);
+      EXPECT_EQ(p.at("signal_bits"), 8);
+      EXPECT_EQ(p.at("black_level"), 0);
+      EXPECT_EQ(p.at("white_level"), 255);
+      EXPECT_EQ(p.at("bayer"), "");
+      EXPECT_EQ(p.at("format"), "jpeg");
+      EXPECT_EQ(p.at("jpeg_quality"), 85);
+      EXPECT_FALSE(p.contains("channel_gain"));
+      EXPECT_EQ(j.at("views")[0].at("image"), "v.jpg");
+    }
+    EXPECT_EQ(j.at("bits"), p.at("bits"));  // the existing field, unchanged
+  }
+}
+
+TEST(SensorProfile, EachNameSetsItsPipelineAndKeepsTheLight) {
+  Sensor base;
+  base.exposure = 9000;
+  base.full_well = 11000;
+  base.read_noise = 3;
+  base.defocus_sigma_px = 0.2;
+  base.rays_per_pixel = 4;
+  base.response = "gamma:1.8";  // replaced by every profile
+  base.black_level = 7;
+  ASSERT_EQ(SensorProfileNames(),
+            (std::vector<std::string>{"linear", "srgb8", "jpeg_srgb", "raw12", "raw12_bayer"}));
+  struct Want {
+    const char* response;
+    int bits, signal_bits;
+    double black;
+    const char* bayer;
+    const char* format;
+    double defocus;
+  };
+  const Want wants[] = {{"linear", 8, 0, 0, "", "png", 0.2},
+                        {"srgb", 8, 0, 0, "", "png", 0.7},
+                        {"srgb", 8, 0, 0, "", "jpeg", 0.7},
+                        {"linear", 16, 12, 256, "", "png", 0.2},
+                        {"linear", 16, 12, 256, "RGGB", "png", 0.2}};
+  for (size_t i = 0; i < SensorProfileNames().size(); ++i) {
+    const std::string& name = SensorProfileNames()[i];
+    const Want& w = wants[i];
+    Sensor s = base;
+    const Status st = ApplySensorProfile(name, &s);
+    ASSERT_TRUE(st.ok()) << name << ": " << st.message();
+    EXPECT_TRUE(CheckSensor(s).ok()) << name;
+    EXPECT_EQ(s.response, w.response) << name;
+    EXPECT_EQ(s.bits, w.bits) << name;
+    EXPECT_EQ(s.signal_bits, w.signal_bits) << name;
+    EXPECT_EQ(s.black_level, w.black) << name;
+    EXPECT_EQ(s.bayer, w.bayer) << name;
+    EXPECT_EQ(s.format, w.format) << name;
+    EXPECT_EQ(s.jpeg_quality, 85) << name;
+    EXPECT_EQ(s.defocus_sigma_px, w.defocus) << name;
+    EXPECT_EQ(s.exposure, 9000) << name;
+    EXPECT_EQ(s.full_well, 11000) << name;
+    EXPECT_EQ(s.read_noise, 3) << name;
+    EXPECT_EQ(s.rays_per_pixel, 4) << name;
+  }
+  // "linear" on the default sensor changes nothing.
+  Scene a = FlatWall(0.5), b = a;
+  ASSERT_TRUE(ApplySensorProfile("linear", &b.sensor).ok());
+  EXPECT_EQ(SceneToJson(a), SceneToJson(b));
+  // An unknown name: an error naming it and the choices; the sensor as it was.
+  Sensor s = base;
+  const Status st = ApplySensorProfile("raw14", &s);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("\"raw14\""), std::string::npos) << st.message();
+  for (const std::string& name : SensorProfileNames())
+    EXPECT_NE(st.message().find(name), std::string::npos) << st.message();
+  EXPECT_EQ(s.response, "gamma:1.8");
+  EXPECT_EQ(s.black_level, 7);
+}
+
+TEST(SceneFile, CameraPipelineRoundTripsThroughJson) {
+  Scene s = FlatWall(0.5);
+  // Defaults are written and read back.
+  Scene back;
+  ASSERT_TRUE(ParseSceneJson(SceneToJson(s), "x.json", "", &back).ok());
+  EXPECT_EQ(SceneToJson(back), SceneToJson(s));
+  EXPECT_EQ(back.sensor.response, "linear");
+  EXPECT_EQ(back.sensor.format, "png");
+  // Every field away from its default.
+  s.sensor.bits = 16;
+  s.sensor.response = "gamma:2.2";
+  s.sensor.signal_bits = 14;
+  s.sensor.black_level = 512;
+  s.sensor.bayer = "GBRG";
+  s.sensor.channel_gain = {0.5, 0.9, 0.6};
+  Status st = ParseSceneJson(SceneToJson(s), "x.json", "", &back);
+  ASSERT_TRUE(st.ok()) << st.message();
+  EXPECT_EQ(SceneToJson(back), SceneToJson(s));
+  EXPECT_EQ(back.sensor.bits, 16);
+  EXPECT_EQ(back.sensor.response, "gamma:2.2");
+  EXPECT_EQ(back.sensor.signal_bits, 14);
+  EXPECT_EQ(back.sensor.black_level, 512);
+  EXPECT_EQ(back.sensor.bayer, "GBRG");
+  EXPECT_EQ(back.sensor.channel_gain, (std::array<double, 3>{0.5, 0.9, 0.6}));
+  s.sensor = Sensor();
+  s.sensor.response = "srgb";
+  s.sensor.format = "jpeg";
+  s.sensor.jpeg_quality = 60;
+  st = ParseSceneJson(SceneToJson(s), "x.json", "", &back);
+  ASSERT_TRUE(st.ok()) << st.message();
+  EXPECT_EQ(SceneToJson(back), SceneToJson(s));
+  EXPECT_EQ(back.sensor.format, "jpeg");
+  EXPECT_EQ(back.sensor.jpeg_quality, 60);
+  EXPECT_EQ(back.sensor.response, "srgb");
+}
+
+TEST(SceneFile, CameraPipelineErrorsNameTheField) {
+  const std::string head = R"({"type": "svms.scene", "seed": 1,
+    "camera": {"lensmodel": "LENSMODEL_PINHOLE", "intrinsics": [500, 500, 99.5, 99.5], "width": 200, "height": 200},
+    "objects": [], "views": [{"name": "a", "cam_from_world": {"rvec": [0,0,0], "tvec": [0,0,1]}}],
+    "sensor": {)";
+  auto parse = [&](const std::string& sensor, Scene* out) {
+    return ParseSceneJson(head + sensor + "}}", "s.json", "", out);
+  };
+  Scene s;
+  {
+    const Status st = parse(R"("bits": 16, "signal_bits": 12, "black_level": 256,
+        "response": "sRGB", "bayer": "BGGR", "channel_gain": [0.5, 1, 0.7])",
+                            &s);
+    ASSERT_TRUE(st.ok()) << st.message();
+    EXPECT_EQ(s.sensor.response, "srgb");  // one spelling
+    EXPECT_EQ(s.sensor.white_level(), 4095);
+  }
+  const std::pair<std::string, std::string> bad[] = {
+      {R"("signal_bits": 12)", "sensor.signal_bits: expected 0 (all of sensor.bits) or 6 to 8"},
+      {R"("bits": 16, "signal_bits": 5)",
+       "sensor.signal_bits: expected 0 (all of sensor.bits) "
+       "or 6 to 16 (sensor.bits), got the number 5"},
+      {R"("signal_bits": "12")", "sensor.signal_bits: expected an integer"},
+      {R"("bits": 16, "signal_bits": 12, "black_level": 4095)",
+       "sensor.black_level: expected at least 0 and below the white level 4095"},
+      {R"("black_level": -1)", "sensor.black_level: expected a number in ["},
+      {R"("bayer": "RGBG")",
+       "sensor.bayer: expected \"\" (grey), \"RGGB\", \"BGGR\", \"GRBG\" "
+       "or \"GBRG\", got the string \"RGBG\""},
+      {R"("bayer": "rggb")", "sensor.bayer: expected"},
+      {R"("channel_gain": [0.5, 1, 0.7])",
+       "sensor.channel_gain: expected only with a Bayer mosaic"},
+      {R"("bayer": "RGGB", "channel_gain": [0.5, 0, 0.7])",
+       "sensor.channel_gain[1]: expected a number in (0, 10], got the number 0"},
+      {R"("bayer": "RGGB", "channel_gain": [0.5, 1])",
+       "sensor.channel_gain: expected an array of 3 numbers"},
+      {R"("bits": 16, "format": "jpeg")",
+       "sensor.format: expected \"png\" with 16 bits (a JPEG holds 8), got the string \"jpeg\""},
+      {R"("format": "tiff")", "sensor.format: expected \"png\" or \"jpeg\""},
+      {R"("bayer": "RGGB", "format": "jpeg")", "sensor.format: expected \"png\" for a Bayer"},
+      {R"("format": "jpeg", "jpeg_quality": 0)",
+       "sensor.jpeg_quality: expected 1 to 100, got the number 0"},
+      {R"("format": "jpeg", "jpeg_quality": 101)", "sensor.jpeg_quality: expected 1 to 100"},
+      {R"("jpeg_quality": 90)", "sensor.jpeg_quality: expected only with sensor.format \"jpeg\""},
+      {R"("response": "table:/etc/passwd")",
+       "sensor.response: expected \"linear\", \"srgb\" or \"gamma:G\""},
+      {R"("response": "gamma:0")", "sensor.response: expected"},
+      {R"("response": "log")", "sensor.response: expected"},
+      {R"("response": 2.2)", "sensor.response: expected a string"},
+      {R"("gain": 2)", "sensor.gain: unknown field"},
+  };
+  for (const auto& [sensor, want] : bad) {
+    const Status st = parse(sensor, &s);
+    ASSERT_FALSE(st.ok()) << sensor;
+    EXPECT_EQ(st.message().rfind("s.json: ", 0), 0u) << st.message();
+    EXPECT_NE(st.message().find(want), std::string::npos) << st.message();
+  }
+  // A scene built in code meets the same rules.
+  Scene c = FlatWall(0.5);
+  c.sensor.format = "jpeg";
+  c.sensor.bits = 16;
+  std::unique_ptr<Renderer> r;
+  const Status st = Renderer::Create(c, &r);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.message().find("sensor.format: expected \"png\" with 16 bits"), std::string::npos)
+      << st.message();
 }
 
 }  // namespace

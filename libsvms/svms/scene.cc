@@ -7,6 +7,7 @@
 #include "svms/image_io.h"
 #include "svms/json_fields.h"
 #include "svms/model_io.h"
+#include "svms/photometric.h"
 
 namespace svms {
 namespace {
@@ -151,6 +152,65 @@ CameraModel ParseCamera(const json& j, const std::string& path, const std::strin
   return cam;
 }
 
+Sensor ParseSensor(const json& j) {
+  const std::string p = "sensor";
+  CheckKeys(j, p,
+            {"bits", "exposure", "full_well", "read_noise", "shot_noise", "defocus_sigma_px",
+             "vignetting", "rays_per_pixel", "edge_rays_per_pixel", "motion_blur", "response",
+             "signal_bits", "black_level", "bayer", "channel_gain", "format", "jpeg_quality"});
+  Sensor s;
+  if (j.contains("bits")) {
+    s.bits = Integer(j, p, "bits");
+    if (s.bits != 8 && s.bits != 16) Fail(Join(p, "bits"), "8 or 16", j["bits"]);
+  }
+  if (j.contains("exposure")) s.exposure = NumberIn(j, p, "exposure", 0, 1e12);
+  if (j.contains("full_well")) s.full_well = NumberIn(j, p, "full_well", 1, 1e12);
+  if (j.contains("read_noise")) s.read_noise = NumberIn(j, p, "read_noise", 0, 1e6);
+  if (j.contains("shot_noise")) s.shot_noise = Boolean(j, p, "shot_noise");
+  if (j.contains("defocus_sigma_px"))
+    s.defocus_sigma_px = NumberIn(j, p, "defocus_sigma_px", 0, 100);
+  if (j.contains("vignetting")) s.vignetting = NumberIn(j, p, "vignetting", 0, 1);
+  if (j.contains("motion_blur")) s.motion_blur = NumberIn(j, p, "motion_blur", 0, 1);
+  if (j.contains("rays_per_pixel")) {
+    s.rays_per_pixel = Integer(j, p, "rays_per_pixel");
+    const int r = static_cast<int>(std::lround(std::sqrt(std::max(0, s.rays_per_pixel))));
+    if (s.rays_per_pixel < 1 || s.rays_per_pixel > 1024 || r * r != s.rays_per_pixel)
+      Fail(Join(p, "rays_per_pixel"), "a square number from 1 to 1024", j["rays_per_pixel"]);
+  }
+  if (j.contains("edge_rays_per_pixel")) {
+    s.edge_rays_per_pixel = Integer(j, p, "edge_rays_per_pixel");
+    if (!ValidEdgeRays(s))
+      Fail(Join(p, "edge_rays_per_pixel"), "0 (off), or a square number of at most 4096",
+           j["edge_rays_per_pixel"]);
+  }
+  // The camera pipeline: types here, values and their combinations in CheckSensor (which
+  // scenes built in code meet too). A field that would have no effect is refused, not ignored.
+  if (j.contains("response")) s.response = String(j, p, "response");
+  if (j.contains("signal_bits")) s.signal_bits = Integer(j, p, "signal_bits");
+  if (j.contains("black_level")) s.black_level = NumberIn(j, p, "black_level", 0, 65535);
+  if (j.contains("bayer")) s.bayer = String(j, p, "bayer");
+  if (j.contains("format")) s.format = String(j, p, "format");
+  if (j.contains("channel_gain")) {
+    if (s.bayer.empty())
+      throw FieldError{
+          "sensor.channel_gain: expected only with a Bayer mosaic (sensor.bayer), got it with a "
+          "grey sensor"};
+    const Eigen::Vector3d g = Vector<3>(j, p, "channel_gain");
+    s.channel_gain = {g(0), g(1), g(2)};
+  }
+  if (j.contains("jpeg_quality")) {
+    if (s.format != "jpeg")
+      throw FieldError{
+          "sensor.jpeg_quality: expected only with sensor.format \"jpeg\", got it with " +
+          json(s.format).dump()};
+    s.jpeg_quality = Integer(j, p, "jpeg_quality");
+  }
+  if (Status st = CheckSensor(s); !st) throw FieldError{st.message()};
+  // One spelling of sRGB (Response::Parse also reads "sRGB"); a gamma keeps its digits.
+  if (s.response == "sRGB") s.response = "srgb";
+  return s;
+}
+
 void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
   CheckKeys(
       root, "",
@@ -167,38 +227,7 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
                      std::to_string(kDefaultMaxImagePixels / 1000000) + " megapixels"};
   }
 
-  if (root.contains("sensor")) {
-    const json& j = root["sensor"];
-    const std::string p = "sensor";
-    CheckKeys(j, p,
-              {"bits", "exposure", "full_well", "read_noise", "shot_noise", "defocus_sigma_px",
-               "vignetting", "rays_per_pixel", "edge_rays_per_pixel", "motion_blur"});
-    Sensor& s = scene->sensor;
-    if (j.contains("bits")) {
-      s.bits = Integer(j, p, "bits");
-      if (s.bits != 8 && s.bits != 16) Fail(Join(p, "bits"), "8 or 16", j["bits"]);
-    }
-    if (j.contains("exposure")) s.exposure = NumberIn(j, p, "exposure", 0, 1e12);
-    if (j.contains("full_well")) s.full_well = NumberIn(j, p, "full_well", 1, 1e12);
-    if (j.contains("read_noise")) s.read_noise = NumberIn(j, p, "read_noise", 0, 1e6);
-    if (j.contains("shot_noise")) s.shot_noise = Boolean(j, p, "shot_noise");
-    if (j.contains("defocus_sigma_px"))
-      s.defocus_sigma_px = NumberIn(j, p, "defocus_sigma_px", 0, 100);
-    if (j.contains("vignetting")) s.vignetting = NumberIn(j, p, "vignetting", 0, 1);
-    if (j.contains("motion_blur")) s.motion_blur = NumberIn(j, p, "motion_blur", 0, 1);
-    if (j.contains("rays_per_pixel")) {
-      s.rays_per_pixel = Integer(j, p, "rays_per_pixel");
-      const int r = static_cast<int>(std::lround(std::sqrt(std::max(0, s.rays_per_pixel))));
-      if (s.rays_per_pixel < 1 || s.rays_per_pixel > 1024 || r * r != s.rays_per_pixel)
-        Fail(Join(p, "rays_per_pixel"), "a square number from 1 to 1024", j["rays_per_pixel"]);
-    }
-    if (j.contains("edge_rays_per_pixel")) {
-      s.edge_rays_per_pixel = Integer(j, p, "edge_rays_per_pixel");
-      if (!ValidEdgeRays(s))
-        Fail(Join(p, "edge_rays_per_pixel"), "0 (off), or a square number of at most 4096",
-             j["edge_rays_per_pixel"]);
-    }
-  }
+  if (root.contains("sensor")) scene->sensor = ParseSensor(root["sensor"]);
   if (root.contains("light")) {
     const json& j = root["light"];
     const std::string p = "light";
@@ -390,6 +419,7 @@ Status PrintedTag::Validate(const std::string& path) const {
 Status Scene::Validate() const {
   if (views.empty()) return Status::Error("views: expected at least one view");
   if (camera.width() <= 0) return Status::Error("camera: expected a camera model");
+  if (Status s = CheckSensor(sensor); !s) return s;
   for (size_t i = 0; i < objects.size(); ++i)
     for (size_t k = 0; k < objects[i].markers.size(); ++k) {
       const SceneMarker& m = objects[i].markers[k];
@@ -431,6 +461,95 @@ bool ValidEdgeRays(const Sensor& s) {
          r * r == s.edge_rays_per_pixel;
 }
 
+Status CheckSensor(const Sensor& s) {
+  auto bad = [](const std::string& field, const std::string& expected, const json& got) {
+    return Status::Error("sensor." + field + ": expected " + expected + ", got " +
+                         json_fields::TypeName(got));
+  };
+  if (s.bits != 8 && s.bits != 16) return bad("bits", "8 or 16", s.bits);
+  // Checked before parsing: Response::Parse would read a table's file.
+  Response response;
+  if (s.response.rfind("table:", 0) == 0 || !Response::Parse(s.response, &response))
+    return bad("response",
+               "\"linear\", \"srgb\" or \"gamma:G\" with G in [0.1, 10] (no response tables "
+               "in a scene)",
+               s.response);
+  if (s.signal_bits != 0 && (s.signal_bits < 6 || s.signal_bits > s.bits))
+    return bad("signal_bits",
+               "0 (all of sensor.bits) or 6 to " + std::to_string(s.bits) + " (sensor.bits)",
+               s.signal_bits);
+  const int white = s.white_level();
+  if (!(s.black_level >= 0 && s.black_level < white))
+    return bad("black_level",
+               "at least 0 and below the white level " + std::to_string(white) +
+                   " (2^signal_bits - 1), leaving room for the signal",
+               s.black_level);
+  static const std::set<std::string> kBayer = {"", "RGGB", "BGGR", "GRBG", "GBRG"};
+  if (!kBayer.count(s.bayer))
+    return bad("bayer", "\"\" (grey), \"RGGB\", \"BGGR\", \"GRBG\" or \"GBRG\"", s.bayer);
+  for (int c = 0; c < 3; ++c) {
+    if (!(s.channel_gain[c] > 0 && s.channel_gain[c] <= 10))
+      return bad("channel_gain[" + std::to_string(c) + "]", "a number in (0, 10]",
+                 s.channel_gain[c]);
+  }
+  if (s.format != "png" && s.format != "jpeg")
+    return bad("format", "\"png\" or \"jpeg\"", s.format);
+  if (s.format == "jpeg" && s.bits != 8)
+    return bad("format", "\"png\" with " + std::to_string(s.bits) + " bits (a JPEG holds 8)",
+               s.format);
+  if (s.format == "jpeg" && !s.bayer.empty())
+    return bad("format", "\"png\" for a Bayer mosaic (JPEG's lossy blocks would mix its colours)",
+               s.format);
+  if (s.jpeg_quality < 1 || s.jpeg_quality > 100)
+    return bad("jpeg_quality", "1 to 100", s.jpeg_quality);
+  return Status::Ok();
+}
+
+const std::vector<std::string>& SensorProfileNames() {
+  static const std::vector<std::string> kNames = {"linear", "srgb8", "jpeg_srgb", "raw12",
+                                                  "raw12_bayer"};
+  return kNames;
+}
+
+Status ApplySensorProfile(const std::string& name, Sensor* sensor) {
+  const Sensor defaults;
+  Sensor p = *sensor;
+  p.bits = defaults.bits;
+  p.response = defaults.response;
+  p.signal_bits = defaults.signal_bits;
+  p.black_level = defaults.black_level;
+  p.bayer = defaults.bayer;
+  p.channel_gain = defaults.channel_gain;
+  p.format = defaults.format;
+  p.jpeg_quality = defaults.jpeg_quality;
+  if (name == "linear") {
+    // The defaults: what every scene rendered before sensor profiles existed.
+  } else if (name == "srgb8" || name == "jpeg_srgb") {
+    // An ordinary camera: sRGB-encoded 8 bits behind optics that blur about a pixel, where
+    // the response's bend moves a blurred edge toward its dark side.
+    p.response = "srgb";
+    p.defocus_sigma_px = 0.7;
+    if (name == "jpeg_srgb") {
+      p.format = "jpeg";
+      p.jpeg_quality = 85;
+    }
+  } else if (name == "raw12" || name == "raw12_bayer") {
+    // A machine-vision raw frame: 12 bits of linear signal above an offset, in 16-bit words.
+    p.bits = 16;
+    p.signal_bits = 12;
+    p.black_level = 256;
+    if (name == "raw12_bayer") p.bayer = "RGGB";
+  } else {
+    std::string list;
+    const auto& names = SensorProfileNames();
+    for (size_t i = 0; i < names.size(); ++i)
+      list += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + names[i];
+    return Status::Error("sensor profile \"" + name + "\": unknown; expected " + list);
+  }
+  *sensor = p;
+  return Status::Ok();
+}
+
 std::string SceneToJson(const Scene& s) {
   json root;
   root["type"] = "svms.scene";
@@ -447,6 +566,13 @@ std::string SceneToJson(const Scene& s) {
                     {"rays_per_pixel", se.rays_per_pixel},
                     {"motion_blur", se.motion_blur}};
   root["sensor"]["edge_rays_per_pixel"] = se.edge_rays_per_pixel;
+  root["sensor"]["response"] = se.response;
+  root["sensor"]["signal_bits"] = se.signal_bits;
+  root["sensor"]["black_level"] = se.black_level;
+  root["sensor"]["bayer"] = se.bayer;
+  if (!se.bayer.empty()) root["sensor"]["channel_gain"] = se.channel_gain;
+  root["sensor"]["format"] = se.format;
+  if (se.format == "jpeg") root["sensor"]["jpeg_quality"] = se.jpeg_quality;
   json light = {{"ambient", s.light.ambient},
                 {"ring_light", s.light.ring_light},
                 {"narrow_band_filter", s.light.narrow_band_filter},

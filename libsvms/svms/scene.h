@@ -7,6 +7,7 @@
 // units: a white Lambertian surface (reflectance 1) facing a sun of irradiance 1 has radiance 1.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -119,7 +120,52 @@ struct Sensor {
   // 256 bring that under 1 %.
   int edge_rays_per_pixel = 0;
   double motion_blur = 0;  // exposure as a fraction of the way to the next view, [0, 1]
+
+  // The camera's transfer from electrons to stored values (docs/simulator.md, "Camera pipeline
+  // and sensor profiles"): s = electrons / full_well in [0, 1], e = response(s),
+  // DN = black_level + e * (white - black_level) with white = 2^signal_bits - 1, rounded.
+  // The defaults store linear light in all `bits`, as a grey PNG.
+  //
+  // The response curve as Response::Parse reads it: "linear", "srgb" or "gamma:G" (no tables:
+  // a scene carries no side files).
+  std::string response = "linear";
+  // Bits of signal in the container, LSB-aligned (12 in a 16-bit container: 0..4095);
+  // 0: all of `bits`. Otherwise 6 to `bits`.
+  int signal_bits = 0;
+  // Stored value of no light (a raw sensor's offset), container units; below the white level.
+  double black_level = 0;
+  // "" (grey), or the colour filter array's 2x2 pattern from the top-left pixel: "RGGB",
+  // "BGGR", "GRBG", "GBRG". The image is then a one-channel mosaic whose pixels collect
+  // channel_gain[c] times the electrons of a grey pixel, c their colour (0 red, 1 green, 2 blue).
+  std::string bayer;
+  std::array<double, 3> channel_gain = {0.55, 1.0, 0.75};  // relative quantum efficiency, r g b
+  // How the image is stored: "png" (lossless, declares its response) or "jpeg" (8 bits only,
+  // through libjpeg at jpeg_quality, 1 to 100).
+  std::string format = "png";
+  int jpeg_quality = 85;
+
+  // 2^signal_bits - 1 (2^bits - 1 when signal_bits is 0): the stored value of saturation. For
+  // a sensor that passes CheckSensor.
+  int white_level() const { return (1 << (signal_bits > 0 ? signal_bits : bits)) - 1; }
 };
+
+// Checks the sensor's camera pipeline (bits, response, signal_bits, black_level, bayer,
+// channel_gain, format, jpeg_quality) as a whole; the message names the field, as
+// "sensor.signal_bits: expected 0 (all of sensor.bits) or 6 to 8 (sensor.bits), got the number
+// 12". Scene::Validate calls it, so scenes built in code meet the same rules as scene files.
+Status CheckSensor(const Sensor& sensor);
+
+// Named camera pipelines, for `svms render --profile`, `svms dataset --profile` and the
+// benchmarks: "linear" (8-bit linear PNG: the default sensor), "srgb8" (8-bit sRGB PNG behind
+// optics of 0.7 px blur), "jpeg_srgb" (the same as a JPEG of quality 85), "raw12" (12 bits of
+// linear signal in a 16-bit PNG above a black level of 256), "raw12_bayer" (raw12 through an
+// RGGB colour filter array). In that order.
+const std::vector<std::string>& SensorProfileNames();
+// Sets the fields of the camera pipeline (bits, response, signal_bits, black_level, bayer,
+// channel_gain, format, jpeg_quality; defocus_sigma_px for the srgb8 and jpeg_srgb profiles) to
+// the profile's; the light (exposure, full_well), the noise and the sampling stay the scene's.
+// An unknown name is an error that lists the names, and leaves *sensor as it was.
+Status ApplySensorProfile(const std::string& name, Sensor* sensor);
 
 struct Background {
   enum class Kind { kBlack, kEarth, kImage };

@@ -285,7 +285,8 @@ void FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
   // Both 3x3 Sobel derivatives in one pass (the same values as two cv::Sobel calls).
   cv::spatialGradient(*edge_input, *gx, *gy, 3);
   // OpenCV's cv::Canny, reproduced without its per-call allocations (canny.h).
-  CannyFromDerivatives(*gx, *gy, o.canny_low * 8, o.canny_high * 8, true, &sc.canny,
+  CannyFromDerivatives(*gx, *gy, o.canny_low * 8 * o.noise_sigma, o.canny_high * 8 * o.noise_sigma,
+                       true, &sc.canny,
                        &sc.edges);  // Sobel is 8x the slope
   LinkChains(sc.edges, &sc);
   std::vector<std::pair<int, int>>& pieces = sc.pieces;

@@ -37,6 +37,10 @@ struct SegmentOptions {
   // each image (EstimateReadNoise); above read_noise_gate grey levels the scale becomes
   // 16 sqrt(grey + 64 sigma^2), the stabilising transform for shot plus read noise.
   double read_noise_gate = 1.5;
+  // The noise's sigma on the input's scale when the caller has stabilised the variance itself
+  // (stabilise_variance false, noise_model.h StabiliseVariance): the hysteresis thresholds are
+  // in units of it. 1 otherwise.
+  double noise_sigma = 1;
   double min_length = 4;  // pixels
   // A chain is split where it leaves its chord by more than max(max_deviation,
   // relative_deviation * chord length): lens distortion bows a marker's side by about 1 % of

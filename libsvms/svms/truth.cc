@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "svms/json_fields.h"
+#include "svms/photometric.h"
 
 namespace svms {
 namespace {
@@ -107,6 +108,7 @@ ViewTruth ComputeTruth(const Renderer& r, int view) {
 }
 
 std::string TruthToJson(const Scene& s, const std::vector<ViewTruth>& views) {
+  const std::string extension = ViewFileExtension(s.sensor);
   json root;
   root["type"] = "svms.truth";
   root["camera"] = json_fields::CameraJson(s.camera);
@@ -114,6 +116,22 @@ std::string TruthToJson(const Scene& s, const std::vector<ViewTruth>& views) {
   root["rays_per_pixel"] = s.sensor.rays_per_pixel;
   root["edge_rays_per_pixel"] = s.sensor.edge_rays_per_pixel;
   root["bits"] = s.sensor.bits;
+  // How the images store light (docs/simulator.md, "Camera pipeline and sensor profiles"): a
+  // reader turns a value v into linear light as response^-1((v - black) / (white - black)).
+  const Sensor& se = s.sensor;
+  Response response;  // the one spelling of the response ("sRGB" -> "srgb")
+  const bool parsed =
+      se.response.rfind("table:", 0) != 0 && Response::Parse(se.response, &response);
+  json photometry = {{"response", parsed ? response.Name() : se.response},
+                     {"bits", se.bits},
+                     {"signal_bits", se.signal_bits > 0 ? se.signal_bits : se.bits},
+                     {"black_level", se.black_level},
+                     {"white_level", se.white_level()},
+                     {"bayer", se.bayer},
+                     {"format", se.format}};
+  if (!se.bayer.empty()) photometry["channel_gain"] = se.channel_gain;
+  if (se.format == "jpeg") photometry["jpeg_quality"] = se.jpeg_quality;
+  root["photometry"] = photometry;
   json jv = json::array();
   for (const ViewTruth& v : views) {
     json objects = json::object();
@@ -139,7 +157,7 @@ std::string TruthToJson(const Scene& s, const std::vector<ViewTruth>& views) {
       markers.push_back(jm);
     }
     jv.push_back({{"name", v.name},
-                  {"image", v.name + ".png"},
+                  {"image", v.name + extension},
                   {"cam_from_world", PoseJ(v.cam_from_world)},
                   {"cam_from_object", objects},
                   {"markers", markers}});

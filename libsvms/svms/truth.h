@@ -45,7 +45,7 @@ struct MarkerTruth {
 };
 
 struct ViewTruth {
-  std::string name;  // image file is name + ".png"
+  std::string name;  // image file is name + ViewFileExtension(sensor): ".png" or ".jpg"
   Pose cam_from_world;
   std::vector<std::pair<std::string, Pose>> cam_from_object;
   std::vector<MarkerTruth> markers;
@@ -54,8 +54,10 @@ struct ViewTruth {
 // Truth of view `view` of the renderer's scene.
 ViewTruth ComputeTruth(const Renderer& renderer, int view);
 
-// The whole truth.json document: the scene's camera model (inline), the scene's settings, and
-// every view.
+// The whole truth.json document: the scene's camera model (inline), the scene's settings, the
+// photometry the images were stored with ("photometry": response, bits, signal_bits,
+// black_level, white_level, bayer, format, and channel_gain or jpeg_quality where they apply),
+// and every view.
 std::string TruthToJson(const Scene& scene, const std::vector<ViewTruth>& views);
 
 }  // namespace svms

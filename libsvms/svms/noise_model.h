@@ -1,0 +1,45 @@
+// The noise of a linear-light image, estimated from the image itself.
+//
+// A camera's pixel noise is read noise plus shot noise: variance(L) = read^2 + gain L at level
+// L (both in the image's units). The detector needs it to find edges on a scale where the
+// noise is the same everywhere (segments.h) and to judge what it measures; it must not assume
+// the simulator's sensor. Estimated here from the spread of the 4-neighbour Laplacian in
+// bins of brightness (texture and edges inflate it; a low quantile of |Laplacian| keeps that
+// small where most of a bin is flat), fitted by weighted least squares over the bins. Two
+// things real frames do are handled:
+//  - clipping: a black background clipped at 0 (or glints clipped at saturation) has less
+//    spread than its noise; samples touching a clipped value are left out, and a bin is used
+//    only when its level is at least 3 of its own sigmas above 0;
+//  - encoding: estimated on linear values, so a tone curve that stretched the darks has been
+//    undone first (photometric.h); the 8-bit quantisation's 1/12 level^2 is taken out.
+// Where only one level is seen (a flat scene), the variance cannot be split into read and shot
+// noise: it is all counted as read noise, which never amplifies the dark parts of the image.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+namespace svms {
+
+struct NoiseModel {
+  double read_sigma = 0;  // image units (grey levels of the image given), RMS
+  double shot_gain = 0;   // variance per unit of level: variance(L) = read_sigma^2 + shot_gain L
+  int bins = 0;           // brightness bins the fit rests on (0: nothing usable: both 0)
+  bool valid() const { return bins > 0; }
+  double Sigma(double level) const;  // the noise at `level`, image units
+  // The same model for the image scaled by `k` (values k L): read k sigma, gain k shot_gain.
+  NoiseModel Scaled(double k) const;
+};
+
+// `linear`: CV_8UC1 or CV_16UC1, linear in light (photometric.h), 0 the black level and the
+// depth's largest value saturation. Samples every 2nd pixel of every 2nd row (about 1 ms at
+// 1024 x 1024).
+NoiseModel EstimateNoise(const cv::Mat& linear);
+
+// The 16-bit linear image on a scale where `noise` is the same at every brightness (the
+// generalised Anscombe transform T(L) = 2 / g (sqrt(g L + r^2) - r) for read noise r and shot
+// gain g; L / r for read noise alone), scaled to fill 8 bits: what the edge search runs on.
+// Returns the noise's sigma on that 8-bit scale (its thresholds are in those units): the
+// scale factor itself, since T has unit noise.
+double StabiliseVariance(const cv::Mat& linear16, const NoiseModel& noise, cv::Mat* out8);
+
+}  // namespace svms
