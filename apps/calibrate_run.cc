@@ -187,6 +187,13 @@ Status WriteReport(const CalibrateRunOptions& o, const std::vector<calib::ViewOb
                       {"max_px", out->uncertainty_max}};
   if (o.calib.board_warp) j["board_warp_m"] = {r.warp.x(), r.warp.y()};
   j["noise_sigma_px"] = r.noise_sigma_px;
+  if (out->response.profiles > 0)
+    j["response_estimate"] = {{"gamma", out->response.gamma},
+                              {"sigma", out->response.sigma},
+                              {"edge_profiles", out->response.profiles},
+                              {"asymmetry", out->response.asymmetry},
+                              {"asymmetry_as_linear", out->response.asymmetry_linear},
+                              {"asymmetry_as_srgb", out->response.asymmetry_srgb}};
   if (o.redetect)
     j["pass1"] = {{"what", "corners fitted in pixels, before re-detection with the lens model"},
                   {"rms_px", out->pass1.rms_px},
@@ -207,7 +214,7 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
   }
   // Everything that can be checked is checked before the first image is read.
   Photometry photometry;
-  if (Status s = Photometry::Create(o.photometry, "", &photometry); !s) {
+  if (Status s = Photometry::Create(o.photometry, "", &photometry, true); !s) {
     std::cerr << prog << s.message() << "\n";
     return kExitBadInput;
   }
@@ -244,6 +251,8 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
   // pixels). Unreadable images get an error and no observations.
   std::vector<cv::Size> sizes;
   std::vector<std::string> errors;
+  // With --response estimate: profiles across the markers' sides, per image (response_estimate.h).
+  std::vector<std::vector<EdgeProfile>> profiles;
   auto detect_all = [&](const std::vector<std::string>& files, const CameraModel& camera,
                         const char* what) {
     const Detector detector(dopt, camera, models);
@@ -251,20 +260,26 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
     std::vector<calib::ViewObservations> all(n);
     errors.assign(n, "");
     sizes.assign(n, cv::Size());
+    profiles.assign(n, {});
     std::atomic<size_t> next{0};
     size_t done = 0;  // under io
     std::mutex io;
     Progress progress(std::string("svms calibrate: ") + what, n, "", !o.quiet);
     auto worker = [&] {
       for (size_t i; (i = next++) < n;) {
-        cv::Mat img;
+        cv::Mat img, stored;
         try {
-          if (Status s = photometry.Load(files[i], kDefaultMaxImagePixels, &img, nullptr); !s) {
+          if (Status s = photometry.Load(files[i], kDefaultMaxImagePixels, &img, nullptr,
+                                         photometry.estimating() ? &stored : nullptr);
+              !s) {
             errors[i] = s.message();
           } else {
             sizes[i] = img.size();
-            all[i] = calib::ObservationsFromDetections(detector.Detect(img), o.layout, files[i],
-                                                       corner_sigma);
+            const std::vector<Detection> found = detector.Detect(img);
+            all[i] = calib::ObservationsFromDetections(found, o.layout, files[i], corner_sigma);
+            if (photometry.estimating())
+              CollectEdgeProfiles(stored, found, photometry.black_level(), photometry.white_level(),
+                                  &profiles[i]);
           }
         } catch (const std::bad_alloc&) {
           errors[i] = files[i] + ": out of memory while detecting";
@@ -281,6 +296,28 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
   };
   const size_t n = o.images.size();
   std::vector<calib::ViewObservations> all = detect_all(o.images, CameraModel(), "detected");
+  if (photometry.estimating()) {
+    // The response from the edges the first pass found, then every image again with it.
+    std::vector<EdgeProfile> edges;
+    for (const auto& p : profiles) edges.insert(edges.end(), p.begin(), p.end());
+    out->response = EstimateGammaFromEdges(edges);
+    if (out->response.profiles == 0) {
+      std::cerr << prog << "--response estimate: too few marker sides of 12 px or more ("
+                << edges.size() << " edge profiles); expected images with larger markers, or "
+                << "give --response\n";
+      return kExitFailed;
+    }
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "response estimated from %d edge profiles: gamma %.3f +- %.3f (asymmetry "
+                  "%.2e; read as linear %.2e, as sRGB %.2e)",
+                  out->response.profiles, out->response.gamma, out->response.sigma,
+                  out->response.asymmetry, out->response.asymmetry_linear,
+                  out->response.asymmetry_srgb);
+    if (!o.quiet) std::cerr << prog << line << "\n";
+    photometry.UseResponse(Response::Gamma(out->response.gamma));
+    all = detect_all(o.images, CameraModel(), "detected again with that response");
+  }
 
   // One image size; every image must have it.
   cv::Size size;
@@ -377,9 +414,14 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
     }
   }
   Status written;
-  if (!o.out.empty())
+  if (!o.out.empty()) {
     written = AddCameraWithSidecar(o.out, out->result.camera, out->result.noise_sigma_px,
                                    static_cast<int>(out->result.views.size()), &files);
+    // A response given or estimated is stored with the camera (photometric.h), so that
+    // detect, pose and survey read its images the same way.
+    if (const std::optional<PhotometricModel> m = photometry.GivenModel(); written && m)
+      written = files.Add(PhotometricPath(o.out), PhotometricToJson(*m));
+  }
   if (written) written = files.Commit();
   if (Status s = written; !s) {
     std::cerr << prog << s.message() << "; nothing written\n";

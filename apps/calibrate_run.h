@@ -8,6 +8,7 @@
 #include "image_inputs.h"
 #include "svms/calibrate.h"
 #include "svms/layout.h"
+#include "svms/response_estimate.h"
 
 namespace svms::cli {
 
@@ -29,6 +30,7 @@ struct CalibrateRunOptions {
 
 struct CalibrateRunOutcome {
   calib::CalibrationResult result;
+  ResponseEstimate response;  // with --response estimate: the camera's response from the edges
   std::vector<std::string> image_of_view;      // per input view (readable images), its file
   std::vector<calib::ViewObservations> views;  // per input view, what was seen (result.views
                                                // indexes into it)

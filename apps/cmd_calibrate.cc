@@ -8,6 +8,7 @@
 #include "image_inputs.h"
 #include "svms/camera_covariance.h"
 #include "svms/model_io.h"
+#include "svms/photometric.h"
 
 namespace svms::cli {
 namespace {
@@ -59,6 +60,9 @@ int RunCalibrate(const CalibrateCliOptions& c) {
     if (!c.out.empty())
       std::printf("wrote %s and its intrinsics' covariance %s\n", c.out.c_str(),
                   CovarianceSidecarPath(c.out).c_str());
+    if (out.response.profiles > 0)
+      std::printf("response: gamma %.3f +- %.3f from %d edge profiles (%s)\n", out.response.gamma,
+                  out.response.sigma, out.response.profiles, PhotometricPath(c.out).c_str());
     // calib/svms/frame_alignment.h: measured 0.43 deg against the true camera of the
     // simulated calibration set (docs/flight-interface.md, "The camera frame").
     if (r.camera.lensmodel().rfind("LENSMODEL_SPLINED", 0) == 0)
@@ -106,6 +110,11 @@ void AddCalibrateCommands(CLI::App& app, int* exit_code) {
       ->capture_default_str();
   cmd->add_option("--threads", c->threads, "Detection threads")->check(CLI::Range(1, 256));
   AddPhotometryOptions(cmd, &c->photometry);
+  cmd->get_option("--response")
+      ->description(
+          "The images' response curve: linear, srgb, gamma:G, table:FILE, or estimate (from "
+          "the symmetry of the markers' edges; docs/detector.md). Given or estimated, it is "
+          "stored with the camera as OUT.photometric.json");
   cmd->add_flag("--quiet", c->quiet, "No progress on stderr");
   cmd->add_flag("--no-redetect", c->no_redetect,
                 "One pass only: do not re-detect the corners with the first pass's lens model");

@@ -25,6 +25,7 @@
 #include "svms/image_io.h"
 #include "svms/model_io.h"
 #include "svms/photometric.h"
+#include "svms/response_estimate.h"
 
 namespace svms::cli {
 namespace {
@@ -85,6 +86,35 @@ std::string OverlayPath(const std::string& dir, const std::string& image, int fr
   return (fs::path(dir) / (fs::path(image).stem().string() + suffix + ".png")).string();
 }
 
+// Whether the response `photometric` declares ({"response", "black_level", "white_level"})
+// agrees with the edges of the markers found in `stored` (the image as stored): "" when it does
+// or when there are too few edges to tell, else a warning naming both (response_estimate.h).
+std::string CheckResponse(const cv::Mat& stored, const std::vector<Detection>& found,
+                          const nlohmann::json& photometric) {
+  if (photometric.contains("bayer")) return "";  // a mosaic's edges are the demosaic's
+  std::vector<EdgeProfile> profiles;
+  CollectEdgeProfiles(stored, found, photometric["black_level"].get<double>(),
+                      photometric["white_level"].get<double>(), &profiles, 400);
+  const ResponseEstimate e = EstimateGammaFromEdges(profiles);
+  if (e.profiles == 0) return "";
+  Response declared;
+  if (!Response::Parse(photometric["response"].get<std::string>(), &declared).ok()) return "";
+  // The declared curve's gamma: sRGB is close to 2.2; a table is not checked.
+  double g = 1;
+  if (declared.kind() == Response::Kind::kSrgb) g = 2.2;
+  if (declared.kind() == Response::Kind::kGamma) g = declared.gamma();
+  if (declared.kind() == Response::Kind::kTable) return "";
+  if (std::abs(e.gamma - g) <= std::max(0.4, 4 * e.sigma)) return "";
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "the response %s contradicts the image: the markers' edges (%d profiles) say "
+                "gamma %.2f +- %.2f; expected --response gamma:%.1f, or srgb for a camera's "
+                "JPEG (docs/detector.md)",
+                photometric["response"].get<std::string>().c_str(), e.profiles, e.gamma, e.sigma,
+                e.gamma);
+  return buf;
+}
+
 int RunDetect(const DetectOptions& o) {
   auto bad_input = [](const std::string& m) {
     std::cerr << "svms detect: " << m << "\n";
@@ -143,7 +173,7 @@ int RunDetect(const DetectOptions& o) {
   // One linear image (of `name`, frame `frame` of a video or -1) into its JSON line `j`; the
   // first failure in *error.
   auto measure = [&](const cv::Mat& linear, const std::string& name, int frame, nlohmann::json* j,
-                     std::string* error) {
+                     std::string* error, std::vector<Detection>* found_out = nullptr) {
     if (linear.cols < 16 || linear.rows < 16) {
       *error = name + ": " + std::to_string(linear.cols) + "x" + std::to_string(linear.rows) +
                " pixels is too small to hold a marker (at least 16x16 expected)";
@@ -170,6 +200,7 @@ int RunDetect(const DetectOptions& o) {
       ds.push_back(dj);
     }
     (*j)["detections"] = ds;
+    if (found_out) *found_out = found;
     if (!stats.debug_error.empty()) *error = "--debug: " + stats.debug_error;
     if (!o.overlay.empty()) {
       cv::Mat bgr = DisplayImage(linear);
@@ -180,18 +211,31 @@ int RunDetect(const DetectOptions& o) {
   };
   // One image file: its JSON line; a failure in errors[i].
   std::vector<std::string> errors(files.size());
+  std::mutex warnings_mutex;
   auto process = [&](size_t i) {
     const std::string& f = files[i];
     nlohmann::json j;
     SetPath(j, "image", f);
-    cv::Mat linear;
+    cv::Mat linear, stored;
     nlohmann::json photometric;
     try {
-      if (Status s = photometry.Load(f, max_pixels, &linear, &photometric); !s)
+      std::vector<Detection> found;
+      if (Status s = photometry.Load(f, max_pixels, &linear, &photometric, &stored); !s)
         errors[i] = s.message();
       else
-        measure(linear, f, -1, &j, &errors[i]);
-      if (!photometric.is_null()) j["photometry"] = photometric;
+        measure(linear, f, -1, &j, &errors[i], &found);
+      if (!photometric.is_null()) {
+        // A response not declared by the file itself is checked against the image's edges.
+        if (photometric["source"] != "image" && !found.empty()) {
+          const std::string warning = CheckResponse(stored, found, photometric);
+          if (!warning.empty()) {
+            photometric["warning"] = warning;
+            std::lock_guard<std::mutex> lock(warnings_mutex);
+            std::cerr << "svms detect: " << f << ": warning: " << warning << "\n";
+          }
+        }
+        j["photometry"] = photometric;
+      }
     } catch (const std::bad_alloc&) {
       errors[i] = f +
                   ": out of memory while detecting; expected a smaller image "

@@ -12,6 +12,7 @@ extern "C" {
 #include <cstdio>
 #include <filesystem>
 #include <mutex>
+#include <opencv2/imgproc.hpp>
 
 namespace svms::cli {
 
@@ -78,11 +79,16 @@ void AddPhotometryOptions(CLI::App* cmd, PhotometryOptions* o) {
 }
 
 Status Photometry::Create(const PhotometryOptions& options, const std::string& camera_path,
-                          Photometry* out) {
+                          Photometry* out, bool allow_estimate) {
   Photometry p;
   p.options_ = options;
-  if (!options.response.empty())
-    if (Status s = Response::Parse(options.response, &p.option_response_); !s) return s;
+  if (options.estimate() && allow_estimate) {
+    p.estimating_ = true;
+    p.options_.response.clear();
+  } else if (!options.response.empty()) {
+    if (Status s = Response::Parse(options.response, &p.option_response_); !s)
+      return Status::Error(s.message() + (allow_estimate ? ", or estimate" : ""));
+  }
   if (!options.bayer.empty())
     if (Status s = ParseBayerPattern(options.bayer, &p.option_bayer_); !s) return s;
   PhotometricModel check;
@@ -102,6 +108,21 @@ Status Photometry::Create(const PhotometryOptions& options, const std::string& c
   }
   *out = std::move(p);
   return Status::Ok();
+}
+
+std::optional<PhotometricModel> Photometry::GivenModel() const {
+  if (options_.response.empty()) return std::nullopt;
+  PhotometricModel m;
+  m.response = option_response_;
+  m.black_level = black_level();
+  m.white_level = white_level();
+  m.bayer = option_bayer_;
+  return m;
+}
+
+void Photometry::UseResponse(const Response& response) {
+  option_response_ = response;
+  options_.response = response.Name();
 }
 
 PhotometricModel Photometry::Resolve(double depth_max, const std::string& declared,
@@ -150,10 +171,16 @@ Status Photometry::LinearizeFrame(const cv::Mat& frame, const std::string& decla
 }
 
 Status Photometry::Load(const std::string& path, int64_t max_pixels, cv::Mat* linear,
-                        nlohmann::json* json) const {
+                        nlohmann::json* json, cv::Mat* stored_grey) const {
   cv::Mat stored;
   ImageHeader header;
   if (Status s = LoadStoredImage(path, max_pixels, &stored, &header); !s) return s;
+  if (stored_grey) {
+    if (stored.channels() == 3)
+      cv::cvtColor(stored, *stored_grey, cv::COLOR_BGR2GRAY);
+    else
+      *stored_grey = stored;
+  }
   if (Status s = LinearizeFrame(stored, header.declared_response, linear, json); !s)
     return Status::Error(path + ": " + s.message());
   return Status::Ok();

@@ -326,6 +326,10 @@ struct LineFit {
   // of one point's sigma (the line took two degrees of freedom; on a 10-point side of a small
   // marker sqrt(ss / n) is 11 % low, and its corners' sigmas with it).
   double rms_px = 0;
+  // Sums for the lag-1 autocorrelation of the inliers' signed residuals along the side (in the
+  // order of the points): sum r_i r_(i+1) over consecutive inliers, sum r_i^2, and the pairs.
+  double lag1_products = 0, lag1_squares = 0;
+  int lag1_pairs = 0;
 };
 
 // Weighted total least squares line through `pts`, refitted without the points farther from it
@@ -374,7 +378,23 @@ LineFit FitLineRobust(const std::vector<Eigen::Vector2d>& pts, const std::vector
       ++fit.inliers;
     }
     fit.rms_px = std::sqrt(ss / std::max(1, fit.inliers - 2));
-    if (pass == o.trim_passes) break;
+    if (pass == o.trim_passes) {
+      fit.lag1_products = fit.lag1_squares = 0;
+      fit.lag1_pairs = 0;
+      double previous = 0;
+      bool have_previous = false;
+      for (size_t i = 0; i < pts.size(); ++i) {
+        if (!use[i]) {
+          have_previous = false;
+          continue;
+        }
+        const double signed_r = px_per_unit * nrm.dot(pts[i] - mean);
+        fit.lag1_squares += signed_r * signed_r;
+        if (have_previous) fit.lag1_products += previous * signed_r, ++fit.lag1_pairs;
+        previous = signed_r, have_previous = true;
+      }
+      break;
+    }
     std::nth_element(abs_in.begin(), abs_in.begin() + abs_in.size() / 2, abs_in.end());
     const double sigma = 1.4826 * abs_in[abs_in.size() / 2];
     const double cut = std::max(o.trim_sigmas * sigma, o.trim_floor_px);
@@ -421,6 +441,8 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
   const Plane plane{pinhole ? nullptr : camera};
   for (int it = 0; it < o.iterations; ++it) {
     std::array<Eigen::Vector3d, 4> lines;  // in the fitting plane
+    double lag1_products = 0, lag1_squares = 0;
+    int lag1_pairs = 0;
     double min_side = INFINITY;
     for (int k = 0; k < 4; ++k)
       min_side = std::min(min_side, (out.corners[(k + 1) % 4] - out.corners[k]).norm());
@@ -499,7 +521,20 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       lines[k] = fit.line;
       out.side_points[k] = fit.inliers;
       out.side_rms[k] = fit.rms_px;
+      lag1_products += fit.lag1_products, lag1_squares += fit.lag1_squares;
+      lag1_pairs += fit.lag1_pairs;
     }
+    // Neighbouring edge points (1.5 px apart) err together where the image was smoothed: by
+    // the optics' blur, a JPEG's blocks, a demosaicing filter. Their scatter then says less
+    // than independent points would: with a lag-1 correlation rho along the side, a line's
+    // offset and slope have (1 + rho) / (1 - rho) times the variance the scatter gives (an
+    // AR(1) model). rho is pooled over the four sides and taken only where it stands out of
+    // its own noise (2 / sqrt(pairs)), so that white noise costs nothing.
+    const double rho_raw = lag1_squares > 0 ? lag1_products / lag1_squares : 0;
+    const double rho =
+        rho_raw > 2 / std::sqrt(std::max(lag1_pairs, 1)) ? std::min(rho_raw, 0.9) : 0;
+    out.correlation = rho;
+    const double correlated = (1 + rho) / (1 - rho);
     // A line fitted to n points spread evenly over a fraction f of a side, residual RMS s: its
     // offset at the middle has variance s^2 / n and its slope s^2 / (n (f L)^2 / 12); at the
     // side's end (L / 2 away) the perpendicular variance is s^2 / n (1 + 3 / f^2).
@@ -517,7 +552,7 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       const double var =
           (out.side_rms[k] * out.side_rms[k] * dof + o.pooled_prior_dof * pooled_var) /
           (dof + o.pooled_prior_dof);
-      perp[k] = std::sqrt(var * (1 + 3 / (f * f)) / std::max(1, out.side_points[k]));
+      perp[k] = std::sqrt(correlated * var * (1 + 3 / (f * f)) / std::max(1, out.side_points[k]));
     }
     for (int k = 0; k < 4; ++k) {
       const int j = (k + 3) % 4;

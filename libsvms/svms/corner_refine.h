@@ -95,9 +95,14 @@ struct RefinedCorners {
   std::array<int, 4> side_points{};  // edge points used per side
   // Standard deviation of each corner (pixels, each axis) propagated from its two side lines'
   // fits: each line's offset and slope from its edge points' scatter (side_rms shrunk toward
-  // the four sides' pooled scatter, see pooled_prior_dof; side_points),
+  // the four sides' pooled scatter, see pooled_prior_dof; side_points; times (1 + rho) /
+  // (1 - rho) in variance for the points' correlation rho along the side, `correlation`),
   // evaluated at the corner, then the intersection at the lines' angle.
   std::array<double, 4> corner_sigma{};
+  // The lag-1 correlation of the edge points' residuals along the sides (pooled over the four;
+  // 0 where it does not stand out of its noise), by which corner_sigma was widened: see
+  // RefineCorners.
+  double correlation = 0;
   int excluded_points = 0;  // edge points left out because they fell in an ExcludedRegion
   // Sides whose edge was taken from under a shadow's penumbra (see penumbra_dark_fraction).
   std::array<bool, 4> penumbra_sides{};
