@@ -281,8 +281,8 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
               CollectEdgeProfiles(stored, found, photometry.black_level(), photometry.white_level(),
                                   &profiles[i]);
           }
-        } catch (const std::bad_alloc&) {
-          errors[i] = files[i] + ": out of memory while detecting";
+        } catch (...) {
+          errors[i] = ItemFailure(files[i], std::current_exception());
         }
         std::lock_guard<std::mutex> lock(io);
         progress.Update(++done);
@@ -419,8 +419,15 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
                                    static_cast<int>(out->result.views.size()), &files);
     // A response given or estimated is stored with the camera (photometric.h), so that
     // detect, pose and survey read its images the same way.
-    if (const std::optional<PhotometricModel> m = photometry.GivenModel(); written && m)
+    if (const std::optional<PhotometricModel> m = photometry.GivenModel(); written && m) {
       written = files.Add(PhotometricPath(o.out), PhotometricToJson(*m));
+    } else {
+      std::error_code ec;
+      if (std::filesystem::exists(PhotometricPath(o.out), ec))
+        std::cerr << prog << "note: " << PhotometricPath(o.out)
+                  << " (from an earlier calibration) is kept; detect, pose and survey will read "
+                     "the images with it (give --response to replace it)\n";
+    }
   }
   if (written) written = files.Commit();
   if (Status s = written; !s) {

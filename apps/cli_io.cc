@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 #include <mutex>
+#include <opencv2/core.hpp>
 
 #include "svms/file_io.h"
 
@@ -62,6 +63,22 @@ void SetPath(nlohmann::json& j, const std::string& key, const std::string& path)
     hex += kHex[c & 15];
   }
   j[key + "_hex"] = hex;
+}
+
+std::string ItemFailure(const std::string& item, std::exception_ptr failure) {
+  try {
+    std::rethrow_exception(failure);
+  } catch (const std::bad_alloc&) {
+    return item + ": out of memory; expected a smaller image or fewer --threads";
+  } catch (const cv::Exception& e) {
+    if (e.code == cv::Error::StsNoMem)
+      return item + ": out of memory (in OpenCV); expected a smaller image or fewer --threads";
+    return item + ": OpenCV error: " + e.err;
+  } catch (const std::exception& e) {
+    return item + ": internal error: " + e.what();
+  } catch (...) {
+    return item + ": internal error";
+  }
 }
 
 bool WriteStdout(const std::string& text, bool flush, std::string* error) {
@@ -130,6 +147,7 @@ std::vector<std::string>& Failures() {
 void OutputFile::close() {
   if (written_) return;
   written_ = true;
+  if (std::uncaught_exceptions() > exceptions_) return;
   if (Status s = WriteFileAtomically(path_, str()); !s) NoteOutputFailure(s.message());
 }
 

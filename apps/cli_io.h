@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdio>
+#include <exception>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -39,6 +40,12 @@ Status CheckNotAnInput(const std::string& flag, const std::string& out,
 // directory: Permission denied", "...: cannot write in it: Read-only file system".
 Status PrepareOutputDirectory(const std::string& flag, const std::string& dir);
 
+// One line for an exception that ended the work on one item of a batch (`item`: the file):
+// out of memory (std::bad_alloc, or OpenCV's StsNoMem), another OpenCV error, or an internal
+// error. Called from `catch (...)` with std::current_exception(), so that nothing escapes a
+// worker thread (which would abort the process).
+std::string ItemFailure(const std::string& item, std::exception_ptr failure);
+
 // The longest line `svms pose --stdin` reads (a path and a time stamp); longer lines are
 // reported and skipped, so that an endless line cannot exhaust memory.
 constexpr size_t kMaxStdinLineBytes = 65536;
@@ -56,9 +63,12 @@ namespace svms::cli {
 // gathered in memory and written atomically when the object is destroyed, so a failed write
 // leaves an earlier report as it was. A failure is remembered (not thrown from a destructor):
 // TakeOutputFailures() returns and clears them, and each benchmark reports them and exits 1.
+// Destroyed while an exception unwinds the stack, it writes nothing: a half-built table must
+// not replace a good one.
 class OutputFile : public std::ostringstream {
  public:
-  explicit OutputFile(std::string path) : path_(std::move(path)) {}
+  explicit OutputFile(std::string path)
+      : path_(std::move(path)), exceptions_(std::uncaught_exceptions()) {}
   ~OutputFile() override { close(); }
   OutputFile(const OutputFile&) = delete;
   OutputFile& operator=(const OutputFile&) = delete;
@@ -68,6 +78,7 @@ class OutputFile : public std::ostringstream {
  private:
   std::string path_;
   bool written_ = false;
+  int exceptions_;  // in flight at construction: a destructor run by a new one writes nothing
 };
 std::vector<std::string> TakeOutputFailures();
 // Records a failure of another kind of output (an image, a model) for TakeOutputFailures.

@@ -359,6 +359,48 @@ int RunBenchProfiles(const BenchProfilesOptions& o) {
   line("detect ms median, textured background", "ms_median_textured", 2);
   line("noise estimate / truth, read (16-bit)", "noise_read_ratio_median", 2);
   line("noise estimate / truth, mid grey (16-bit)", "noise_mid_ratio_median", 2);
+  // The issue's targets, where the profiles they name were run.
+  auto has = [&](const std::string& p) { return per.count(p) > 0; };
+  auto num = [&](const std::string& p, const std::string& k) {
+    return per[p][k].is_number() ? per[p][k].get<double>() : kNaN;
+  };
+  auto verdict = [](bool ok) { return ok ? "**met**" : "**not met**"; };
+  md << "\nTargets (issue 28):\n\n";
+  if (has("linear") && has("jpeg_srgb")) {
+    double worst = 0;
+    std::string where;
+    for (size_t b = 0; b < SizeBuckets().size(); ++b) {
+      const json &l = per["linear"]["rate_by_size"][b], &g = per["jpeg_srgb"]["rate_by_size"][b];
+      if (l["total"].get<int>() == 0) continue;
+      const double d = 100.0 * l["found"].get<int>() / l["total"].get<int>() -
+                       100.0 * g["found"].get<int>() / std::max(1, g["total"].get<int>());
+      if (d > worst) worst = d, where = F(SizeBuckets()[b].first, 0) + " px";
+    }
+    md << "- jpeg_srgb detection within 2 points of linear at every size: " << verdict(worst <= 2)
+       << " (largest shortfall " << F(worst, 1) << " points" << (where.empty() ? "" : ", " + where)
+       << ")\n";
+    const double bias = num("jpeg_srgb", "corner_bias_px_20plus");
+    md << "- jpeg_srgb corner bias below 0.01 px at 20 px and more: "
+       << verdict(std::abs(bias) < 0.01) << " (" << F(bias, 4) << ")\n";
+    const double nees = num("jpeg_srgb", "nees_mean"), below = num("jpeg_srgb", "nees_below_12_59");
+    md << "- jpeg_srgb NEES mean in [4.5, 7.5] with 90 % below 12.59: "
+       << verdict(nees >= 4.5 && nees <= 7.5 && below >= 0.9) << " (" << F(nees, 2) << ", "
+       << F(100 * below, 1) << " %)\n";
+    const double ratio =
+        num("jpeg_srgb", "orientation_median_deg") / num("linear", "orientation_median_deg");
+    md << "- jpeg_srgb orientation median within 1.5x linear's: " << verdict(ratio <= 1.5) << " ("
+       << F(ratio, 2) << "x)\n";
+  }
+  if (has("linear") && has("raw12")) {
+    const double gain = 1 - num("raw12", "corner_rms_px_16") / num("linear", "corner_rms_px_16");
+    md << "- raw12 corner RMS at 16 px at least 20 % better than 8 bits: " << verdict(gain >= 0.2)
+       << " (" << F(100 * gain, 0) << " %)\n";
+  }
+  for (const std::string& p : profiles) {
+    const double r = num(p, "ms_median_black") / num(p, "ms_median_textured");
+    md << "- " << p << ": black-background frames within 30 % of textured ones' median time: "
+       << verdict(std::abs(r - 1) <= 0.3) << " (" << F(r, 2) << "x)\n";
+  }
   md << "\nCorner bias: each found marker's four corner errors along their outward diagonal, "
         "averaged (positive: the square found too large). NEES: the single-marker pose's error "
         "against its own 6x6 covariance. The noise rows compare the detector's estimate "

@@ -79,13 +79,6 @@ nlohmann::json DetectionJson(const Detection& d) {
   return j;
 }
 
-// Where --overlay puts the overlay of `image` (of its frame `frame` for a video).
-std::string OverlayPath(const std::string& dir, const std::string& image, int frame = -1) {
-  char suffix[32] = "";
-  if (frame >= 0) std::snprintf(suffix, sizeof suffix, "_%06d", frame);
-  return (fs::path(dir) / (fs::path(image).stem().string() + suffix + ".png")).string();
-}
-
 // Whether the response `photometric` declares ({"response", "black_level", "white_level"})
 // agrees with the edges of the markers found in `stored` (the image as stored): "" when it does
 // or when there are too few edges to tell, else a warning naming both (response_estimate.h).
@@ -94,7 +87,7 @@ std::string CheckResponse(const cv::Mat& stored, const std::vector<Detection>& f
   if (photometric.contains("bayer")) return "";  // a mosaic's edges are the demosaic's
   std::vector<EdgeProfile> profiles;
   CollectEdgeProfiles(stored, found, photometric["black_level"].get<double>(),
-                      photometric["white_level"].get<double>(), &profiles, 400);
+                      photometric["white_level"].get<double>(), &profiles, 80);
   const ResponseEstimate e = EstimateGammaFromEdges(profiles);
   if (e.profiles == 0) return "";
   Response declared;
@@ -144,18 +137,13 @@ int RunDetect(const DetectOptions& o) {
   if (!o.overlay.empty()) {
     if (Status s = PrepareOutputDirectory("--overlay", o.overlay); !s)
       return bad_input(s.message());
-    std::map<std::string, std::string> first_of;
-    for (const std::string& f : files) {
-      const std::string out = OverlayPath(o.overlay, f, IsVideoFile(f) ? 0 : -1);
-      if (Status s = CheckNotAnInput("--overlay", out, files); !s) return bad_input(s.message());
-      auto [it, fresh] = first_of.emplace(out, f);
-      if (!fresh)
-        return bad_input("--overlay " + o.overlay + ": " + f + " and " + it->second +
-                         " would both write " + out + "; expected inputs with distinct names");
-    }
+    if (Status s = CheckOverlayTargets(o.overlay, files); !s) return bad_input(s.message());
   }
   if (!o.debug.empty()) {
     if (Status s = PrepareOutputDirectory("--debug", o.debug); !s) return bad_input(s.message());
+    for (const char* picture : {"1_segments.png", "2_quads.png"})
+      if (Status s = CheckNotAnInput("--debug", (fs::path(o.debug) / picture).string(), files); !s)
+        return bad_input(s.message());
   }
   // LoadStoredImage refuses absurd images from their headers before decoding them; OpenCV's
   // own limit (read once, at its first use) is a second line.
@@ -212,6 +200,7 @@ int RunDetect(const DetectOptions& o) {
   // One image file: its JSON line; a failure in errors[i].
   std::vector<std::string> errors(files.size());
   std::mutex warnings_mutex;
+  std::atomic<int> checked_responses{0};
   auto process = [&](size_t i) {
     const std::string& f = files[i];
     nlohmann::json j;
@@ -225,8 +214,10 @@ int RunDetect(const DetectOptions& o) {
       else
         measure(linear, f, -1, &j, &errors[i], &found);
       if (!photometric.is_null()) {
-        // A response not declared by the file itself is checked against the image's edges.
-        if (photometric["source"] != "image" && !found.empty()) {
+        // A response not declared by the file itself is checked against the image's edges, on
+        // the first few images of the run (it is a setting of the run, and the check costs a
+        // few milliseconds).
+        if (photometric["source"] != "image" && !found.empty() && checked_responses++ < 8) {
           const std::string warning = CheckResponse(stored, found, photometric);
           if (!warning.empty()) {
             photometric["warning"] = warning;
@@ -236,10 +227,8 @@ int RunDetect(const DetectOptions& o) {
         }
         j["photometry"] = photometric;
       }
-    } catch (const std::bad_alloc&) {
-      errors[i] = f +
-                  ": out of memory while detecting; expected a smaller image "
-                  "(--max-megapixels) or fewer --threads";
+    } catch (...) {
+      errors[i] = ItemFailure(f, std::current_exception());
     }
     if (!errors[i].empty()) j["error"] = errors[i];
     return DumpJson(j);
@@ -269,8 +258,9 @@ int RunDetect(const DetectOptions& o) {
       }
       cv::Mat frame, linear;
       double t = 0;
-      int index = 0;
+      int index = 0, frames = 0;
       while (stdout_error.empty() && video.Next(&frame, &t, &index)) {
+        ++frames;
         nlohmann::json j, photometric;
         SetPath(j, "image", files[i]);
         j["frame"] = index;
@@ -288,7 +278,8 @@ int RunDetect(const DetectOptions& o) {
         }
         WriteStdout(DumpJson(j) + "\n", false, &stdout_error);
       }
-      if (index == 0 && frame.empty()) errors[i] = files[i] + ": the video has no frames";
+      if (frames == 0) errors[i] = files[i] + ": the video has no frames";
+      if (std::string e = video.Incomplete(frames); !e.empty()) errors[i] = e;
     }
   } else {
     std::vector<std::string> lines(files.size());

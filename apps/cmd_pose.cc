@@ -84,10 +84,6 @@ nlohmann::json FrameJson(const FrameResult& r) {
 
 namespace {
 
-std::string OverlayPath(const std::string& dir, const std::string& image) {
-  return (fs::path(dir) / (fs::path(image).stem().string() + ".png")).string();
-}
-
 int RunPose(const PoseCliOptions& o) {
   auto bad_input = [](const std::string& m) {
     std::cerr << "svms pose: " << m << "\n";
@@ -111,15 +107,7 @@ int RunPose(const PoseCliOptions& o) {
   if (!o.overlay.empty()) {
     if (Status s = PrepareOutputDirectory("--overlay", o.overlay); !s)
       return bad_input(s.message());
-    std::map<std::string, std::string> first_of;
-    for (const std::string& f : files) {
-      const std::string out = OverlayPath(o.overlay, f);
-      if (Status s = CheckNotAnInput("--overlay", out, files); !s) return bad_input(s.message());
-      auto [it, fresh] = first_of.emplace(out, f);
-      if (!fresh)
-        return bad_input("--overlay " + o.overlay + ": " + f + " and " + it->second +
-                         " would both write " + out + "; expected inputs with distinct names");
-    }
+    if (Status s = CheckOverlayTargets(o.overlay, files); !s) return bad_input(s.message());
   }
   // LoadImage refuses absurd images from their headers; OpenCV's own limit is a second line.
   const int64_t max_pixels = static_cast<int64_t>(o.max_megapixels * 1e6);
@@ -163,10 +151,7 @@ int RunPose(const PoseCliOptions& o) {
         j = FrameJson(r);
         valid += r.pose.valid;
         if (!o.overlay.empty()) {
-          char suffix[32] = "";
-          if (frame_index >= 0) std::snprintf(suffix, sizeof suffix, "_%06d", frame_index);
-          const std::string out =
-              (fs::path(o.overlay) / (fs::path(path).stem().string() + suffix + ".png")).string();
+          const std::string out = OverlayPath(o.overlay, path, frame_index);
           if (SameFile(out, path)) {
             error = "--overlay " + out + ": is the input " + path + "; expected a new file name";
           } else {
@@ -175,9 +160,9 @@ int RunPose(const PoseCliOptions& o) {
             if (Status w = WriteImage(out, bgr); !w) error = "--overlay: " + w.message();
           }
         }
-      } catch (const std::bad_alloc&) {
+      } catch (...) {
         j = nlohmann::json::object();
-        error = path + ": out of memory while estimating the pose";
+        error = ItemFailure(path, std::current_exception());
       }
     }
     SetPath(j, "image", path);
@@ -205,8 +190,10 @@ int RunPose(const PoseCliOptions& o) {
     }
     cv::Mat f;
     double t = 0;
-    int i = 0;
-    while (stdout_error.empty() && v.Next(&f, &t, &i)) frame(path, t, "", &f, i);
+    int i = 0, frames = 0;
+    while (stdout_error.empty() && v.Next(&f, &t, &i)) frame(path, t, "", &f, i), ++frames;
+    if (frames == 0) frame(path, static_cast<double>(index), path + ": the video has no frames");
+    if (std::string e = v.Incomplete(frames); !e.empty()) frame(path, t, e);
   };
   if (o.from_stdin) {
     std::string line;

@@ -98,8 +98,8 @@ int RenderScene(const Scene& scene, const std::string& source, const std::string
               AddImage((std::filesystem::path(o.out) / (scene.views[v].name + ".exr")).string(),
                        radiance, &files);
         }
-      } catch (const std::bad_alloc&) {
-        written = Status::Error(file + ": out of memory while rendering");
+      } catch (...) {
+        written = Status::Error(ItemFailure(file, std::current_exception()));
       }
       std::lock_guard<std::mutex> lock(io);
       if (!written) failures.push_back(written.message());

@@ -181,8 +181,8 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
                       std::to_string(camera.height());
         else
           images[i].detections = detector.Detect(img);
-      } catch (const std::bad_alloc&) {
-        errors[i] = files[i] + ": out of memory while detecting";
+      } catch (...) {
+        errors[i] = ItemFailure(files[i], std::current_exception());
       }
       std::lock_guard<std::mutex> lock(io);
       progress.Update(++done);

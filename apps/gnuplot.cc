@@ -16,20 +16,27 @@ Status Gnuplot(const std::string& dir, const std::string& name, const std::strin
   const std::string tmp_png = "." + name + ".png.svms-plot",
                     tmp_svg = "." + name + ".svg.svms-plot",
                     tmp_log = "." + name + ".gp.log.svms-plot";
-  const std::string text =
-      "set terminal pngcairo size " + size + " font 'DejaVu Sans,10'\nset output '" + tmp_png +
-      "'\n" + body + "\nset terminal svg size " + size + " font 'DejaVu Sans,10'\nset output '" +
-      tmp_svg + "'\n" + body + "\nset output\n";
-  // The script is kept beside the pictures (to edit and run again); gnuplot reads it from its
-  // standard input.
+  // The script kept beside the pictures names them (to edit and run again); the one gnuplot
+  // runs, on its standard input, draws into the temporaries.
+  auto script_for = [&](const std::string& png, const std::string& svg) {
+    return "set terminal pngcairo size " + size + " font 'DejaVu Sans,10'\nset output '" + png +
+           "'\n" + body + "\nset terminal svg size " + size +
+           " font 'DejaVu Sans,10'\nset output '" + svg + "'\n" + body + "\nset output\n";
+  };
+  const std::string text = script_for(name + ".png", name + ".svg");
   const std::string script = (d / (name + ".gp")).string();
   if (Status s = into ? into->Add(script, text) : WriteFileAtomically(script, text); !s) return s;
   // Data files of the same group are not at their names until the group is committed: gnuplot
-  // reads them from their temporaries (each 'NAME' in the script that is a file of the group).
-  std::string run_text = text;
+  // reads them from their temporaries (each 'NAME' in the script that is a file of the group in
+  // this directory; the directories compared as files, so "rep/" and "rep" are one).
+  std::string run_text = script_for(tmp_png, tmp_svg);
   if (into) {
     for (const std::string& path : into->paths()) {
-      if (fs::path(path).parent_path() != d) continue;
+      std::error_code ec;
+      const fs::path parent = fs::path(path).parent_path();
+      if (!fs::equivalent(parent.empty() ? fs::path(".") : parent, d.empty() ? fs::path(".") : d,
+                          ec))
+        continue;
       const std::string from = "'" + fs::path(path).filename().string() + "'";
       const std::string to = "'" + fs::path(into->temporary(path)).filename().string() + "'";
       for (size_t at = 0; (at = run_text.find(from, at)) != std::string::npos; at += to.size())

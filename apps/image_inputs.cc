@@ -229,8 +229,23 @@ Status VideoFrames::Open(const std::string& path) {
                          "; expected a video file (.mp4, .mkv, .avi, ...)");
   }
   backend_ = capture_.getBackendName();
+  path_ = path;
+  declared_frames_ = capture_.get(cv::CAP_PROP_FRAME_COUNT);
   index_ = 0;
   return Status::Ok();
+}
+
+std::string VideoFrames::Incomplete(int frames_read) const {
+  // Containers round their frame count from the duration; a frame or two short is not a
+  // failure.
+  if (!(declared_frames_ > 0) || frames_read + 2 >= declared_frames_) return "";
+  std::lock_guard<std::mutex> lock(ffmpeg_mutex);
+  char buf[128];
+  std::snprintf(buf, sizeof buf, ": %d of the %.0f frames the container declares were read",
+                frames_read, declared_frames_);
+  return path_ + buf +
+         (ffmpeg_last_error.empty() ? std::string() : " (FFmpeg: " + ffmpeg_last_error + ")") +
+         "; expected a complete video";
 }
 
 bool VideoFrames::Next(cv::Mat* frame, double* timestamp_s, int* index) {

@@ -94,11 +94,15 @@ class VideoFrames {
   Status Open(const std::string& path);
   // The next frame (as decoded: 8-bit BGR or grey); false at the end.
   bool Next(cv::Mat* frame, double* timestamp_s, int* index);
+  // After the last frame: "" when `frames_read` is what the container says it holds (or it
+  // does not say), else why the video ended early (FFmpeg's last error).
+  std::string Incomplete(int frames_read) const;
   std::string backend() const { return backend_; }
 
  private:
   cv::VideoCapture capture_;
-  std::string backend_;
+  std::string backend_, path_;
+  double declared_frames_ = 0;
   int index_ = 0;
 };
 

@@ -1,11 +1,37 @@
 #include "overlay.h"
 
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
 #include <opencv2/imgproc.hpp>
 
+#include "cli_io.h"
+#include "image_inputs.h"
 #include "svms/photometric.h"
 
 namespace svms::cli {
+
+std::string OverlayPath(const std::string& dir, const std::string& image, int frame) {
+  char suffix[32] = "";
+  if (frame >= 0) std::snprintf(suffix, sizeof suffix, "_%06d", frame);
+  return (std::filesystem::path(dir) /
+          (std::filesystem::path(image).stem().string() + suffix + ".png"))
+      .string();
+}
+
+Status CheckOverlayTargets(const std::string& dir, const std::vector<std::string>& inputs) {
+  std::map<std::string, std::string> first_of;
+  for (const std::string& f : inputs) {
+    const std::string out = OverlayPath(dir, f, IsVideoFile(f) ? 0 : -1);
+    if (Status s = CheckNotAnInput("--overlay", out, inputs); !s) return s;
+    auto [it, fresh] = first_of.emplace(out, f);
+    if (!fresh)
+      return Status::Error("--overlay " + dir + ": " + f + " and " + it->second +
+                           " would both write " + out + "; expected inputs with distinct names");
+  }
+  return Status::Ok();
+}
 
 // The paper's Fig. 4 style: a coloured outline per marker, a star at the post tip, the ID.
 void DrawOverlay(cv::Mat& bgr, const std::vector<Detection>& found) {

@@ -2,9 +2,11 @@
 #pragma once
 
 #include <opencv2/core.hpp>
+#include <string>
 #include <vector>
 
 #include "svms/detector.h"
+#include "svms/status.h"
 
 namespace svms::cli {
 
@@ -12,6 +14,14 @@ namespace svms::cli {
 // marker (a circle at the top-left corner as printed), a star at the post tip, the ID and the
 // number of corrected bits.
 void DrawOverlay(cv::Mat& bgr, const std::vector<Detection>& found);
+
+// Where an overlay of `image` (of its frame `frame` for a video; -1 for an image file) goes in
+// `dir`: DIR/STEM.png, DIR/STEM_000012.png.
+std::string OverlayPath(const std::string& dir, const std::string& image, int frame = -1);
+
+// Checks, before any work, that no overlay in `dir` would replace one of `inputs` and that no
+// two inputs would write the same overlay; errors name both files.
+Status CheckOverlayTargets(const std::string& dir, const std::vector<std::string>& inputs);
 
 // An 8-bit BGR picture of a linear-light image (8- or 16-bit) for people: sRGB-encoded, as
 // screens show it, for overlays.

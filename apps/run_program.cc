@@ -5,10 +5,8 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <csignal>
 #include <cstdlib>
 #include <cstring>
-#include <sstream>
 
 namespace svms::cli {
 
@@ -26,25 +24,31 @@ int RunProgram(const std::vector<std::string>& argv, const RunOptions& o) {
   }
   if (pid == 0) {
     // The child: only async-signal-safe calls until exec.
-    dup2(in_pipe[0], STDIN_FILENO);
+    if (in_pipe[0] == STDIN_FILENO)
+      fcntl(STDIN_FILENO, F_SETFD, 0);  // our own stdin was closed: keep the pipe across exec
+    else
+      dup2(in_pipe[0], STDIN_FILENO);
     if (!o.cwd.empty() && chdir(o.cwd.c_str()) != 0) _exit(127);
+    // One open file for both streams when they name the same file (two opens would write
+    // over each other from offset 0).
     auto redirect = [](const std::string& path, int fd) {
       if (path.empty()) return true;
       const int f = open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
       if (f < 0) return false;
       return dup2(f, fd) >= 0;
     };
-    if (!redirect(o.stdout_path, STDOUT_FILENO) || !redirect(o.stderr_path, STDERR_FILENO))
+    if (!redirect(o.stdout_path, STDOUT_FILENO)) _exit(127);
+    if (!o.stderr_path.empty() && o.stderr_path == o.stdout_path) {
+      if (dup2(STDOUT_FILENO, STDERR_FILENO) < 0) _exit(127);
+    } else if (!redirect(o.stderr_path, STDERR_FILENO)) {
       _exit(127);
+    }
     execvp(args[0], args.data());
     _exit(127);
   }
   close(in_pipe[0]);
-  // A program that exits without reading its input must not kill us with SIGPIPE.
-  struct sigaction ignore {
-  }, previous{};
-  ignore.sa_handler = SIG_IGN;
-  sigaction(SIGPIPE, &ignore, &previous);
+  // A program that exits without reading its input gives EPIPE here, not SIGPIPE: `svms`
+  // ignores that signal (svms_main.cc).
   const char* p = o.stdin_text.data();
   size_t left = o.stdin_text.size();
   while (left > 0) {
@@ -54,21 +58,12 @@ int RunProgram(const std::vector<std::string>& argv, const RunOptions& o) {
     p += n, left -= static_cast<size_t>(n);
   }
   close(in_pipe[1]);
-  sigaction(SIGPIPE, &previous, nullptr);
   int status = 0;
   while (waitpid(pid, &status, 0) < 0)
     if (errno != EINTR) return 127;
   if (WIFEXITED(status)) return WEXITSTATUS(status);
   if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
   return 127;
-}
-
-bool ProgramExists(const std::string& name) {
-  const char* path = std::getenv("PATH");
-  std::stringstream ss(path ? path : "/usr/bin:/bin");
-  for (std::string dir; std::getline(ss, dir, ':');)
-    if (!dir.empty() && access((dir + "/" + name).c_str(), X_OK) == 0) return true;
-  return false;
 }
 
 }  // namespace svms::cli

@@ -19,7 +19,4 @@ struct RunOptions {
 // when it could not be started (not installed), 128 + N when killed by signal N.
 int RunProgram(const std::vector<std::string>& argv, const RunOptions& options = {});
 
-// Whether `name` is an executable in PATH.
-bool ProgramExists(const std::string& name);
-
 }  // namespace svms::cli

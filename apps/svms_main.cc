@@ -1,5 +1,8 @@
 // svms: the command-line front end of the Space Vision Marker System.
+#include <cerrno>
 #include <csignal>
+#include <cstdio>
+#include <cstring>
 #include <iostream>
 #include <new>
 
@@ -34,6 +37,8 @@ int main(int argc, char** argv) {
   // ignored, the limit is a write error like a full disk: reported, and the earlier file kept
   // (file_io.h).
   std::signal(SIGXFSZ, SIG_IGN);
+  // A closed pipe is a write error too (EPIPE), reported once, exit 1: not a silent death.
+  std::signal(SIGPIPE, SIG_IGN);
   // The commands run inside parse(). What they do not catch themselves ends here as one line
   // and exit code 1, never as an abort: running out of memory (each command estimates what a
   // request needs and refuses what is beyond its documented limits first, docs/reliability.md)
@@ -49,6 +54,12 @@ int main(int argc, char** argv) {
     return svms::cli::kExitFailed;
   } catch (const std::exception& e) {
     std::cerr << "svms: internal error: " << e.what() << "\n";
+    return svms::cli::kExitFailed;
+  }
+  // Whatever a command printed must have reached its reader.
+  if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+    std::cerr << "svms: standard output: cannot write: " << std::strerror(errno)
+              << "; the output is incomplete\n";
     return svms::cli::kExitFailed;
   }
   return exit_code;

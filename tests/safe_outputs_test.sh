@@ -25,12 +25,14 @@ limited() { (trap '' XFSZ; ulimit -f 4; "$@"); }
 # Records the checksums of files, and checks later that they are unchanged.
 sums() { sha256sum "$@" 2>/dev/null; }
 same() {  # same WHAT SUMS
+  [ -n "$2" ] || { fail "$1: no earlier outputs to compare"; return; }
   local now; now=$(sha256sum $(awk '{print $2}' <<<"$2") 2>/dev/null)
   if [ "$now" == "$2" ]; then pass; else fail "$1: earlier outputs changed"; fi
 }
 # No temporaries may be left next to the outputs.
 no_tmp() {  # no_tmp WHAT DIR...
-  if find "${@:2}" -name '*.svms-tmp-*' 2>/dev/null | grep -q .; then fail "$1: temporaries left"; else pass; fi
+  if find "${@:2}" -name '*.svms-tmp-*' -o -name '*.svms-plot' -o -name '*.svms-exr*' 2>/dev/null | grep -q .; then
+    fail "$1: temporaries left"; else pass; fi
 }
 
 # --- 1. Paths that are not UTF-8 -----------------------------------------------------------
@@ -51,7 +53,24 @@ out=$(printf 'x\xff\n%s 1.5\n' "$img" | "$svms" pose --stdin --camera "$cam" --l
   && pass || fail "pose --stdin with a non-UTF-8 line: exit $rc: $out"
 mkdir -p cal && cp calib/board/*.png cal/ && mv cal/calib_0000.png "cal/$(printf 'b\xe9.png')"
 expect 0 "wrote rep/summary.json" "$svms" calibrate cal --board calib/board_layout.json --lensmodel LENSMODEL_PINHOLE --out c.cameramodel --report rep --quiet
-python3 -c "import json; j = json.load(open('rep/summary.json')); assert j['camera']['file'] == 'c.cameramodel'" && pass || fail "summary.json is not JSON"
+python3 - <<'PY' && pass || fail "summary.json does not carry the image's bytes"
+import json
+j = json.load(open('rep/summary.json'))
+assert j['camera']['file'] == 'c.cameramodel'
+assert j['images'] == 4, j['images']
+PY
+# A report directory given with a trailing slash: the plots are drawn from this run's data.
+expect 0 "" "$svms" calibrate cal --board calib/board_layout.json --lensmodel LENSMODEL_PINHOLE --out c2.cameramodel --report rep2/ --quiet
+[ -s rep2/coverage.png ] && [ -s rep2/uncertainty.png ] && pass || fail "--report rep2/ lost its plots"
+# A closed pipe as standard output: one line, exit 1 (not a silent death by SIGPIPE).
+out=$(/usr/bin/python3 - "$svms" "$img" <<'PY'
+import os, subprocess, sys
+r, w = os.pipe(); os.close(r)
+p = subprocess.run([sys.argv[1], "detect", sys.argv[2], sys.argv[2], "--quiet"], stdout=w, stderr=subprocess.PIPE)
+print(p.returncode, p.stderr.decode().strip())
+PY
+)
+grep -q "^1 .*Broken pipe" <<<"$out" && pass || fail "a closed pipe: $out"
 
 # --- 2. --debug that is a file, or under one ------------------------------------------------
 touch afile

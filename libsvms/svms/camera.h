@@ -46,8 +46,8 @@ class CameraModel {
 
   // Whether poses can be measured with this model: mrcal 2.2 can unproject it (not CAHVORE),
   // fx and fy (models with a core) are within [kMinFocalPx, kMaxFocalPx], and the image's
-  // centre, corners and edge midpoints unproject and project back to themselves. "" when
-  // usable, else why not (one line, without a file name). Checked where a camera is loaded to
+  // centre unprojects and projects back to itself (a wide-angle model may fail at the corners). ""
+  // when usable, else why not (one line, without a file name). Checked where a camera is loaded to
   // measure with (svms detect, pose, survey; the C API), so that an absurd model is refused at
   // load instead of giving detections without poses.
   std::string UnusableReason() const;

@@ -378,23 +378,22 @@ LineFit FitLineRobust(const std::vector<Eigen::Vector2d>& pts, const std::vector
       ++fit.inliers;
     }
     fit.rms_px = std::sqrt(ss / std::max(1, fit.inliers - 2));
-    if (pass == o.trim_passes) {
-      fit.lag1_products = fit.lag1_squares = 0;
-      fit.lag1_pairs = 0;
-      double previous = 0;
-      bool have_previous = false;
-      for (size_t i = 0; i < pts.size(); ++i) {
-        if (!use[i]) {
-          have_previous = false;
-          continue;
-        }
-        const double signed_r = px_per_unit * nrm.dot(pts[i] - mean);
-        fit.lag1_squares += signed_r * signed_r;
-        if (have_previous) fit.lag1_products += previous * signed_r, ++fit.lag1_pairs;
-        previous = signed_r, have_previous = true;
+    // The lag-1 sums of this fit (the loop may end after any pass).
+    fit.lag1_products = fit.lag1_squares = 0;
+    fit.lag1_pairs = 0;
+    double previous = 0;
+    bool have_previous = false;
+    for (size_t i = 0; i < pts.size(); ++i) {
+      if (!use[i]) {
+        have_previous = false;
+        continue;
       }
-      break;
+      const double signed_r = px_per_unit * nrm.dot(pts[i] - mean);
+      fit.lag1_squares += signed_r * signed_r;
+      if (have_previous) fit.lag1_products += previous * signed_r, ++fit.lag1_pairs;
+      previous = signed_r, have_previous = true;
     }
+    if (pass == o.trim_passes) break;
     std::nth_element(abs_in.begin(), abs_in.begin() + abs_in.size() / 2, abs_in.end());
     const double sigma = 1.4826 * abs_in[abs_in.size() / 2];
     const double cut = std::max(o.trim_sigmas * sigma, o.trim_floor_px);

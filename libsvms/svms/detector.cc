@@ -257,8 +257,9 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
     auto it = models_.find(d.id);
     if (cam && it != models_.end()) {
       MarkerPose mp;
-      const bool posed = EstimateMarkerPose(gray, d.corners, it->second, camera_, d.black, d.white,
-                                            o.pose, &mp, d.corner_sigma);
+      const bool posed =
+          EstimateMarkerPose(measure, d.corners, it->second, camera_, d.black * level,
+                             d.white * level, o.pose, &mp, d.corner_sigma);
       if (!posed) d.pose_error = mp.failure;
       if (posed) {
         SetPose(mp, &d);

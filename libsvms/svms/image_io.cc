@@ -270,8 +270,10 @@ Status Load(const std::string& path, int64_t max_pixels, int flags, cv::Mat* out
     return Status::Error(path + ": " + e);
   cv::Mat img;
   try {
-    img = cv::imdecode(bytes, flags);
-  } catch (const cv::Exception&) {
+    img = cv::imdecode(bytes, flags | cv::IMREAD_IGNORE_ORIENTATION);
+  } catch (const cv::Exception& e) {
+    // Out of memory is not a corrupt file: it goes to the caller (ItemFailure).
+    if (e.code == cv::Error::StsNoMem) throw;
     img.release();
   }
   if (img.empty())

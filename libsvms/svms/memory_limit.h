@@ -1,5 +1,5 @@
 // How much memory a request may take. Commands estimate what a request needs before doing it
-// (a render, a calibration's covariance, a survey) and refuse what is beyond the limit with
+// (a render, a calibration's covariance) and refuse what is beyond the limit with
 // one line, instead of running out of memory half way (docs/reliability.md lists the
 // estimates).
 #pragma once

@@ -210,7 +210,8 @@ Linearizer::Linearizer(const PhotometricModel& model, int depth) : model_(model)
   if (depth != CV_8U) lut16_ = LinearTable(model_, 65536);
 }
 
-Status Linearizer::Apply(const cv::Mat& stored, cv::Mat* linear) const {
+Status Linearizer::Apply(const cv::Mat& stored_in, cv::Mat* linear) const {
+  const cv::Mat stored = stored_in;  // a header of our own: `linear` may be `stored_in`
   const PhotometricModel& m = model_;
   if (stored.empty() || (stored.depth() != CV_8U && stored.depth() != CV_16U) ||
       (stored.channels() != 1 && stored.channels() != 3))

@@ -112,14 +112,14 @@ double MeanSkewness(const std::vector<const EdgeProfile*>& profiles,
 // The gamma in [0.5, 3.5] at which the mean skewness first crosses zero from above (it falls
 // as gamma grows, a higher gamma darkening the foot of the rise more than its shoulder, until
 // far beyond the truth the plateaus' normalisation turns it again): a scan in steps of 0.05,
-// then bisection to 1e-4. Without a crossing, the gamma of least |skewness| on the scan.
+// then bisection to 1e-4. NaN without a crossing.
 double BestGamma(const std::vector<const EdgeProfile*>& profiles) {
   int used = 0;
   auto skew = [&](double g) {
     return MeanSkewness(
         profiles, [g](double v) { return std::pow(v, g); }, &used);
   };
-  double prev_g = 0.5, prev = skew(prev_g), least = std::abs(prev), least_g = prev_g;
+  double prev_g = 0.5, prev = skew(prev_g);
   for (double g = 0.55; g <= 3.5 + 1e-9; g += 0.05) {
     const double s = skew(g);
     if (prev > 0 && s <= 0) {
@@ -130,10 +130,11 @@ double BestGamma(const std::vector<const EdgeProfile*>& profiles) {
       }
       return 0.5 * (lo + hi);
     }
-    if (std::abs(s) < least) least = std::abs(s), least_g = g;
     prev_g = g, prev = s;
   }
-  return least_g;
+  // No crossing: the edges say nothing about the curve (binary edges, as on printed artwork,
+  // read the same through any gamma), or the curve is beyond the range.
+  return NAN;
 }
 
 }  // namespace
@@ -146,7 +147,9 @@ ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgeProfile>& profiles
   MeanSkewness(
       all, [](double v) { return v; }, &used);
   if (used < 20) return out;
-  out.gamma = BestGamma(all);
+  const double best = BestGamma(all);
+  if (!std::isfinite(best)) return out;
+  out.gamma = best;
   out.profiles = used;
   // The standard error: the spread of the estimates over 8 groups of the profiles.
   constexpr int kGroups = 8;
@@ -156,10 +159,14 @@ ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgeProfile>& profiles
     for (size_t i = static_cast<size_t>(k); i < all.size(); i += kGroups) part.push_back(all[i]);
     g[static_cast<size_t>(k)] = BestGamma(part);
   }
+  // A group without a crossing counts as the scan's end it lies beyond.
   double mean = 0, var = 0;
+  for (double& x : g)
+    if (!std::isfinite(x)) x = best < 2 ? 0.5 : 3.5;
   for (double x : g) mean += x / kGroups;
   for (double x : g) var += (x - mean) * (x - mean) / (kGroups - 1);
-  out.sigma = std::sqrt(var / kGroups);
+  // Not below the bisection's and the groups' own resolution.
+  out.sigma = std::max(std::sqrt(var / kGroups), 0.01);
   const double g_best = out.gamma;
   out.asymmetry = std::abs(MeanSkewness(
       all, [g_best](double v) { return std::pow(v, g_best); }, &used));

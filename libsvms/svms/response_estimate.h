@@ -63,7 +63,8 @@ struct ResponseEstimate {
 
 // The gamma in [0.5, 3.5] that makes `profiles` point-symmetric: where the mean skewness of
 // their line spread functions crosses zero, with its standard error from 8 groups of the
-// profiles. Needs at least 20 profiles (else profiles = 0 and gamma 1).
+// profiles. Needs at least 20 profiles with a crossing (else profiles = 0 and gamma 1: binary
+// edges, as on printed artwork, read the same through any curve and say nothing).
 ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgeProfile>& profiles);
 
 }  // namespace svms

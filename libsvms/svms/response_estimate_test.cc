@@ -84,6 +84,17 @@ TEST(EstimateGammaFromEdges, SrgbLooksLikeGammaTwoPointTwoAndLinearIsContradicte
   EXPECT_LT(e.asymmetry, e.asymmetry_linear);
 }
 
+TEST(EstimateGammaFromEdges, BinaryEdgesSayNothing) {
+  // Pure black and white pixels (artwork at its own resolution): any gamma reads them alike.
+  std::vector<EdgeProfile> profiles(100);
+  for (EdgeProfile& p : profiles)
+    for (int i = 0; i < kProfileSamples; ++i) {
+      p.value[i] = {i < kProfileSamples / 2 ? 0.f : 1.f, 0, 0, 0};
+      p.weight[i] = {1, 0, 0, 0};
+    }
+  EXPECT_EQ(EstimateGammaFromEdges(profiles).profiles, 0);
+}
+
 TEST(EstimateGammaFromEdges, TooFewEdgesGiveNoEstimate) {
   std::vector<EdgeProfile> few(5);
   EXPECT_EQ(EstimateGammaFromEdges(few).profiles, 0);
