@@ -46,4 +46,10 @@ Status ReadTruthPoses(const std::string& truth_json, const std::string& object,
   return Status::Ok();
 }
 
+double ViewAngleDeg(const Pose& cam_from_marker) {
+  const Eigen::Vector3d n = cam_from_marker.Rotation().col(2);
+  const Eigen::Vector3d to_cam = -cam_from_marker.tvec.normalized();
+  return std::acos(std::clamp(n.dot(to_cam), -1.0, 1.0)) * 180 / M_PI;
+}
+
 }  // namespace svms::cli

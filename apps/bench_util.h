@@ -18,6 +18,9 @@ double Percentile(std::vector<double> v, double p);
 // The mean of `v`; NaN when empty.
 double Mean(const std::vector<double>& v);
 
+// The angle between a marker's normal and the direction from it to the camera, degrees.
+double ViewAngleDeg(const Pose& cam_from_marker);
+
 // From a truth.json (docs/simulator.md): every view's name and the cam_from_object of the
 // object named `object`. Errors name the file and what is missing.
 Status ReadTruthPoses(const std::string& truth_json, const std::string& object,

@@ -25,6 +25,7 @@
 #include <sstream>
 #include <thread>
 
+#include "bench_util.h"
 #include "cli_io.h"
 #include "commands.h"
 #include "gnuplot.h"
@@ -94,13 +95,6 @@ struct ViewRow {
   int detections = 0, false_positives = 0;
   std::vector<std::string> problems;  // "missed 12 (31.0 px)", "false 977 at (x, y)"
 };
-
-// Angle between the marker's normal and the direction from the marker to the camera.
-double ViewAngleDeg(const Pose& cam_from_marker) {
-  const Eigen::Vector3d n = cam_from_marker.Rotation().col(2);
-  const Eigen::Vector3d to_cam = -cam_from_marker.tvec.normalized();
-  return std::acos(std::clamp(n.dot(to_cam), -1.0, 1.0)) * kRadToDeg;
-}
 
 double RotationErrorDeg(const Pose& a, const Pose& b) {
   const Eigen::AngleAxisd d(a.Rotation() * b.Rotation().transpose());

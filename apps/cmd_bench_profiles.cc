@@ -78,11 +78,6 @@ struct ViewTiming {
   NoiseModel noise;
 };
 
-double ViewAngleDeg(const Pose& cam_from_marker) {
-  const Eigen::Vector3d n = cam_from_marker.Rotation().col(2);
-  return std::acos(std::clamp(n.dot(-cam_from_marker.tvec.normalized()), -1.0, 1.0)) * kRadToDeg;
-}
-
 void Score(const std::string& profile, const std::string& set, const ViewTruth& truth,
            const std::vector<Detection>& found, std::vector<Row>* rows) {
   std::vector<bool> used(found.size(), false);

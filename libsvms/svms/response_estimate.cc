@@ -112,7 +112,11 @@ double MeanSkewness(const std::vector<const EdgeProfile*>& profiles,
 // The gamma in [0.5, 3.5] at which the mean skewness first crosses zero from above (it falls
 // as gamma grows, a higher gamma darkening the foot of the rise more than its shoulder, until
 // far beyond the truth the plateaus' normalisation turns it again): a scan in steps of 0.05,
-// then bisection to 1e-4. NaN without a crossing.
+// then bisection to 1e-4. Without a crossing, a small subset's curve may only touch zero
+// (noise lifts its minimum a little above): then the gamma of least skewness, if that lies
+// inside the scan and the skewness varies along it at least 10 times its least value. NaN
+// otherwise: binary edges (printed artwork at its own resolution) read alike through any
+// gamma, and a curve beyond the scan has its least value at an end.
 double BestGamma(const std::vector<const EdgeProfile*>& profiles) {
   int used = 0;
   auto skew = [&](double g) {
@@ -120,8 +124,11 @@ double BestGamma(const std::vector<const EdgeProfile*>& profiles) {
         profiles, [g](double v) { return std::pow(v, g); }, &used);
   };
   double prev_g = 0.5, prev = skew(prev_g);
+  double least = std::abs(prev), least_g = prev_g, lowest = prev, highest = prev;
   for (double g = 0.55; g <= 3.5 + 1e-9; g += 0.05) {
     const double s = skew(g);
+    if (std::abs(s) < least) least = std::abs(s), least_g = g;
+    lowest = std::min(lowest, s), highest = std::max(highest, s);
     if (prev > 0 && s <= 0) {
       double lo = prev_g, hi = g;
       while (hi - lo > 1e-4) {
@@ -132,9 +139,8 @@ double BestGamma(const std::vector<const EdgeProfile*>& profiles) {
     }
     prev_g = g, prev = s;
   }
-  // No crossing: the edges say nothing about the curve (binary edges, as on printed artwork,
-  // read the same through any gamma), or the curve is beyond the range.
-  return NAN;
+  const bool interior = least_g > 0.5 + 1e-9 && least_g < 3.5 - 1e-9;
+  return interior && highest - lowest >= 10 * least ? least_g : NAN;
 }
 
 }  // namespace
@@ -159,7 +165,7 @@ ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgeProfile>& profiles
     for (size_t i = static_cast<size_t>(k); i < all.size(); i += kGroups) part.push_back(all[i]);
     g[static_cast<size_t>(k)] = BestGamma(part);
   }
-  // A group without a crossing counts as the scan's end it lies beyond.
+  // A group without an estimate counts as the scan's end it lies beyond.
   double mean = 0, var = 0;
   for (double& x : g)
     if (!std::isfinite(x)) x = best < 2 ? 0.5 : 3.5;
