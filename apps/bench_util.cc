@@ -5,7 +5,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "svms/model_io.h"
+#include "svms/marker/model_io.h"
 
 namespace svms::cli {
 

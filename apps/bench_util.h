@@ -6,9 +6,9 @@
 #include <utility>
 #include <vector>
 
-#include "svms/format.h"
-#include "svms/pose.h"
-#include "svms/status.h"
+#include "svms/base/format.h"
+#include "svms/base/status.h"
+#include "svms/geometry/pose.h"
 
 namespace svms::cli {
 

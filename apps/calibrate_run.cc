@@ -16,11 +16,11 @@
 #include "commands.h"
 #include "gnuplot.h"
 #include "progress.h"
-#include "svms/camera_covariance.h"
-#include "svms/detector.h"
-#include "svms/file_io.h"
-#include "svms/image_io.h"
-#include "svms/observations.h"
+#include "svms/base/file_io.h"
+#include "svms/calib/observations.h"
+#include "svms/camera/camera_covariance.h"
+#include "svms/camera/image_io.h"
+#include "svms/detect/detector.h"
 
 namespace svms::cli {
 namespace {
@@ -41,10 +41,10 @@ std::string IdList(const std::set<int>& ids, size_t max = 12) {
 constexpr int kGrid = 32;
 
 // Adds the report's files to `files` (committed by the caller with the model).
-Status WriteReport(const CalibrateRunOptions& o, const std::vector<calib::ViewObservations>& views,
+Status WriteReport(const CalibrateRunOptions& o, const std::vector<ViewObservations>& views,
                    CalibrateRunOutcome* out, AtomicFileSet* files_out) {
   AtomicFileSet& files = *files_out;
-  const calib::CalibrationResult& r = out->result;
+  const CalibrationResult& r = out->result;
   const std::string& dir = o.report_dir;
   const int W = r.camera.width(), H = r.camera.height();
   // Residuals (inliers and outliers), vectors over the image, coverage.
@@ -53,20 +53,20 @@ Status WriteReport(const CalibrateRunOptions& o, const std::vector<calib::ViewOb
   std::vector<int> cells(16 * 16, 0);
   std::vector<double> comps;
   for (size_t v = 0; v < r.views.size(); ++v) {
-    const calib::ViewObservations& view = views[r.views[v]];
+    const ViewObservations& view = views[r.views[v]];
     for (size_t i = 0; i < view.points.size(); ++i) {
-      const calib::PointObservation& p = view.points[i];
+      const PointObservation& p = view.points[i];
       const Eigen::Vector2d& e = r.residuals[v][i];
       if (r.outlier[v][i]) {
         outl << p.pixel.x() << " " << p.pixel.y() << " " << e.x() << " " << e.y() << "\n";
         nlohmann::json oj;
         SetPath(oj, "image", out->image_of_view[r.views[v]]);
-        oj.update({{"marker", p.marker_id},
-                   {"point", p.corner == calib::PointObservation::kTip
-                                 ? std::string("tip")
-                                 : "corner " + std::to_string(p.corner)},
-                   {"pixel", {p.pixel.x(), p.pixel.y()}},
-                   {"residual_px", {e.x(), e.y()}}});
+        oj.update(
+            {{"marker", p.marker_id},
+             {"point", p.corner == PointObservation::kTip ? std::string("tip")
+                                                          : "corner " + std::to_string(p.corner)},
+             {"pixel", {p.pixel.x(), p.pixel.y()}},
+             {"residual_px", {e.x(), e.y()}}});
         outliers.push_back(oj);
         continue;
       }
@@ -117,7 +117,7 @@ Status WriteReport(const CalibrateRunOptions& o, const std::vector<calib::ViewOb
         const Eigen::Vector2d px((x + 0.5) * W / kGrid - 0.5, (y + 0.5) * H / kGrid - 0.5);
         Eigen::Matrix2d C;
         double s = NAN;
-        if (calib::ProjectionCovariance(r, px, out->uncertainty_range, &C)) {
+        if (ProjectionCovariance(r, px, out->uncertainty_range, &C)) {
           s = std::sqrt(C.trace());
           u2 += s * s, umax = std::max(umax, s), ++un;
         }
@@ -218,8 +218,7 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
     std::cerr << prog << s.message() << "\n";
     return kExitBadInput;
   }
-  if (Status s =
-          calib::CheckCalibrationRequest(o.calib.lensmodel, static_cast<int>(o.images.size()));
+  if (Status s = CheckCalibrationRequest(o.calib.lensmodel, static_cast<int>(o.images.size()));
       !s) {
     std::cerr << prog << "--lensmodel: " << s.message() << "\n";
     return kExitBadInput;
@@ -257,7 +256,7 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
                         const char* what) {
     const Detector detector(dopt, camera, models);
     const size_t n = files.size();
-    std::vector<calib::ViewObservations> all(n);
+    std::vector<ViewObservations> all(n);
     errors.assign(n, "");
     sizes.assign(n, cv::Size());
     profiles.assign(n, {});
@@ -276,7 +275,7 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
           } else {
             sizes[i] = img.size();
             const std::vector<Detection> found = detector.Detect(img);
-            all[i] = calib::ObservationsFromDetections(found, o.layout, files[i], corner_sigma);
+            all[i] = ObservationsFromDetections(found, o.layout, files[i], corner_sigma);
             if (photometry.estimating())
               CollectEdgeProfiles(stored, found, photometry.black_level(), photometry.white_level(),
                                   &profiles[i]);
@@ -295,7 +294,7 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
     return all;
   };
   const size_t n = o.images.size();
-  std::vector<calib::ViewObservations> all = detect_all(o.images, CameraModel(), "detected");
+  std::vector<ViewObservations> all = detect_all(o.images, CameraModel(), "detected");
   if (photometry.estimating()) {
     // The response from the edges the first pass found, then every image again with it.
     std::vector<EdgeProfile> edges;
@@ -321,7 +320,7 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
 
   // One image size; every image must have it.
   cv::Size size;
-  std::vector<calib::ViewObservations> views;
+  std::vector<ViewObservations> views;
   std::set<int> unknown, seen;
   for (size_t i = 0; i < n; ++i) {
     if (errors[i].empty() && size.area() == 0) size = sizes[i];
@@ -362,10 +361,10 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
     std::cerr << prog << "note: markers " << IdList(unknown) << " are not on the board " << o.board
               << "; ignored\n";
 
-  calib::CalibrationOptions co = o.calib;
+  CalibrationOptions co = o.calib;
   co.width = size.width, co.height = size.height;
   co.verbose = !o.quiet;
-  Status st = calib::Calibrate(views, co, &out->result);
+  Status st = Calibrate(views, co, &out->result);
   if (st && o.redetect) {
     // Pass 2: the detector fits each marker side as a straight line; through a distorting lens
     // the side is curved, and lines fitted in pixels meet a little off the true corner, by an
@@ -377,7 +376,7 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
                 << " px; re-detecting with that lens model\n";
     out->pass1 = out->result;
     out->pass1_views = views;
-    std::vector<calib::ViewObservations> again =
+    std::vector<ViewObservations> again =
         detect_all(out->image_of_view, out->result.camera, "re-detected");
     for (size_t i = 0; i < again.size(); ++i) {
       if (!errors[i].empty()) {
@@ -386,7 +385,7 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
       }
     }
     views = std::move(again);
-    st = calib::Calibrate(views, co, &out->result);
+    st = Calibrate(views, co, &out->result);
   }
   out->views = views;
   for (const auto& [v, why] : out->result.skipped)

@@ -6,9 +6,9 @@
 #include <vector>
 
 #include "image_inputs.h"
-#include "svms/calibrate.h"
-#include "svms/layout.h"
-#include "svms/response_estimate.h"
+#include "svms/calib/calibrate.h"
+#include "svms/detect/response_estimate.h"
+#include "svms/marker/layout.h"
 
 namespace svms::cli {
 
@@ -16,10 +16,10 @@ struct CalibrateRunOptions {
   std::vector<std::string> images;  // image files (already expanded)
   std::string board;                // the layout JSON (for messages; `layout` is what is used)
   Layout layout;
-  calib::CalibrationOptions calib;  // width/height are filled from the images
-  std::string out;                  // the .cameramodel to write ("" = none)
-  std::string report_dir;           // "" = no report
-  double uncertainty_range = 0;     // metres; 0 = the median board distance
+  CalibrationOptions calib;      // width/height are filled from the images
+  std::string out;               // the .cameramodel to write ("" = none)
+  std::string report_dir;        // "" = no report
+  double uncertainty_range = 0;  // metres; 0 = the median board distance
   int threads = 1;
   bool quiet = false;
   // Detect again with the first pass's lens model (corners fitted in the undistorted plane, so
@@ -29,17 +29,17 @@ struct CalibrateRunOptions {
 };
 
 struct CalibrateRunOutcome {
-  calib::CalibrationResult result;
+  CalibrationResult result;
   ResponseEstimate response;  // with --response estimate: the camera's response from the edges
-  std::vector<std::string> image_of_view;      // per input view (readable images), its file
-  std::vector<calib::ViewObservations> views;  // per input view, what was seen (result.views
-                                               // indexes into it)
-  std::vector<std::string> errors;             // per-image problems (unreadable, wrong size, ...)
-  double uncertainty_range = 0;                // the range used, metres
+  std::vector<std::string> image_of_view;  // per input view (readable images), its file
+  std::vector<ViewObservations> views;     // per input view, what was seen (result.views
+                                           // indexes into it)
+  std::vector<std::string> errors;         // per-image problems (unreadable, wrong size, ...)
+  double uncertainty_range = 0;            // the range used, metres
   double uncertainty_rms = 0, uncertainty_max = 0;  // sqrt(trace) over the image grid, px
   double coverage = 0;                              // fraction of 16x16 image cells with an inlier
-  calib::CalibrationResult pass1;  // with redetect: the first pass (corners fitted in pixels)
-  std::vector<calib::ViewObservations> pass1_views;  // and what it saw
+  CalibrationResult pass1;  // with redetect: the first pass (corners fitted in pixels)
+  std::vector<ViewObservations> pass1_views;  // and what it saw
 };
 
 // Runs the pipeline. Returns an exit code (commands.h); messages on stderr, one line each.

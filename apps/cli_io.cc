@@ -10,7 +10,7 @@
 #include <mutex>
 #include <opencv2/core.hpp>
 
-#include "svms/file_io.h"
+#include "svms/base/file_io.h"
 
 namespace svms::cli {
 namespace {

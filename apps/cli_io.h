@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "svms/status.h"
+#include "svms/base/status.h"
 
 namespace svms::cli {
 

@@ -25,9 +25,9 @@
 #include "gnuplot.h"
 #include "progress.h"
 #include "run_program.h"
-#include "svms/datasets.h"
-#include "svms/model_io.h"
-#include "svms/random_draws.h"
+#include "svms/base/random_draws.h"
+#include "svms/datasets/datasets.h"
+#include "svms/marker/model_io.h"
 
 namespace svms::cli {
 namespace {
@@ -46,12 +46,12 @@ constexpr double kRange = 2.0;  // metres: the middle of the dataset's 1.3-2.4 m
 constexpr int kGrid = 24;
 
 // What one tool produced, as a CalibrationResult (camera, used views, cam_from_frame) so that
-// calib::AlignedProjectionError applies; `predicted` is sqrt(trace) per grid pixel.
+// AlignedProjectionError applies; `predicted` is sqrt(trace) per grid pixel.
 struct ToolResult {
   std::string name;
   bool ok = false;
   std::string failure;
-  calib::CalibrationResult r;
+  CalibrationResult r;
   std::vector<Pose> true_cam_from_frame;  // per used view
   std::vector<double> predicted;          // per grid pixel, px (NaN where unavailable)
   std::vector<double> error;              // per grid pixel, |aligned error| px (NaN: none)
@@ -134,8 +134,7 @@ void Measure(const CameraModel& truth, const std::vector<Eigen::Vector2d>& grid,
   t->error.assign(grid.size(), NAN);
   for (size_t g = 0; g < grid.size(); ++g) {
     Eigen::Vector2d e;
-    if (!calib::AlignedProjectionError(t->r, truth, t->true_cam_from_frame, grid[g], kRange, &e))
-      continue;
+    if (!AlignedProjectionError(t->r, truth, t->true_cam_from_frame, grid[g], kRange, &e)) continue;
     t->error[g] = e.norm();
     Eigen::Vector3d dir;
     Eigen::Vector2d q;
@@ -234,7 +233,7 @@ int RunBench(const BenchOptions& o) {
       std::sscanf(fs::path(out.image_of_view[v]).filename().c_str(), "calib_%d", &idx);
       t.true_cam_from_frame.push_back(true_cam_from_board[idx]);
     }
-    auto true_poses = [&](const calib::CalibrationResult& r) {
+    auto true_poses = [&](const CalibrationResult& r) {
       std::vector<Pose> poses;
       for (int v : r.views) {
         int idx = 0;
@@ -251,9 +250,8 @@ int RunBench(const BenchOptions& o) {
     pass1.true_cam_from_frame = true_poses(pass1.r);
     for (const auto& px : grid) {
       Eigen::Matrix2d C;
-      pass1.predicted.push_back(t.ok && calib::ProjectionCovariance(pass1.r, px, kRange, &C)
-                                    ? std::sqrt(C.trace())
-                                    : NAN);
+      pass1.predicted.push_back(
+          t.ok && ProjectionCovariance(pass1.r, px, kRange, &C) ? std::sqrt(C.trace()) : NAN);
     }
     for (size_t v = 0; v < t.r.views.size(); ++v) {
       const auto& pts = out.views[t.r.views[v]].points;
@@ -262,8 +260,8 @@ int RunBench(const BenchOptions& o) {
     }
     for (const auto& px : grid) {
       Eigen::Matrix2d C;
-      t.predicted.push_back(
-          t.ok && calib::ProjectionCovariance(t.r, px, kRange, &C) ? std::sqrt(C.trace()) : NAN);
+      t.predicted.push_back(t.ok && ProjectionCovariance(t.r, px, kRange, &C) ? std::sqrt(C.trace())
+                                                                              : NAN);
     }
   }
 
@@ -489,7 +487,7 @@ int RunBench(const BenchOptions& o) {
   struct CornerNoise {
     double rms = NAN, mean_x = NAN, mean_y = NAN;
   };
-  auto corner_noise = [&](const ToolResult& t, const std::vector<calib::ViewObservations>& views) {
+  auto corner_noise = [&](const ToolResult& t, const std::vector<ViewObservations>& views) {
     CornerNoise cn;
     double s2 = 0, sx = 0, sy = 0;
     int count = 0;
@@ -526,10 +524,10 @@ int RunBench(const BenchOptions& o) {
     const double t0 = Now();
     Progress progress("svms bench calibrate: Monte-Carlo", trials);
     for (int trial = 0; trial < trials; ++trial) {
-      std::vector<calib::ViewObservations> syn;
+      std::vector<ViewObservations> syn;
       std::vector<Pose> syn_true;
       for (size_t v = 0; v < a0.r.views.size(); ++v) {
-        calib::ViewObservations w = out.views[a0.r.views[v]];
+        ViewObservations w = out.views[a0.r.views[v]];
         w.points.clear();
         const auto& pts = out.views[a0.r.views[v]].points;
         for (size_t i = 0; i < pts.size(); ++i) {
@@ -537,7 +535,7 @@ int RunBench(const BenchOptions& o) {
           if (a0.r.outlier[v][i] ||
               !truth.Project(a0.true_cam_from_frame[v] * pts[i].point_in_board, &q))
             continue;
-          calib::PointObservation p = pts[i];
+          PointObservation p = pts[i];
           // y drawn first, whatever the compiler (random_draws.h).
           p.pixel = q + a0.r.noise_sigma_px * DrawVector2(gauss, rng);
           w.points.push_back(p);
@@ -545,10 +543,10 @@ int RunBench(const BenchOptions& o) {
         syn.push_back(std::move(w));
         syn_true.push_back(a0.true_cam_from_frame[v]);
       }
-      calib::CalibrationOptions co = ro.calib;
+      CalibrationOptions co = ro.calib;
       co.width = W, co.height = H, co.verbose = false, co.threads = o.threads;
-      calib::CalibrationResult rr;
-      if (!calib::Calibrate(syn, co, &rr).ok()) continue;
+      CalibrationResult rr;
+      if (!Calibrate(syn, co, &rr).ok()) continue;
       ++mc_ok;
       std::vector<Pose> used_true;
       for (int v : rr.views) used_true.push_back(syn_true[v]);
@@ -556,8 +554,8 @@ int RunBench(const BenchOptions& o) {
         Eigen::Vector2d e;
         Eigen::Matrix2d C;
         if (cells[g] != kBoth ||
-            !calib::AlignedProjectionError(rr, truth, used_true, grid[g], kRange, &e) ||
-            !calib::ProjectionCovariance(rr, grid[g], kRange, &C))
+            !AlignedProjectionError(rr, truth, used_true, grid[g], kRange, &e) ||
+            !ProjectionCovariance(rr, grid[g], kRange, &C))
           continue;
         mc_e2 += e.squaredNorm(), mc_p2 += C.trace(), ++mc_n;
       }
@@ -697,7 +695,7 @@ int RunBench(const BenchOptions& o) {
      << "Error: the projection error against the true camera at " << kRange << " m at the "
      << "centres of a " << kGrid << "x" << kGrid
      << " grid of cells over the image, after mapping through the solved board poses as "
-        "mrcal's uncertainty does (`calib::AlignedProjectionError`). **Region**: the "
+        "mrcal's uncertainty does (`AlignedProjectionError`). **Region**: the "
      << region_cells << " of the " << kGrid * kGrid
      << " cells that hold both SVMS board corners and chessboard corners "
      << "(map below); in the cells outside it "

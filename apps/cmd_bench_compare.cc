@@ -1,7 +1,7 @@
 // svms bench compare: SVMS against AprilTag 3 (tag36h11) and OpenCV ArUco (DICT_6X6_1000) on
 // the same rendered scenes, and the paper's Fig. 9 analogue (range and orientation error of the
 // 0.432 m dual marker from 0.8 to 16 m). Writes CSV and JSON, gnuplot plots (PNG and SVG) and
-// DIR/report.md. Scenes: peers/svms/compare_scenes.h; scoring: compare_metrics.h; peers:
+// DIR/report.md. Scenes: peers/svms/peers/compare_scenes.h; scoring: compare_metrics.h; peers:
 // peer_tags.h, peer_detectors.h, peer_pose.h.
 #include <algorithm>
 #include <atomic>
@@ -23,17 +23,17 @@
 #include "cli_io.h"
 #include "commands.h"
 #include "gnuplot.h"
-#include "svms/compare_metrics.h"
-#include "svms/compare_scenes.h"
-#include "svms/datasets.h"
-#include "svms/detector.h"
-#include "svms/image_io.h"
-#include "svms/model_io.h"
-#include "svms/peer_detectors.h"
-#include "svms/peer_pose.h"
-#include "svms/peer_tags.h"
-#include "svms/render.h"
-#include "svms/truth.h"
+#include "svms/camera/image_io.h"
+#include "svms/datasets/datasets.h"
+#include "svms/detect/detector.h"
+#include "svms/marker/model_io.h"
+#include "svms/peers/compare_metrics.h"
+#include "svms/peers/compare_scenes.h"
+#include "svms/peers/peer_detectors.h"
+#include "svms/peers/peer_pose.h"
+#include "svms/peers/peer_tags.h"
+#include "svms/sim/render.h"
+#include "svms/sim/truth.h"
 
 namespace svms::cli {
 namespace {

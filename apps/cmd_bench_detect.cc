@@ -31,11 +31,11 @@
 #include "gnuplot.h"
 #include "overlay.h"
 #include "progress.h"
-#include "svms/datasets.h"
-#include "svms/detector.h"
-#include "svms/image_io.h"
-#include "svms/render.h"
-#include "svms/truth.h"
+#include "svms/camera/image_io.h"
+#include "svms/datasets/datasets.h"
+#include "svms/detect/detector.h"
+#include "svms/sim/render.h"
+#include "svms/sim/truth.h"
 
 namespace svms::cli {
 namespace {

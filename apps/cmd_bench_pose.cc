@@ -19,9 +19,9 @@
 #include "commands.h"
 #include "gnuplot.h"
 #include "run_program.h"
-#include "svms/frame_alignment.h"
-#include "svms/model_io.h"
-#include "svms/pose_estimator.h"
+#include "svms/calib/frame_alignment.h"
+#include "svms/fusion/pose_estimator.h"
+#include "svms/marker/model_io.h"
 
 namespace svms::cli {
 namespace {
@@ -70,7 +70,7 @@ struct FrameRow {
   Eigen::Matrix<double, 6, 1> sigma = Eigen::Matrix<double, 6, 1>::Zero();
   double nees = std::nan("");
   double nees_without_calibration = std::nan("");  // the same pose without the calibration term
-  // With a given camera: against the truth carried into its frame (calib::AlignCameraFrames).
+  // With a given camera: against the truth carried into its frame (AlignCameraFrames).
   double aligned_nees = std::nan(""), aligned_position_mm = std::nan(""),
          aligned_orientation_deg = std::nan("");
   double position_mm = 0, orientation_deg = 0;
@@ -159,14 +159,14 @@ int RunBenchPose(const BenchPoseOptions& o) {
   // The errors are reported as they are and with the truth carried into that frame. A camera
   // for another image size is bad input; a frame that cannot be aligned (no true model in the
   // dataset, a model mrcal cannot unproject) leaves those rows out, and the report says why.
-  calib::FrameAlignment alignment;
+  FrameAlignment alignment;
   Pose given_from_true;
   bool aligned = false;
   std::string not_aligned;  // why, when a camera is given but its frame was not aligned
   if (!o.camera.empty()) {
     CameraModel true_camera;
     Status s = CameraModel::Read(D + "/true.cameramodel", &true_camera);
-    if (s) s = calib::AlignCameraFrames(true_camera, est->camera(), {}, &alignment);
+    if (s) s = AlignCameraFrames(true_camera, est->camera(), {}, &alignment);
     if (!s && s.message().rfind("imagersize", 0) == 0) {
       std::cerr << "svms bench pose: --camera " << o.camera << " against " << D
                 << "/true.cameramodel: " << s.message() << "\n";

@@ -27,12 +27,12 @@
 #include "cli_io.h"
 #include "commands.h"
 #include "progress.h"
-#include "svms/datasets.h"
-#include "svms/detector.h"
-#include "svms/object_pose.h"
-#include "svms/photometric.h"
-#include "svms/render.h"
-#include "svms/truth.h"
+#include "svms/camera/photometric.h"
+#include "svms/datasets/datasets.h"
+#include "svms/detect/detector.h"
+#include "svms/fusion/object_pose.h"
+#include "svms/sim/render.h"
+#include "svms/sim/truth.h"
 
 namespace svms::cli {
 namespace {

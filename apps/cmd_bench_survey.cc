@@ -20,12 +20,12 @@
 #include "gnuplot.h"
 #include "progress.h"
 #include "run_program.h"
-#include "svms/detector.h"
-#include "svms/model_io.h"
-#include "svms/survey.h"
-#include "svms/survey_report.h"
-#include "svms/synthetic.h"
-#include "svms/view_graph.h"
+#include "svms/bundle/survey.h"
+#include "svms/bundle/survey_report.h"
+#include "svms/bundle/synthetic.h"
+#include "svms/bundle/view_graph.h"
+#include "svms/detect/detector.h"
+#include "svms/marker/model_io.h"
 
 namespace svms::cli {
 namespace {
@@ -97,11 +97,11 @@ Layout LayoutFromPoses(const std::map<int, Pose>& poses, const Layout& like) {
   return l;
 }
 
-std::vector<bundle::ImageSightings> Sightings(const std::vector<bundle::SurveyImage>& images,
-                                              const std::set<int>& ids) {
-  std::vector<bundle::ImageSightings> out;
-  for (const bundle::SurveyImage& im : images) {
-    bundle::ImageSightings s;
+std::vector<ImageSightings> Sightings(const std::vector<SurveyImage>& images,
+                                      const std::set<int>& ids) {
+  std::vector<ImageSightings> out;
+  for (const SurveyImage& im : images) {
+    ImageSightings s;
     for (const Detection& d : im.detections)
       if (d.cam_from_marker && ids.count(d.id))
         s.push_back({d.id, *d.cam_from_marker, d.side_px(), d.pose_ambiguous});
@@ -124,7 +124,7 @@ bool Plot(const std::string& dir, const std::string& name, const std::string& bo
 // takes corner errors to be independent from view to view: a mean that stands out from its
 // standard error is an error that repeats, and no number of views averages it away.
 std::map<int, std::vector<double>> OutwardCornerErrors(
-    const std::vector<bundle::SurveyImage>& images,
+    const std::vector<SurveyImage>& images,
     const std::vector<std::pair<std::string, Pose>>& cam_from_object, const Layout& truth,
     const CameraModel& camera) {
   std::map<int, std::vector<double>> out;
@@ -193,7 +193,7 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
 
   // 2. Detect every image.
   const Detector detector(DetectorOptions{}, camera, models.markers);
-  std::vector<bundle::SurveyImage> images(cam_from_object.size());
+  std::vector<SurveyImage> images(cam_from_object.size());
   std::atomic<size_t> next{0};
   size_t done = 0;  // under io
   std::mutex io;
@@ -219,16 +219,15 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
 
   // 3. The survey on the detections (one thread), against the truth.
   const int ref = truth.markers.front().marker.id;
-  bundle::SurveyOptions sopt;
-  bundle::SurveyConfig cfg;
+  SurveyOptions sopt;
+  SurveyConfig cfg;
   cfg.reference_id = ref;
-  bundle::SurveyResult result;
+  SurveyResult result;
   const auto t0 = Clock::now();
-  const Status st = bundle::RunSurvey(images, models.markers, camera, sopt, cfg, &result);
+  const Status st = RunSurvey(images, models.markers, camera, sopt, cfg, &result);
   const double solve_s = std::chrono::duration<double>(Clock::now() - t0).count();
   std::cerr << result.summary.BriefReport();
-  if (Status w =
-          bundle::WriteSurveyReport(result, (fs::path(o.out) / "survey_report").string(), Gnuplot);
+  if (Status w = WriteSurveyReport(result, (fs::path(o.out) / "survey_report").string(), Gnuplot);
       !w) {
     std::cerr << "svms bench survey: " << w.message() << "\n";
     return kExitFailed;
@@ -249,19 +248,18 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
   // The same survey without the repeated corner error in its covariance, for its NEES.
   std::vector<double> nees_without_repeat;
   {
-    bundle::SurveyOptions plain = sopt;
+    SurveyOptions plain = sopt;
     plain.corner_repeat_px_grey = 0;
-    bundle::SurveyResult r;
-    if (bundle::RunSurvey(images, models.markers, camera, plain, cfg, &r))
+    SurveyResult r;
+    if (RunSurvey(images, models.markers, camera, plain, cfg, &r))
       for (const MarkerError& m : Errors(r.layout, truth, ref))
         if (m.nees >= 0) nees_without_repeat.push_back(m.nees);
   }
   std::map<int, std::vector<double>> outward =
       OutwardCornerErrors(images, cam_from_object, truth, camera);
-  const std::vector<MarkerError> naive =
-      Errors(LayoutFromPoses(bundle::PairwiseAverageLayout(Sightings(images, surveyed), ref),
-                             result.layout),
-             truth, ref);
+  const std::vector<MarkerError> naive = Errors(
+      LayoutFromPoses(PairwiseAverageLayout(Sightings(images, surveyed), ref), result.layout),
+      truth, ref);
 
   // 4. NEES Monte-Carlo: observations synthesised from the truth for exactly the markers the
   // detector found in each image (and tips where it found them), fresh noise each run.
@@ -273,7 +271,7 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
         only[i].push_back(d.id);
         tips[i].push_back(d.tip.has_value());
       }
-  bundle::SyntheticOptions syn;  // corners 0.1 px, tips 0.3 px
+  SyntheticOptions syn;  // corners 0.1 px, tips 0.3 px
   const int runs = o.quick ? 10 : o.runs;
   std::map<int, std::vector<double>> nees;
   std::map<int, std::vector<double>> mc_pos_ba, mc_pos_naive, mc_ang_ba, mc_ang_naive;
@@ -291,9 +289,9 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
     for (LayoutEntry& e : built.markers)
       if (e.marker.post) e.marker.post->height += height_noise(rng);
     const auto sim =
-        bundle::SynthesiseImages(built, camera, cam_from_object, syn, 1000 + run, &only, &tips);
-    bundle::SurveyResult r;
-    if (!bundle::RunSurvey(sim, models.markers, camera, sopt, cfg, &r)) {
+        SynthesiseImages(built, camera, cam_from_object, syn, 1000 + run, &only, &tips);
+    SurveyResult r;
+    if (!RunSurvey(sim, models.markers, camera, sopt, cfg, &r)) {
       ++mc_failed;
       continue;
     }
@@ -302,10 +300,9 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
       mc_pos_ba[m.id].push_back(m.position_mm);
       mc_ang_ba[m.id].push_back(m.orientation_deg);
     }
-    for (const MarkerError& m :
-         Errors(LayoutFromPoses(bundle::PairwiseAverageLayout(Sightings(sim, surveyed), ref),
-                                result.layout),
-                truth, ref)) {
+    for (const MarkerError& m : Errors(
+             LayoutFromPoses(PairwiseAverageLayout(Sightings(sim, surveyed), ref), result.layout),
+             truth, ref)) {
       mc_pos_naive[m.id].push_back(m.position_mm);
       mc_ang_naive[m.id].push_back(m.orientation_deg);
     }
@@ -329,7 +326,7 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
   // covariance from the Schur complement (the default); the large case again with
   // ceres::Covariance's SPARSE_QR on the whole Jacobian, for comparison (not with --quick).
   // (DENSE_SVD is cubic in all parameters, cameras included: 12,000+ for 2000 images; not run.)
-  using Algorithm = bundle::SurveyOptions::CovarianceAlgorithm;
+  using Algorithm = SurveyOptions::CovarianceAlgorithm;
   struct Timing {
     std::string name, covariance_algorithm;
     int images = 0, markers = 0, detections = 0;
@@ -349,19 +346,19 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
   for (const TimingCase& tc : cases) {
     std::cerr << "svms bench survey: timing " << tc.views << " images x " << tc.markers
               << " markers, covariance: " << tc.algorithm_name << "\n";
-    const bundle::SyntheticScene sc = bundle::MakeSyntheticScene(tc.markers, tc.views, 77);
-    const auto sim = bundle::SynthesiseImages(sc.layout, camera, sc.cam_from_object, syn, 5);
+    const SyntheticScene sc = MakeSyntheticScene(tc.markers, tc.views, 77);
+    const auto sim = SynthesiseImages(sc.layout, camera, sc.cam_from_object, syn, 5);
     std::vector<MarkerModel> ms;
     for (const LayoutEntry& e : sc.layout.markers) ms.push_back(e.marker);
-    bundle::SurveyConfig c;
+    SurveyConfig c;
     c.reference_id = ms.front().id;
     c.drop_disconnected = true;
-    bundle::SurveyOptions topt = sopt;
+    SurveyOptions topt = sopt;
     topt.covariance_algorithm = tc.algorithm;
-    bundle::SurveyResult r;
+    SurveyResult r;
     const auto a = Clock::now();
     Timing t;
-    t.ok = static_cast<bool>(bundle::RunSurvey(sim, ms, camera, topt, c, &r));
+    t.ok = static_cast<bool>(RunSurvey(sim, ms, camera, topt, c, &r));
     t.total = std::chrono::duration<double>(Clock::now() - a).count();
     t.name = "synthetic";
     t.covariance_algorithm = tc.algorithm_name;
@@ -497,8 +494,8 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
        << F(rms(mc_ang_ba[id]), 5) << " | " << F(rms(mc_ang_naive[id]), 5) << " |\n";
   }
   md << "\n![](survey_nees.png)\n\n";
-  md << "**Timing** (one thread; synthetic objects from `bundle::MakeSyntheticScene`, "
-        "observations from `bundle::SynthesiseImages`; the total includes initialisation, both "
+  md << "**Timing** (one thread; synthetic objects from `MakeSyntheticScene`, "
+        "observations from `SynthesiseImages`; the total includes initialisation, both "
         "solves and the covariance; the covariance by the Schur complement, i.e. the "
         "camera-eliminated normal matrix inverted, unless the row says otherwise):\n\n| case | "
         "images | markers | detections | init (s) | solves (s) | covariance (s) | total (s) "
@@ -551,7 +548,7 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
   }
   md << "\nThe naive approach: for every pair of markers seen in the same image, the plain mean "
         "of the relative poses from the single-marker poses, chained from the reference along "
-        "the fewest hops (`bundle::PairwiseAverageLayout`); no robust step, no adjustment, no "
+        "the fewest hops (`PairwiseAverageLayout`); no robust step, no adjustment, no "
         "covariance. Per-marker numbers: markers.csv; the survey's own report: "
         "survey_report/report.md.\n";
   OutputFile(fs::path(o.out) / "report.md") << md.str();

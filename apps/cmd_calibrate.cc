@@ -6,9 +6,9 @@
 #include "calibrate_run.h"
 #include "commands.h"
 #include "image_inputs.h"
-#include "svms/camera_covariance.h"
-#include "svms/model_io.h"
-#include "svms/photometric.h"
+#include "svms/camera/camera_covariance.h"
+#include "svms/camera/photometric.h"
+#include "svms/marker/model_io.h"
 
 namespace svms::cli {
 namespace {
@@ -53,7 +53,7 @@ int RunCalibrate(const CalibrateCliOptions& c) {
   const int rc = RunCalibration(o, &out);
   if (rc == kExitBadInput || out.result.camera.empty() || out.result.num_inliers == 0) return rc;
   if (rc == kExitOk || !out.errors.empty()) {
-    const calib::CalibrationResult& r = out.result;
+    const CalibrationResult& r = out.result;
     std::printf("%s: %zu views, %d points (%d outliers), RMS %.3f px, worst %.3f px\n",
                 r.camera.Summary().c_str(), r.views.size(), r.num_inliers, r.num_outliers, r.rms_px,
                 r.worst_px);
@@ -63,7 +63,7 @@ int RunCalibrate(const CalibrateCliOptions& c) {
     if (out.response.profiles > 0)
       std::printf("response: gamma %.3f +- %.3f from %d edge profiles (%s)\n", out.response.gamma,
                   out.response.sigma, out.response.profiles, PhotometricPath(c.out).c_str());
-    // calib/svms/frame_alignment.h: measured 0.43 deg against the true camera of the
+    // calib/svms/calib/frame_alignment.h: measured 0.43 deg against the true camera of the
     // simulated calibration set (docs/flight-interface.md, "The camera frame").
     if (r.camera.lensmodel().rfind("LENSMODEL_SPLINED", 0) == 0)
       std::printf(

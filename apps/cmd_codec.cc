@@ -6,11 +6,11 @@
 #include <thread>
 
 #include "commands.h"
-#include "svms/artwork.h"
-#include "svms/bit_sampler.h"
-#include "svms/codec_stats.h"
-#include "svms/model_io.h"
-#include "svms/svms44.h"
+#include "svms/codec/codec_stats.h"
+#include "svms/codec/svms44.h"
+#include "svms/detect/bit_sampler.h"
+#include "svms/marker/model_io.h"
+#include "svms/print/artwork.h"
 
 namespace svms::cli {
 namespace {

@@ -6,8 +6,8 @@
 
 #include "cli_io.h"
 #include "commands.h"
-#include "svms/datasets.h"
-#include "svms/model_io.h"
+#include "svms/datasets/datasets.h"
+#include "svms/marker/model_io.h"
 
 namespace svms::cli {
 namespace {

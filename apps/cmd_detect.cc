@@ -20,12 +20,12 @@
 #include "image_inputs.h"
 #include "overlay.h"
 #include "progress.h"
-#include "svms/camera_covariance.h"
-#include "svms/detector.h"
-#include "svms/image_io.h"
-#include "svms/model_io.h"
-#include "svms/photometric.h"
-#include "svms/response_estimate.h"
+#include "svms/camera/camera_covariance.h"
+#include "svms/camera/image_io.h"
+#include "svms/camera/photometric.h"
+#include "svms/detect/detector.h"
+#include "svms/detect/response_estimate.h"
+#include "svms/marker/model_io.h"
 
 namespace svms::cli {
 namespace {
@@ -151,7 +151,7 @@ int RunDetect(const DetectOptions& o) {
   setenv("OPENCV_IO_MAX_IMAGE_PIXELS", std::to_string(max_pixels).c_str(), 1);
 
   DetectorOptions dopt;
-  dopt.debug_dir = o.debug;
+  dopt.debug_pictures = !o.debug.empty();
   const Detector detector(dopt, camera, models);
   std::set<int> model_ids;
   for (const MarkerModel& m : models) {
@@ -189,7 +189,9 @@ int RunDetect(const DetectOptions& o) {
     }
     (*j)["detections"] = ds;
     if (found_out) *found_out = found;
-    if (!stats.debug_error.empty()) *error = "--debug: " + stats.debug_error;
+    for (const auto& [step, picture] : stats.debug_pictures)
+      if (Status w = WriteImage((fs::path(o.debug) / (step + ".png")).string(), picture); !w)
+        *error = "--debug: " + w.message();
     if (!o.overlay.empty()) {
       cv::Mat bgr = DisplayImage(linear);
       DrawOverlay(bgr, found);

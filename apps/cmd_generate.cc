@@ -5,10 +5,10 @@
 #include <sstream>
 
 #include "commands.h"
-#include "svms/artwork.h"
-#include "svms/board.h"
-#include "svms/model_io.h"
-#include "svms/svms44.h"
+#include "svms/calib/board.h"
+#include "svms/codec/svms44.h"
+#include "svms/marker/model_io.h"
+#include "svms/print/artwork.h"
 
 namespace svms::cli {
 namespace {
@@ -148,12 +148,12 @@ int RunGenerateSheet(const GenerateOptions& o) {
 }
 
 int RunGenerateBoard(const GenerateOptions& o) {
-  const calib::BoardSpec spec{o.rows, o.cols, o.size, o.gap, o.first_id};
+  const BoardSpec spec{o.rows, o.cols, o.size, o.gap, o.first_id};
   if (Status s = spec.Validate(); !s) {
     std::cerr << "svms generate board: " << s.message() << "\n";
     return kExitBadInput;
   }
-  const Layout layout = calib::MakeBoardLayout(spec);
+  const Layout layout = MakeBoardLayout(spec);
   ArtworkOptions a;
   a.dpi = o.dpi;
   a.label = !o.no_label;

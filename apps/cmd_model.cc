@@ -3,7 +3,7 @@
 #include <memory>
 
 #include "commands.h"
-#include "svms/model_io.h"
+#include "svms/marker/model_io.h"
 
 namespace svms::cli {
 

@@ -14,10 +14,10 @@
 #include "commands.h"
 #include "image_inputs.h"
 #include "overlay.h"
-#include "svms/camera_covariance.h"
-#include "svms/file_io.h"
-#include "svms/image_io.h"
-#include "svms/pose_estimator.h"
+#include "svms/base/file_io.h"
+#include "svms/camera/camera_covariance.h"
+#include "svms/camera/image_io.h"
+#include "svms/fusion/pose_estimator.h"
 
 namespace svms::cli {
 namespace {

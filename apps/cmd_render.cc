@@ -10,12 +10,12 @@
 #include "cli_io.h"
 #include "commands.h"
 #include "progress.h"
-#include "svms/image_io.h"
-#include "svms/memory_limit.h"
-#include "svms/model_io.h"
-#include "svms/render.h"
-#include "svms/scene.h"
-#include "svms/truth.h"
+#include "svms/base/memory_limit.h"
+#include "svms/camera/image_io.h"
+#include "svms/marker/model_io.h"
+#include "svms/sim/render.h"
+#include "svms/sim/scene.h"
+#include "svms/sim/truth.h"
 
 namespace svms::cli {
 namespace {

@@ -13,13 +13,13 @@
 #include "gnuplot.h"
 #include "image_inputs.h"
 #include "progress.h"
-#include "svms/camera_covariance.h"
-#include "svms/detector.h"
-#include "svms/format.h"
-#include "svms/image_io.h"
-#include "svms/model_io.h"
-#include "svms/survey.h"
-#include "svms/survey_report.h"
+#include "svms/base/format.h"
+#include "svms/bundle/survey.h"
+#include "svms/bundle/survey_report.h"
+#include "svms/camera/camera_covariance.h"
+#include "svms/camera/image_io.h"
+#include "svms/detect/detector.h"
+#include "svms/marker/model_io.h"
 
 namespace svms::cli {
 namespace {
@@ -55,14 +55,14 @@ bool ParseNumber(const std::string& s, double* v) {
 }
 
 // A:B:DIST[:SIGMA]
-Status ParseScaleBar(const std::string& text, bundle::ScaleBar* bar) {
+Status ParseScaleBar(const std::string& text, ScaleBar* bar) {
   const std::vector<std::string> p = Split(text, ':');
   const Status bad = Status::Error(
       "--scale-bar " + text + ": expected A:B:DISTANCE[:SIGMA] in metres, e.g. 12.tl:17.tl:1.2345");
   if (p.size() < 3 || p.size() > 4) return bad;
-  if (Status s = bundle::ParseNamedPoint(p[0], &bar->a); !s)
+  if (Status s = ParseNamedPoint(p[0], &bar->a); !s)
     return Status::Error("--scale-bar " + text + ": " + s.message());
-  if (Status s = bundle::ParseNamedPoint(p[1], &bar->b); !s)
+  if (Status s = ParseNamedPoint(p[1], &bar->b); !s)
     return Status::Error("--scale-bar " + text + ": " + s.message());
   if (!ParseNumber(p[2], &bar->distance)) return bad;
   if (p.size() == 4 && !ParseNumber(p[3], &bar->sigma)) return bad;
@@ -70,12 +70,12 @@ Status ParseScaleBar(const std::string& text, bundle::ScaleBar* bar) {
 }
 
 // NAME=X,Y,Z[,SIGMA]
-Status ParseControlPoint(const std::string& text, bundle::ControlPoint* cp) {
+Status ParseControlPoint(const std::string& text, ControlPoint* cp) {
   const Status bad = Status::Error("--control-point " + text +
                                    ": expected NAME=X,Y,Z[,SIGMA] in metres, e.g. 10.tl=0,0.2,1");
   const size_t eq = text.find('=');
   if (eq == std::string::npos) return bad;
-  if (Status s = bundle::ParseNamedPoint(text.substr(0, eq), &cp->point); !s)
+  if (Status s = ParseNamedPoint(text.substr(0, eq), &cp->point); !s)
     return Status::Error("--control-point " + text + ": " + s.message());
   const std::vector<std::string> v = Split(text.substr(eq + 1), ',');
   if (v.size() < 3 || v.size() > 4) return bad;
@@ -97,7 +97,7 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
     return bad_input(s.message());
   ModelFile models;
   if (Status s = ReadModelFile(o.markers, &models); !s) return bad_input(s.message());
-  bundle::SurveyOptions options;
+  SurveyOptions options;
   if (o.corner_sigma) {
     if (!(std::isfinite(*o.corner_sigma) && *o.corner_sigma > 0))
       return bad_input("--corner-sigma " +
@@ -112,7 +112,7 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
     options.corner_sigma_from_fit = false;
   }
   options.num_threads = o.threads;
-  bundle::SurveyConfig config;
+  SurveyConfig config;
   if (o.reference) {
     if (*o.reference < 0)
       return bad_input("--reference " + std::to_string(*o.reference) +
@@ -129,19 +129,19 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
   config.refine_intrinsics = o.refine_intrinsics;
   config.drop_disconnected = o.drop_disconnected;
   for (const std::string& t : o.scale_bars) {
-    bundle::ScaleBar bar;
+    ScaleBar bar;
     if (Status s = ParseScaleBar(t, &bar); !s) return bad_input(s.message());
     config.scale_bars.push_back(bar);
   }
   for (const std::string& t : o.control_points) {
-    bundle::ControlPoint cp;
+    ControlPoint cp;
     if (Status s = ParseControlPoint(t, &cp); !s) return bad_input(s.message());
     config.control_points.push_back(cp);
   }
   if (!config.control_points.empty()) {
     if (o.reference)
       return bad_input("--reference and --control-point both fix the object frame; give one");
-    config.gauge = bundle::SurveyConfig::Gauge::kControlPoints;
+    config.gauge = SurveyConfig::Gauge::kControlPoints;
   } else if (!o.reference) {
     return bad_input("the object frame: expected --reference ID or three --control-point");
   }
@@ -162,7 +162,7 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
 
   // Detect.
   const Detector detector(DetectorOptions{}, camera, models.markers);
-  std::vector<bundle::SurveyImage> images(files.size());
+  std::vector<SurveyImage> images(files.size());
   std::vector<std::string> errors(files.size());
   std::atomic<size_t> next{0};
   size_t done = 0;  // under io
@@ -202,12 +202,12 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
 
   // Survey.
   if (!o.quiet) std::cerr << "svms survey: solving\n";
-  bundle::SurveyResult result;
-  const Status s = bundle::RunSurvey(images, models.markers, camera, options, config, &result);
+  SurveyResult result;
+  const Status s = RunSurvey(images, models.markers, camera, options, config, &result);
   if (!o.quiet || !s) std::cerr << result.summary.BriefReport();
   bool report_failed = false;
   if (!o.report.empty()) {
-    if (Status w = bundle::WriteSurveyReport(result, o.report, Gnuplot); !w) {
+    if (Status w = WriteSurveyReport(result, o.report, Gnuplot); !w) {
       std::cerr << "svms survey: --report: " << w.message() << "\n";
       report_failed = true;
     }

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "svms/file_io.h"
-#include "svms/scene.h"
+#include "svms/base/file_io.h"
+#include "svms/sim/scene.h"
 
 namespace svms {
 struct FrameResult;

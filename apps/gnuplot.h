@@ -3,8 +3,8 @@
 
 #include <string>
 
-#include "svms/file_io.h"
-#include "svms/status.h"
+#include "svms/base/file_io.h"
+#include "svms/base/status.h"
 
 namespace svms::cli {
 

@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "svms/image_io.h"
-#include "svms/photometric.h"
-#include "svms/status.h"
+#include "svms/base/status.h"
+#include "svms/camera/image_io.h"
+#include "svms/camera/photometric.h"
 
 namespace svms::cli {
 

@@ -8,7 +8,7 @@
 
 #include "cli_io.h"
 #include "image_inputs.h"
-#include "svms/photometric.h"
+#include "svms/camera/photometric.h"
 
 namespace svms::cli {
 

@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "svms/detector.h"
-#include "svms/status.h"
+#include "svms/base/status.h"
+#include "svms/detect/detector.h"
 
 namespace svms::cli {
 

@@ -5,8 +5,8 @@
 #include <random>
 #include <vector>
 
-#include "svms/bch.h"
-#include "svms/svms44.h"
+#include "svms/codec/bch.h"
+#include "svms/codec/svms44.h"
 
 namespace {
 

@@ -8,8 +8,8 @@
 #include <memory>
 #include <opencv2/core.hpp>
 
-#include "svms/detector.h"
-#include "svms/render.h"
+#include "svms/detect/detector.h"
+#include "svms/sim/render.h"
 
 namespace {
 

@@ -11,14 +11,14 @@
 #include <memory>
 #include <opencv2/imgproc.hpp>
 
-#include "svms/bit_sampler.h"
-#include "svms/corner_refine.h"
-#include "svms/detector.h"
-#include "svms/marker_pose.h"
-#include "svms/quads.h"
-#include "svms/render.h"
-#include "svms/segments.h"
-#include "svms/svms44.h"
+#include "svms/codec/svms44.h"
+#include "svms/detect/bit_sampler.h"
+#include "svms/detect/corner_refine.h"
+#include "svms/detect/detector.h"
+#include "svms/detect/marker_pose.h"
+#include "svms/detect/quads.h"
+#include "svms/detect/segments.h"
+#include "svms/sim/render.h"
 
 namespace {
 

@@ -17,8 +17,8 @@
 #include <memory>
 #include <string>
 
-#include "svms/render.h"
-#include "svms/scene.h"
+#include "svms/sim/render.h"
+#include "svms/sim/scene.h"
 
 namespace {
 

@@ -13,7 +13,7 @@
 #include <string>
 #include <unordered_set>
 
-#include "svms/pose_estimator.h"
+#include "svms/fusion/pose_estimator.h"
 #include "svms/svms.h"
 
 struct svms_estimator {

@@ -9,7 +9,7 @@
 #include <fstream>
 #include <string>
 
-#include "svms/camera.h"
+#include "svms/camera/camera.h"
 
 namespace {
 std::string TempPath(const char* what) {

@@ -7,7 +7,7 @@
 #include <cstring>
 #include <vector>
 
-#include "svms/detector.h"
+#include "svms/detect/detector.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 3) return 0;

@@ -2,7 +2,7 @@
 // a whole file and on a prefix.
 #include <cstdint>
 
-#include "svms/image_io.h"
+#include "svms/camera/image_io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   svms::ImageHeader h;

@@ -7,7 +7,7 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "svms/svms44.h"
+#include "svms/codec/svms44.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 11) return 0;

@@ -7,11 +7,11 @@
 #include <fstream>
 #include <iostream>
 
-#include "svms/camera_covariance.h"
-#include "svms/datasets.h"
-#include "svms/model_io.h"
-#include "svms/render.h"
-#include "svms/truth.h"
+#include "svms/camera/camera_covariance.h"
+#include "svms/datasets/datasets.h"
+#include "svms/marker/model_io.h"
+#include "svms/sim/render.h"
+#include "svms/sim/truth.h"
 
 int main(int argc, char** argv) {
   if (argc != 2) {

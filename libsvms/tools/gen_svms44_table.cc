@@ -1,4 +1,4 @@
-// Generates libsvms/svms/svms44_table.cc, the ID table of the svms44 family.
+// Generates libsvms/svms/codec/svms44_table.cc, the ID table of the svms44 family.
 //
 // Usage: gen_svms44_table OUTPUT.cc
 // The table is committed; the test `svms44_table_regenerates` runs this program and compares
@@ -8,7 +8,7 @@
 #include <fstream>
 #include <iostream>
 
-#include "svms/id_selection.h"
+#include "svms/codec/id_selection.h"
 
 int main(int argc, char** argv) {
   if (argc != 2) {
@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
     out << " D" << options.phase_distances[p] << ": " << sel.phase_first_id[p]
         << (p + 1 < sel.phase_first_id.size() ? "," : "");
   }
-  out << "\n#include \"svms/svms44.h\"\n\nnamespace svms {\n\n";
+  out << "\n#include \"svms/codec/svms44.h\"\n\nnamespace svms {\n\n";
   out << "const int kSvms44PhaseCount = " << sel.phase_first_id.size() << ";\n";
   out << "const int kSvms44PhaseDistance[] = {";
   for (size_t p = 0; p < options.phase_distances.size(); ++p)

@@ -6,7 +6,7 @@
 #include <Eigen/Core>
 #include <cmath>
 
-#include "svms/marker_model.h"
+#include "svms/marker/marker_model.h"
 
 namespace svms_testing {
 

@@ -1,0 +1,586 @@
+#include "svms/fusion/object_pose.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <set>
+
+#include "svms/detect/marker_pose.h"
+
+namespace svms {
+namespace {
+
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+// A marker has at most 5 points (4 corners and a tip), 10 residuals: every per-marker matrix
+// has that bound at compile time and lives on the stack (no heap allocation per frame).
+constexpr int kMaxPoints = 5, kMaxRows = 2 * kMaxPoints;
+using VecR = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxRows, 1>;
+using MatR6 = Eigen::Matrix<double, Eigen::Dynamic, 6, 0, kMaxRows, 6>;
+using MatR7 = Eigen::Matrix<double, Eigen::Dynamic, 7, 0, kMaxRows, 7>;
+using MatRR = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxRows, kMaxRows>;
+
+// The angle between two poses' rotations, radians.
+double AngleBetween(const Pose& a, const Pose& b) {
+  return Eigen::AngleAxisd(a.Rotation() * b.Rotation().transpose()).angle();
+}
+
+Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d S;
+  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return S;
+}
+
+Eigen::Matrix3d Exp(const Eigen::Vector3d& w) {
+  const double a = w.norm();
+  if (a < 1e-300) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
+}
+
+// The standard normal quantile, by bisection on erfc (called a handful of times per solve).
+double NormalQuantile(double p) {
+  double lo = -10, hi = 10;
+  for (int i = 0; i < 80; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (0.5 * std::erfc(-mid / std::sqrt(2.0)) < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// Chi-square quantile with k dof (Wilson-Hilferty; within 1 % of the exact value for k >= 2
+// at the 99.9 % level, which is all a rejection threshold needs).
+double ChiSquareQuantile(double p, int k) {
+  const double z = NormalQuantile(p), h = 2.0 / (9.0 * k);
+  const double c = 1 - h + z * std::sqrt(h);
+  return k * c * c * c;
+}
+
+// One point of a marker: its position in the marker frame, its pixel and pixel sigma, and how
+// it moves with the post height (d point / d height, marker frame; zero for corners).
+struct Point {
+  Eigen::Vector3d in_marker;
+  Eigen::Vector2d px;
+  double sigma;
+  Eigen::Vector3d d_dheight = Eigen::Vector3d::Zero();
+  int index = 0;  // 0-3 the corners, 4 the tip
+};
+
+// The points of one marker (at most kMaxPoints), in a fixed array.
+struct Points {
+  std::array<Point, kMaxPoints> p;
+  int n = 0;
+  size_t size() const { return static_cast<size_t>(n); }
+  void clear() { n = 0; }
+  void push_back(const Point& q) { p[n++] = q; }
+  const Point& operator[](size_t i) const { return p[i]; }
+};
+
+struct Block {
+  const MarkerObservation* obs = nullptr;
+  Points points;
+  Eigen::Matrix3d R_om = Eigen::Matrix3d::Identity();  // object_from_marker rotation
+  Eigen::Vector3d t_om = Eigen::Vector3d::Zero();
+  MatRR L_inv;  // inverse Cholesky factor of the marker's residual covariance
+  std::array<double, kMaxPoints> total_sigma{};  // per point: pixel and layout noise, RMS per axis
+  double weight = 1;                             // robust weight of the iteration
+  bool active = true;
+  std::array<bool, 5> dropped{};  // points left out as outliers (corners 0-3, tip 4)
+};
+
+// The marker's points at the current pose (the concave well's visible bottom depends on it).
+void UpdatePoints(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                  const ObjectPoseOptions& o) {
+  const MarkerObservation& m = *b->obs;
+  b->points.clear();
+  const auto corners = m.model.Corners();
+  const double size_sigma = CornerSigma(o, m.side_px);
+  for (int k = 0; k < 4; ++k) {
+    if (b->dropped[k]) continue;
+    const double sigma =
+        o.corner_sigma_from_fit && m.corner_sigma[k] > 0
+            ? std::max(o.min_corner_sigma_px, std::hypot(o.corner_fit_scale * m.corner_sigma[k],
+                                                         o.corner_sigma_systematic_px))
+            : size_sigma;
+    b->points.push_back({corners[k], m.corners[k], sigma, Eigen::Vector3d::Zero(), k});
+  }
+  if (o.use_tips && m.tip && m.model.post && !b->dropped[4]) {
+    // Camera centre in the marker frame: marker_from_cam = (cam_from_object object_from_marker)^-1.
+    const Eigen::Matrix3d R_cm = R * b->R_om;
+    const Eigen::Vector3d t_cm = R * b->t_om + t;
+    const Eigen::Vector3d cam_in_marker = -R_cm.transpose() * t_cm;
+    double fraction = 0;
+    const Eigen::Vector3d tip = VisibleTipPoint(m.model, cam_in_marker, &fraction);
+    if (fraction > 0 || !m.model.post->concave()) {
+      Point p{tip, m.tip->pixel, std::max(o.min_tip_sigma_px, m.tip->sigma_px)};
+      p.d_dheight = Eigen::Vector3d::UnitZ();
+      p.index = 4;
+      b->points.push_back(p);
+    }
+  }
+}
+
+// Residuals (pixels) and Jacobians d residual / d [rotation, translation] of the object pose
+// (left perturbation, camera axes) for one marker; also d pixel / d layout (the marker's
+// object_from_marker, left perturbation in object axes, then the post height: 7 columns).
+bool Evaluate(const CameraModel& camera, const Block& b, const Eigen::Matrix3d& R,
+              const Eigen::Vector3d& t, VecR* r, MatR6* J, MatR7* J_layout) {
+  const int n = static_cast<int>(b.points.size());
+  r->resize(2 * n);
+  J->resize(2 * n, 6);
+  if (J_layout) J_layout->resize(2 * n, 7);
+  for (int i = 0; i < n; ++i) {
+    const Point& p = b.points[i];
+    const Eigen::Vector3d in_object_rotated = b.R_om * p.in_marker;
+    const Eigen::Vector3d p_obj = in_object_rotated + b.t_om;
+    const Eigen::Vector3d p_cam = R * p_obj + t;
+    Eigen::Vector2d q;
+    Eigen::Matrix<double, 2, 3> dq_dp;
+    if (!camera.Project(p_cam, &q, &dq_dp)) return false;
+    r->segment<2>(2 * i) = q - p.px;
+    J->block<2, 3>(2 * i, 0) = -dq_dp * Skew(R * p_obj);
+    J->block<2, 3>(2 * i, 3) = dq_dp;
+    if (J_layout) {
+      J_layout->block<2, 3>(2 * i, 0) = -dq_dp * R * Skew(in_object_rotated);
+      J_layout->block<2, 3>(2 * i, 3) = dq_dp * R;
+      J_layout->block<2, 1>(2 * i, 6) = dq_dp * R * b.R_om * p.d_dheight;
+    }
+  }
+  return true;
+}
+
+// d pixel / d intrinsics of one marker's points at the current pose, mrcal's analytic
+// gradients: the first 2n rows of *J (resized to kMaxRows x N, so that its allocation is kept
+// from one marker and frame to the next), in point order.
+bool IntrinsicsJacobian(const CameraModel& camera, const Block& b, const Eigen::Matrix3d& R,
+                        const Eigen::Vector3d& t, Eigen::MatrixXd* J) {
+  thread_local Eigen::Matrix<double, 2, Eigen::Dynamic> dq_dintrinsics;
+  const int n = static_cast<int>(b.points.size());
+  const Eigen::Index N = static_cast<Eigen::Index>(camera.intrinsics().size());
+  J->resize(kMaxRows, N);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d p_cam = R * (b.R_om * b.points[i].in_marker + b.t_om) + t;
+    Eigen::Vector2d q;
+    if (!camera.Project(p_cam, &q, nullptr, &dq_dintrinsics)) return false;
+    J->middleRows<2>(2 * i) = dq_dintrinsics;
+  }
+  return true;
+}
+
+// The whitening factor of one marker at the current pose: R_m = diag(sigma^2) + J_L S J_L^T.
+bool Whitening(const CameraModel& camera, Block* b, const Eigen::Matrix3d& R,
+               const Eigen::Vector3d& t, const ObjectPoseOptions& o) {
+  VecR r;
+  MatR6 J;
+  MatR7 JL;
+  if (!Evaluate(camera, *b, R, t, &r, &J, &JL)) return false;
+  const int n = static_cast<int>(b->points.size());
+  MatRR C = MatRR::Zero(2 * n, 2 * n);
+  for (int i = 0; i < n; ++i)
+    C.block<2, 2>(2 * i, 2 * i).diagonal().setConstant(b->points[i].sigma * b->points[i].sigma);
+  if (o.use_layout_covariance) {
+    Eigen::Matrix<double, 7, 7> S = Eigen::Matrix<double, 7, 7>::Zero();
+    if (b->obs->layout_covariance) S.topLeftCorner<6, 6>() = *b->obs->layout_covariance;
+    if (b->obs->post_height_sigma)
+      S(6, 6) = *b->obs->post_height_sigma * *b->obs->post_height_sigma;
+    C += JL * S * JL.transpose();
+  }
+  for (int i = 0; i < n; ++i)
+    b->total_sigma[i] = std::sqrt(0.5 * C.block<2, 2>(2 * i, 2 * i).trace());
+  Eigen::LLT<MatRR> llt(C);
+  if (llt.info() != Eigen::Success) return false;
+  b->L_inv = llt.matrixL().solve(MatRR::Identity(2 * n, 2 * n));
+  return true;
+}
+
+}  // namespace
+
+double CornerSigma(const ObjectPoseOptions& o, double side_px) {
+  const double side = std::max(1.0, side_px);
+  return std::max(o.min_corner_sigma_px,
+                  o.corner_sigma_px * std::pow(30.0 / side, o.corner_sigma_exponent));
+}
+
+std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Detection>& detections,
+                                                          const Layout& layout) {
+  std::vector<MarkerObservation> out;
+  ObservationsFromDetections(detections, layout, &out);
+  return out;
+}
+
+void ObservationsFromDetections(const std::vector<Detection>& detections, const Layout& layout,
+                                std::vector<MarkerObservation>* observations) {
+  std::vector<MarkerObservation>& out = *observations;
+  out.clear();
+  // Outer markers first, so that a shared post's tip is the outer marker's (a bigger marker
+  // predicts it better).
+  thread_local std::vector<const Detection*> order;
+  order.clear();
+  // (Two passes rather than std::stable_sort, which allocates a buffer on every call.)
+  for (const Detection& d : detections)
+    if (d.nested_in < 0) order.push_back(&d);
+  for (const Detection& d : detections)
+    if (d.nested_in >= 0) order.push_back(&d);
+  for (const Detection* d : order) {
+    for (size_t e = 0; e < layout.markers.size(); ++e) {
+      const LayoutEntry& entry = layout.markers[e];
+      MarkerObservation o;
+      if (entry.marker.id == d->id) {
+        o.model = entry.marker;
+      } else if (entry.marker.inner && entry.marker.inner->id == d->id) {
+        std::optional<MarkerModel> inner = entry.marker.InnerModel();
+        if (!inner) continue;
+        o.model = *inner;
+      } else {
+        continue;
+      }
+      o.id = d->id;
+      o.object_from_marker = entry.object_from_marker;
+      o.layout_covariance = entry.covariance;
+      o.post_height_sigma = entry.post_height_sigma;
+      o.corners = d->corners;
+      o.corner_sigma = d->corner_sigma;
+      // The shortest side: a marker seen obliquely has fewer edge pixels along it, and its
+      // corners are worse than its mean size says.
+      o.side_px = std::numeric_limits<double>::infinity();
+      for (int k = 0; k < 4; ++k)
+        o.side_px = std::min(o.side_px, (d->corners[(k + 1) % 4] - d->corners[k]).norm());
+      o.cam_from_marker = d->cam_from_marker;
+      o.pose_ambiguous = d->pose_ambiguous;
+      o.ambiguity_covariance = d->ambiguity_covariance;
+      o.alternative_cam_from_marker = d->alternative_pose;
+      o.alternative_weight = d->alternative_weight;
+      // One tip per physical post: the inner marker of a dual shares the outer's post, whether
+      // the layout has them as one entry or (as the survey writes) as two.
+      if (d->tip && o.model.post) {
+        o.tip = d->tip;
+        const Eigen::Vector3d tip_in_object = o.object_from_marker * *o.model.PostTip();
+        for (const MarkerObservation& prev : out)
+          if (prev.tip &&
+              (prev.object_from_marker * *prev.model.PostTip() - tip_in_object).norm() < 1e-4)
+            o.tip.reset();
+      }
+      out.push_back(o);
+      break;
+    }
+  }
+}
+
+ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
+                           const ObjectPoseOptions& o) {
+  ObjectPose result;
+  SolveObjectPose(camera, obs, o, &result);
+  return result;
+}
+
+void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
+                     const ObjectPoseOptions& o, ObjectPose* out) {
+  // A fresh result that keeps the capacity of *out's vectors and message.
+  std::vector<int> ids_used = std::move(out->ids_used), ids_rejected = std::move(out->ids_rejected);
+  std::string message = std::move(out->message);
+  *out = ObjectPose{};
+  ObjectPose& result = *out;
+  result.ids_used = std::move(ids_used);
+  result.ids_used.clear();
+  result.ids_rejected = std::move(ids_rejected);
+  result.ids_rejected.clear();
+  result.message = std::move(message);
+  result.message.clear();
+
+  result.markers_seen = static_cast<int>(obs.size());
+  if (obs.empty()) {
+    result.message = "no marker of the layout detected";
+    return;
+  }
+  thread_local std::vector<Block> blocks, trial;
+  blocks.resize(obs.size());
+  for (Block& b : blocks) b = Block{};
+  for (size_t i = 0; i < obs.size(); ++i) {
+    blocks[i].obs = &obs[i];
+    blocks[i].R_om = obs[i].object_from_marker.Rotation();
+    blocks[i].t_om = obs[i].object_from_marker.tvec;
+  }
+
+  // 1. Start: the per-marker candidate with the least robust cost over all markers. With
+  // several markers, one flagged ambiguous offers both its planar poses (its kept one may be
+  // the wrong one, and the others tell). A lone marker starts from the detector's pose alone:
+  // the detector chose it on more than these points (the stripe's edges, each point's own
+  // sigma), and on a flat marker the robust cost below may prefer the wrong one.
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+  double best = std::numeric_limits<double>::infinity();
+  for (const MarkerObservation& m : obs) {
+    for (const std::optional<Pose>* cam_from_marker :
+         {&m.cam_from_marker, &m.alternative_cam_from_marker}) {
+      if (!*cam_from_marker || (obs.size() == 1 && cam_from_marker != &m.cam_from_marker)) continue;
+      const Pose candidate = **cam_from_marker * m.object_from_marker.Inverse();
+      const Eigen::Matrix3d Rc = candidate.Rotation();
+      double cost = 0;
+      for (Block& b : blocks) {
+        UpdatePoints(&b, Rc, candidate.tvec, o);
+        VecR r;
+        MatR6 J;
+        if (!Evaluate(camera, b, Rc, candidate.tvec, &r, &J, nullptr)) {
+          cost += 1e6;
+          continue;
+        }
+        for (int i = 0; i < r.size(); i += 2) {
+          const double e =
+              r.segment<2>(i).norm() / o.corner_sigma_px;  // Cauchy: robust to outliers
+          cost += std::log1p(e * e / 9);
+        }
+      }
+      if (cost < best) {
+        best = cost;
+        R = Rc;
+        t = candidate.tvec;
+      }
+    }
+  }
+  if (!std::isfinite(best)) {
+    result.message = "no detected marker has a single-marker pose to start from";
+    return;
+  }
+
+  // 2. Gauss-Newton with per-marker whitening and Cauchy weights.
+  auto solve = [&](std::vector<Block>& bs, Eigen::Matrix3d& R, Eigen::Vector3d& t) {
+    for (Block& b : bs) {
+      if (!b.active) continue;
+      UpdatePoints(&b, R, t, o);
+      if (!Whitening(camera, &b, R, t, o)) b.active = false;
+    }
+    bool converged = false;
+    for (int iter = 0; iter < o.max_iterations && !converged; ++iter) {
+      Mat6 H = Mat6::Zero();
+      Vec6 g = Vec6::Zero();
+      int active = 0;
+      for (Block& b : bs) {
+        if (!b.active) continue;
+        if (iter > 0 && iter % 3 == 0) {  // the well's visible bottom and R_m follow the pose
+          UpdatePoints(&b, R, t, o);
+          if (!Whitening(camera, &b, R, t, o)) {
+            b.active = false;
+            continue;
+          }
+        }
+        VecR r;
+        MatR6 J;
+        if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) {
+          b.active = false;
+          continue;
+        }
+        const VecR wr = b.L_inv * r;
+        const MatR6 wJ = b.L_inv * J;
+        const double norm = std::sqrt(wr.squaredNorm() / static_cast<double>(r.size()));
+        b.weight = 1.0 / (1.0 + (norm / o.robust_k) * (norm / o.robust_k));  // Cauchy
+        H += b.weight * wJ.transpose() * wJ;
+        g += b.weight * wJ.transpose() * wr;
+        ++active;
+      }
+      if (active == 0) break;
+      const Vec6 step = -H.ldlt().solve(g);
+      if (!step.allFinite()) break;
+      R = Exp(step.head<3>()) * R;
+      t += step.tail<3>();
+      converged = step.head<3>().norm() < 1e-10 && step.tail<3>().norm() < 1e-10 * (1 + t.norm());
+    }
+  };
+  // Chi-square of a block over its quantile (> 1: inconsistent), and its worst point in sigmas.
+  auto excess = [&](const Block& b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                    int* worst_point, double* worst_norm) {
+    VecR r;
+    MatR6 J;
+    *worst_point = -1;
+    *worst_norm = 0;
+    if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) return std::numeric_limits<double>::infinity();
+    for (size_t k = 0; k < b.points.size(); ++k) {
+      const double n = r.segment<2>(2 * k).norm() / b.total_sigma[k];
+      if (n > *worst_norm) {
+        *worst_norm = n;
+        *worst_point = b.points[k].index;
+      }
+    }
+    return (b.L_inv * r).squaredNorm() /
+           ChiSquareQuantile(o.reject_quantile, 2 * static_cast<int>(b.points.size()));
+  };
+
+  // 3. Rejection, one thing at a time, each followed by a new fit. The most inconsistent
+  // marker (chi-square beyond the reject_quantile) is refitted without its worst point: if
+  // that makes it consistent, only the point goes (a corner hidden by the post, a glint taken
+  // for the tip); if not, the whole marker goes (a misread quad, a marker at a grazing angle),
+  // before it pulls the fit and makes good points elsewhere look bad. Then single points
+  // beyond point_reject_sigma (pixel and layout noise) go, as long as their marker keeps 3.
+  for (;;) {
+    solve(blocks, R, t);
+    int worst_marker = -1, worst_block = -1, worst_point = -1, active = 0;
+    double worst_excess = 1, worst_norm = o.point_reject_sigma;
+    for (size_t i = 0; i < blocks.size(); ++i) {
+      if (!blocks[i].active) continue;
+      ++active;
+      int point;
+      double norm;
+      const double e = excess(blocks[i], R, t, &point, &norm);
+      if (e > worst_excess) {
+        worst_excess = e;
+        worst_marker = static_cast<int>(i);
+      }
+      if (blocks[i].points.size() > 3 && norm > worst_norm) {
+        worst_norm = norm;
+        worst_block = static_cast<int>(i);
+        worst_point = point;
+      }
+    }
+    if (worst_marker >= 0) {
+      Block& b = blocks[worst_marker];
+      int point;
+      double norm;
+      excess(b, R, t, &point, &norm);
+      if (b.points.size() > 3 && point >= 0) {
+        trial = blocks;
+        trial[worst_marker].dropped[point] = true;
+        Eigen::Matrix3d R2 = R;
+        Eigen::Vector3d t2 = t;
+        solve(trial, R2, t2);
+        int p2;
+        double n2;
+        if (trial[worst_marker].active && excess(trial[worst_marker], R2, t2, &p2, &n2) <= 1) {
+          b.dropped[point] = true;
+          ++result.points_rejected;
+          continue;
+        }
+      }
+      if (active > 1) {
+        b.active = false;
+        result.ids_rejected.push_back(b.obs->id);
+        continue;
+      }
+    }
+    if (worst_block >= 0) {
+      blocks[worst_block].dropped[worst_point] = true;
+      ++result.points_rejected;
+      continue;
+    }
+    break;
+  }
+
+  // 4. The result: covariance from the unweighted information of the markers kept.
+  const Eigen::MatrixXd& intrinsics_factor = camera.intrinsics_covariance_factor();
+  const bool with_calibration = o.use_calibration_covariance && intrinsics_factor.size() > 0;
+  // G = sum over markers of (whitened d r / d pose)^T (whitened d r / d intrinsics), 6 x N.
+  thread_local Eigen::MatrixXd G, J_intrinsics, HG, SL;
+  if (with_calibration) G.setZero(6, intrinsics_factor.rows());
+  Mat6 H = Mat6::Zero();
+  double ss = 0, chi2 = 0;
+  int points = 0;
+  bool ambiguous_single = false;
+  const MarkerObservation* last = nullptr;
+  for (Block& b : blocks) {
+    if (!b.active) continue;
+    UpdatePoints(&b, R, t, o);
+    if (!Whitening(camera, &b, R, t, o)) continue;
+    VecR r;
+    MatR6 J;
+    if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) continue;
+    const MatR6 wJ = b.L_inv * J;
+    if (with_calibration) {
+      if (!IntrinsicsJacobian(camera, b, R, t, &J_intrinsics)) {
+        result.message = "the camera gives no intrinsics gradients (CAHVORE)";
+        return;
+      }
+      const Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxRows> wJt_W =
+          wJ.transpose() * b.L_inv;
+      G.noalias() += wJt_W * J_intrinsics.topRows(J.rows());
+    }
+    H += wJ.transpose() * wJ;
+    ss += r.squaredNorm();
+    chi2 += (b.L_inv * r).squaredNorm();
+    points += static_cast<int>(b.points.size());
+    result.ids_used.push_back(b.obs->id);
+    ambiguous_single = b.obs->pose_ambiguous;
+    last = b.obs;
+  }
+  result.markers_used = static_cast<int>(result.ids_used.size());
+  result.points_used = points;
+  if (result.markers_used == 0 || points < 3) {
+    result.message = "no marker left after rejection";
+    return;
+  }
+  Eigen::FullPivLU<Mat6> lu(H);
+  if (lu.rank() < 6) {
+    result.message = "the pose is not determined (rank " + std::to_string(lu.rank()) + " of 6)";
+    return;
+  }
+  result.covariance = lu.inverse();
+  result.covariance = 0.5 * (result.covariance + result.covariance.transpose()).eval();
+  const Mat6 H_inv = result.covariance;
+  // The frame's own evidence on the noise level: the variance factor's posterior mean under a
+  // prior worth variance_prior_dof degrees of freedom at 1 (the nominal noise model).
+  const int dof = 2 * points - 6;
+  result.variance_factor = o.variance_prior_dof > 0 ? (o.variance_prior_dof + chi2) /
+                                                          (o.variance_prior_dof + std::max(0, dof))
+                                                    : 1.0;
+  result.covariance *= result.variance_factor;
+  if (with_calibration) {
+    // The calibration's error moves the optimum by d pose = S d intrinsics,
+    // S = -H^-1 G (the implicit function theorem at J^T W r = 0); its covariance S L L^T S^T
+    // is added after the variance factor (it is not the frame's noise). The same error is in
+    // every frame, so it is a bias along a sequence, not noise that averages away.
+    HG.noalias() = H_inv * G;
+    SL.noalias() = HG * intrinsics_factor;
+    result.covariance.noalias() += SL * SL.transpose();
+    result.calibration_in_covariance = true;
+  }
+  if (result.markers_used == 1 && !last->ambiguity_covariance.isZero()) {
+    // One marker: its mirror solution is as possible here as it was to the detector. Its
+    // widening, about the marker's origin, moved to the object's: with a left perturbation
+    // in camera axes, d t_object = d t_marker - [a]x d theta, a = object origin - marker
+    // origin (camera axes).
+    const Eigen::Vector3d a = t - (R * last->object_from_marker.tvec + t);
+    Mat6 J = Mat6::Identity();
+    J.bottomLeftCorner<3, 3>() << 0, a.z(), -a.y(), -a.z(), 0, a.x(), a.y(), -a.x(), 0;
+    result.covariance += J * last->ambiguity_covariance * J.transpose();
+  }
+  result.cam_from_object = Pose::FromRotation(R, t);
+  result.rms_px = std::sqrt(ss / (2.0 * points));
+  result.chi2 = chi2;
+  result.dof = 2 * points - 6;
+  result.ambiguous = result.markers_used == 1 && ambiguous_single;
+  if (result.ambiguous && last->alternative_cam_from_marker && last->cam_from_marker) {
+    // Should the fit have ended nearer the detector's other pose than its kept one, the kept
+    // one is the alternative instead.
+    const Pose marker_from_object = last->object_from_marker.Inverse();
+    const Pose cam_from_marker = result.cam_from_object * last->object_from_marker;
+    const Pose& kept = *last->cam_from_marker;
+    const Pose& other = *last->alternative_cam_from_marker;
+    const bool swapped = AngleBetween(cam_from_marker, other) < AngleBetween(cam_from_marker, kept);
+    result.alternative_cam_from_object = (swapped ? kept : other) * marker_from_object;
+    result.alternative_weight = swapped ? 1 - last->alternative_weight : last->alternative_weight;
+  }
+  const double rot_sigma_deg =
+      std::sqrt(result.covariance.topLeftCorner<3, 3>().diagonal().maxCoeff()) * 180 / M_PI;
+  const double trans_sigma = std::sqrt(result.covariance.bottomRightCorner<3, 3>().trace());
+  result.poorly_conditioned = rot_sigma_deg > o.max_rotation_sigma_deg ||
+                              trans_sigma > o.max_translation_sigma_fraction * t.norm();
+  result.valid = result.covariance.allFinite() && result.cam_from_object.tvec.allFinite();
+  if (!result.valid) result.message = "the solve gave non-finite numbers";
+}
+
+Eigen::Matrix<double, 6, 1> PoseError(const Pose& truth, const Pose& estimate) {
+  Eigen::Matrix<double, 6, 1> e;
+  const Eigen::AngleAxisd aa(truth.Rotation() * estimate.Rotation().transpose());
+  e.head<3>() = aa.axis() * aa.angle();
+  e.tail<3>() = truth.tvec - estimate.tvec;
+  return e;
+}
+
+double Nees(const Pose& truth, const Pose& estimate, const PoseCovariance& covariance) {
+  const Eigen::Matrix<double, 6, 1> e = PoseError(truth, estimate);
+  Eigen::LDLT<PoseCovariance> ldlt(covariance);
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return std::nan("");
+  return e.dot(ldlt.solve(e));
+}
+
+}  // namespace svms

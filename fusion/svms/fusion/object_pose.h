@@ -1,0 +1,168 @@
+// One object pose from every visible marker at once.
+//
+// The unknown is cam_from_object (6 parameters). Every corner and post tip of every detected
+// marker of the layout is one observation of a known point of the object: its pixel is
+// predicted through the camera's mrcal lens model from the marker's surveyed object_from_marker
+// and compared with the detection. The fit is one weighted least-squares problem over all of
+// them (not an average of per-marker poses), solved by Gauss-Newton:
+//
+//   - Noise model per marker: the corners' and the tip's pixel noise (isotropic, per point)
+//     plus the layout's own uncertainty pushed into pixels to first order,
+//       R_m = diag(sigma_px^2) + J_layout Sigma_layout J_layout^T,
+//     a full (2k x 2k) covariance for the k points of marker m (its points move together when
+//     the marker's surveyed pose is off). The fit whitens each marker's residuals with R_m, so
+//     the pose covariance (J^T R^-1 J)^-1 includes both the image noise and the layout's.
+//     Cross-covariances between markers are not in a layout file and are taken as zero.
+//   - The camera calibration's uncertainty, when the camera carries it (camera_covariance.h):
+//     the intrinsics' error Sigma_theta = L L^T moves the optimum by d pose = S d theta,
+//     S = -(J^T W J)^-1 J^T W d pixel / d theta, and S L L^T S^T is added to the covariance.
+//     It is the same error in every frame: a bias along a sequence, not noise.
+//   - Robust: a marker whose whitened residual is large is down-weighted (Cauchy on its
+//     Mahalanobis norm per coordinate) during the iterations; after convergence, single
+//     outlying points (a corner hidden by the post, a glint taken for the tip) are left out,
+//     then whole markers whose chi-square exceeds the 99.9 % quantile, one at a time, each
+//     followed by a new fit.
+//   - Start: each marker's own pose (Detection::cam_from_marker) gives a candidate
+//     cam_from_object; the candidate with the least robust cost over all markers is refined.
+//
+// Frames and units (docs/conventions.md, docs/flight-interface.md): cam_from_object maps object
+// points (metres) into the camera frame; the covariance is ordered [rotation, translation], the
+// rotation a small angle about the camera axes (radians), the translation of tvec (metres):
+// cam_from_object_true = exp([d_rot]) R_est, t_est + d_trans.
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "svms/camera/camera.h"
+#include "svms/detect/detector.h"
+#include "svms/detect/marker_pose.h"
+#include "svms/geometry/pose.h"
+#include "svms/marker/layout.h"
+
+namespace svms {
+
+struct ObjectPoseOptions {
+  // Pixel noise of a refined corner, each axis, for a marker whose square's shortest side is
+  // 30 px; it scales as (30 / side)^corner_sigma_exponent (a line fit over more edge pixels is
+  // better), never below min_corner_sigma_px. Measured on the simulator's mockup survey
+  // images (docs/flight-interface.md).
+  double corner_sigma_px = 0.05;
+  double corner_sigma_exponent = 0.5;
+  // 0.002 since session 16 (was 0.01): on renders with 256 rays on edge pixels the corners of
+  // 60 px markers are found to 0.006 px RMS, and their line-fit sigma is honest there.
+  double min_corner_sigma_px = 0.002;
+  // When the detector measured a corner's sigma from its line fits (Detection::corner_sigma),
+  // use corner_fit_scale times that instead of the size model (at least min_corner_sigma_px).
+  // Calibrated on the simulator's mockup survey images (kCornerFitScale, marker_pose.h).
+  bool corner_sigma_from_fit = true;
+  double corner_fit_scale = kCornerFitScale;
+  // Added in quadrature to corner_fit_scale x the line-fit sigma: the part of a corner's error
+  // that more edge points do not average away. Pixels, each axis. 0 since session 16: with
+  // the edge profile taken along the pixel rows (CornerRefineOptions::edges_along_rows) that
+  // part is gone on the simulator; 0.004 (chosen in session 5 on 16-ray renders) made large
+  // markers' corners conservative (per-axis Z^2 0.37 at 60 px on the compare size sweep).
+  double corner_sigma_systematic_px = 0;
+  double min_tip_sigma_px = 0.3;      // floor on the detector's own tip sigma
+  bool use_tips = true;               // post tips as observations
+  bool use_layout_covariance = true;  // add the layout's uncertainty to the noise model
+  // Add the camera calibration's uncertainty to the pose covariance, when the camera carries
+  // one (CameraModel::intrinsics_covariance_factor, camera_covariance.h).
+  bool use_calibration_covariance = true;
+  // Robust weight of a marker per iteration: 1 / (1 + (n / robust_k)^2), n its whitened RMS
+  // residual per coordinate (Cauchy: a wrong marker's pull fades instead of staying).
+  double robust_k = 3;
+  double reject_quantile = 0.999;  // a marker is rejected when its chi-square exceeds this quantile
+  // A single corner or tip is left out when its residual exceeds this many of its sigmas
+  // (pixel noise and layout uncertainty; per axis) and its marker keeps 3 points or more.
+  double point_reject_sigma = 5;
+  // The covariance is scaled by the frame's variance factor, estimated as
+  // (variance_prior_dof + chi2) / (variance_prior_dof + dof): the nominal noise model counts as
+  // this many degrees of freedom of evidence, the frame's residuals as theirs. 0: no scaling.
+  double variance_prior_dof = 0;
+  int max_iterations = 20;
+  // Flags (ObjectPose::poorly_conditioned): rotation sigma above this (degrees) or
+  // translation sigma above this fraction of the range.
+  double max_rotation_sigma_deg = 1.0;
+  double max_translation_sigma_fraction = 0.02;
+};
+
+// One marker's observations: which layout entry, the detection's corners and tip.
+struct MarkerObservation {
+  int id = -1;
+  Pose object_from_marker;  // from the layout
+  MarkerModel model;        // the detected marker's model (inner model for an inner marker)
+  std::optional<PoseCovariance> layout_covariance;  // object axes (layout.h)
+  std::optional<double> post_height_sigma;          // metres
+  std::array<Eigen::Vector2d, 4> corners;           // pixels, TL, TR, BR, BL
+  double side_px = 30;                   // shortest side of the square in the image, pixels
+  std::array<double, 4> corner_sigma{};  // from the detector's line fits, px (0: unknown)
+  std::optional<TipObservation> tip;
+  std::optional<Pose> cam_from_marker;  // the detector's single-marker pose (a start)
+  bool pose_ambiguous = false;          // the detector could not tell its two planar poses apart
+  // The detector's widening of its single-marker covariance for the other planar solution
+  // ([rotation, translation], camera axes, about the marker's origin): added, moved to the
+  // object's origin, to the fused covariance when this is the only marker used.
+  PoseCovariance ambiguity_covariance = PoseCovariance::Zero();
+  // Where the detector flagged the pose ambiguous: its other planar pose, and that pose's share
+  // of the likelihood, in (0.01, 0.5] (Detection::alternative_pose, alternative_weight).
+  std::optional<Pose> alternative_cam_from_marker;
+  double alternative_weight = 0;
+};
+
+struct ObjectPose {
+  bool valid = false;
+  Pose cam_from_object;
+  PoseCovariance covariance = PoseCovariance::Zero();  // [rotation, translation], camera axes
+  int markers_seen = 0;     // observations given (markers of the layout detected)
+  int markers_used = 0;     // after rejection
+  int points_used = 0;      // corners and tips of the markers used
+  int points_rejected = 0;  // single corners or tips left out as outliers
+  std::vector<int> ids_used, ids_rejected;
+  double rms_px = 0;           // RMS pixel residual (per coordinate) of the points used
+  double chi2 = 0;             // whitened residual sum of squares of the points used
+  int dof = 0;                 // 2 * points_used - 6
+  double variance_factor = 1;  // the scale applied to the covariance (variance_prior_dof)
+  bool ambiguous = false;      // one marker, and its planar pose could not be told apart
+  // With `ambiguous`, where the detector gave the marker's other planar pose: the object's pose
+  // under it, and its share of the likelihood, in (0.01, 0.5]. The one marker's alternative
+  // moved to the object by the same marker_from_object.
+  std::optional<Pose> alternative_cam_from_object;
+  double alternative_weight = 0;
+  // The covariance includes the camera calibration's uncertainty (the camera carried one).
+  bool calibration_in_covariance = false;
+  bool poorly_conditioned = false;  // sigmas above ObjectPoseOptions' limits
+  std::string message;              // why not valid
+};
+
+// Observations from detections: every detection whose ID is in the layout (as a marker, or
+// as the inner marker of a dual entry). A post seen by both markers of a dual gives one tip.
+std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Detection>& detections,
+                                                          const Layout& layout);
+// The same into *observations (replaced; its capacity is reused, no allocation once grown).
+void ObservationsFromDetections(const std::vector<Detection>& detections, const Layout& layout,
+                                std::vector<MarkerObservation>* observations);
+
+// The corner sigma the size model gives a marker of `side_px` pixels.
+double CornerSigma(const ObjectPoseOptions& options, double side_px);
+
+// Solves cam_from_object. Returns an invalid pose with a message when there is nothing to fit
+// (no observation, the camera cannot project, a singular problem).
+ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
+                           const ObjectPoseOptions& options);
+// The same into *pose (replaced). The capacity of its vectors and message is reused, and the
+// solver's own buffers are kept per thread, so that a warmed-up call on a valid frame makes no
+// heap allocation.
+void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
+                     const ObjectPoseOptions& options, ObjectPose* pose);
+
+// The error of `estimate` against `truth` in the covariance's coordinates:
+// [log(R_truth R_est^T), t_truth - t_est] (radians about camera axes, metres).
+Eigen::Matrix<double, 6, 1> PoseError(const Pose& truth, const Pose& estimate);
+// Normalised estimation error squared: e^T covariance^-1 e (chi-square with 6 dof when the
+// covariance is right). NaN if the covariance is singular.
+double Nees(const Pose& truth, const Pose& estimate, const PoseCovariance& covariance);
+
+}  // namespace svms

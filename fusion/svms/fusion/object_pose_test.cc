@@ -1,0 +1,412 @@
+#include "svms/fusion/object_pose.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <random>
+
+#include "svms/base/random_draws.h"
+#include "svms/datasets/datasets.h"
+#include "svms/detect/ippe.h"
+
+namespace svms {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+
+// Three markers on three faces of a 1 m box (0.2 m, 0.2 m concave-free, 0.1 m), seen from
+// 3 m at an oblique angle through the distorted camera of the datasets.
+struct Rig {
+  CameraModel camera = DistortedCamera();
+  Layout layout;
+  Pose cam_from_object;
+  Rig() {
+    const Vec3 half(0.5, 0.5, 1.0);
+    layout.markers.push_back({MarkerModel::Standard(1, 0.2, 0.05), OnBoxFace(half, 2, 1, 0, 0, 0),
+                              std::nullopt, std::nullopt});
+    layout.markers.push_back({MarkerModel::Standard(2, 0.2, 0.05),
+                              OnBoxFace(half, 0, 1, 0.1, 0.5, 0.2), std::nullopt, std::nullopt});
+    layout.markers.push_back({MarkerModel::Standard(3, 0.1, 0.025),
+                              OnBoxFace(half, 1, 1, -0.2, 0.4, 0), std::nullopt, std::nullopt});
+    cam_from_object = LookAt(Vec3(1.6, 1.3, 3.0), Vec3(0, 0, 0.8), Vec3(0, 0, 1));
+  }
+  // Exact pixels of one marker's corners and tip under `object_from_marker_seen` (the truth
+  // may differ from the layout's belief).
+  MarkerObservation Observe(int k, const Pose& object_from_marker_seen) const {
+    const LayoutEntry& e = layout.markers[k];
+    MarkerObservation o;
+    o.id = e.marker.id;
+    o.model = e.marker;
+    o.object_from_marker = e.object_from_marker;
+    o.layout_covariance = e.covariance;
+    o.post_height_sigma = e.post_height_sigma;
+    const Pose cam_from_marker = cam_from_object * object_from_marker_seen;
+    const auto corners = e.marker.Corners();
+    for (int c = 0; c < 4; ++c)
+      EXPECT_TRUE(camera.Project(cam_from_marker * corners[c], &o.corners[c]));
+    TipObservation tip;
+    EXPECT_TRUE(camera.Project(cam_from_marker * *e.marker.PostTip(), &tip.pixel));
+    tip.sigma_px = 0.3;
+    o.tip = tip;
+    o.cam_from_marker = cam_from_marker;
+    return o;
+  }
+  std::vector<MarkerObservation> ObserveAll() const {
+    std::vector<MarkerObservation> obs;
+    for (size_t k = 0; k < layout.markers.size(); ++k)
+      obs.push_back(Observe(static_cast<int>(k), layout.markers[k].object_from_marker));
+    return obs;
+  }
+};
+
+void AddNoise(std::mt19937_64* rng, double sigma, double tip_sigma, MarkerObservation* o) {
+  std::normal_distribution<double> g(0, 1);
+  for (auto& c : o->corners) c += sigma * DrawVector2(g, *rng);  // fixed order (random_draws.h)
+  if (o->tip) o->tip->pixel += tip_sigma * DrawVector2(g, *rng);
+}
+
+// The angle between two poses' rotations, degrees.
+double AngleDeg(const Pose& a, const Pose& b) {
+  return Eigen::AngleAxisd(a.Rotation() * b.Rotation().transpose()).angle() * 180 / M_PI;
+}
+
+TEST(ObjectPose, ExactObservationsGiveTheTruth) {
+  const Rig rig;
+  std::vector<MarkerObservation> obs = rig.ObserveAll();
+  // Start from a poor single-marker pose: the fit must still converge to the truth.
+  for (auto& o : obs) o.cam_from_marker->rvec += Vec3(0.05, -0.03, 0.02);
+  const ObjectPose p = SolveObjectPose(rig.camera, obs, ObjectPoseOptions{});
+  ASSERT_TRUE(p.valid) << p.message;
+  EXPECT_EQ(p.markers_used, 3);
+  EXPECT_EQ(p.points_used, 15);
+  EXPECT_EQ(p.dof, 24);
+  EXPECT_LT(PoseError(rig.cam_from_object, p.cam_from_object).norm(), 1e-9);
+  EXPECT_LT(p.rms_px, 1e-7);
+  EXPECT_FALSE(p.poorly_conditioned);
+  EXPECT_TRUE(p.ids_rejected.empty());
+}
+
+TEST(ObjectPose, NothingToFitIsInvalidWithAReason) {
+  const Rig rig;
+  const ObjectPose p = SolveObjectPose(rig.camera, {}, ObjectPoseOptions{});
+  EXPECT_FALSE(p.valid);
+  EXPECT_NE(p.message.find("no marker"), std::string::npos);
+  std::vector<MarkerObservation> obs = rig.ObserveAll();
+  for (auto& o : obs) o.cam_from_marker.reset();
+  EXPECT_FALSE(SolveObjectPose(rig.camera, obs, ObjectPoseOptions{}).valid);
+}
+
+// The covariance is honest when the noise is what the options say: NEES ~ chi-square(6).
+TEST(ObjectPose, MonteCarloNeesMatchesChiSquareSix) {
+  const Rig rig;
+  std::mt19937_64 rng(7);
+  ObjectPoseOptions o;
+  o.corner_sigma_px = 0.15;
+  o.min_tip_sigma_px = 0.3;
+  const int trials = 1000;
+  double sum = 0;
+  for (int i = 0; i < trials; ++i) {
+    std::vector<MarkerObservation> obs = rig.ObserveAll();
+    for (auto& m : obs) AddNoise(&rng, 0.15, 0.3, &m);
+    const ObjectPose p = SolveObjectPose(rig.camera, obs, o);
+    ASSERT_TRUE(p.valid);
+    sum += Nees(rig.cam_from_object, p.cam_from_object, p.covariance);
+  }
+  // Mean of 1000 chi-square(6) draws: 6 +- 0.077 (1 sigma); allow 4 sigma.
+  EXPECT_NEAR(sum / trials, 6.0, 0.31);
+}
+
+// A layout that is itself uncertain: the markers really sit off their surveyed poses by draws
+// from the layout covariance. Including it keeps NEES at 6; leaving it out is optimistic.
+TEST(ObjectPose, LayoutUncertaintyIsPropagated) {
+  Rig rig;
+  PoseCovariance S = PoseCovariance::Zero();
+  S.diagonal() << std::pow(0.002, 2), std::pow(0.002, 2), std::pow(0.002, 2), std::pow(0.001, 2),
+      std::pow(0.001, 2), std::pow(0.001, 2);
+  for (auto& e : rig.layout.markers) e.covariance = S;
+  const Eigen::LLT<PoseCovariance> llt(S);
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> g(0, 1);
+  ObjectPoseOptions with, without;
+  with.corner_sigma_px = without.corner_sigma_px = 0.1;
+  without.use_layout_covariance = false;
+  const int trials = 1000;
+  double nees_with = 0, nees_without = 0;
+  for (int i = 0; i < trials; ++i) {
+    std::vector<MarkerObservation> obs;
+    for (int k = 0; k < 3; ++k) {
+      Eigen::Matrix<double, 6, 1> d;
+      for (int j = 0; j < 6; ++j) d[j] = g(rng);
+      d = llt.matrixL() * d;
+      const Pose& belief = rig.layout.markers[k].object_from_marker;
+      // Left perturbation in object axes, as layout.h documents.
+      const Eigen::Matrix3d R =
+          Eigen::AngleAxisd(d.head<3>().norm(), d.head<3>().normalized()).toRotationMatrix() *
+          belief.Rotation();
+      MarkerObservation o = rig.Observe(k, Pose::FromRotation(R, belief.tvec + d.tail<3>()));
+      AddNoise(&rng, 0.1, 0.3, &o);
+      obs.push_back(o);
+    }
+    const ObjectPose a = SolveObjectPose(rig.camera, obs, with);
+    const ObjectPose b = SolveObjectPose(rig.camera, obs, without);
+    ASSERT_TRUE(a.valid && b.valid);
+    nees_with += Nees(rig.cam_from_object, a.cam_from_object, a.covariance);
+    nees_without += Nees(rig.cam_from_object, b.cam_from_object, b.covariance);
+  }
+  EXPECT_NEAR(nees_with / trials, 6.0, 0.35);
+  EXPECT_GT(nees_without / trials, 12.0);  // the layout's error dominates here
+}
+
+// A camera whose intrinsics are off by draws from its calibration's covariance (correlated,
+// the focal lengths and principal point by about 1 px, the distortion by 2e-3): with that
+// covariance on the camera, NEES stays at 6; without it, the pose is overconfident.
+TEST(ObjectPose, CalibrationUncertaintyIsPropagated) {
+  const Rig rig;
+  const CameraModel& truth = rig.camera;
+  const int n = static_cast<int>(truth.intrinsics().size());
+  Eigen::VectorXd sigma = Eigen::VectorXd::Constant(n, 2e-3);
+  sigma.head<4>() << 1.0, 1.2, 0.8, 0.9;
+  Eigen::MatrixXd correlation = Eigen::MatrixXd::Identity(n, n);
+  for (int i = 0; i + 1 < n; ++i) correlation(i, i + 1) = correlation(i + 1, i) = 0.4;
+  const Eigen::MatrixXd L = sigma.asDiagonal() * Eigen::MatrixXd(correlation.llt().matrixL());
+  std::mt19937_64 rng(13);
+  std::normal_distribution<double> g(0, 1);
+  ObjectPoseOptions with, without;
+  with.corner_sigma_px = without.corner_sigma_px = 0.1;
+  without.use_calibration_covariance = false;
+  const int trials = 1000;
+  double nees_with = 0, nees_without = 0;
+  for (int i = 0; i < trials; ++i) {
+    Eigen::VectorXd z(n);
+    for (int k = 0; k < n; ++k) z[k] = g(rng);
+    const Eigen::VectorXd off = L * z;
+    std::vector<double> intrinsics = truth.intrinsics();
+    for (int k = 0; k < n; ++k) intrinsics[k] += off[k];
+    CameraModel calibrated;
+    ASSERT_TRUE(CameraModel::Create(truth.lensmodel(), intrinsics, truth.width(), truth.height(),
+                                    &calibrated)
+                    .ok());
+    ASSERT_TRUE(calibrated.set_intrinsics_covariance_factor(L).ok());
+    std::vector<MarkerObservation> obs = rig.ObserveAll();  // through the true camera
+    for (auto& m : obs) AddNoise(&rng, 0.1, 0.3, &m);
+    const ObjectPose a = SolveObjectPose(calibrated, obs, with);
+    const ObjectPose b = SolveObjectPose(calibrated, obs, without);
+    ASSERT_TRUE(a.valid && b.valid);
+    EXPECT_TRUE(a.calibration_in_covariance);
+    EXPECT_FALSE(b.calibration_in_covariance);
+    nees_with += Nees(rig.cam_from_object, a.cam_from_object, a.covariance);
+    nees_without += Nees(rig.cam_from_object, b.cam_from_object, b.covariance);
+  }
+  EXPECT_NEAR(nees_with / trials, 6.0, 0.35);
+  EXPECT_GT(nees_without / trials, 12.0);  // the calibration's error dominates here
+}
+
+// More markers, more information: the fused covariance is below every single marker's.
+TEST(ObjectPose, FusedCovarianceIsBelowEachSingleMarkers) {
+  const Rig rig;
+  const std::vector<MarkerObservation> all = rig.ObserveAll();
+  const ObjectPose fused = SolveObjectPose(rig.camera, all, ObjectPoseOptions{});
+  ASSERT_TRUE(fused.valid);
+  for (const MarkerObservation& one : all) {
+    const ObjectPose single = SolveObjectPose(rig.camera, {one}, ObjectPoseOptions{});
+    ASSERT_TRUE(single.valid);
+    EXPECT_EQ(single.markers_used, 1);
+    // Loewner order: single - fused is positive semi-definite.
+    const Eigen::SelfAdjointEigenSolver<PoseCovariance> es(single.covariance - fused.covariance);
+    EXPECT_GT(es.eigenvalues().minCoeff(), -1e-12 * single.covariance.norm());
+    EXPECT_LT(fused.covariance.trace(), 0.8 * single.covariance.trace());
+  }
+}
+
+// One marker's observations are wrong (a wrong layout entry, a misdetection): it is rejected
+// and the others give the truth.
+TEST(ObjectPose, AnInconsistentMarkerIsRejected) {
+  const Rig rig;
+  std::vector<MarkerObservation> obs = rig.ObserveAll();
+  for (auto& c : obs[1].corners) c += Eigen::Vector2d(4, -3);
+  obs[1].tip->pixel += Eigen::Vector2d(4, -3);
+  const ObjectPose p = SolveObjectPose(rig.camera, obs, ObjectPoseOptions{});
+  ASSERT_TRUE(p.valid);
+  ASSERT_EQ(p.ids_rejected.size(), 1u);
+  EXPECT_EQ(p.ids_rejected[0], 2);
+  EXPECT_EQ(p.markers_used, 2);
+  EXPECT_EQ(p.points_rejected, 0);  // the bad marker went first: no good point was dropped
+  EXPECT_LT(PoseError(rig.cam_from_object, p.cam_from_object).norm(), 1e-8);
+}
+
+// One corner is off (hidden by the post, pulled by a neighbouring edge): that corner goes,
+// the marker stays.
+TEST(ObjectPose, ASingleBadCornerIsDroppedAndItsMarkerKept) {
+  const Rig rig;
+  std::vector<MarkerObservation> obs = rig.ObserveAll();
+  obs[0].corners[2] += Eigen::Vector2d(1.5, 0.5);
+  const ObjectPose p = SolveObjectPose(rig.camera, obs, ObjectPoseOptions{});
+  ASSERT_TRUE(p.valid);
+  EXPECT_TRUE(p.ids_rejected.empty());
+  EXPECT_EQ(p.points_rejected, 1);
+  EXPECT_EQ(p.points_used, 14);
+  EXPECT_LT(PoseError(rig.cam_from_object, p.cam_from_object).norm(), 1e-8);
+}
+
+TEST(ObjectPose, CornerSigmaFollowsTheMarkerSize) {
+  ObjectPoseOptions o;
+  o.corner_sigma_px = 0.05;
+  EXPECT_DOUBLE_EQ(CornerSigma(o, 30), 0.05);
+  EXPECT_NEAR(CornerSigma(o, 120), 0.025, 1e-12);
+  EXPECT_DOUBLE_EQ(CornerSigma(o, 1e9), o.min_corner_sigma_px);
+  EXPECT_TRUE(std::isfinite(CornerSigma(o, 0)));
+}
+
+TEST(ObjectPose, ObservationsFromDetectionsMatchTheLayoutAndShareADualsPost) {
+  Layout layout;
+  MarkerModel dual = MarkerModel::Standard(10, 0.432, 0.027);
+  dual.AddInner(11, 0.108);
+  layout.markers.push_back({dual, Pose{}, std::nullopt, std::nullopt});
+  layout.markers.push_back({MarkerModel::Standard(12, 0.2, 0.05),
+                            Pose{Vec3(0, 0, 0), Vec3(1, 0, 0)}, std::nullopt, 0.001});
+  std::vector<Detection> dets(4);
+  dets[0].id = 11;  // the inner marker, listed first
+  dets[0].nested_in = 10;
+  dets[0].tip = TipObservation{Eigen::Vector2d(1, 2), 0.4};
+  dets[1].id = 10;
+  dets[1].tip = TipObservation{Eigen::Vector2d(1.1, 2), 0.3};
+  dets[2].id = 12;
+  dets[3].id = 99;  // not in the layout
+  const std::vector<MarkerObservation> obs = ObservationsFromDetections(dets, layout);
+  ASSERT_EQ(obs.size(), 3u);  // 99 is not in the layout
+  // Outer markers first: the shared tip is the outer marker's.
+  EXPECT_EQ(obs[0].id, 10);
+  ASSERT_TRUE(obs[0].tip.has_value());
+  EXPECT_EQ(obs[0].tip->pixel.x(), 1.1);
+  EXPECT_EQ(obs[1].id, 12);
+  EXPECT_EQ(obs[1].object_from_marker.tvec.x(), 1);
+  EXPECT_EQ(*obs[1].post_height_sigma, 0.001);
+  EXPECT_EQ(obs[2].id, 11);
+  EXPECT_FALSE(obs[2].tip.has_value());
+  EXPECT_NEAR(obs[2].model.size, 0.108, 1e-12);
+}
+
+// One marker whose detector could not rule out its mirror pose: that widening reaches the
+// fused covariance, moved from the marker's origin to the object's; with two markers it does
+// not (the geometry settles it).
+TEST(ObjectPose, ASingleMarkersMirrorPoseWidensTheFusedCovariance) {
+  const Rig rig;
+  std::vector<MarkerObservation> one = {rig.Observe(0, rig.layout.markers[0].object_from_marker)};
+  const ObjectPose base = SolveObjectPose(rig.camera, one, ObjectPoseOptions{});
+  ASSERT_TRUE(base.valid) << base.message;
+  PoseCovariance A = PoseCovariance::Zero();
+  A.topLeftCorner<3, 3>() = Eigen::Vector3d(4e-4, 1e-4, 0).asDiagonal();
+  A(3, 3) = 1e-6;
+  one[0].ambiguity_covariance = A;
+  one[0].pose_ambiguous = true;
+  const ObjectPose widened = SolveObjectPose(rig.camera, one, ObjectPoseOptions{});
+  ASSERT_TRUE(widened.valid) << widened.message;
+  EXPECT_TRUE(widened.ambiguous);
+  // The expected move, written out: a rotation d about the marker's origin moves the object's
+  // origin by d x a, a from the marker's origin to the object's (camera axes).
+  const Pose cam_from_marker = widened.cam_from_object * rig.layout.markers[0].object_from_marker;
+  const Vec3 a = widened.cam_from_object.tvec - cam_from_marker.tvec;
+  Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Identity();
+  for (int k = 0; k < 3; ++k) J.block<3, 1>(3, k) = Vec3::Unit(k).cross(a);
+  const PoseCovariance expected = base.covariance + J * A * J.transpose();
+  EXPECT_LT((widened.covariance - expected).cwiseAbs().maxCoeff(), 1e-9 * expected.norm());
+  // Two markers: no widening.
+  std::vector<MarkerObservation> two = {one[0],
+                                        rig.Observe(1, rig.layout.markers[1].object_from_marker)};
+  two[1].ambiguity_covariance = A;
+  std::vector<MarkerObservation> two_plain = two;
+  for (auto& o : two_plain) o.ambiguity_covariance.setZero();
+  const ObjectPose p2 = SolveObjectPose(rig.camera, two, ObjectPoseOptions{});
+  const ObjectPose p2_plain = SolveObjectPose(rig.camera, two_plain, ObjectPoseOptions{});
+  ASSERT_TRUE(p2.valid && p2_plain.valid);
+  EXPECT_FALSE(p2.ambiguous);
+  EXPECT_LT((p2.covariance - p2_plain.covariance).cwiseAbs().maxCoeff(), 1e-15);
+}
+
+// A single ambiguous marker's other planar pose becomes the object's alternative, moved by the
+// same marker_from_object; where the fit leaves the detector's pose for the other one (the tip
+// settles it), the two swap and so do their weights. With two markers there is none.
+TEST(ObjectPose, ASingleMarkersAlternativePoseIsTheObjectsAlternative) {
+  const Rig rig;
+  const Pose& object_from_marker = rig.layout.markers[0].object_from_marker;
+  const Pose truth = rig.cam_from_object * object_from_marker;
+  const Pose twin = PlanarTwin(truth);
+  ASSERT_GT(AngleDeg(truth, twin), 10);
+  MarkerObservation o = rig.Observe(0, object_from_marker);
+  o.pose_ambiguous = true;
+  o.ambiguity_covariance = 1e-6 * PoseCovariance::Identity();
+  o.alternative_cam_from_marker = twin;
+  o.alternative_weight = 0.2;
+  const ObjectPose right = SolveObjectPose(rig.camera, {o}, ObjectPoseOptions{});
+  ASSERT_TRUE(right.valid && right.ambiguous) << right.message;
+  ASSERT_TRUE(right.alternative_cam_from_object.has_value());
+  EXPECT_LT(AngleDeg(right.cam_from_object, rig.cam_from_object), 1e-6);
+  const Pose expected = twin * object_from_marker.Inverse();
+  EXPECT_LT(AngleDeg(*right.alternative_cam_from_object, expected), 1e-9);
+  EXPECT_LT((right.alternative_cam_from_object->tvec - expected.tvec).norm(), 1e-12);
+  EXPECT_DOUBLE_EQ(right.alternative_weight, 0.2);
+
+  // Where the fit ends nearer the detector's other pose than its kept one, the two swap, and
+  // so do their weights.
+  MarkerObservation near = o;
+  near.cam_from_marker = Pose::FromRotation(
+      Eigen::AngleAxisd(3 * M_PI / 180, Vec3::UnitX()).toRotationMatrix() * truth.Rotation(),
+      truth.tvec);
+  near.alternative_cam_from_marker = truth;
+  near.alternative_weight = 0.3;
+  const ObjectPose swapped = SolveObjectPose(rig.camera, {near}, ObjectPoseOptions{});
+  ASSERT_TRUE(swapped.valid && swapped.ambiguous) << swapped.message;
+  EXPECT_LT(AngleDeg(swapped.cam_from_object, rig.cam_from_object), 1e-6);
+  ASSERT_TRUE(swapped.alternative_cam_from_object.has_value());
+  EXPECT_LT(AngleDeg(*swapped.alternative_cam_from_object,
+                     *near.cam_from_marker * object_from_marker.Inverse()),
+            1e-9);
+  EXPECT_DOUBLE_EQ(swapped.alternative_weight, 0.7);
+
+  // Not flagged, or not alone: no alternative.
+  MarkerObservation plain = o;
+  plain.pose_ambiguous = false;
+  EXPECT_FALSE(
+      SolveObjectPose(rig.camera, {plain}, ObjectPoseOptions{}).alternative_cam_from_object);
+  const ObjectPose two =
+      SolveObjectPose(rig.camera, {o, rig.Observe(1, rig.layout.markers[1].object_from_marker)},
+                      ObjectPoseOptions{});
+  ASSERT_TRUE(two.valid);
+  EXPECT_FALSE(two.ambiguous);
+  EXPECT_FALSE(two.alternative_cam_from_object);
+  EXPECT_EQ(two.alternative_weight, 0);
+}
+
+// Two markers, and the only single-marker pose to start from is the wrong planar one of the
+// first (the second's detection gave none): its alternative is a start too, and the fit
+// over both ends at the truth with both markers kept.
+TEST(ObjectPose, AnAmbiguousMarkersAlternativeIsAStart) {
+  const Rig rig;
+  std::vector<MarkerObservation> obs = {rig.Observe(0, rig.layout.markers[0].object_from_marker),
+                                        rig.Observe(1, rig.layout.markers[1].object_from_marker)};
+  const Pose truth = *obs[0].cam_from_marker;
+  obs[0].cam_from_marker = PlanarTwin(truth);
+  obs[0].pose_ambiguous = true;
+  obs[0].alternative_cam_from_marker = truth;
+  obs[0].alternative_weight = 0.4;
+  obs[1].cam_from_marker.reset();
+  const ObjectPose p = SolveObjectPose(rig.camera, obs, ObjectPoseOptions{});
+  ASSERT_TRUE(p.valid) << p.message;
+  EXPECT_LT(AngleDeg(p.cam_from_object, rig.cam_from_object), 1e-6);
+  EXPECT_EQ(p.markers_used, 2);
+  EXPECT_FALSE(p.ambiguous);
+  EXPECT_FALSE(p.alternative_cam_from_object);
+}
+
+TEST(ObjectPose, NeesOfAKnownErrorIsItsMahalanobisNorm) {
+  Pose truth{Vec3(0.1, 0.2, 0.3), Vec3(1, 2, 3)};
+  Pose est = truth;
+  est.tvec += Vec3(0.01, 0, 0);
+  PoseCovariance C = PoseCovariance::Identity() * 1e-4;
+  EXPECT_NEAR(Nees(truth, est, C), 1.0, 1e-9);
+  EXPECT_NEAR(PoseError(truth, est)[3], -0.01, 1e-15);
+}
+
+}  // namespace
+}  // namespace svms

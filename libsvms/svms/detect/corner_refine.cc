@@ -1,0 +1,574 @@
+#include "svms/detect/corner_refine.h"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <vector>
+
+namespace svms {
+
+namespace {
+
+// Bilinear samples of one 8- or 16-bit image: the row pointer and depth resolved once, the
+// clamping only near the border (RefineCorners takes about 10^4 samples per marker).
+class Sampler {
+ public:
+  explicit Sampler(const cv::Mat& img)
+      : img_(img), wide_(img.depth() == CV_16U), max_u_(img.cols - 1.0), max_v_(img.rows - 1.0) {}
+  double operator()(double u, double v) const {
+    if (!(u >= 0 && v >= 0 && u < max_u_ - 1e-9 && v < max_v_ - 1e-9)) return Clamped(u, v);
+    const int x0 = static_cast<int>(u), y0 = static_cast<int>(v);
+    const double fx = u - x0, fy = v - y0;
+    return wide_ ? Blend<uint16_t>(x0, y0, fx, fy) : Blend<uint8_t>(x0, y0, fx, fy);
+  }
+
+ private:
+  template <typename T>
+  double Blend(int x0, int y0, double fx, double fy) const {
+    const T* r0 = img_.ptr<T>(y0) + x0;
+    const T* r1 = img_.ptr<T>(y0 + 1) + x0;
+    return (1 - fy) * ((1 - fx) * r0[0] + fx * r0[1]) + fy * ((1 - fx) * r1[0] + fx * r1[1]);
+  }
+  double Clamped(double u, double v) const {
+    u = std::clamp(std::isnan(u) ? 0.0 : u, 0.0, max_u_);
+    v = std::clamp(std::isnan(v) ? 0.0 : v, 0.0, max_v_);
+    const int x0 = std::min(static_cast<int>(u), std::max(img_.cols - 2, 0));
+    const int y0 = std::min(static_cast<int>(v), std::max(img_.rows - 2, 0));
+    const int x1 = std::min(x0 + 1, img_.cols - 1), y1 = std::min(y0 + 1, img_.rows - 1);
+    const double fx = u - x0, fy = v - y0;
+    auto at = [&](int y, int x) -> double {
+      return wide_ ? img_.at<uint16_t>(y, x) : img_.at<uint8_t>(y, x);
+    };
+    return (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x1)) +
+           fy * ((1 - fx) * at(y1, x0) + fx * at(y1, x1));
+  }
+  const cv::Mat& img_;
+  const bool wide_;
+  const double max_u_, max_v_;
+};
+
+// The edge through `centre` (pixels; within a few tenths of a pixel of the edge) across which
+// the intensity rises along `outward`, from the pixels' own values along the pixel row (or
+// column) through it: the one of the two axes nearer `outward`, the centre first moved along
+// the edge onto that row. The window and its levels are those of the profile along the normal
+// (W either side across the edge, each level the mean over the outer 0.5 px), which along the
+// row are 1 / cos(angle to the axis) longer. The integral of the values' linear interpolant
+// along a row is exact for a straight edge seen through square pixels (and any symmetric blur),
+// whatever the edge's angle and pixel phase: the bright length it gives is the edge's place on
+// the row. Why not the area along the normal alone: a profile sampled bilinearly across pixels
+// at an angle is not the pixels' profile, and its area moves with the pixel phase. On 60 px
+// markers without sensor noise (24 views, 256 rays on edges) that left the corners 0.0109 px
+// RMS off, varying slowly along a side; along the rows 0.0027. With noise, 72 views each: 60 px
+// 0.0108 -> 0.0061, 30 px 0.0171 -> 0.0088, 16 px 0.0213 -> 0.0144; the sun sweep's shadow-edge
+// views 0.0271 -> 0.0277.
+bool AreaAlongPixelRow(const Sampler& sample, const Eigen::Vector2d& centre,
+                       const Eigen::Vector2d& outward, double W, double best,
+                       Eigen::Vector2d* edge_out, double* strength) {
+  const bool along_x = std::abs(outward.x()) >= std::abs(outward.y());
+  const double cos_axis = along_x ? std::abs(outward.x()) : std::abs(outward.y());
+  if (!(cos_axis > 0.5) || !centre.allFinite()) return false;  // a unit vector's larger part
+  const double sgn = (along_x ? outward.x() : outward.y()) > 0 ? 1 : -1;
+  const Eigen::Vector2d u(-outward.y(), outward.x());  // along the edge
+  Eigen::Vector2d c = centre;
+  if (along_x)
+    c += (std::round(c.y()) - c.y()) / u.y() * u;
+  else
+    c += (std::round(c.x()) - c.x()) / u.x() * u;
+  const double row = along_x ? c.y() : c.x();  // a whole pixel
+  // Along the row: coordinates relative to the whole pixel k0 at or below the centre, which is
+  // at k0 + frac; pix[k - lo] is the value of pixel k0 + k, over the window and one beyond.
+  const double k0 = std::floor(along_x ? c.x() : c.y());
+  const double frac = (along_x ? c.x() : c.y()) - k0;
+  const double reach = W / cos_axis, band = 0.5 / cos_axis;
+  const int lo = static_cast<int>(std::floor(frac - reach)) - 1;
+  const int hi = static_cast<int>(std::ceil(frac + reach)) + 1;
+  std::array<double, 12> pix{};
+  static_assert(2.0 * 1.4143 + 5 <= 12, "W = 2 at 45 degrees fits");
+  if (hi - lo + 1 > static_cast<int>(pix.size())) return false;
+  for (int k = lo; k <= hi; ++k) pix[k - lo] = along_x ? sample(k0 + k, row) : sample(row, k0 + k);
+  // The integral of the linear interpolant between pixel centres over [a, b] (any order).
+  auto integral = [&](double a, double b) {
+    if (a > b) std::swap(a, b);
+    double sum = 0;
+    for (int k = static_cast<int>(std::floor(a)); k < b; ++k) {
+      const double t0 = std::max(a, static_cast<double>(k)), t1 = std::min(b, k + 1.0);
+      const double v0 = pix[k - lo], dv = pix[k + 1 - lo] - v0;
+      sum += (t1 - t0) * (v0 + 0.5 * (t0 + t1 - 2 * k) * dv);
+    }
+    return sum;
+  };
+  const double dark_end = frac - sgn * reach, bright_end = frac + sgn * reach;
+  const double dark = integral(dark_end, dark_end + sgn * band) / band;
+  const double bright = integral(bright_end - sgn * band, bright_end) / band;
+  if (bright - dark < 0.3 * best) return false;
+  const double bright_len = (integral(dark_end, bright_end) - 2 * reach * dark) / (bright - dark);
+  const double from_dark_end = std::clamp(2 * reach - bright_len, 0.0, 2 * reach);
+  const double axis = k0 + dark_end + sgn * from_dark_end;
+  *edge_out = along_x ? Eigen::Vector2d(axis, row) : Eigen::Vector2d(row, axis);
+  *strength = best;
+  return true;
+}
+
+// See LocateEdgeWith: the fall of a narrow band's profile, as a fraction of its contrast, from
+// its brightest point to the window's end that marks a darker region beyond it.
+constexpr double kNarrowBandDrop = 0.02;
+
+// The edge crossing `p` where the intensity rises along `outward` (unit, pixels), searched
+// over +-steps half-pixel steps; `line` has room for 2 steps + 3 samples. *strength: the
+// derivative's peak (grey levels per pixel). False where no rising edge stands out; then
+// *rises_past_end (when given) says whether the steepest rise was at the search's outward end.
+// `along_rows`: across a wide band, the area is taken again along the pixel row through the
+// point found (AreaAlongPixelRow).
+bool LocateEdgeWith(const Sampler& sample, double* line, int steps, const Eigen::Vector2d& p,
+                    const Eigen::Vector2d& outward, bool narrow_band, Eigen::Vector2d* edge_out,
+                    double* strength, bool* rises_past_end = nullptr, bool along_rows = false) {
+  // Derivative of intensity along the outward normal at 0.5 px steps s: the difference
+  // of the samples 0.5 px either side, I(s + 1) - I(s - 1) on the half-pixel grid.
+  double best = 0;
+  int best_s = 0;
+  for (int j = 0; j < 2 * steps + 3; ++j) {
+    const Eigen::Vector2d q = p + 0.5 * (j - steps - 1) * outward;
+    line[j] = sample(q.x(), q.y());
+  }
+  for (int s = -steps + 1; s < steps; ++s) {
+    const double deriv = line[s + steps + 2] - line[s + steps];
+    if (deriv > best) {
+      best = deriv;
+      best_s = s;
+    }
+  }
+  if (rises_past_end) *rises_past_end = best > 0 && best_s == steps - 1;
+  if (best <= 0 || best_s == -steps + 1 || best_s == steps - 1) return false;
+  // The edge position from the area under the normalised profile, in a window centred on
+  // the derivative's peak: for a step seen through box-filtered pixels (and any
+  // symmetric blur) the bright length is the integral, whatever the pixel phase -- the
+  // peak of the derivative alone locks toward pixel centres on sharp edges. With along_rows,
+  // across a wide band, that point is then the centre of the same area taken along the pixel row
+  // (AreaAlongPixelRow), which the bilinear profile's pixel-phase error does not reach.
+  const Eigen::Vector2d centre = p + 0.5 * best_s * outward;
+  constexpr double W = 2.0, h = 0.25;
+
+  const int ns = static_cast<int>(2 * W / h);
+  double dark = 0, bright = 0, area = 0;
+  std::array<double, 17> prof{};
+  // Every other profile point lies on the half-pixel grid already sampled into `line`
+  // (line[j] is at p + 0.5 (j - steps - 1) outward): reused, a third of the samples saved.
+  static_assert(W == 2.0 && h == 0.25, "the reuse below assumes 0.25 px steps over +-2 px");
+  for (int i = 0; i <= ns; ++i) {
+    const int j = best_s + (i - 8) / 2 + steps + 1;
+    if (i % 2 == 0 && j >= 0 && j < 2 * steps + 3) {
+      prof[i] = line[j];
+      continue;
+    }
+    const Eigen::Vector2d q = centre + (-W + i * h) * outward;
+    prof[i] = sample(q.x(), q.y());
+  }
+  // Dark level: the window's first 3 samples. Bright level and the end of the integral: the
+  // window's last 3 samples; but across a narrow bright band (narrow_band) whose profile falls
+  // by more than kNarrowBandDrop of the contrast from its brightest point to the window's end,
+  // that brightest point (the vertex of a parabola through the brightest sample and its
+  // neighbours). The white stripe of an 8 px marker is 2.7 px wide, and a black bit cell beyond
+  // it darkens the window's end: read there, the bright level came out low and the edge
+  // 0.05-0.2 px early (the corners of 8 px markers were 0.13 px off RMS on the simulator, now
+  // 0.06). On wide bands the window's end is exact and the brightest point is not: it falls
+  // where noise or shading puts it, short of the plateau (the median corner error on the
+  // noise-free angle set grew from 0.0069 to 0.0085 px when every marker took this path).
+  for (int i = 0; i < 3; ++i) dark += prof[i] / 3;
+  int top = ns;
+  for (int i = ns / 2; i <= ns; ++i)
+    if (prof[i] > prof[top]) top = i;
+  double end_mean = 0;
+  for (int i = 0; i < 3; ++i) end_mean += prof[ns - i] / 3;
+  double peak = prof[top];
+  if (top < ns) {
+    const double a = prof[top - 1], b = prof[top], c = prof[top + 1];
+    const double curv = a - 2 * b + c;
+    peak = curv < 0 ? b - (a - c) * (a - c) / (8 * curv) : b;
+  }
+  if (!narrow_band || top >= ns || peak - end_mean <= kNarrowBandDrop * (peak - dark)) {
+    bright = end_mean;
+    top = ns;
+  } else {
+    bright = peak;
+  }
+  if (bright - dark < 0.3 * best) return false;
+  for (int i = 0; i < top; ++i)
+    area += 0.5 * (prof[i] + prof[i + 1] - 2 * dark) / (bright - dark) * h;
+  const double offset = top * h - area - W;  // from the centre: -W + (top h - area)
+  const Eigen::Vector2d edge = centre + std::clamp(offset, -W, W) * outward;
+  if (!narrow_band && along_rows)
+    return AreaAlongPixelRow(sample, edge, outward, W, best, edge_out, strength);
+  *edge_out = edge;
+  *strength = best;
+  return true;
+}
+
+}  // namespace
+
+double SampleImage(const cv::Mat& img, double u, double v) { return Sampler(img)(u, v); }
+
+bool LocateEdge(const cv::Mat& image, const Eigen::Vector2d& p,
+                const Eigen::Vector2d& dark_to_bright, double search_px, Eigen::Vector2d* edge,
+                double* strength, bool narrow_band, bool along_rows) {
+  const int steps = std::clamp(static_cast<int>(std::ceil(search_px / 0.5)), 2, 30);
+  std::array<double, 2 * 30 + 3> line;
+  return LocateEdgeWith(Sampler(image), line.data(), steps, p, dark_to_bright, narrow_band, edge,
+                        strength, nullptr, along_rows);
+}
+
+namespace {
+
+// Maps pixels to the plane where lines are fitted, and back.
+struct Plane {
+  const CameraModel* camera;
+  bool ToPlane(const Eigen::Vector2d& px, Eigen::Vector2d* q) const {
+    if (!camera) {
+      *q = px;
+      return true;
+    }
+    Eigen::Vector3d d;
+    if (!camera->Unproject(px, &d) || d.z() <= 0) return false;
+    *q = d.head<2>() / d.z();
+    return true;
+  }
+  bool ToPixel(const Eigen::Vector2d& q, Eigen::Vector2d* px) const {
+    if (!camera) {
+      *px = q;
+      return true;
+    }
+    return camera->Project(Eigen::Vector3d(q.x(), q.y(), 1), px);
+  }
+};
+
+// The mean of the samples 1.5, 1.75 and 2 px from `edge` along `dir` (pixels).
+double LevelBeside(const Sampler& sample, const Eigen::Vector2d& edge, const Eigen::Vector2d& dir) {
+  double sum = 0;
+  for (double t : {1.5, 1.75, 2.0}) {
+    const Eigen::Vector2d q = edge + t * dir;
+    sum += sample(q.x(), q.y());
+  }
+  return sum / 3;
+}
+
+// True where more than half of up to 8 of a side's located edge points, evenly spread (pixels;
+// `outward` from dark to bright), have their dark side, 1.5-2 px in, more than `fraction` of
+// the way from the square's `black` to their bright side, 1.5-2 px out: the rise located is
+// not the black square's. Eight, as in the study that set the threshold (BM_Detect, three
+// markers: step 8 takes 0.230 ms without the check, 0.241 with it on 8 points, 0.248 on all).
+bool InPenumbra(const Sampler& sample, const std::vector<Eigen::Vector2d>& edges,
+                const Eigen::Vector2d& outward, double black, double fraction) {
+  const size_t n = std::min<size_t>(8, edges.size());
+  size_t raised = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d& e = edges[(2 * i + 1) * edges.size() / (2 * n)];
+    const double dark = LevelBeside(sample, e, -outward), bright = LevelBeside(sample, e, outward);
+    if (bright > black && dark - black > fraction * (bright - black)) ++raised;
+  }
+  return 2 * raised > n;
+}
+
+// Where the profile from `edge` inward along -outward (0.25 px steps, up to `reach_px`) first
+// falls to `level`, interpolated between the two samples around it (pixels); *strength: its
+// fall there, grey levels per pixel. False where it does not fall that far within reach.
+bool FallTo(const Sampler& sample, const Eigen::Vector2d& edge, const Eigen::Vector2d& outward,
+            double level, double reach_px, Eigen::Vector2d* at, double* strength) {
+  double prev = sample(edge.x(), edge.y());
+  if (!(prev > level)) return false;  // already below it: no fall to place
+  for (int i = 1; 0.25 * i <= reach_px; ++i) {
+    const Eigen::Vector2d q = edge - 0.25 * i * outward;
+    const double v = sample(q.x(), q.y());
+    if (v <= level) {  // prev > level >= v
+      *at = edge - (0.25 * (i - 1) + 0.25 * (prev - level) / (prev - v)) * outward;
+      *strength = (prev - v) / 0.25;
+      return true;
+    }
+    prev = v;
+  }
+  return false;
+}
+
+// The black square's edge under a penumbra, from the located (penumbra's) edge point `edge`:
+// where the profile inward falls half-way from the stripe's shadowed level to `black`. That
+// level is read first 1.5-2 px inside the penumbra's edge, which is already on its rise (the
+// edge came out 0.3-0.5 px outside, on the synthetic penumbra of corner_refine_test and on
+// compare view edge_40deg_09), then again 0.5 px outside the edge so found, at the foot
+// (0.05-0.09 px outside there).
+bool EdgeBelowPenumbra(const Sampler& sample, const Eigen::Vector2d& edge,
+                       const Eigen::Vector2d& outward, double black, double reach_px,
+                       Eigen::Vector2d* inner, double* strength) {
+  Eigen::Vector2d first;
+  if (!FallTo(sample, edge, outward, black + 0.5 * (LevelBeside(sample, edge, -outward) - black),
+              reach_px, &first, strength))
+    return false;
+  const Eigen::Vector2d foot = first + 0.5 * outward;
+  const double stripe = sample(foot.x(), foot.y());
+  return FallTo(sample, edge, outward, black + 0.5 * (stripe - black), reach_px, inner, strength);
+}
+
+// Buffers of RefineCorners, kept per thread between calls (no allocation once grown).
+struct RefineScratch {
+  std::vector<double> line, weights, residual, abs_inliers;
+  std::vector<Eigen::Vector2d> pts, edges, past_end;
+  std::vector<char> use;
+};
+RefineScratch& Scratch() {
+  thread_local RefineScratch scratch;
+  return scratch;
+}
+
+// A side's line in the fitting plane, a x + b y + c = 0 with (a, b) a unit normal.
+struct LineFit {
+  Eigen::Vector3d line = Eigen::Vector3d::Zero();
+  int inliers = 0;
+  // The inliers' scatter about the line, pixels: sqrt(sum r^2 / (n - 2)), the unbiased estimate
+  // of one point's sigma (the line took two degrees of freedom; on a 10-point side of a small
+  // marker sqrt(ss / n) is 11 % low, and its corners' sigmas with it).
+  double rms_px = 0;
+  // Sums for the lag-1 autocorrelation of the inliers' signed residuals along the side (in the
+  // order of the points): sum r_i r_(i+1) over consecutive inliers, sum r_i^2, and the pairs.
+  double lag1_products = 0, lag1_squares = 0;
+  int lag1_pairs = 0;
+};
+
+// Weighted total least squares line through `pts`, refitted without the points farther from it
+// than max(trim_sigmas x the robust sigma of the residuals, trim_floor_px): whatever crosses a
+// side -- the post's silhouette at grazing angles, a shadow, an occluder -- moves its edge
+// points off the line by pixels, and one such stretch biases a plain fit by tenths of a
+// pixel at the corners. The robust sigma is 1.4826 x the median absolute residual.
+LineFit FitLineRobust(const std::vector<Eigen::Vector2d>& pts, const std::vector<double>& weights,
+                      const Plane& plane, const CornerRefineOptions& o) {
+  RefineScratch& sc = Scratch();
+  std::vector<char>& use = sc.use;
+  use.assign(pts.size(), 1);
+  LineFit fit;
+  double px_per_unit = 1;
+  for (int pass = 0; pass <= o.trim_passes; ++pass) {
+    double wsum = 0;
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    for (size_t i = 0; i < pts.size(); ++i) {
+      if (!use[i]) continue;
+      mean += weights[i] * pts[i];
+      wsum += weights[i];
+    }
+    mean /= wsum;
+    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+    for (size_t i = 0; i < pts.size(); ++i)
+      if (use[i]) cov += weights[i] * (pts[i] - mean) * (pts[i] - mean).transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es;
+    es.computeDirect(cov);  // closed form for 2 x 2
+    const Eigen::Vector2d nrm = es.eigenvectors().col(0);
+    fit.line = Eigen::Vector3d(nrm.x(), nrm.y(), -nrm.dot(mean));
+    if (pass == 0 && plane.camera) {
+      Eigen::Vector2d p0, p1;
+      if (plane.ToPixel(mean, &p0) && plane.ToPixel(mean + 1e-3 * nrm, &p1))
+        px_per_unit = (p1 - p0).norm() / 1e-3;
+    }
+    std::vector<double>&r = sc.residual, &abs_in = sc.abs_inliers;
+    r.resize(pts.size());
+    abs_in.clear();
+    double ss = 0;
+    fit.inliers = 0;
+    for (size_t i = 0; i < pts.size(); ++i) {
+      r[i] = px_per_unit * std::abs(nrm.dot(pts[i] - mean));
+      if (!use[i]) continue;
+      abs_in.push_back(r[i]);
+      ss += r[i] * r[i];
+      ++fit.inliers;
+    }
+    fit.rms_px = std::sqrt(ss / std::max(1, fit.inliers - 2));
+    // The lag-1 sums of this fit (the loop may end after any pass).
+    fit.lag1_products = fit.lag1_squares = 0;
+    fit.lag1_pairs = 0;
+    double previous = 0;
+    bool have_previous = false;
+    for (size_t i = 0; i < pts.size(); ++i) {
+      if (!use[i]) {
+        have_previous = false;
+        continue;
+      }
+      const double signed_r = px_per_unit * nrm.dot(pts[i] - mean);
+      fit.lag1_squares += signed_r * signed_r;
+      if (have_previous) fit.lag1_products += previous * signed_r, ++fit.lag1_pairs;
+      previous = signed_r, have_previous = true;
+    }
+    if (pass == o.trim_passes) break;
+    std::nth_element(abs_in.begin(), abs_in.begin() + abs_in.size() / 2, abs_in.end());
+    const double sigma = 1.4826 * abs_in[abs_in.size() / 2];
+    const double cut = std::max(o.trim_sigmas * sigma, o.trim_floor_px);
+    bool changed = false;
+    int kept = 0;
+    for (size_t i = 0; i < pts.size(); ++i) kept += r[i] <= cut;
+    // Too few points left to trust a line more than the untrimmed one: keep the last fit.
+    if (kept < std::max(o.trim_min_points, static_cast<int>(std::ceil(0.5 * pts.size())))) break;
+    for (size_t i = 0; i < pts.size(); ++i) {
+      const char u = r[i] <= cut;
+      changed |= u != use[i];
+      use[i] = u;
+    }
+    if (!changed) break;
+  }
+  return fit;
+}
+}  // namespace
+
+bool ExcludedRegion::Contains(const Eigen::Vector2d& p) const {
+  const Eigen::Vector2d d = b - a;
+  const double len2 = d.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return (p - (a + t * d)).norm() < radius;
+}
+
+RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2d, 4>& in,
+                             const CameraModel* camera, const CornerRefineOptions& o,
+                             const std::vector<ExcludedRegion>& excluded, double black) {
+  RefinedCorners out;
+  out.corners = in;
+  const Sampler sample(img);
+  const int steps = static_cast<int>(std::ceil(o.search_px / 0.5));
+  RefineScratch& sc = Scratch();
+  std::vector<double>& line = sc.line;
+  line.resize(2 * steps + 3);
+  std::vector<Eigen::Vector2d>& pts = sc.pts;
+  std::vector<Eigen::Vector2d>& edges = sc.edges;  // pixels
+  // Where the steepest rise was at the search's outward end: the search's end (pixels).
+  std::vector<Eigen::Vector2d>& past_end = sc.past_end;
+  std::vector<double>& weights = sc.weights;
+  // A pinhole camera maps straight sides to straight lines: fit in pixels, no unprojection.
+  const bool pinhole = camera && camera->lensmodel() == "LENSMODEL_PINHOLE";
+  const Plane plane{pinhole ? nullptr : camera};
+  for (int it = 0; it < o.iterations; ++it) {
+    std::array<Eigen::Vector3d, 4> lines;  // in the fitting plane
+    double lag1_products = 0, lag1_squares = 0;
+    int lag1_pairs = 0;
+    double min_side = INFINITY;
+    for (int k = 0; k < 4; ++k)
+      min_side = std::min(min_side, (out.corners[(k + 1) % 4] - out.corners[k]).norm());
+    const bool narrow_band = min_side < o.narrow_stripe_side_px;
+    const double end_margin = narrow_band ? o.narrow_end_margin : o.end_margin;
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector2d a = out.corners[k], b = out.corners[(k + 1) % 4];
+      const double len = (b - a).norm();
+      const Eigen::Vector2d u = (b - a) / len, outward(u.y(), -u.x());  // dark is screen-right
+      const int m = std::clamp(static_cast<int>(len / 1.5), 4, o.max_points);
+      pts.clear();
+      edges.clear();
+      past_end.clear();
+      weights.clear();
+      for (int i = 0; i < m; ++i) {
+        const double t = end_margin + (1 - 2 * end_margin) * (i + 0.5) / m;
+        const Eigen::Vector2d p = a + t * (b - a);
+        if (std::any_of(excluded.begin(), excluded.end(),
+                        [&](const ExcludedRegion& e) { return e.Contains(p); })) {
+          if (it == o.iterations - 1) ++out.excluded_points;
+          continue;
+        }
+        Eigen::Vector2d edge;
+        double best;
+        bool rises_on;
+        if (!LocateEdgeWith(sample, line.data(), steps, p, outward, narrow_band, &edge, &best,
+                            &rises_on, o.edges_along_rows)) {
+          if (rises_on) past_end.push_back(p + 0.5 * steps * outward);
+          continue;
+        }
+        edges.push_back(edge);
+        weights.push_back(best);
+      }
+      // A shadow's penumbra running along the side on the white stripe: see
+      // CornerRefineOptions::penumbra_dark_fraction. Taken from the located edges only in the
+      // last iteration: the earlier ones converge on the penumbra, a clean line to start from.
+      // But where the line is already on the square's edge and the penumbra's steepest rise
+      // lies beyond the search, most of the side's points find no edge, the rise running on
+      // past the search's end (compare view edge_40deg_09 rendered with 256 rays on edges):
+      // those ends are on the penumbra, and the edge is found under it from there, in any
+      // iteration.
+      const bool may_be_penumbra = std::isfinite(black) && len >= o.penumbra_min_side_px;
+      const bool from_ends = may_be_penumbra && past_end.size() > edges.size() &&
+                             InPenumbra(sample, past_end, outward, black, o.penumbra_dark_fraction);
+      if (from_ends || (may_be_penumbra && it == o.iterations - 1 &&
+                        InPenumbra(sample, edges, outward, black, o.penumbra_dark_fraction))) {
+        if (it == o.iterations - 1) out.penumbra_sides[k] = true;
+        if (from_ends) {
+          edges.swap(past_end);
+          weights.resize(edges.size());
+        }
+        const double reach = std::min(o.search_px + 2.5, 0.3 * len);
+        size_t kept = 0;
+        for (size_t i = 0; i < edges.size(); ++i) {
+          Eigen::Vector2d inner;
+          double strength;
+          if (!EdgeBelowPenumbra(sample, edges[i], outward, black, reach, &inner, &strength))
+            continue;
+          edges[kept] = inner;
+          weights[kept++] = strength;
+        }
+        edges.resize(kept);
+        weights.resize(kept);
+      }
+      size_t mapped = 0;
+      for (size_t i = 0; i < edges.size(); ++i) {
+        Eigen::Vector2d q;
+        if (!plane.ToPlane(edges[i], &q)) continue;
+        pts.push_back(q);
+        weights[mapped++] = weights[i];
+      }
+      weights.resize(mapped);
+      if (pts.size() < 3) return out;  // not refined: keep what we had, ok = false
+      const LineFit fit = FitLineRobust(pts, weights, plane, o);
+      if (fit.inliers < 3) return out;
+      lines[k] = fit.line;
+      out.side_points[k] = fit.inliers;
+      out.side_rms[k] = fit.rms_px;
+      lag1_products += fit.lag1_products, lag1_squares += fit.lag1_squares;
+      lag1_pairs += fit.lag1_pairs;
+    }
+    // Neighbouring edge points (1.5 px apart) err together where the image was smoothed: by
+    // the optics' blur, a JPEG's blocks, a demosaicing filter. Their scatter then says less
+    // than independent points would: with a lag-1 correlation rho along the side, a line's
+    // offset and slope have (1 + rho) / (1 - rho) times the variance the scatter gives (an
+    // AR(1) model). rho is pooled over the four sides and taken only where it stands out of
+    // its own noise (2 / sqrt(pairs)), so that white noise costs nothing.
+    const double rho_raw = lag1_squares > 0 ? lag1_products / lag1_squares : 0;
+    const double rho =
+        rho_raw > 2 / std::sqrt(std::max(lag1_pairs, 1)) ? std::min(rho_raw, 0.9) : 0;
+    out.correlation = rho;
+    const double correlated = (1 + rho) / (1 - rho);
+    // A line fitted to n points spread evenly over a fraction f of a side, residual RMS s: its
+    // offset at the middle has variance s^2 / n and its slope s^2 / (n (f L)^2 / 12); at the
+    // side's end (L / 2 away) the perpendicular variance is s^2 / n (1 + 3 / f^2).
+    const double f = 1 - 2 * end_margin;
+    double pooled_ss = 0, pooled_dof = 0;
+    for (int k = 0; k < 4; ++k) {
+      const double dof = std::max(1, out.side_points[k] - 2);
+      pooled_ss += out.side_rms[k] * out.side_rms[k] * dof;
+      pooled_dof += dof;
+    }
+    const double pooled_var = pooled_ss / pooled_dof;
+    std::array<double, 4> perp{};
+    for (int k = 0; k < 4; ++k) {
+      const double dof = std::max(1, out.side_points[k] - 2);
+      const double var =
+          (out.side_rms[k] * out.side_rms[k] * dof + o.pooled_prior_dof * pooled_var) /
+          (dof + o.pooled_prior_dof);
+      perp[k] = std::sqrt(correlated * var * (1 + 3 / (f * f)) / std::max(1, out.side_points[k]));
+    }
+    for (int k = 0; k < 4; ++k) {
+      const int j = (k + 3) % 4;
+      const double sin_angle =
+          std::max(0.2, std::abs(lines[j].x() * lines[k].y() - lines[j].y() * lines[k].x()));
+      out.corner_sigma[k] = std::sqrt(0.5 * (perp[j] * perp[j] + perp[k] * perp[k])) / sin_angle;
+    }
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector3d h = lines[(k + 3) % 4].cross(lines[k]);
+      if (std::abs(h.z()) < 1e-15) return out;
+      Eigen::Vector2d px;
+      if (!plane.ToPixel(h.head<2>() / h.z(), &px)) return out;
+      out.corners[k] = px;
+    }
+  }
+  out.ok = true;
+  return out;
+}
+
+}  // namespace svms

@@ -1,0 +1,350 @@
+#include "svms/detect/detector.h"
+
+#include <chrono>
+#include <opencv2/imgproc.hpp>
+
+#include "svms/codec/svms44.h"
+#include "svms/detect/bit_sampler.h"
+#include "svms/detect/noise_model.h"
+
+namespace svms {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Ms(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+// The homography from the marker plane of a unit marker (black square of side 1) to pixels,
+// with h33 = 1: the 8x8 system cv::getPerspectiveTransform solves, solved here on the stack
+// (OpenCV's allocates its matrices on the heap, 16 times a frame).
+Eigen::Matrix3d UnitHomography(const std::array<Eigen::Vector2d, 4>& q) {
+  static const double src[4][2] = {{-0.5, 0.5}, {0.5, 0.5}, {0.5, -0.5}, {-0.5, -0.5}};
+  Eigen::Matrix<double, 8, 8> A = Eigen::Matrix<double, 8, 8>::Zero();
+  Eigen::Matrix<double, 8, 1> b;
+  for (int i = 0; i < 4; ++i) {
+    const double x = src[i][0], y = src[i][1], u = q[i].x(), v = q[i].y();
+    A.row(i) << x, y, 1, 0, 0, 0, -x * u, -y * u;
+    A.row(i + 4) << 0, 0, 0, x, y, 1, -x * v, -y * v;
+    b(i) = u;
+    b(i + 4) = v;
+  }
+  const Eigen::Matrix<double, 8, 1> h = A.partialPivLu().solve(b);
+  Eigen::Matrix3d H;
+  H << h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7), 1;
+  return H;
+}
+
+// Buffers of Detect, kept per thread between calls (no allocation once grown).
+struct DetectScratch {
+  cv::Mat gray, gray8, gx, gy, stabilised;
+  std::vector<Segment> segments;
+  std::vector<Quad> quads;
+  std::vector<Detection> decoded, accepted;
+  std::vector<ExcludedRegion> excluded;
+};
+
+bool Inside(const Eigen::Vector2d& p, const std::array<Eigen::Vector2d, 4>& q) {
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d e = q[(k + 1) % 4] - q[k], d = p - q[k];
+    if (e.x() * d.y() - e.y() * d.x() < 0) return false;  // clockwise on screen: inside is right
+  }
+  return true;
+}
+
+// The pose, its covariance, tip and flags of `mp` into `d` (steps 9-10 and 10b's refit).
+void SetPose(const MarkerPose& mp, Detection* d) {
+  d->cam_from_marker = mp.cam_from_marker;
+  d->covariance = mp.covariance;
+  d->tip = mp.tip;
+  d->pose_ambiguous = mp.ambiguous;
+  d->ambiguity_covariance = mp.ambiguity_covariance;
+  d->alternative_pose = mp.alternative;
+  d->alternative_weight = mp.alternative_weight;
+  d->calibration_in_covariance = mp.calibration_in_covariance;
+  d->pose_rms_px = mp.rms_px;
+}
+
+}  // namespace
+
+double Detection::side_px() const {
+  double s = 0;
+  for (int k = 0; k < 4; ++k) s += (corners[(k + 1) % 4] - corners[k]).norm();
+  return s / 4;
+}
+
+Detector::Detector(const DetectorOptions& options, const CameraModel& camera,
+                   const std::vector<MarkerModel>& models)
+    : options_(options), camera_(camera) {
+  for (const MarkerModel& m : models) {
+    models_[m.id] = m;
+    if (auto inner = m.InnerModel()) {
+      models_[inner->id] = *inner;
+      outer_of_[inner->id] = m.id;
+    }
+  }
+}
+
+std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* stats_out) const {
+  return Detect(input, stats_out, Clock::time_point::max());
+}
+
+std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* stats_out,
+                                        Clock::time_point deadline) const {
+  std::vector<Detection> result;
+  Detect(input, stats_out, deadline, &result);
+  return result;
+}
+
+void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::time_point deadline,
+                      std::vector<Detection>* detections) const {
+  thread_local DetectScratch sc;
+  DetectionStats stats;
+  const DetectorOptions& o = options_;
+  std::vector<Detection>& result = *detections;
+  result.clear();
+  std::vector<Detection>& out = sc.decoded;
+  out.clear();
+  if (stats_out) *stats_out = stats;
+  // Other channel counts (2, 5+) are not images we know how to read: no detections.
+  if (input.empty() || (input.channels() != 1 && input.channels() != 3 && input.channels() != 4))
+    return;
+  // 0. One 8-bit grey image (16-bit scaled to its used range, colour converted; other depths
+  // through 32-bit float, which cvtColor accepts, then saturated to 8 bits).
+  // An 8-bit grey image is used in place; conversions go to this thread's buffer.
+  cv::Mat gray = input, source = input;
+  if (input.depth() != CV_8U && input.depth() != CV_16U && input.depth() != CV_32F)
+    input.convertTo(source, CV_32F);
+  if (source.channels() == 3) {
+    cv::cvtColor(source, sc.gray, cv::COLOR_BGR2GRAY);
+    gray = sc.gray;
+  } else if (source.channels() == 4) {
+    cv::cvtColor(source, sc.gray, cv::COLOR_BGRA2GRAY);
+    gray = sc.gray;
+  } else {
+    gray = source;
+  }
+  // Steps 1-7 (edges, quads, bits) need only a coarse image: 8 bits. Steps 8-10 (corners, tip,
+  // pose) measure on `measure`, the image at its full depth: a 16-bit image keeps its
+  // precision there, with the grey levels read in steps 5-7 (Detection::black and white, in
+  // the 8-bit image's units) times `level` in its units.
+  cv::Mat measure;
+  double level = 1;
+  if (gray.depth() == CV_16U) {
+    double mx;
+    cv::minMaxLoc(gray, nullptr, &mx);
+    const double k = mx > 0 ? 255.0 / mx : 1.0;
+    measure = gray;
+    level = 1 / k;
+    gray.convertTo(sc.gray8, CV_8U, k);
+    gray = sc.gray8;
+  } else if (gray.depth() != CV_8U) {
+    gray.convertTo(sc.gray8, CV_8U);
+    gray = sc.gray8;
+  }
+  if (measure.empty()) measure = gray;
+  if (gray.cols < 8 || gray.rows < 8) return;
+
+  // 1-3. Edges, chains, segments. A 16-bit image's noise is estimated from the image at its
+  // full depth (noise_model.h: black backgrounds clipped at 0 and saturated glints left out)
+  // and the edges are searched on a scale where it is the same everywhere.
+  auto t0 = Clock::now();
+  std::vector<Segment>& segs = sc.segments;
+  const cv::Mat* edge_image = &gray;
+  SegmentOptions segment_options = o.segments;
+  if (measure.depth() == CV_16U) {
+    stats.noise = EstimateNoise(measure);
+    if (stats.noise.valid() && stats.noise.read_sigma + stats.noise.shot_gain > 0) {
+      const double unit = StabiliseVariance(measure, stats.noise, &sc.stabilised);
+      segment_options.stabilise_variance = false;
+      // Very clean images would put the thresholds under the 8 bits' own steps.
+      segment_options.noise_sigma = std::max(unit, 0.5);
+      edge_image = &sc.stabilised;
+    }
+  }
+  FindSegments(*edge_image, segment_options, &sc.gx, &sc.gy, &segs);
+  stats.segments = static_cast<int>(segs.size());
+  auto t1 = Clock::now();
+  stats.ms[0] = Ms(t0, t1);
+
+  // 4. Quads.
+  std::vector<Quad>& quads = sc.quads;
+  FindQuads(segs, o.quads, gray.cols, gray.rows, &quads);
+  stats.quads = static_cast<int>(quads.size());
+  auto t2 = Clock::now();
+  stats.ms[1] = Ms(t1, t2);
+
+  // 5-7. Homography, bits, decoding.
+  const CameraModel* cam = camera_.empty() ? nullptr : &camera_;
+  static const MarkerModel unit = MarkerModel::Standard(0, 1.0, 0);
+  const bool has_deadline = deadline != Clock::time_point::max();
+  auto out_of_time = [&](size_t i) {
+    if (!has_deadline || i % 8 != 0 || Clock::now() < deadline) return false;
+    stats.budget_exceeded = true;
+    return true;
+  };
+  for (size_t qi = 0; qi < quads.size(); ++qi) {
+    if (out_of_time(qi)) break;
+    Quad q = quads[qi];
+    BitReading bits = SampleBits(gray, UnitHomography(q.corners), unit);
+    if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) continue;
+    CodeMatch m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
+    // 7b. A small square's corners from the segments are off by tenths of a pixel, which at
+    // its bit cells (a sixth of its side, out to twice its half-side) misplaces the samples:
+    // refine the corners first and read again.
+    if (!m.accepted() && o.refine_corners && q.min_side() < o.small_quad_refine_px &&
+        bits.white - bits.black >= o.small_quad_min_contrast &&
+        bits.separated_refs >= o.small_quad_min_separated_refs) {
+      // One iteration (step 8 runs its own on whatever decodes): most small quads here are
+      // texture, and this retry must stay cheap on a busy background.
+      CornerRefineOptions once = o.refine;
+      once.iterations = 1;
+      const RefinedCorners r = RefineCorners(gray, q.corners, cam, once);
+      if (!r.ok) continue;
+      q.corners = r.corners;
+      bits = SampleBits(gray, UnitHomography(q.corners), unit);
+      if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) continue;
+      m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
+    }
+    if (!m.accepted()) continue;
+    const bool known = models_.count(m.id) > 0;
+    if (!models_.empty() && o.known_ids_only && !known) continue;
+    Detection d;
+    d.id = m.id;
+    d.rotation = m.rotation;
+    d.bit_errors = m.bit_errors;
+    for (int k = 0; k < 4; ++k) d.corners[k] = q.corners[(k - m.rotation + 4) % 4];
+    d.black = bits.black;
+    d.white = bits.white;
+    out.push_back(d);
+  }
+  auto t3 = Clock::now();
+  stats.ms[2] = Ms(t2, t3);
+
+  // 8. Sub-pixel corners (in the rotated order: clockwise on screen either way).
+  if (o.refine_corners) {
+    for (size_t i = 0; i < out.size(); ++i) {
+      if (stats.budget_exceeded || (has_deadline && Clock::now() >= deadline)) {
+        stats.budget_exceeded = true;  // only fully processed markers are reported
+        out.resize(i);
+        break;
+      }
+      Detection& d = out[i];
+      const RefinedCorners r =
+          RefineCorners(measure, d.corners, cam, o.refine, {}, d.black * level);
+      if (r.ok) {
+        d.corners = r.corners;
+        d.corner_sigma = r.corner_sigma;
+        d.penumbra_sides = r.penumbra_sides;
+      }
+    }
+  }
+  auto t4 = Clock::now();
+  stats.ms[3] = Ms(t3, t4);
+
+  // 9-10. Tip and pose; graded acceptance of large corrections.
+  std::vector<Detection>& accepted = sc.accepted;
+  accepted.clear();
+  for (Detection& d : out) {
+    if (has_deadline && Clock::now() >= deadline) {
+      stats.budget_exceeded = true;  // only fully processed markers are reported
+      break;
+    }
+    auto it = models_.find(d.id);
+    if (cam && it != models_.end()) {
+      MarkerPose mp;
+      const bool posed =
+          EstimateMarkerPose(measure, d.corners, it->second, camera_, d.black * level,
+                             d.white * level, o.pose, &mp, d.corner_sigma);
+      if (!posed) d.pose_error = mp.failure;
+      if (posed) {
+        SetPose(mp, &d);
+        // 10b. At grazing views the post's silhouette crosses a side and moves the edge points
+        // there by pixels: refit the sides without them and solve the pose again.
+        std::optional<ExcludedRegion> post;
+        if (o.refine_corners && o.post_silhouette_margin_px > 0)
+          post =
+              PostSilhouette(it->second, camera_, mp.cam_from_marker, o.post_silhouette_margin_px);
+        if (post && RegionTouchesSides(*post, d.corners)) {
+          sc.excluded.assign(1, *post);
+          const RefinedCorners r =
+              RefineCorners(measure, d.corners, cam, o.refine, sc.excluded, d.black * level);
+          MarkerPose again;
+          // Kept only if the sides fit better without those points: on a short side (a small
+          // marker at a grazing angle) the post may hide most of it, and the few points left
+          // say less than all of them did.
+          auto sum2 = [](const std::array<double, 4>& s) {
+            return s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + s[3] * s[3];
+          };
+          if (r.ok && r.excluded_points > 0 && sum2(r.corner_sigma) < sum2(d.corner_sigma) &&
+              EstimateMarkerPose(measure, r.corners, it->second, camera_, d.black * level,
+                                 d.white * level, o.pose, &again, r.corner_sigma)) {
+            d.corners = r.corners;
+            d.corner_sigma = r.corner_sigma;
+            d.penumbra_sides = r.penumbra_sides;
+            SetPose(again, &d);
+          }
+        }
+      }
+    }
+    if (d.bit_errors > o.max_unsupported_corrections) {
+      // Independent evidence: the post tip found where the pose puts it (and, for 3
+      // corrections, membership of the known set is enough).
+      const bool known = models_.count(d.id) > 0;
+      const bool evidence = d.tip.has_value() || (d.bit_errors <= 3 && known);
+      if (!evidence) {
+        ++stats.rejected_for_evidence;
+        continue;
+      }
+    }
+    accepted.push_back(d);
+  }
+  auto t5 = Clock::now();
+  stats.ms[4] = Ms(t4, t5);
+
+  // 11. Duplicates (the same marker from two quads) and nesting.
+  for (const Detection& d : accepted) {
+    bool dup = false;
+    for (Detection& r : result) {
+      if (r.id == d.id && (r.corners[0] - d.corners[0]).norm() < 0.2 * r.side_px()) {
+        if (d.bit_errors < r.bit_errors) r = d;
+        dup = true;
+      }
+    }
+    if (!dup) result.push_back(d);
+  }
+  for (Detection& d : result) {
+    auto it = outer_of_.find(d.id);
+    for (const Detection& r : result) {
+      if (&r == &d) continue;
+      const Eigen::Vector2d c = 0.25 * (d.corners[0] + d.corners[1] + d.corners[2] + d.corners[3]);
+      const bool model_says = it != outer_of_.end() && it->second == r.id;
+      if ((model_says || outer_of_.empty()) && r.side_px() > 1.5 * d.side_px() &&
+          Inside(c, r.corners)) {
+        d.nested_in = r.id;
+      }
+    }
+  }
+  stats.decoded = static_cast<int>(result.size());
+  stats.ms[5] = Ms(t5, Clock::now());
+
+  if (o.debug_pictures) {
+    cv::Mat dbg;
+    cv::cvtColor(gray, dbg, cv::COLOR_GRAY2BGR);
+    for (const Segment& s : segs)
+      cv::line(dbg, cv::Point2d(s.a.x(), s.a.y()), cv::Point2d(s.b.x(), s.b.y()),
+               cv::Scalar(0, 200, 255), 1);
+    stats.debug_pictures.emplace_back("1_segments", dbg);
+    cv::cvtColor(gray, dbg, cv::COLOR_GRAY2BGR);
+    for (const Quad& q : quads)
+      for (int k = 0; k < 4; ++k)
+        cv::line(dbg, cv::Point2d(q.corners[k].x(), q.corners[k].y()),
+                 cv::Point2d(q.corners[(k + 1) % 4].x(), q.corners[(k + 1) % 4].y()),
+                 cv::Scalar(255, 100, 0), 1);
+    stats.debug_pictures.emplace_back("2_quads", dbg);
+  }
+  if (stats_out) *stats_out = stats;
+}
+
+}  // namespace svms

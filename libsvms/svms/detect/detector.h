@@ -1,0 +1,149 @@
+// The SVMS detector: every marker in one image, on its own (no state between frames).
+//
+// Steps, each a free function over plain structs, each timed (DetectionStats):
+//   1-3  edges -> chains -> straight segments          (segments.h)
+//   4    quadrilaterals and their corners              (quads.h)
+//   5    homography from the corners
+//   6    data bits, thresholds from the marker's own square and stripe   (bit_sampler.h)
+//   7    svms44 decoding with graded acceptance        (svms44.h)
+//   8    sub-pixel corners                             (corner_refine.h)
+//   9-10 post tip and pose                             (marker_pose.h)
+//   10b  sides refitted clear of the post's silhouette, pose again (grazing views)
+//   11   nesting of dual markers, duplicates removed
+// Safe to use one Detector per thread; Detect() is const. Its working buffers are kept per
+// thread (thread_local, grown to the largest image the thread has seen), so that the Detect
+// overload with an output vector allocates nothing on the heap once a thread has warmed up on
+// images of its size (docs/flight-interface.md; capi_alloc_test counts).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <chrono>
+#include <map>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "svms/camera/camera.h"
+#include "svms/detect/corner_refine.h"
+#include "svms/detect/marker_pose.h"
+#include "svms/detect/noise_model.h"
+#include "svms/detect/quads.h"
+#include "svms/detect/segments.h"
+#include "svms/geometry/pose.h"
+#include "svms/marker/marker_model.h"
+
+namespace svms {
+
+// One marker found in an image.
+struct Detection {
+  int id = -1;
+  int rotation = 0;    // which marker corner the quad's first corner was (svms44.h)
+  int bit_errors = 0;  // corrected bits
+  std::array<Eigen::Vector2d, 4> corners;  // TL, TR, BR, BL as printed; pixels
+  std::array<double, 4> corner_sigma{};  // each corner's sigma from its line fits (px); 0: unknown
+  // Sides (k: from corner k to corner k + 1) whose edge was taken from under a shadow's
+  // penumbra (RefinedCorners::penumbra_sides).
+  std::array<bool, 4> penumbra_sides{};
+  std::optional<TipObservation> tip;                   // the post tip, when found
+  std::optional<Pose> cam_from_marker;                 // with a camera and the marker's model
+  PoseCovariance covariance = PoseCovariance::Zero();  // [rotation, translation], camera axes
+  bool pose_ambiguous = false;  // the two planar poses are not told apart (MarkerPose)
+  // The other planar solution's share of `covariance` (MarkerPose::ambiguity_covariance).
+  PoseCovariance ambiguity_covariance = PoseCovariance::Zero();
+  // Where pose_ambiguous: the other planar pose and its share of the likelihood
+  // (MarkerPose::alternative).
+  std::optional<Pose> alternative_pose;
+  double alternative_weight = 0;
+  bool calibration_in_covariance = false;  // `covariance` includes the camera calibration's
+  double pose_rms_px = 0;
+  // With a camera and the marker's model but no pose: why (MarkerPose::failure).
+  std::string pose_error;
+  int nested_in = -1;           // the outer marker's ID for the inner marker of a dual
+  double black = 0, white = 0;  // grey levels of the square and the stripe
+  double side_px() const;
+};
+
+struct DetectorOptions {
+  SegmentOptions segments;
+  QuadOptions quads;
+  CornerRefineOptions refine;
+  MarkerPoseOptions pose;
+  int max_corrections = 5;              // never more than this many corrected bits
+  int max_unsupported_corrections = 2;  // beyond this, a decode needs independent evidence
+  int id_count = 32768;                 // decode among IDs [0, id_count)
+  bool known_ids_only = true;           // with marker models: report only their IDs
+  double min_contrast = 5;  // white - black, grey levels (a marker in deep shadow: about 10)
+  bool refine_corners = true;
+  // A quad whose shortest side is below small_quad_refine_px (pixels), whose stripe and square
+  // differ by small_quad_min_contrast grey levels at least, with at least
+  // small_quad_min_separated_refs of its 44 cells' own stripe and square references apart by
+  // half that contrast (BitReading::separated_refs), and whose bits do not decode gets its
+  // corners refined (one iteration of step 8's fit) and is read again (step 7b). The two bars
+  // keep the retry off most of a busy background's small quads: on the detector benchmark's
+  // 640 x 480 frame 4 of its 6 such texture quads score 28-38, while all 13 markers of 8-12 px
+  // retried in the comparison's size sweep score 44.
+  double small_quad_refine_px = 13;
+  double small_quad_min_contrast = 20;
+  int small_quad_min_separated_refs = 40;
+  // Step 10b: when the post's silhouette (grown by this margin, pixels) reaches a side, that
+  // side is refitted without the edge points under it and the pose solved again. <= 0: off.
+  double post_silhouette_margin_px = 2.5;
+  // If set, DetectionStats::debug_pictures receives a picture of each step (the detector
+  // writes no files: where pictures go is the caller's business).
+  bool debug_pictures = false;
+};
+
+struct DetectionStats {
+  static constexpr int kSteps = 6;
+  static constexpr const char* kStepNames[kSteps] = {"segments", "quads", "decode",
+                                                     "refine",   "pose",  "nesting"};
+  std::array<double, kSteps> ms{};
+  int segments = 0, quads = 0, decoded = 0, rejected_for_evidence = 0;
+  // The deadline passed before every quad was processed: what was finished is returned.
+  bool budget_exceeded = false;
+  // With DetectorOptions::debug_pictures: {"1_segments", BGR picture}, {"2_quads", ...}, each
+  // the frame's size.
+  std::vector<std::pair<std::string, cv::Mat>> debug_pictures;
+  // A 16-bit image's noise as estimated from it (its units); not estimated for 8-bit images.
+  NoiseModel noise;
+};
+
+class Detector {
+ public:
+  // `camera` (may be empty) enables undistorted corner fits and poses; `models` (may be
+  // empty) give each ID's geometry, its post and its nesting.
+  Detector(const DetectorOptions& options, const CameraModel& camera,
+           const std::vector<MarkerModel>& models);
+
+  // All markers in `image`, whose values must be linear in light (an image as a camera stores
+  // it goes through LinearizeImage, photometric.h, first): CV_8UC1 or CV_16UC1 (any size >=
+  // 1x1); a 16-bit image is measured at its full depth (corners, tip, pose), only the search
+  // for candidates (steps 1-7) runs on an 8-bit copy scaled to its brightest pixel. Colour
+  // images and other depths are converted to grey with OpenCV's weights (other depths through
+  // float, saturated to 8 bits); 1, 3 or 4 channels, none for other counts.
+  std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats = nullptr) const;
+  // The same under a deadline: steps 5-10 stop once it has passed (steps 1-4 cost what the
+  // image size says and are not interrupted), stats->budget_exceeded is set, and only the
+  // markers that went through every step before it are returned.
+  std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats,
+                                std::chrono::steady_clock::time_point deadline) const;
+  // The same into *detections (replaced), whose capacity is reused: with one vector kept by
+  // the caller, an 8-bit single-channel image and a camera that is pinhole or one of mrcal's
+  // models with gradients, a warmed-up call makes no heap allocation (other depths and colour
+  // images are converted into a new buffer).
+  void Detect(const cv::Mat& image, DetectionStats* stats,
+              std::chrono::steady_clock::time_point deadline,
+              std::vector<Detection>* detections) const;
+
+  const DetectorOptions& options() const { return options_; }
+
+ private:
+  DetectorOptions options_;
+  CameraModel camera_;
+  std::map<int, MarkerModel> models_;  // by ID, inner markers included
+  std::map<int, int> outer_of_;        // inner ID -> outer ID
+};
+
+}  // namespace svms

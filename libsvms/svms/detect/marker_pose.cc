@@ -1,0 +1,850 @@
+#include "svms/detect/marker_pose.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <opencv2/core.hpp>
+
+#include "svms/codec/svms44.h"
+#include "svms/detect/corner_refine.h"
+#include "svms/detect/disc_fit.h"
+#include "svms/detect/ippe.h"
+
+namespace svms {
+namespace {
+
+// Per axis, pixels: what the top's disc fit leaves unmodelled (see FindTip). Measured on the
+// compare size sweep (seed 2, 256 rays on edge pixels, 72-142 views per size) as the floor
+// that makes the tip's per-axis Z^2 near 1: at 0.02 it is 0.75 / 0.87 / 1.01 / 0.67 / 0.93 /
+// 1.15 / 1.28 at 8 / 10 / 12 / 16 / 20 / 30 / 60 px; 0.03, chosen on 16-ray renders, gave
+// 0.41-0.73 there (the renderer's edge noise had been part of what it covered).
+constexpr double kTipDiscModelSigma = 0.02;
+// Tops up to this radius in the image (pixels) are located by the disc fit, larger ones by
+// their centroid (FindTip). In the size sweep of `svms bench compare` (40 views per size, the
+// truth of the simulator) the centroid of a 1-2 px top scattered 0.08-0.14 px RMS against
+// its sigma of 0.05 (pixel locking, as below a pixel), the disc fit 0.03-0.05 px; at 6 px
+// (120 px markers) both are at 0.04.
+constexpr double kMaxDiscFitRadiusPx = 5;
+// The fit's window, 2 ceil(r + 1.5) + 1 pixels across, must fit FitDisc's 16.
+static_assert(2 * (static_cast<int>(kMaxDiscFitRadiusPx) + 2) + 1 <= 16);
+// Where such a top is left to its centroid (something bright beside it, the image's border),
+// the centroid's pixel locking, per axis, is about this many pixels over the top's radius
+// (0.13 px RMS at a radius of 1.2 px, 0.05 at 2, 0.03 at 3.5: FindTip's tests).
+constexpr double kCentroidLockingPxPx = 0.15;
+
+// Adds one residual row J = [jr^T, jt^T] (rotation, translation), weight w, residual r to the
+// upper triangle of JtWJ and to JtWr. Written out: Eigen's rankUpdate and comma initialiser
+// on 6-vectors were not inlined and cost more than the projection.
+inline void AddRow(const Eigen::Vector3d& jr, const Eigen::Vector3d& jt, double w, double r,
+                   Eigen::Matrix<double, 6, 6>* JtWJ, Eigen::Matrix<double, 6, 1>* JtWr) {
+  const double j[6] = {jr.x(), jr.y(), jr.z(), jt.x(), jt.y(), jt.z()};
+  for (int a = 0; a < 6; ++a) {
+    const double wa = w * j[a];
+    (*JtWr)(a) += wa * r;
+    for (int b = a; b < 6; ++b) (*JtWJ)(a, b) += wa * j[b];
+  }
+}
+
+// Buffers kept per thread between calls (no allocation once grown; the C API's promise).
+struct PoseScratch {
+  std::vector<std::pair<int, int>> stack, blob;  // FindTip's flood fill
+  std::vector<uint8_t> seen;
+  std::vector<Eigen::Vector3d> X;  // EstimateMarkerPose's points, pixels and sigmas
+  std::vector<Eigen::Vector2d> px;
+  std::vector<double> sigma;
+  TipSearchMemo tip_memo;  // EstimateMarkerPose's, shared by its planar candidates
+};
+PoseScratch& Scratch() {
+  thread_local PoseScratch scratch;
+  return scratch;
+}
+
+// The other planar candidate's weight in the covariance below which it is left out, and above
+// which the pose is flagged ambiguous (EstimateMarkerPose).
+constexpr double kMixtureWeightFloor = 1e-6;
+constexpr double kAmbiguousWeight = 0.01;
+// Nor is it flagged when the other is within this angle (degrees): a marker seen within a
+// degree of head-on is its own twin for any use, and its covariance spans the difference.
+// (Without it, 12 of the 31 poses flagged in `svms bench compare --size-views 40` were 14-40 px
+// markers 0.1-2.8 degrees off-axis, 0.2-1.2 degrees from the truth.)
+constexpr double kAmbiguousMinDeg = 2;
+
+// Sum over the points of their squared reprojection error in units of their sigmas.
+double WeightedSquaredResiduals(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X,
+                                const std::vector<Eigen::Vector2d>& px,
+                                const std::vector<double>& sigma, const Pose& pose) {
+  double chi2 = 0;
+  for (size_t i = 0; i < X.size(); ++i) {
+    Eigen::Vector2d q;
+    if (!camera.Project(pose * X[i], &q)) return std::numeric_limits<double>::infinity();
+    chi2 += (q - px[i]).squaredNorm() / (sigma[i] * sigma[i]);
+  }
+  return chi2;
+}
+
+}  // namespace
+
+std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d& pred,
+                                      double radius, double black, double white,
+                                      double min_contrast, double tip_radius_px) {
+  return FindTip(img, pred, radius, black, white, min_contrast, tip_radius_px, nullptr);
+}
+
+std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d& pred,
+                                      double radius, double black, double white,
+                                      double min_contrast, double tip_radius_px,
+                                      TipSearchMemo* memo) {
+  const double thr = black + 0.5 * (white - black);
+  const int x0 = std::max(0, static_cast<int>(std::floor(pred.x() - radius)));
+  const int x1 = std::min(img.cols - 1, static_cast<int>(std::ceil(pred.x() + radius)));
+  const int y0 = std::max(0, static_cast<int>(std::floor(pred.y() - radius)));
+  const int y1 = std::min(img.rows - 1, static_cast<int>(std::ceil(pred.y() + radius)));
+  if (x0 > x1 || y0 > y1) return std::nullopt;
+  auto at = [&](int y, int x) -> double {
+    return img.depth() == CV_16U ? img.at<uint16_t>(y, x) : img.at<uint8_t>(y, x);
+  };
+  // The brightest pixel nearest the prediction seeds the blob.
+  double best = -1;
+  int bx = -1, by = -1;
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) {
+      const double d2 = (x - pred.x()) * (x - pred.x()) + (y - pred.y()) * (y - pred.y());
+      if (d2 > radius * radius) continue;
+      const double v = at(y, x) - 0.02 * (white - black) * std::sqrt(d2);  // prefer near
+      if (v > best) {
+        best = v;
+        bx = x;
+        by = y;
+      }
+    }
+  const bool sub_pixel = tip_radius_px < 1;
+  const double peak_fraction =
+      sub_pixel ? std::min(1.0, 0.5 * M_PI * tip_radius_px * tip_radius_px) : 1.0;
+  if (bx < 0 || at(by, bx) - black < min_contrast * peak_fraction * (white - black))
+    return std::nullopt;
+  // The blob's threshold (a top of a pixel or more): halfway to white, or to the seed if that
+  // is dimmer.
+  const double local_thr = std::min(thr, black + 0.5 * (at(by, bx) - black));
+  // What follows depends, below a pixel, on the seed only; above, on the blob that the seed
+  // and threshold flood, and on the window only through whether that blob reaches its edge.
+  // So the memo answers for the same seed below a pixel, and above for a seed in its blob with
+  // the same threshold when the whole blob lies strictly inside this window (or at the image's
+  // border).
+  if (memo && memo->valid && memo->data == img.data && memo->rows == img.rows &&
+      memo->cols == img.cols && memo->type == img.type() && memo->radius == radius &&
+      memo->black == black && memo->white == white && memo->min_contrast == min_contrast &&
+      memo->tip_radius_px == tip_radius_px &&
+      (sub_pixel
+           ? memo->seed_x == bx && memo->seed_y == by
+           : memo->local_thr == local_thr && memo->blob_x0 > x0 - (x0 == 0) &&
+                 memo->blob_x1 < x1 + (x1 == img.cols - 1) && memo->blob_y0 > y0 - (y0 == 0) &&
+                 memo->blob_y1 < y1 + (y1 == img.rows - 1) &&
+                 std::find(memo->blob.begin(), memo->blob.end(), std::make_pair(bx, by)) !=
+                     memo->blob.end())) {
+    ++memo->reused;
+    return memo->tip;
+  }
+  if (memo) {
+    memo->valid = false;
+    memo->data = img.data;
+    memo->rows = img.rows;
+    memo->cols = img.cols;
+    memo->type = img.type();
+    memo->radius = radius;
+    memo->black = black;
+    memo->white = white;
+    memo->min_contrast = min_contrast;
+    memo->tip_radius_px = tip_radius_px;
+    memo->seed_x = bx;
+    memo->seed_y = by;
+    memo->local_thr = local_thr;
+    memo->blob.clear();
+  }
+  // The answer, kept in the memo: every answer below but a blob's that reaches the window's
+  // edge (which depends on the window).
+  auto answer = [&](const std::optional<TipObservation>& t) {
+    if (memo) {
+      memo->valid = true;
+      memo->tip = t;
+    }
+    return t;
+  };
+  if (sub_pixel) {
+    // A sub-pixel disc: the 3 x 3 around the seed hold its light; the ring around them must be
+    // dark (a bright ring means the stripe, a bit cell or a glint, not an isolated top).
+    if (bx < 2 || by < 2 || bx > img.cols - 3 || by > img.rows - 3) return answer(std::nullopt);
+    const double ring_max = black + 0.5 * (at(by, bx) - black);
+    std::array<double, 25> window;
+    for (int dy = -2; dy <= 2; ++dy)
+      for (int dx = -2; dx <= 2; ++dx) {
+        const double v = at(by + dy, bx + dx);
+        // The ring's four corners (2.8 px out) are not held to it: on an 8 px marker seen
+        // 15-20 degrees off-axis the top sits that close to a corner of the white stripe.
+        const bool ring = std::abs(dx) == 2 || std::abs(dy) == 2;
+        const bool ring_corner = std::abs(dx) == 2 && std::abs(dy) == 2;
+        if (ring && !ring_corner && v > ring_max) return answer(std::nullopt);
+        window[(dy + 2) * 5 + dx + 2] = v;
+      }
+    // Not the centroid: it locks to pixel centres (disc_fit.h). A top of at most half a pixel
+    // centred in the seed lies within its 3 x 3, and the ring is then left out of the fit: on a
+    // small marker it may already hold a bit of the stripe.
+    std::optional<DiscFit> fit;
+    if (tip_radius_px <= 0.5) {
+      std::array<double, 9> inner;
+      for (int k = 0; k < 9; ++k) inner[k] = window[(k / 3 + 1) * 5 + k % 3 + 1];
+      fit = FitDisc(inner.data(), 3, bx - 1, by - 1, tip_radius_px);
+    } else {
+      fit = FitDisc(window.data(), 5, bx - 2, by - 2, tip_radius_px);
+    }
+    if (!fit) return answer(std::nullopt);
+    TipObservation t;
+    t.pixel = fit->centre;
+    // The fit's own sigma, and a floor for what it does not model: the top is an ellipse in
+    // an oblique view, and the lens and sensor blur it.
+    t.sigma_px = std::hypot(fit->sigma_px, kTipDiscModelSigma);
+    return answer(t);
+  }
+  // Flood the connected bright region from the seed (bounded by the window).
+  PoseScratch& sc = Scratch();
+  std::vector<std::pair<int, int>>&stack = sc.stack, &blob = sc.blob;
+  stack.assign(1, {bx, by});
+  blob.clear();
+  std::vector<uint8_t>& seen = sc.seen;
+  seen.assign(static_cast<size_t>(x1 - x0 + 1) * (y1 - y0 + 1), 0);
+  while (!stack.empty()) {
+    auto [x, y] = stack.back();
+    stack.pop_back();
+    if (x < x0 || x > x1 || y < y0 || y > y1) continue;
+    uint8_t& s = seen[(y - y0) * (x1 - x0 + 1) + (x - x0)];
+    if (s || at(y, x) < local_thr) continue;
+    s = 1;
+    blob.emplace_back(x, y);
+    stack.push_back({x + 1, y});
+    stack.push_back({x - 1, y});
+    stack.push_back({x, y + 1});
+    stack.push_back({x, y - 1});
+  }
+  // Touching the window's edge means it is not a small blob (e.g. the white stripe).
+  int bx0 = bx, bx1 = bx, by0 = by, by1 = by;
+  for (auto [x, y] : blob) {
+    if ((x == x0 && x0 > 0) || (x == x1 && x1 < img.cols - 1) || (y == y0 && y0 > 0) ||
+        (y == y1 && y1 < img.rows - 1))
+      return std::nullopt;
+    bx0 = std::min(bx0, x);
+    bx1 = std::max(bx1, x);
+    by0 = std::min(by0, y);
+    by1 = std::max(by1, y);
+  }
+  if (memo) {
+    memo->blob_x0 = bx0;
+    memo->blob_x1 = bx1;
+    memo->blob_y0 = by0;
+    memo->blob_y1 = by1;
+    memo->blob.assign(blob.begin(), blob.end());
+  }
+  double w = 0, w2 = 0;
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  for (auto [x, y] : blob) {
+    const double wi = at(y, x) - black;
+    c += wi * Eigen::Vector2d(x, y);
+    w += wi;
+  }
+  if (w <= 0) return answer(std::nullopt);
+  c /= w;
+  if (tip_radius_px <= kMaxDiscFitRadiusPx) {
+    // A top of a few pixels: the disc fit on a window about the centroid with a pixel and a
+    // half of margin, when nothing else bright is in it (else the centroid, below).
+    const int h = static_cast<int>(std::ceil(tip_radius_px + 1.5));
+    const int size = 2 * h + 1;
+    const int cx = static_cast<int>(std::lround(c.x())), cy = static_cast<int>(std::lround(c.y()));
+    bool clear = cx - h >= 0 && cy - h >= 0 && cx + h < img.cols && cy + h < img.rows;
+    std::array<double, 256> window;
+    for (int dy = -h; clear && dy <= h; ++dy)
+      for (int dx = -h; clear && dx <= h; ++dx) {
+        const int x = cx + dx, y = cy + dy;
+        const double v = at(y, x);
+        const bool in_blob =
+            x >= x0 && x <= x1 && y >= y0 && y <= y1 && seen[(y - y0) * (x1 - x0 + 1) + (x - x0)];
+        clear = in_blob || v < local_thr;
+        window[(dy + h) * size + dx + h] = v;
+      }
+    if (clear) {
+      if (const std::optional<DiscFit> fit =
+              FitDisc(window.data(), size, cx - h, cy - h, tip_radius_px, 1.0)) {
+        TipObservation t;
+        t.pixel = fit->centre;
+        t.sigma_px = std::hypot(fit->sigma_px, kTipDiscModelSigma);
+        return answer(t);
+      }
+    }
+  }
+  for (auto [x, y] : blob) w2 += std::pow(at(y, x) - black, 2);
+  TipObservation t;
+  t.pixel = c;
+  // Centroid standard error for ~1 grey level of noise, plus a floor for the disc's
+  // perspective and the sampling of the blob's edge; for a top of a few pixels at least its
+  // pixel locking.
+  t.sigma_px = std::sqrt(0.05 * 0.05 + 1.0 / std::max(1.0, w2) * blob.size() * 0.25);
+  if (tip_radius_px <= kMaxDiscFitRadiusPx)
+    t.sigma_px = std::max(t.sigma_px, kCentroidLockingPxPx / std::max(1.0, tip_radius_px));
+  return answer(t);
+}
+
+Eigen::Vector3d VisibleTipPoint(const MarkerModel& model, const Eigen::Vector3d& cam,
+                                double* fraction) {
+  const PostModel& post = *model.post;
+  const Eigen::Vector3d tip(0, 0, post.height);
+  *fraction = 1;
+  if (!post.concave()) return tip;
+  // A bottom point p is seen if the ray from it to the camera leaves through the opening
+  // (radius `radius` at z = 0): |p_xy + s| <= radius with s = |h| (c - p)_xy / (c - p)_z,
+  // taken with the ray to the bottom's centre (the well is small against the distance).
+  const Eigen::Vector3d v = cam - tip;
+  if (v.z() <= 0) {
+    *fraction = 0;
+    return tip;
+  }
+  const Eigen::Vector2d shift = -post.height * v.head<2>() / v.z();
+  const int n = 24;
+  const double r = post.tip_radius;
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  int inside = 0, visible = 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const Eigen::Vector2d p(r * (2 * (i + 0.5) / n - 1), r * (2 * (j + 0.5) / n - 1));
+      if (p.squaredNorm() > r * r) continue;
+      ++inside;
+      if ((p + shift).squaredNorm() > post.radius * post.radius) continue;
+      ++visible;
+      sum += p;
+    }
+  *fraction = inside ? static_cast<double>(visible) / inside : 0;
+  if (!visible) return tip;
+  const Eigen::Vector2d c = sum / visible;
+  return Eigen::Vector3d(c.x(), c.y(), post.height);
+}
+
+// Buffers per thread: a warmed-up call allocates nothing.
+bool CalibrationCovariance(const CameraModel& camera, const Pose& pose,
+                           const std::vector<Eigen::Vector3d>& X, const std::vector<double>& sigma,
+                           PoseCovariance* out) {
+  const Eigen::MatrixXd& L = camera.intrinsics_covariance_factor();
+  if (L.size() == 0) return false;
+  thread_local Eigen::Matrix<double, 2, Eigen::Dynamic> dq_dintrinsics;
+  thread_local Eigen::MatrixXd G, HG, SL;
+  G.setZero(6, L.rows());
+  Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
+  const Eigen::Matrix3d R = pose.Rotation();
+  for (size_t i = 0; i < X.size(); ++i) {
+    const Eigen::Vector3d a = R * X[i];
+    Eigen::Vector2d q;
+    Eigen::Matrix<double, 2, 3> dq_dp;
+    if (!camera.Project(a + pose.tvec, &q, &dq_dp, &dq_dintrinsics)) return false;
+    // The rows RefinePose uses: [((R X) x g)^T, g^T] for each row g^T of dq/dp.
+    Eigen::Matrix<double, 2, 6> J;
+    for (int k = 0; k < 2; ++k) {
+      const Eigen::Vector3d g = dq_dp.row(k).transpose();
+      J.block<1, 3>(k, 0) = a.cross(g).transpose();
+      J.block<1, 3>(k, 3) = g.transpose();
+    }
+    const double w = 1.0 / (sigma[i] * sigma[i]);
+    H.noalias() += w * J.transpose() * J;
+    G.noalias() += w * J.transpose() * dq_dintrinsics;
+  }
+  Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(H);
+  if (lu.rank() < 6) return false;
+  const Eigen::Matrix<double, 6, 6> H_inv = lu.inverse();
+  HG.noalias() = H_inv * G;
+  SL.noalias() = HG * L;
+  out->noalias() = SL * SL.transpose();
+  return out->allFinite();
+}
+
+bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X,
+                const std::vector<Eigen::Vector2d>& px, const std::vector<double>& sigma,
+                Pose* pose, PoseCovariance* cov, double* rms,
+                const std::vector<EdgeObservation>* edges, int max_iterations) {
+  Eigen::Matrix3d R = pose->Rotation();
+  Eigen::Vector3d t = pose->tvec;
+  Eigen::Matrix<double, 6, 6> JtWJ;
+  for (int iter = 0; iter < max_iterations; ++iter) {
+    JtWJ.setZero();
+    Eigen::Matrix<double, 6, 1> JtWr = Eigen::Matrix<double, 6, 1>::Zero();
+    double ss = 0;
+    for (size_t i = 0; i < X.size(); ++i) {
+      const Eigen::Vector3d p = R * X[i] + t;
+      Eigen::Vector2d q;
+      Eigen::Matrix<double, 2, 3> dq_dp;
+      if (!camera.Project(p, &q, &dq_dp)) return false;
+      const Eigen::Vector2d r = q - px[i];
+      ss += r.squaredNorm();
+      // Left perturbation in camera axes: p = exp([d]) R X + t  ->  dp/dd = -[R X]x, dp/dt = I;
+      // a row g^T of dq/dp gives the row [((R X) x g)^T, g^T].
+      const Eigen::Vector3d a = R * X[i];
+      const double w = 1.0 / (sigma[i] * sigma[i]);
+      for (int k = 0; k < 2; ++k)
+        AddRow(a.cross(dq_dp.row(k).transpose()), dq_dp.row(k).transpose(), w, r[k], &JtWJ, &JtWr);
+    }
+    // Edge points: the distance across the edge's image, along its normal at the current pose
+    // (the normal's own change with the pose is left out of J: it multiplies the offset along
+    // the edge between the model point's image and the edge point, which is tiny).
+    for (size_t i = 0; edges && i < edges->size(); ++i) {
+      const EdgeObservation& e = (*edges)[i];
+      const Eigen::Vector3d p = R * e.point + t;
+      Eigen::Vector2d q;
+      Eigen::Matrix<double, 2, 3> dq_dp;
+      if (!camera.Project(p, &q, &dq_dp)) return false;
+      const Eigen::Vector2d along = dq_dp * (R * e.direction);
+      if (!(along.norm() > 0)) return false;
+      const Eigen::Vector2d n = Eigen::Vector2d(-along.y(), along.x()).normalized();
+      const double r = n.dot(q - e.pixel);
+      const Eigen::Vector3d g = dq_dp.transpose() * n;
+      AddRow((p - t).cross(g), g, 1.0 / (e.sigma_px * e.sigma_px), r, &JtWJ, &JtWr);
+    }
+    JtWJ.triangularView<Eigen::StrictlyLower>() = JtWJ.transpose();
+    const Eigen::Matrix<double, 6, 1> step = -JtWJ.ldlt().solve(JtWr);
+    if (!step.allFinite()) return false;
+    const double angle = step.head<3>().norm();
+    if (angle > 1e-15) R = Eigen::AngleAxisd(angle, step.head<3>() / angle).toRotationMatrix() * R;
+    t += step.tail<3>();
+    *rms = std::sqrt(ss / X.size());
+    // Done when the step is a millionth of the pose's own standard deviation (its squared
+    // Mahalanobis length under J^T W J below 1e-12), or below 1e-12 (radians; translation
+    // relative to the range). Where noise leaves residuals and the fit is ill-conditioned (a
+    // small marker), Gauss-Newton converges only linearly: the fixed 1e-12 alone took twice
+    // the iterations for no change a covariance could show.
+    const double tol = 1e-12;
+    if (step.dot(JtWJ * step) < 1e-12 ||
+        (step.head<3>().norm() < tol && step.tail<3>().norm() < tol * (1 + t.norm())))
+      break;
+  }
+  *pose = Pose::FromRotation(R, t);
+  Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(JtWJ);
+  if (lu.rank() < 6) return false;
+  *cov = lu.inverse();
+  return cov->allFinite();
+}
+
+namespace {
+
+// Two straight edges of the print that the decoded ID locates, found in the image around
+// `pose` and added to the fit over X (corners and tip), which is then redone:
+//  0. the white stripe's outer edge (half-side 5 cells) where a black bit cell borders it;
+//  1. the decal's outer edge (half-side 6 cells) where a white bit cell meets a darker skin
+//     (only found where the skin is darker: on a white page there is no such edge).
+// Their leverage on the orientation is 5/3 and 2 times the black square's. Each group's
+// sigma is its own scatter about the fitted edges (at least 0.03 px) times sqrt(3) for the
+// three correlated points per cell; points beyond 3 sigmas (at least 0.3 px) are dropped
+// once, as an occluder or a glint at a cell would place them. A group with fewer than 12
+// points on 3 sides is left out. Leaves *pose and *cov as they were when the cells are too
+// small, no group has enough points, or a fit fails.
+void RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const CameraModel& camera,
+                          const MarkerPoseOptions& o, const std::vector<Eigen::Vector3d>& X,
+                          const std::vector<Eigen::Vector2d>& px, const std::vector<double>& sig,
+                          Pose* pose, PoseCovariance* cov) {
+  if (!o.use_stripe_edge || !(model.cell_size > 0) || model.id < 0) return;
+  thread_local std::vector<EdgeObservation> edges;
+  thread_local std::vector<int> group;
+  edges.clear();
+  group.clear();
+  const uint64_t code = Svms44::Codeword(model.id);
+  const double c = model.cell_size;
+  const Eigen::Matrix3d R = pose->Rotation();
+  std::array<std::array<int, 4>, 2> per_side{};
+  for (int i = 0; i < 44; ++i) {
+    const int g = ((code >> i) & 1) ? 1 : 0;  // white cell: the decal's edge; black: the stripe's
+    if (g == 1 && !o.use_decal_edge) continue;
+    const double h = g == 0 ? 5 * c : 6 * c;  // the edge's half-side
+    const Eigen::Vector2d cc = model.BitCellCentre(i);
+    const bool on_x = std::abs(std::abs(cc.x()) - 5.5 * c) < 0.1 * c;  // left or right column
+    const bool on_y = std::abs(std::abs(cc.y()) - 5.5 * c) < 0.1 * c;  // top or bottom row
+    if (on_x == on_y) continue;  // a corner cell: its edges run two ways
+    // Along the edge (marker frame), and toward the centre: dark -> bright across either edge
+    // (black cell -> white stripe; dark skin -> white cell).
+    const Eigen::Vector3d along = on_y ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    const Eigen::Vector3d inward = on_y ? Eigen::Vector3d(0, cc.y() > 0 ? -1 : 1, 0)
+                                        : Eigen::Vector3d(cc.x() > 0 ? -1 : 1, 0, 0);
+    const int side = on_y ? (cc.y() > 0 ? 0 : 2) : (cc.x() > 0 ? 1 : 3);
+    // Three points per cell. They share much of their error (below), but not all: with two,
+    // the orientation error at 16 m (30 px) was 0.82 degrees against 0.69 with three.
+    for (double f : {-0.25, 0.0, 0.25}) {
+      const Eigen::Vector3d P = (on_y ? Eigen::Vector3d(cc.x() + f * c, cc.y() > 0 ? h : -h, 0)
+                                      : Eigen::Vector3d(cc.x() > 0 ? h : -h, cc.y() + f * c, 0));
+      const Eigen::Vector3d P_cam = R * P + pose->tvec;
+      Eigen::Vector2d q0, q1, q2;
+      if (!camera.Project(P_cam, &q0) || !camera.Project(P_cam + 0.5 * c * (R * inward), &q1) ||
+          !camera.Project(P_cam + 0.5 * c * (R * along), &q2))
+        return;
+      const double cell_px = 2 * std::min((q1 - q0).norm(), (q2 - q0).norm());
+      if (cell_px < o.stripe_edge_min_cell_px) return;
+      // The search stays within the cell and its neighbour across the edge (0.4 cell either way).
+      Eigen::Vector2d edge;
+      double strength;
+      if (!LocateEdge(image, q0, (q1 - q0).normalized(), std::min(2.5, 0.4 * cell_px), &edge,
+                      &strength))
+        continue;
+      edges.push_back({P, along, edge, 0.1});
+      group.push_back(g);
+      ++per_side[g][side];
+    }
+  }
+  std::array<bool, 2> usable{};
+  for (int g = 0; g < 2; ++g) {
+    int sides = 0, n = 0;
+    for (int k : per_side[g]) {
+      sides += k >= 2;
+      n += k;
+    }
+    usable[g] = n >= 12 && sides >= 3;
+  }
+  auto keep_usable = [&] {
+    size_t kept = 0;
+    for (size_t i = 0; i < edges.size(); ++i) {
+      if (!usable[group[i]]) continue;
+      edges[kept] = edges[i];
+      group[kept++] = group[i];
+    }
+    edges.resize(kept);
+    group.resize(kept);
+  };
+  keep_usable();
+  if (edges.empty()) return;
+  Pose p = *pose;
+  PoseCovariance C;
+  double rms;
+  // First fit at a nominal 0.1 px, then each group's own scatter sets its sigma. Its pose
+  // serves only to measure that scatter: three iterations from the corners' pose suffice.
+  if (!RefinePose(camera, X, px, sig, &p, &C, &rms, &edges, 3)) return;
+  thread_local std::vector<double> residual;
+  residual.clear();
+  std::array<double, 2> ss{};
+  std::array<int, 2> count{};
+  const Eigen::Matrix3d R_fit = p.Rotation();
+  for (size_t i = 0; i < edges.size(); ++i) {
+    const EdgeObservation& e = edges[i];
+    const Eigen::Vector3d e_cam = R_fit * e.point + p.tvec;
+    Eigen::Vector2d q, q2;
+    if (!camera.Project(e_cam, &q) || !camera.Project(e_cam + 1e-3 * (R_fit * e.direction), &q2))
+      return;
+    const Eigen::Vector2d along = q2 - q;
+    residual.push_back(Eigen::Vector2d(-along.y(), along.x()).normalized().dot(q - e.pixel));
+    ss[group[i]] += residual.back() * residual.back();
+    ++count[group[i]];
+  }
+  // Each group's own scatter (the pose takes few dof of so many points), times sqrt(3): the
+  // three points along one cell's edge lie within a cell of each other, closer than the edge
+  // locator's 4 px profile, and share their error (blur, pixel phase, the cell's own far
+  // edge); the independent measurements are the cells.
+  std::array<double, 2> sigma{}, cut{};
+  for (int g = 0; g < 2; ++g) {
+    sigma[g] = std::max(0.03, std::sqrt(ss[g] / std::max(1, count[g]))) * std::sqrt(3.0);
+    cut[g] = std::max(3 * sigma[g], 0.3);
+  }
+  std::array<int, 2> kept_in{};
+  size_t kept = 0;
+  for (size_t i = 0; i < edges.size(); ++i) {
+    const int g = group[i];
+    if (std::abs(residual[i]) > cut[g]) continue;
+    edges[kept] = edges[i];
+    edges[kept].sigma_px = sigma[g];
+    group[kept++] = g;
+    ++kept_in[g];
+  }
+  edges.resize(kept);
+  group.resize(kept);
+  for (int g = 0; g < 2; ++g) usable[g] = usable[g] && kept_in[g] >= 12;
+  keep_usable();
+  if (edges.empty()) return;
+  if (!RefinePose(camera, X, px, sig, &p, &C, &rms, &edges)) return;
+  *pose = p;
+  *cov = C;
+}
+
+}  // namespace
+
+bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 4>& corners,
+                        const MarkerModel& model, const CameraModel& camera, double black,
+                        double white, const MarkerPoseOptions& o, MarkerPose* out,
+                        const std::array<double, 4>& corner_sigma) {
+  // Both planar solutions (IPPE, as OpenCV's SOLVEPNP_IPPE_SQUARE; ippe.h), from the corners
+  // on the z = 1 plane.
+  std::array<Eigen::Vector2d, 4> normalized;
+  for (int k = 0; k < 4; ++k) {
+    Eigen::Vector3d d;
+    if (!camera.Unproject(corners[k], &d) || d.z() <= 0) {
+      out->failure = "corner " + std::to_string(k) +
+                     " does not unproject to a direction in front "
+                     "of the camera";
+      return false;
+    }
+    normalized[k] = d.head<2>() / d.z();
+  }
+  std::array<PlanarPoseCandidate, 2> ippe;
+  if (!SolveSquareIppe(normalized, model.size, &ippe)) {
+    out->failure = "the corners give no planar pose (degenerate quadrilateral)";
+    return false;
+  }
+  const double side_px =
+      0.25 * ((corners[1] - corners[0]).norm() + (corners[2] - corners[1]).norm() +
+              (corners[3] - corners[2]).norm() + (corners[0] - corners[3]).norm());
+  struct Candidate {
+    Pose pose;
+    std::optional<TipObservation> tip;
+    double tip_error = 1e300;
+  };
+  // At most two candidates, in a fixed array (no allocation per frame).
+  struct Candidates {
+    std::array<Candidate, 2> c;
+    size_t n = 0;
+    size_t size() const { return n; }
+    bool empty() const { return n == 0; }
+    void push_back(const Candidate& x) { c[n++] = x; }
+    const Candidate& operator[](size_t i) const { return c[i]; }
+  } cands;
+  // The candidates usually find the same top (kept per thread: its blob's buffer is reused).
+  TipSearchMemo& tip_memo = Scratch().tip_memo;
+  tip_memo.valid = false;
+  tip_memo.reused = 0;
+  for (const PlanarPoseCandidate& solution : ippe) {
+    Candidate c;
+    c.pose = Pose::FromRotation(solution.cam_from_marker_R, solution.cam_from_marker_t);
+    if (c.pose.tvec.z() <= 0) continue;
+    // The tip is looked for only where it can be told from the marker's own print: a white
+    // top of at least tip_min_radius_px, searched no farther than 60 % of the way to the edge
+    // of the innermost black square (a dual's inner stripe and bits lie beyond it).
+    const double px_per_m = side_px / model.size;
+    const double innermost_half = 0.5 * (model.inner ? model.inner->size : model.size) * px_per_m;
+    const double search = std::min(o.tip_search_fraction * side_px, 0.6 * innermost_half);
+    if (model.post && model.post->tip_radius * px_per_m >= o.tip_min_radius_px && search >= 1.5) {
+      double fraction;
+      const Eigen::Vector3d tip3 = VisibleTipPoint(model, c.pose.Inverse().tvec, &fraction);
+      Eigen::Vector2d pred;
+      if (fraction >= 0.25 && camera.Project(c.pose * tip3, &pred)) {
+        c.tip = FindTip(image, pred, search, black, white, o.tip_min_contrast,
+                        model.post->tip_radius * px_per_m, &tip_memo);
+        if (c.tip) c.tip_error = (c.tip->pixel - pred).norm();
+      }
+    }
+    cands.push_back(c);
+  }
+  if (cands.empty()) {
+    out->failure = "both planar poses put the marker behind the camera";
+    return false;
+  }
+  out->solutions = static_cast<int>(cands.size());
+  // The tip observation: the white top found nearest its candidate's prediction.
+  size_t tip_from = 0;
+  for (size_t s = 1; s < cands.size(); ++s)
+    if (cands[s].tip_error < cands[tip_from].tip_error) tip_from = s;
+  const std::optional<TipObservation> tip = cands[tip_from].tip;
+  PoseScratch& sc = Scratch();
+  std::vector<Eigen::Vector3d>& X = sc.X;
+  std::vector<Eigen::Vector2d>& px = sc.px;
+  std::vector<double>& sig = sc.sigma;
+  // Every candidate is refined over the corners (and the tip), and the one whose weighted
+  // squared residuals are least is kept: unlike the tip's distance from each prediction alone,
+  // this weighs the tip against the corners by their sigmas, and two candidates that the tip
+  // pulls to the same pose (a nearly head-on view) count as one.
+  struct Refined {
+    Pose pose;
+    PoseCovariance covariance = PoseCovariance::Zero();
+    double chi2 = 1e300, rms = 0;
+    bool ok = false;
+  };
+  std::array<Refined, 2> refined;
+  size_t pick = 0;
+  bool use_tip = tip.has_value();
+  for (int pass = 0; pass < 2; ++pass) {
+    for (size_t s = 0; s < cands.size(); ++s) {
+      Refined& f = refined[s];
+      f = Refined();
+      X.clear();
+      px.clear();
+      sig.clear();
+      for (int k = 0; k < 4; ++k) {
+        X.push_back(model.Corners()[k]);
+        px.push_back(corners[k]);
+        sig.push_back(corner_sigma[k] > 0
+                          ? std::max(o.min_corner_sigma_px, o.corner_fit_scale * corner_sigma[k])
+                          : o.corner_sigma_px);
+      }
+      f.pose = cands[s].pose;
+      if (use_tip) {
+        double fraction = 1;
+        X.push_back(VisibleTipPoint(model, f.pose.Inverse().tvec, &fraction));
+        px.push_back(tip->pixel);
+        double sigma = tip->sigma_px;
+        if (model.post->concave()) {
+          // What is bright at the bottom of a well is what is both seen and lit; the detector
+          // does not know where the light comes from, so the observation is only good to about
+          // half the bore's image: enough to choose the planar solution, little weight in the
+          // refinement.
+          Eigen::Vector2d c0, c1;
+          if (camera.Project(f.pose * Eigen::Vector3d(0, 0, 0), &c0) &&
+              camera.Project(f.pose * Eigen::Vector3d(model.post->radius, 0, 0), &c1))
+            sigma = std::max(sigma, 0.5 * (c1 - c0).norm());
+        }
+        sig.push_back(sigma);
+      }
+      if (!RefinePose(camera, X, px, sig, &f.pose, &f.covariance, &f.rms)) continue;
+      if (use_tip && model.post->concave()) {
+        // The visible part of the well's bottom depends on the pose: once more with the
+        // refined one.
+        double fraction = 1;
+        X.back() = VisibleTipPoint(model, f.pose.Inverse().tvec, &fraction);
+        if (!RefinePose(camera, X, px, sig, &f.pose, &f.covariance, &f.rms)) continue;
+      }
+      f.chi2 = WeightedSquaredResiduals(camera, X, px, sig, f.pose);
+      f.ok = std::isfinite(f.chi2);
+      if (f.ok && (!refined[pick].ok || s == 0 || f.chi2 < refined[pick].chi2)) pick = s;
+    }
+    if (!refined[pick].ok) {
+      out->failure = "the pose refinement over the corners did not converge";
+      return false;
+    }
+    if (!use_tip) break;
+    // A tip that the kept pose cannot explain is dropped (a reflection, a bright speck), and
+    // the candidates are weighed again on their corners alone.
+    double fraction = 1;
+    Eigen::Vector2d pred;
+    const Eigen::Vector3d tip3 =
+        VisibleTipPoint(model, refined[pick].pose.Inverse().tvec, &fraction);
+    if (camera.Project(refined[pick].pose * tip3, &pred) &&
+        (pred - tip->pixel).norm() <= 4 * sig.back() + 1.0)
+      break;
+    use_tip = false;
+    pick = 0;
+  }
+  // X, px and sig hold the last candidate's points; the kept one's differ only in a well's
+  // visible bottom, which follows the pose.
+  if (use_tip) {
+    double fraction = 1;
+    X.back() = VisibleTipPoint(model, refined[pick].pose.Inverse().tvec, &fraction);
+  }
+  Pose pose = refined[pick].pose;
+  out->covariance = refined[pick].covariance;
+  out->rms_px = refined[pick].rms;
+  RefineWithStripeEdge(image, model, camera, o, X, px, sig, &pose, &out->covariance);
+  // The other candidate, when it is a distinct pose and not much less likely, is what the
+  // covariance must also cover: the two as a mixture weighted by their likelihoods, about the
+  // kept one, (1 - w) C + w (C' + d d^T) with w = 1 / (1 + exp(dchi2 / 2)). Flagged ambiguous
+  // when w is above 1 % (dchi2 below 9.2).
+  out->ambiguous = false;
+  out->ambiguity_covariance.setZero();
+  out->alternative.reset();
+  out->alternative_weight = 0;
+  bool weighed = false;  // the other solution's likelihood is known
+  const size_t other = 1 - pick;
+  if (cands.size() > 1 && refined[other].ok) {
+    // Both as refined over the same points (the edges, fitted to the kept one only, would set
+    // the two apart when they are one).
+    const Refined &a = refined[pick], &b = refined[other];
+    Eigen::Matrix<double, 6, 1> d;
+    const Eigen::AngleAxisd delta(b.pose.Rotation() * a.pose.Rotation().transpose());
+    d << delta.angle() * delta.axis(), b.pose.tvec - a.pose.tvec;
+    const double separation = d.dot(a.covariance.ldlt().solve(d));
+    const double dchi2 = std::max(0.0, b.chi2 - a.chi2);
+    if (separation > 9 && dchi2 < 2 * std::log(1 / kMixtureWeightFloor - 1)) {
+      const double w = 1 / (1 + std::exp(0.5 * dchi2));
+      out->ambiguity_covariance = w * (b.covariance - out->covariance + d * d.transpose());
+      out->covariance += out->ambiguity_covariance;
+      out->ambiguous = w > kAmbiguousWeight && delta.angle() > kAmbiguousMinDeg * M_PI / 180;
+      if (out->ambiguous) {
+        out->alternative = b.pose;
+        out->alternative_weight = w;
+      }
+    }
+    weighed = separation > 9;
+  }
+  // Where no distinct second solution survived the refinement (both slid to one minimum: on a
+  // marker of 8-10 px a corner 3 sigmas off outweighs a tip 1 sigma off), the kept pose's planar
+  // twin is what the data may still have confused it with. How far apart the two put the
+  // points, in sigmas (D = sum |twin - kept|^2 / sigma^2, the expected difference of their
+  // weighted squared residuals), says how often noise alone would swap them: Phi(-sqrt(D) / 2).
+  // The covariance spans the twin with that weight; above 1 % (and kAmbiguousMinDeg) the pose is
+  // flagged ambiguous.
+  if (!weighed) {
+    const Pose twin = PlanarTwin(pose);
+    Eigen::Matrix<double, 6, 1> d;
+    const Eigen::AngleAxisd delta(twin.Rotation() * pose.Rotation().transpose());
+    d << delta.angle() * delta.axis(), Eigen::Vector3d::Zero();
+    const double separation = d.dot(out->covariance.ldlt().solve(d));
+    double D = 0;
+    bool projected = true;
+    for (size_t i = 0; i < X.size() && projected; ++i) {
+      Eigen::Vector2d p_kept, p_twin;
+      projected = camera.Project(pose * X[i], &p_kept) && camera.Project(twin * X[i], &p_twin);
+      D += (p_twin - p_kept).squaredNorm() / (sig[i] * sig[i]);
+    }
+    const double w = 0.5 * std::erfc(std::sqrt(D) / 2 / std::sqrt(2.0));
+    if (projected && separation > 9 && w > kMixtureWeightFloor) {
+      out->ambiguity_covariance = w * d * d.transpose();
+      out->covariance += out->ambiguity_covariance;
+      out->ambiguous = w > kAmbiguousWeight && delta.angle() > kAmbiguousMinDeg * M_PI / 180;
+      if (out->ambiguous) {
+        out->alternative = twin;
+        out->alternative_weight = w;
+      }
+    }
+  }
+  out->calibration_in_covariance = false;
+  if (o.use_calibration_covariance && camera.intrinsics_covariance_factor().size() > 0) {
+    PoseCovariance calibration;
+    if (CalibrationCovariance(camera, pose, X, sig, &calibration)) {
+      out->covariance += calibration;
+      out->calibration_in_covariance = true;
+    }
+  }
+  out->cam_from_marker = pose;
+  out->tip = use_tip ? tip : std::nullopt;
+  return true;
+}
+
+std::optional<ExcludedRegion> PostSilhouette(const MarkerModel& model, const CameraModel& camera,
+                                             const Pose& cam_from_marker, double margin_px) {
+  if (!model.post || model.post->concave()) return std::nullopt;
+  const Eigen::Vector3d base = cam_from_marker * Eigen::Vector3d::Zero();
+  const Eigen::Vector3d top = cam_from_marker * Eigen::Vector3d(0, 0, model.post->height);
+  const double r = std::max(model.post->radius, model.post->tip_radius);
+  ExcludedRegion region;
+  Eigen::Vector2d px, py;
+  if (!camera.Project(base, &region.a) || !camera.Project(top, &region.b) ||
+      !camera.Project(top + Eigen::Vector3d(r, 0, 0), &px) ||
+      !camera.Project(top + Eigen::Vector3d(0, r, 0), &py))
+    return std::nullopt;
+  region.radius = std::max((px - region.b).norm(), (py - region.b).norm()) + margin_px;
+  return region;
+}
+
+namespace {
+double PointSegmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
+                            const Eigen::Vector2d& b) {
+  const Eigen::Vector2d d = b - a;
+  const double len2 = d.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return (p - (a + t * d)).norm();
+}
+double Cross(const Eigen::Vector2d& u, const Eigen::Vector2d& v) {
+  return u.x() * v.y() - u.y() * v.x();
+}
+}  // namespace
+
+bool RegionTouchesSides(const ExcludedRegion& region,
+                        const std::array<Eigen::Vector2d, 4>& corners) {
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d &p = corners[k], &q = corners[(k + 1) % 4];
+    const Eigen::Vector2d &a = region.a, &b = region.b;
+    // Proper crossing of the two segments, else the nearest end point.
+    const double d1 = Cross(q - p, a - p), d2 = Cross(q - p, b - p);
+    const double d3 = Cross(b - a, p - a), d4 = Cross(b - a, q - a);
+    if (d1 * d2 < 0 && d3 * d4 < 0) return true;
+    const double d = std::min({PointSegmentDistance(a, p, q), PointSegmentDistance(b, p, q),
+                               PointSegmentDistance(p, a, b), PointSegmentDistance(q, a, b)});
+    if (d < region.radius) return true;
+  }
+  return false;
+}
+
+}  // namespace svms

@@ -1,0 +1,101 @@
+#include "svms/detect/noise_model.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "svms/camera/photometric.h"
+
+namespace svms {
+namespace {
+
+// A 16-bit linear image of flat patches at `levels` (electron-like units: 1 unit = 1 DN) with
+// read noise `read` and shot noise of gain `gain` (variance gain L), clipped to [0, 65535].
+cv::Mat Patches(const std::vector<double>& levels, double read, double gain, uint32_t seed,
+                int size = 512) {
+  cv::Mat img(size, size, CV_16UC1);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n01(0, 1);
+  const int band = size / static_cast<int>(levels.size());
+  for (int y = 0; y < size; ++y) {
+    const double L = levels[std::min<size_t>(y / band, levels.size() - 1)];
+    for (int x = 0; x < size; ++x) {
+      const double v = L + std::sqrt(read * read + gain * L) * n01(rng);
+      img.at<uint16_t>(y, x) = static_cast<uint16_t>(std::clamp(std::lround(v), 0L, 65535L));
+    }
+  }
+  return img;
+}
+
+TEST(EstimateNoise, RecoversReadNoiseAndGainOnFlatPatches) {
+  const cv::Mat img = Patches({500, 2000, 8000, 20000, 40000}, 30, 2.0, 1);
+  const NoiseModel m = EstimateNoise(img);
+  ASSERT_TRUE(m.valid());
+  EXPECT_NEAR(m.read_sigma, 30, 0.25 * 30);
+  EXPECT_NEAR(m.shot_gain, 2.0, 0.15 * 2.0);
+}
+
+// A black background clipped at 0 (space): its spread is less than the noise; the estimate
+// must come from the unclipped parts and stay within 25 % of the truth.
+TEST(EstimateNoise, ABlackClippedBackgroundDoesNotBiasIt) {
+  const cv::Mat img = Patches({0, 0, 0, 3000, 30000}, 40, 1.5, 2);
+  const NoiseModel m = EstimateNoise(img);
+  ASSERT_TRUE(m.valid());
+  EXPECT_NEAR(m.read_sigma, 40, 0.25 * 40) << "gain " << m.shot_gain;
+  EXPECT_NEAR(m.Sigma(3000), std::sqrt(40 * 40 + 1.5 * 3000),
+              0.1 * std::sqrt(40 * 40 + 1.5 * 3000));
+}
+
+// Saturated glints: clipped at the top, left out.
+TEST(EstimateNoise, SaturatedGlintsAreLeftOut) {
+  const cv::Mat img = Patches({65535, 65535, 1000, 5000, 20000}, 25, 1.0, 3);
+  const NoiseModel m = EstimateNoise(img);
+  EXPECT_NEAR(m.read_sigma, 25, 0.25 * 25);
+  EXPECT_NEAR(m.shot_gain, 1.0, 0.2);
+}
+
+// A gamma-encoded 8-bit image (sRGB, as a JPEG would be before compression), turned back into
+// linear light: the estimate is of the noise in linear light, within 25 % at mid grey.
+TEST(EstimateNoise, WorksInLinearLightAfterAToneCurve) {
+  // Noise in linear light, 16-bit units: read 150, gain 8 (a noisy small-pixel camera).
+  const cv::Mat lin16 = Patches({0, 1500, 6000, 15000, 30000}, 150, 8, 4);
+  cv::Mat srgb8(lin16.size(), CV_8UC1);
+  const Response srgb = Response::Srgb();
+  for (int y = 0; y < lin16.rows; ++y)
+    for (int x = 0; x < lin16.cols; ++x)
+      srgb8.at<uint8_t>(y, x) = static_cast<uint8_t>(
+          std::lround(255 * srgb.FromLinear(lin16.at<uint16_t>(y, x) / 65535.0)));
+  PhotometricModel pm;
+  pm.response = srgb;
+  cv::Mat back;
+  ASSERT_TRUE(LinearizeImage(srgb8, pm, &back).ok());
+  const NoiseModel m = EstimateNoise(back);
+  ASSERT_TRUE(m.valid());
+  const double truth = std::sqrt(150 * 150 + 8 * 15000.0);
+  EXPECT_NEAR(m.Sigma(15000), truth, 0.25 * truth);
+  // Read on the encoded values themselves, the same patch would look several times noisier in
+  // the darks than in the brights: the linear estimate's darks are not inflated.
+  EXPECT_LT(m.read_sigma, 3 * 150);
+}
+
+TEST(EstimateNoise, EightBitImagesAndTheirScale) {
+  cv::Mat img(400, 400, CV_8UC1);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n01(0, 1);
+  for (int y = 0; y < 400; ++y)
+    for (int x = 0; x < 400; ++x) {
+      const double L = y < 200 ? 60 : 180;
+      img.at<uint8_t>(y, x) = static_cast<uint8_t>(
+          std::clamp(std::lround(L + std::sqrt(4 + L / 20) * n01(rng)), 0L, 255L));
+    }
+  const NoiseModel m = EstimateNoise(img);
+  EXPECT_NEAR(m.Sigma(60), std::sqrt(4 + 3.0), 0.2 * std::sqrt(7.0));
+  EXPECT_NEAR(m.Sigma(180), std::sqrt(4 + 9.0), 0.2 * std::sqrt(13.0));
+  const NoiseModel s = m.Scaled(257);
+  EXPECT_NEAR(s.Sigma(257 * 180), 257 * m.Sigma(180), 1e-6 * 257 * m.Sigma(180));
+  EXPECT_FALSE(EstimateNoise(cv::Mat(4, 4, CV_8UC1, cv::Scalar(7))).valid());
+}
+
+}  // namespace
+}  // namespace svms

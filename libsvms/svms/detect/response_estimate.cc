@@ -1,0 +1,187 @@
+#include "svms/detect/response_estimate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+
+#include "svms/camera/photometric.h"
+
+namespace svms {
+
+void CollectEdgeProfiles(const cv::Mat& stored, const std::vector<Detection>& detections,
+                         double black_level, double white_level, std::vector<EdgeProfile>* out,
+                         size_t max_profiles) {
+  if (stored.empty() || stored.channels() != 1 ||
+      (stored.depth() != CV_8U && stored.depth() != CV_16U))
+    return;
+  const double white = white_level > 0 ? white_level : (stored.depth() == CV_8U ? 255 : 65535);
+  const double range = white - black_level;
+  if (!(range > 0)) return;
+  constexpr int kHalf = kProfileSamples / 2;
+  for (const Detection& d : detections) {
+    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+    for (const auto& c : d.corners) centre += 0.25 * c;
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector2d a = d.corners[k], b = d.corners[(k + 1) % 4];
+      const double length = (b - a).norm();
+      // The white stripe is a third of the square's side wide: at least 4 px for +-3 px.
+      if (!(length / 3 >= 4)) continue;
+      const Eigen::Vector2d along = (b - a) / length;
+      Eigen::Vector2d outward(-along.y(), along.x());
+      if (outward.dot(0.5 * (a + b) - centre) < 0) outward = -outward;
+      for (double u : {0.2, 0.35, 0.5, 0.65, 0.8}) {
+        if (out->size() >= max_profiles) return;
+        const Eigen::Vector2d p = a + u * (b - a);
+        EdgeProfile prof;
+        bool inside = true;
+        for (int i = 0; i < kProfileSamples && inside; ++i) {
+          const Eigen::Vector2d q = p + (i - kHalf) * kProfileStep * outward;
+          inside = q.x() >= 0 && q.y() >= 0 && q.x() < stored.cols - 2 && q.y() < stored.rows - 2;
+          if (!inside) break;
+          const int x0 = static_cast<int>(q.x()), y0 = static_cast<int>(q.y());
+          const double fx = q.x() - x0, fy = q.y() - y0;
+          const int xs[4] = {x0, x0 + 1, x0, x0 + 1}, ys[4] = {y0, y0, y0 + 1, y0 + 1};
+          const double ws[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+          for (int k = 0; k < 4; ++k) {
+            const double v = stored.depth() == CV_8U ? stored.at<uint8_t>(ys[k], xs[k])
+                                                     : stored.at<uint16_t>(ys[k], xs[k]);
+            prof.value[i][k] = static_cast<float>((v - black_level) / range);
+            prof.weight[i][k] = static_cast<float>(ws[k]);
+          }
+        }
+        if (inside) out->push_back(prof);
+      }
+    }
+  }
+}
+
+namespace {
+
+// The mean skewness of the profiles' line spread functions (the derivative of each profile read
+// through `to_linear`, normalised between its plateaus), over +-2 px about each one's mean:
+// zero for point-symmetric edges. Moments of the sampled derivative are sums over evenly spaced
+// samples, so the place of the edge between samples does not bias them (a symmetry test that
+// interpolates between samples does: its own error is larger than the effect of the curve).
+// Profiles with too little contrast are skipped (*used counts the rest).
+double MeanSkewness(const std::vector<const EdgeProfile*>& profiles,
+                    const std::function<double(double)>& to_linear, int* used) {
+  constexpr int kN = kProfileSamples;
+  double sum = 0;
+  *used = 0;
+  std::array<double, kN> n;
+  for (const EdgeProfile* p : profiles) {
+    for (int i = 0; i < kN; ++i)
+      n[i] = p->At(i, [&](double v) { return to_linear(std::clamp(v, 0.0, 1.0)); });
+    double dark = 0, bright = 0;
+    for (int i = 0; i < 4; ++i) dark += n[i] / 4, bright += n[kN - 1 - i] / 4;
+    if (!(bright - dark > 0.05)) continue;
+    // The derivative's moments under a Gaussian taper of 1.5 px about its mean (iterated):
+    // a hard window would jump as the mean moves and make the skewness a jagged function of
+    // gamma.
+    std::array<double, kN - 1> w;
+    double w0 = 0, mean = 0;
+    for (int i = 0; i + 1 < kN; ++i) {
+      w[i] = (n[i + 1] - n[i]) / (bright - dark);
+      w0 += w[i], mean += w[i] * (i + 0.5);
+    }
+    if (!(w0 > 0.5)) continue;
+    mean /= w0;
+    constexpr double kTaper = 6;  // samples (1.5 px)
+    double m2 = 0, m3 = 0;
+    for (int iteration = 0; iteration < 4; ++iteration) {
+      double g0 = 0, g1 = 0, g2 = 0, g3 = 0;
+      for (int i = 0; i + 1 < kN; ++i) {
+        const double x = i + 0.5 - mean;
+        const double g = w[i] * std::exp(-x * x / (2 * kTaper * kTaper));
+        g0 += g, g1 += g * x, g2 += g * x * x, g3 += g * x * x * x;
+      }
+      if (!(g0 > 0)) break;
+      if (iteration < 3) {
+        mean += g1 / g0;
+      } else {
+        m2 = g2 / g0, m3 = g3 / g0;
+      }
+    }
+    if (!(m2 > 0)) continue;
+    sum += m3 / std::pow(m2, 1.5);
+    ++*used;
+  }
+  return *used > 0 ? sum / *used : 0;
+}
+
+// The gamma in [0.5, 3.5] at which the mean skewness first crosses zero from above (it falls
+// as gamma grows, a higher gamma darkening the foot of the rise more than its shoulder, until
+// far beyond the truth the plateaus' normalisation turns it again): a scan in steps of 0.05,
+// then bisection to 1e-4. Without a crossing, a small subset's curve may only touch zero
+// (noise lifts its minimum a little above): then the gamma of least skewness, if that lies
+// inside the scan and the skewness varies along it at least 10 times its least value. NaN
+// otherwise: binary edges (printed artwork at its own resolution) read alike through any
+// gamma, and a curve beyond the scan has its least value at an end.
+double BestGamma(const std::vector<const EdgeProfile*>& profiles) {
+  int used = 0;
+  auto skew = [&](double g) {
+    return MeanSkewness(
+        profiles, [g](double v) { return std::pow(v, g); }, &used);
+  };
+  double prev_g = 0.5, prev = skew(prev_g);
+  double least = std::abs(prev), least_g = prev_g, lowest = prev, highest = prev;
+  for (double g = 0.55; g <= 3.5 + 1e-9; g += 0.05) {
+    const double s = skew(g);
+    if (std::abs(s) < least) least = std::abs(s), least_g = g;
+    lowest = std::min(lowest, s), highest = std::max(highest, s);
+    if (prev > 0 && s <= 0) {
+      double lo = prev_g, hi = g;
+      while (hi - lo > 1e-4) {
+        const double mid = 0.5 * (lo + hi);
+        (skew(mid) > 0 ? lo : hi) = mid;
+      }
+      return 0.5 * (lo + hi);
+    }
+    prev_g = g, prev = s;
+  }
+  const bool interior = least_g > 0.5 + 1e-9 && least_g < 3.5 - 1e-9;
+  return interior && highest - lowest >= 10 * least ? least_g : NAN;
+}
+
+}  // namespace
+
+ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgeProfile>& profiles) {
+  ResponseEstimate out;
+  std::vector<const EdgeProfile*> all;
+  for (const EdgeProfile& p : profiles) all.push_back(&p);
+  int used = 0;
+  MeanSkewness(
+      all, [](double v) { return v; }, &used);
+  if (used < 20) return out;
+  const double best = BestGamma(all);
+  if (!std::isfinite(best)) return out;
+  out.gamma = best;
+  out.profiles = used;
+  // The standard error: the spread of the estimates over 8 groups of the profiles.
+  constexpr int kGroups = 8;
+  std::vector<double> g(kGroups);
+  for (int k = 0; k < kGroups; ++k) {
+    std::vector<const EdgeProfile*> part;
+    for (size_t i = static_cast<size_t>(k); i < all.size(); i += kGroups) part.push_back(all[i]);
+    g[static_cast<size_t>(k)] = BestGamma(part);
+  }
+  // A group without an estimate counts as the scan's end it lies beyond.
+  double mean = 0, var = 0;
+  for (double& x : g)
+    if (!std::isfinite(x)) x = best < 2 ? 0.5 : 3.5;
+  for (double x : g) mean += x / kGroups;
+  for (double x : g) var += (x - mean) * (x - mean) / (kGroups - 1);
+  // Not below the bisection's and the groups' own resolution.
+  out.sigma = std::max(std::sqrt(var / kGroups), 0.01);
+  const double g_best = out.gamma;
+  out.asymmetry = std::abs(MeanSkewness(
+      all, [g_best](double v) { return std::pow(v, g_best); }, &used));
+  out.asymmetry_linear = std::abs(MeanSkewness(
+      all, [](double v) { return v; }, &used));
+  const Response srgb = Response::Srgb();
+  out.asymmetry_srgb = std::abs(MeanSkewness(
+      all, [&srgb](double v) { return srgb.ToLinear(v); }, &used));
+  return out;
+}
+
+}  // namespace svms

@@ -1,0 +1,105 @@
+#include "svms/detect/response_estimate.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <random>
+
+#include "svms/camera/photometric.h"
+
+namespace svms {
+namespace {
+
+// Black squares (reflectance 0.05) in white (0.9) surrounds at several angles, rendered in
+// linear light (exact pixel coverage, then a Gaussian blur of `blur` px), encoded through
+// `response` into 8 bits with noise; their detections carry the exact corners.
+void Squares(const Response& response, double blur, uint32_t seed, cv::Mat* img,
+             std::vector<Detection>* dets) {
+  constexpr int kW = 960, kH = 640, kS = 16;
+  cv::Mat lin(kH, kW, CV_32F, cv::Scalar(0.9));
+  dets->clear();
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> angle(0, M_PI / 2);
+  for (int k = 0; k < 24; ++k) {
+    const double cx = 80 + 160 * (k % 6) + 0.37 * k, cy = 80 + 160 * (k / 6), h = 30;
+    const double a = angle(rng), ca = std::cos(a), sa = std::sin(a);
+    Detection d;
+    for (int c = 0; c < 4; ++c) {
+      const double t = a + M_PI / 4 + c * M_PI / 2;
+      d.corners[c] =
+          Eigen::Vector2d(cx + h * std::sqrt(2) * std::cos(t), cy + h * std::sqrt(2) * std::sin(t));
+    }
+    dets->push_back(d);
+    // Each pixel's covered fraction, from 16 x 16 point samples over its area (pixel centres
+    // at integers): exact to 1/256, with nothing of an anti-aliasing filter's own shape.
+    for (int y = static_cast<int>(cy - 1.5 * h); y <= cy + 1.5 * h; ++y)
+      for (int x = static_cast<int>(cx - 1.5 * h); x <= cx + 1.5 * h; ++x) {
+        int in = 0;
+        for (int j = 0; j < kS; ++j)
+          for (int i = 0; i < kS; ++i) {
+            const double u = x - 0.5 + (i + 0.5) / kS - cx, v = y - 0.5 + (j + 0.5) / kS - cy;
+            in += std::abs(ca * u + sa * v) < h && std::abs(-sa * u + ca * v) < h;
+          }
+        lin.at<float>(y, x) = static_cast<float>(0.9 - 0.85 * in / (kS * kS));
+      }
+  }
+  cv::GaussianBlur(lin, lin, cv::Size(0, 0), blur);
+  std::normal_distribution<double> noise(0, 0.004);
+  img->create(kH, kW, CV_8UC1);
+  for (int y = 0; y < kH; ++y)
+    for (int x = 0; x < kW; ++x)
+      img->at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(
+          255 * response.FromLinear(std::clamp(lin.at<float>(y, x) + noise(rng), 0.0, 1.0)));
+}
+
+TEST(EstimateGammaFromEdges, RecoversTheResponseOfTheImages) {
+  for (const auto& [response, truth] :
+       {std::pair{Response::Linear(), 1.0}, std::pair{Response::Gamma(2.2), 2.2},
+        std::pair{Response::Gamma(1.8), 1.8}}) {
+    cv::Mat img;
+    std::vector<Detection> dets;
+    Squares(response, 0.8, 7, &img, &dets);
+    std::vector<EdgeProfile> profiles;
+    CollectEdgeProfiles(img, dets, 0, 0, &profiles);
+    EXPECT_EQ(profiles.size(), 24u * 4 * 5);
+    const ResponseEstimate e = EstimateGammaFromEdges(profiles);
+    ASSERT_GE(e.profiles, 400) << response.Name();
+    EXPECT_NEAR(e.gamma, truth, 0.1) << response.Name() << " sigma " << e.sigma;
+    EXPECT_GT(e.sigma, 0);
+    EXPECT_LT(e.sigma, 0.12);
+    EXPECT_LE(e.asymmetry, e.asymmetry_linear);
+  }
+}
+
+TEST(EstimateGammaFromEdges, SrgbLooksLikeGammaTwoPointTwoAndLinearIsContradicted) {
+  cv::Mat img;
+  std::vector<Detection> dets;
+  Squares(Response::Srgb(), 1.0, 9, &img, &dets);
+  std::vector<EdgeProfile> profiles;
+  CollectEdgeProfiles(img, dets, 0, 0, &profiles);
+  const ResponseEstimate e = EstimateGammaFromEdges(profiles);
+  EXPECT_NEAR(e.gamma, 2.2, 0.25);
+  EXPECT_GT(e.asymmetry_linear, 4 * e.asymmetry_srgb);
+  EXPECT_LT(e.asymmetry, e.asymmetry_linear);
+}
+
+TEST(EstimateGammaFromEdges, BinaryEdgesSayNothing) {
+  // Pure black and white pixels (artwork at its own resolution): any gamma reads them alike.
+  std::vector<EdgeProfile> profiles(100);
+  for (EdgeProfile& p : profiles)
+    for (int i = 0; i < kProfileSamples; ++i) {
+      p.value[i] = {i < kProfileSamples / 2 ? 0.f : 1.f, 0, 0, 0};
+      p.weight[i] = {1, 0, 0, 0};
+    }
+  EXPECT_EQ(EstimateGammaFromEdges(profiles).profiles, 0);
+}
+
+TEST(EstimateGammaFromEdges, TooFewEdgesGiveNoEstimate) {
+  std::vector<EdgeProfile> few(5);
+  EXPECT_EQ(EstimateGammaFromEdges(few).profiles, 0);
+  EXPECT_EQ(EstimateGammaFromEdges({}).gamma, 1);
+}
+
+}  // namespace
+}  // namespace svms

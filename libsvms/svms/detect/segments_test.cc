@@ -1,0 +1,216 @@
+// Detector steps 1-4 on synthetic images and segments with known answers.
+#include "svms/detect/segments.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <opencv2/core.hpp>
+
+#include "svms/detect/quads.h"
+
+namespace svms {
+namespace {
+
+// A square of side `side` px and grey level `grey` centred at (cx, cy), turned by `deg`,
+// painted by exact area coverage (16 x 16 samples per pixel, pixel centres at integers, as in
+// docs/conventions.md). Returns its corners clockwise on screen.
+std::array<Eigen::Vector2d, 4> DrawSquare(cv::Mat& img, double cx, double cy, double side,
+                                          double deg, uint8_t grey = 20) {
+  const double a = deg * M_PI / 180, h = side / 2;
+  const Eigen::Vector2d u(std::cos(a), std::sin(a)), v(-std::sin(a), std::cos(a)), c(cx, cy);
+  const std::array<Eigen::Vector2d, 4> corners = {c - h * u - h * v, c + h * u - h * v,
+                                                  c + h * u + h * v, c - h * u + h * v};
+  const int x0 = std::max(0, static_cast<int>(cx - side)),
+            x1 = std::min(img.cols, static_cast<int>(cx + side) + 1);
+  const int y0 = std::max(0, static_cast<int>(cy - side)),
+            y1 = std::min(img.rows, static_cast<int>(cy + side) + 1);
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      int inside = 0;
+      for (int sy = 0; sy < 16; ++sy)
+        for (int sx = 0; sx < 16; ++sx) {
+          const Eigen::Vector2d p(x - 0.5 + (sx + 0.5) / 16, y - 0.5 + (sy + 0.5) / 16);
+          const Eigen::Vector2d q = p - c;
+          inside += std::abs(q.dot(u)) <= h && std::abs(q.dot(v)) <= h;
+        }
+      uint8_t& px = img.at<uint8_t>(y, x);
+      px = cv::saturate_cast<uint8_t>((inside * grey + (256 - inside) * px) / 256.0);
+    }
+  return corners;
+}
+
+double DistToLine(const Eigen::Vector3d& l, const Eigen::Vector2d& p) {
+  return std::abs(l.head<2>().dot(p) + l.z());
+}
+
+// Every side of a lone square (a closed edge curve, no end points) is found as one or two
+// segments covering most of it, with the dark side on its right, within a pixel or so (edge
+// pixels are whole pixels; step 8 refines), and the quad is found, at every rotation: a chain
+// started inside a closed curve must not leave it in shreds.
+TEST(Segments, EachSideOfASquareIsFoundWholeAtEveryRotation) {
+  for (double deg = 0; deg < 90; deg += 3.7) {
+    for (double side : {24.0, 60.0}) {
+      cv::Mat img(120, 120, CV_8U, cv::Scalar(200));
+      const auto c = DrawSquare(img, 60.3, 59.6, side, deg);
+      cv::Mat gx, gy;
+      const std::vector<Segment> segs = FindSegments(img, SegmentOptions{}, &gx, &gy);
+      for (int k = 0; k < 4; ++k) {
+        const Eigen::Vector2d a = c[k], b = c[(k + 1) % 4];
+        int matches = 0;
+        double covered = 0;
+        for (const Segment& s : segs) {
+          // Walking a -> b clockwise on screen has the dark square on the right.
+          if (DistToLine(s.line, 0.5 * (a + b)) > 1.0 || (s.b - s.a).dot(b - a) <= 0) continue;
+          ++matches;
+          covered += s.length();
+          EXPECT_GT(s.contrast, 20);
+        }
+        EXPECT_GE(matches, 1) << "deg " << deg << " side " << side << " side index " << k;
+        EXPECT_LE(matches, 2) << "deg " << deg << " side " << side << " side index " << k;
+        EXPECT_GT(covered, 0.7 * side) << "deg " << deg << " side " << side << " k " << k;
+      }
+      double best = 1e9;
+      for (const Quad& q : FindQuads(segs, QuadOptions{}, img.cols, img.rows))
+        for (int r = 0; r < 4; ++r) {
+          double worst = 0;
+          for (int k = 0; k < 4; ++k)
+            worst = std::max(worst, (q.corners[(k + r) % 4] - c[k]).norm());
+          best = std::min(best, worst);
+        }
+      EXPECT_LT(best, 1.5) << "deg " << deg << " side " << side;
+    }
+  }
+}
+
+// A segment from a to b with its line and a contrast of 50.
+Segment MakeSegment(Eigen::Vector2d a, Eigen::Vector2d b) {
+  Segment s;
+  s.a = a;
+  s.b = b;
+  const Eigen::Vector2d u = (b - a).normalized(), n(-u.y(), u.x());
+  s.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(a));
+  s.contrast = 50;
+  return s;
+}
+
+TEST(Segments, MergeJoinsPiecesOfOneEdgeButNotACorner) {
+  auto make = MakeSegment;
+  // A long piece and a short one whose direction is 9 degrees off (a one-pixel bump near a
+  // corner): one edge.
+  std::vector<Segment> v = {make({0, 0}, {22, 1.2}), make({22.5, 1.6}, {30.5, 0.8})};
+  MergeCollinear(SegmentOptions{}, &v);
+  ASSERT_EQ(v.size(), 1u);
+  EXPECT_NEAR(v[0].a.x(), 0, 1e-9);
+  EXPECT_NEAR(v[0].b.x(), 30.5, 1e-9);
+  // A real corner (a turn of 25 degrees) and a parallel edge 3 px away stay apart.
+  std::vector<Segment> w = {make({0, 0}, {20, 0}), make({21, 0}, {30, 4.7}), make({0, 3}, {20, 3})};
+  MergeCollinear(SegmentOptions{}, &w);
+  EXPECT_EQ(w.size(), 3u);
+}
+
+// A side bent halfway by 7-14 degrees (a shadow across a small square's side) gets a segment
+// over both pieces, the pieces stay; a corner, a gap or pieces going the other way do not.
+TEST(Segments, BridgeSpansABentSideButNotACornerOrAGap) {
+  auto make = MakeSegment;
+  // The 30 px case of the comparison's size sweep: 7 degrees at (505.3, 622.1).
+  std::vector<Segment> v = {make({499.7, 634.4}, {505.1, 622.0}),
+                            make({505.5, 622.3}, {514.0, 608.0})};
+  BridgeKinks(SegmentOptions{}, &v);
+  ASSERT_EQ(v.size(), 3u);
+  EXPECT_NEAR(v[2].a.x(), 499.7, 1e-9);
+  EXPECT_NEAR(v[2].b.y(), 608.0, 1e-9);
+  EXPECT_NEAR(v[2].line.head<2>().norm(), 1.0, 1e-12);
+  // Both ends lie within a pixel of the spanning line.
+  for (const Eigen::Vector2d& p : {v[0].a, v[1].b})
+    EXPECT_LT(std::abs(v[2].line.head<2>().dot(p) + v[2].line.z()), 1.0);
+  // A corner (90 degrees), a 3 px gap, and a piece that runs back: nothing added.
+  std::vector<Segment> corner = {make({0, 0}, {10, 0}), make({10, 0.5}, {10, 10})};
+  std::vector<Segment> gap = {make({0, 0}, {10, 0}), make({13, 0.5}, {23, 1.5})};
+  std::vector<Segment> back = {make({0, 0}, {10, 0}), make({10.5, 0.2}, {1, 0.5})};
+  for (std::vector<Segment>* w : {&corner, &gap, &back}) {
+    BridgeKinks(SegmentOptions{}, w);
+    EXPECT_EQ(w->size(), 2u);
+  }
+  // Off: nothing added.
+  SegmentOptions off;
+  off.bridge_max_turn_deg = 0;
+  std::vector<Segment> u = {make({0, 0}, {10, 0}), make({10.5, 0.2}, {20, 2})};
+  BridgeKinks(off, &u);
+  EXPECT_EQ(u.size(), 2u);
+}
+
+// Nested and adjacent squares do not hide one another: the white stripe of a marker on a dark
+// skin is a bright frame whose inner border is the black square's border seen the other way.
+// A dark square on a brighter plate with shot noise (variance grey / 64, what 16 sqrt(grey)
+// assumes) plus `read` grey levels of read noise, rounded to 8 bits.
+cv::Mat NoisySquare(double read, uint64_t seed) {
+  cv::Mat img(240, 320, CV_8U, cv::Scalar(150));
+  DrawSquare(img, 160, 120, 80, 10, 12);
+  cv::RNG rng(seed);
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x) {
+      const double v = img.at<uint8_t>(y, x);
+      img.at<uint8_t>(y, x) =
+          cv::saturate_cast<uint8_t>(v + rng.gaussian(std::sqrt(v / 64 + read * read)));
+    }
+  return img;
+}
+
+TEST(Segments, ReadNoiseIsEstimatedAndDoesNotMultiplyTheEdges) {
+  EXPECT_LT(EstimateReadNoise(NoisySquare(0, 1)), 0.6);
+  EXPECT_LT(EstimateReadNoise(NoisySquare(1, 2)), SegmentOptions{}.read_noise_gate);
+  EXPECT_NEAR(EstimateReadNoise(NoisySquare(4, 3)), 4, 0.6);
+  EXPECT_NEAR(EstimateReadNoise(NoisySquare(8, 4)), 8, 1.0);
+  EXPECT_EQ(EstimateReadNoise(cv::Mat(4, 4, CV_8U, cv::Scalar(9))), 0);
+  // With 4 levels of read noise the black square's inside (level 12) is 12 levels of noise on
+  // the plain 16 sqrt(grey) scale: noise edges everywhere, unless the scale allows for it.
+  const cv::Mat noisy = NoisySquare(4, 5);
+  cv::Mat gx, gy;
+  SegmentOptions plain;
+  plain.read_noise_gate = 1e9;
+  const size_t adapted = FindSegments(noisy, SegmentOptions{}, &gx, &gy).size();
+  const size_t unadapted = FindSegments(noisy, plain, &gx, &gy).size();
+  RecordProperty("segments_adapted", static_cast<int>(adapted));
+  RecordProperty("segments_plain_scale", static_cast<int>(unadapted));
+  EXPECT_LE(adapted, 12u);
+  EXPECT_GT(unadapted, 5 * adapted);
+}
+
+TEST(Quads, NestedAndAdjacentSquaresAreAllFound) {
+  cv::Mat img(200, 300, CV_8U, cv::Scalar(200));
+  DrawSquare(img, 100, 100, 120, 5, 20);                    // dark skin
+  DrawSquare(img, 100, 100, 80, 5, 200);                    // white stripe
+  const auto inner = DrawSquare(img, 100, 100, 40, 5, 20);  // black square
+  const auto beside = DrawSquare(img, 230, 100, 50, -12, 20);
+  cv::Mat gx, gy;
+  const std::vector<Segment> segs = FindSegments(img, SegmentOptions{}, &gx, &gy);
+  const std::vector<Quad> quads = FindQuads(segs, QuadOptions{}, img.cols, img.rows);
+  auto found = [&](const std::array<Eigen::Vector2d, 4>& truth) {
+    for (const Quad& q : quads)
+      for (int r = 0; r < 4; ++r) {
+        double worst = 0;
+        for (int k = 0; k < 4; ++k)
+          worst = std::max(worst, (q.corners[(k + r) % 4] - truth[k]).norm());
+        if (worst < 1.0) return true;
+      }
+    return false;
+  };
+  EXPECT_TRUE(found(inner));
+  EXPECT_TRUE(found(beside));
+  // The outer skin square (dark on the right when walked clockwise) is found too.
+  const double a = 5 * M_PI / 180;
+  const Eigen::Vector2d u(std::cos(a), std::sin(a)), v(-std::sin(a), std::cos(a)), c(100, 100);
+  EXPECT_TRUE(
+      found({c - 60 * u - 60 * v, c + 60 * u - 60 * v, c + 60 * u + 60 * v, c - 60 * u + 60 * v}));
+}
+
+TEST(Quads, IntersectGivesTheCrossingAndRejectsParallelLines) {
+  Eigen::Vector2d p;
+  ASSERT_TRUE(Intersect({1, 0, -3}, {0, 1, -4}, &p));  // x = 3, y = 4
+  EXPECT_NEAR(p.x(), 3, 1e-12);
+  EXPECT_NEAR(p.y(), 4, 1e-12);
+  EXPECT_FALSE(Intersect({1, 0, -3}, {1, 0, -5}, &p));
+}
+
+}  // namespace
+}  // namespace svms

@@ -1,0 +1,119 @@
+// The scene simulator's renderer: ray casting through exact geometry with stratified
+// supersampling, then a sensor model. Everything a later claim is measured on comes from here,
+// so the geometry is exact (planes, cylinders, spheres, boxes; the printed pattern looked up
+// analytically) and the camera rays come from mrcal's unprojection of the scene's lens model.
+//
+// Camera rays: mrcal unprojects every pixel corner once per renderer; a ray through a point
+// inside a pixel is the bilinear blend of its four corner rays (the lens is smooth at that
+// scale: the blend, stored as floats, is within 1e-4 px of mrcal's own unprojection; measured
+// 4.4e-5 px for an OPENCV8 lens, tested).
+//
+// Thread-safe: one Renderer may render several views at once from several threads.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "svms/base/status.h"
+#include "svms/camera/image_io.h"
+#include "svms/sim/scene.h"
+
+namespace svms {
+
+// Radiance (units of white paper facing the sun): under a third of the shot noise of a sunlit
+// white print, and above the first pass's own noise where nothing but the sun's disc is sampled
+// (0.0003-0.0005 RMS on a lit white, so 0.0008-0.0012 RMS in a second difference). A pixel is
+// on an edge (EdgePixels) where the second difference of the first pass's radiance through it,
+// along a row, a column or a diagonal, exceeds it.
+constexpr double kEdgeRadianceStep = 0.004;
+// Radiance by which a pixel must differ from one of its eight neighbours to be on an edge
+// whatever its second differences: a pixel half covered by a straight edge sits on a straight
+// ramp. Five times kEdgeRadianceStep, so a smooth shading gradient of under 0.02 per pixel is
+// not taken for an edge.
+constexpr double kEdgeRadianceJump = 0.02;
+
+// The pixels (CV_8U, 1 = edge) that sensor.edge_rays_per_pixel renders again, from the first
+// pass's radiance (CV_32FC1). Pixels on the image border test only the neighbours they have.
+// Why second differences: a first difference of kEdgeRadianceStep also flagged smooth
+// shading and the sun disc's sampling noise (20-50 % of a mockup view's pixels against 2-5 %
+// now), which made a 200-view mockup render 9 times slower for no gain.
+cv::Mat EdgePixels(const cv::Mat& radiance);
+
+// What a ray hits first.
+struct RayHit {
+  double t = 0;           // distance along the (unit) ray, metres
+  Eigen::Vector3d point;  // world frame
+  int primitive = -1;     // internal index; -1 = background
+};
+
+// The memory a render of `scene` needs with `threads` views in flight, bytes: the renderer's
+// per-pixel state and, per view, its radiance, edge map, exposure and encoded image. Measured
+// (docs/reliability.md) and rounded up, so that `svms render` refuses a scene that cannot fit
+// (memory_limit.h) before it starts.
+double RenderMemoryBytes(const Scene& scene, int threads);
+
+// The extension of the image file a view is written to: ".png", or ".jpg" for format "jpeg".
+std::string ViewFileExtension(const Sensor& sensor);
+
+// How `svms render` encodes a view: a PNG declares the sensor's response (gAMA 1.0 for linear,
+// an sRGB chunk for srgb, gAMA 1/G for gamma:G) so that a reader recovers the light; a JPEG is
+// written by libjpeg (OpenCV's encoder) at sensor.jpeg_quality.
+ImageEncoding ViewImageEncoding(const Sensor& sensor);
+
+// The pixels a reader decodes from the file `svms render` writes of `exposed` (Expose's output
+// for `sensor`): for a JPEG, `exposed` encoded by the very call that writes the file
+// (EncodeImage, libjpeg) and decoded by cv::imdecode as image_io.h's loaders decode it; a PNG is
+// lossless, so `exposed` itself. For benchmarks that measure in-process what a file would give.
+// Errors: the encoder or decoder failed (an image that is not what Expose makes for `sensor`).
+Status ThroughCodec(const Sensor& sensor, const cv::Mat& exposed, cv::Mat* decoded);
+
+class Renderer {
+ public:
+  // Prepares the geometry and unprojects the camera's pixel-corner grid (about 1 s for a
+  // 1024x1024 OPENCV8 camera). Fails if the camera cannot unproject its own image.
+  static Status Create(const Scene& scene, std::unique_ptr<Renderer>* out);
+  ~Renderer();
+
+  // Noise-free radiance of view `view` (CV_32FC1, the camera's size): the mean of
+  // rays_per_pixel stratified samples per pixel, each shaded with sun (finite disc, shadows),
+  // ambient, earthshine, ring light and specular glare; with sensor.edge_rays_per_pixel, the
+  // pixels on an edge (EdgePixels) the mean of that many instead.
+  cv::Mat RenderRadiance(int view) const;
+
+  // The sensor and the camera's transfer, in a real camera's order: vignetting, defocus blur;
+  // electrons (exposure x radiance, times the pixel's channel_gain under a Bayer filter); shot
+  // and read noise, in electrons; s = electrons / full_well clipped to [0, 1]; the response
+  // e = FromLinear(s); DN = black_level + e * (white_level - black_level), rounded and clipped to
+  // the container (CV_8UC1 or CV_16UC1, one channel also for a mosaic). The default sensor
+  // gives DN = round(electrons * (2^bits - 1) / full_well). Deterministic for a given scene
+  // seed and view.
+  cv::Mat Expose(const cv::Mat& radiance, int view) const;
+  // The same through `sensor` (which must pass CheckSensor) in place of the scene's, with the
+  // same noise seed: one render seen through several camera pipelines (sensor profiles).
+  cv::Mat Expose(const cv::Mat& radiance, int view, const Sensor& sensor) const;
+
+  // First surface along a world ray (direction need not be unit length) in view `view`
+  // (occluders can change per view).
+  std::optional<RayHit> Cast(int view, const Eigen::Vector3d& origin,
+                             const Eigen::Vector3d& direction) const;
+  // True if the centre of the sun is hidden from `point` (world) in view `view`; false when
+  // there is no sun.
+  bool InSunShadow(int view, const Eigen::Vector3d& point) const;
+
+  // The camera-frame ray (unit) through pixel position (u, v) as the renderer casts it: the
+  // bilinear blend of the four surrounding pixel-corner rays. False outside the image.
+  bool CameraRay(double u, double v, Eigen::Vector3d* direction) const;
+
+  const Scene& scene() const;
+
+ private:
+  Renderer();
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace svms
