@@ -1,5 +1,7 @@
 /* The C API from plain C99: a pose from a rendered frame against its truth, every error path,
- * strides, 16-bit pixels, the time budget, calls after destroy, one handle per thread.
+ * strides, 16-bit pixels, the time budget, calls after destroy, one handle per thread, and one
+ * handle shared by two threads (SVMS_ERR_BUSY, destroy refused during a call, per-thread
+ * svms_last_error).
  * Usage: svms_capi_c_test FIXTURE_DIR (written by svms_capi_fixture). */
 #include <math.h>
 #include <pthread.h>
@@ -56,6 +58,102 @@ static void* Worker(void* arg) {
     r->status = svms_process_frame(e, frame, W, H, W, 1.5, &r->pose);
   svms_destroy(e);
   return NULL;
+}
+
+/* One handle shared by two threads (against the header's rule, as a careless program would):
+ * the owner processes frames while the intruder calls svms_process_frame and svms_destroy on
+ * the same handle. Every intruding call is SVMS_OK or SVMS_ERR_BUSY, never a crash, and the
+ * BUSY ones say why in the intruder's own svms_last_error. */
+typedef struct {
+  svms_estimator* e;
+  int done; /* set by the owner when its frames are processed */
+  int owner_erred, intruder_erred;
+  int owner_ok, owner_frames;
+  int busy_process, busy_destroy, other_status, message_ok;
+  char owner_error_after[256];    /* the owner's svms_last_error after both threads erred */
+  char intruder_error_after[256]; /* the intruder's */
+} SharedHandle;
+
+static void* Owner(void* arg) {
+  SharedHandle* sh = (SharedHandle*)arg;
+  svms_pose p;
+  for (int i = 0; i < sh->owner_frames; ++i) {
+    svms_status s;
+    /* The intruder may hold the handle for a moment: retry, as a real program would. */
+    while ((s = svms_process_frame(sh->e, frame, W, H, W, i, &p)) == SVMS_ERR_BUSY) {
+    }
+    sh->owner_ok += s == SVMS_OK && p.valid;
+  }
+  __atomic_store_n(&sh->done, 1, __ATOMIC_SEQ_CST);
+  /* Per-thread last errors: this thread's own error, then the intruder's own, then each reads
+   * back its own. */
+  svms_process_frame(sh->e, frame, W - 1, H, W, 0, &p);
+  __atomic_store_n(&sh->owner_erred, 1, __ATOMIC_SEQ_CST);
+  while (!__atomic_load_n(&sh->intruder_erred, __ATOMIC_SEQ_CST)) {
+  }
+  snprintf(sh->owner_error_after, sizeof sh->owner_error_after, "%s", svms_last_error());
+  return NULL;
+}
+
+static void* Intruder(void* arg) {
+  SharedHandle* sh = (SharedHandle*)arg;
+  svms_pose p;
+  while (!__atomic_load_n(&sh->done, __ATOMIC_SEQ_CST)) {
+    const svms_status a = svms_process_frame(sh->e, frame, W, H, W, 0, &p);
+    if (a == SVMS_OK) continue; /* the owner was between frames */
+    if (a != SVMS_ERR_BUSY) {
+      ++sh->other_status;
+      break;
+    }
+    ++sh->busy_process;
+    sh->message_ok += strstr(svms_last_error(), "in use by another thread") != NULL;
+    /* The owner is inside a call (it takes milliseconds; this follows within microseconds):
+     * destroying now must be refused. Three tries, so that the microsecond window in which
+     * the owner could finish in between stays negligible. */
+    if (sh->busy_destroy >= 3) continue;
+    const svms_status d = svms_destroy(sh->e);
+    if (d != SVMS_ERR_BUSY) {
+      ++sh->other_status; /* destroyed under the owner */
+      break;
+    }
+    ++sh->busy_destroy;
+    sh->message_ok += strstr(svms_last_error(), "svms_destroy") != NULL;
+  }
+  while (!__atomic_load_n(&sh->owner_erred, __ATOMIC_SEQ_CST)) {
+  }
+  svms_process_frame(sh->e, NULL, W, H, W, 0, &p);
+  __atomic_store_n(&sh->intruder_erred, 1, __ATOMIC_SEQ_CST);
+  snprintf(sh->intruder_error_after, sizeof sh->intruder_error_after, "%s", svms_last_error());
+  return NULL;
+}
+
+static void CheckSharedHandle(void) {
+  SharedHandle sh;
+  memset(&sh, 0, sizeof sh);
+  sh.owner_frames = 12;
+  CHECK_STATUS(svms_create(camera_path, layout_path, NULL, &sh.e), SVMS_OK);
+  pthread_t owner, intruder;
+  CHECK(pthread_create(&owner, NULL, Owner, &sh) == 0);
+  CHECK(pthread_create(&intruder, NULL, Intruder, &sh) == 0);
+  pthread_join(owner, NULL);
+  pthread_join(intruder, NULL);
+  CHECK(sh.owner_ok == sh.owner_frames);
+  CHECK(sh.other_status == 0);
+  /* The owner holds the handle for about 12 frames x 10-20 ms: the intruder's destroy, tried
+   * in a loop meanwhile, is refused at least once, and each refusal is worded. */
+  CHECK(sh.busy_destroy > 0);
+  CHECK(sh.message_ok == sh.busy_process + sh.busy_destroy);
+  /* Each thread's last error is its own: the owner's bad width, the intruder's NULL pixels,
+   * though the intruder erred after the owner. */
+  CHECK(strstr(sh.owner_error_after, "1023x1024") != NULL);
+  CHECK(strstr(sh.intruder_error_after, "pixels") != NULL);
+  CHECK(strstr(sh.intruder_error_after, "1023x1024") == NULL);
+  /* The handle survived every refused destroy. */
+  svms_pose p;
+  CHECK_STATUS(svms_process_frame(sh.e, frame, W, H, W, 0, &p), SVMS_OK);
+  CHECK(p.valid);
+  CHECK_STATUS(svms_destroy(sh.e), SVMS_OK);
+  CHECK_STATUS(svms_destroy(sh.e), SVMS_ERR_BAD_HANDLE);
 }
 
 /* The angle between a rotation vector and a unit quaternion [w, x, y, z], radians. */
@@ -153,7 +251,9 @@ int main(int argc, char** argv) {
   const double range = sqrt(truth[3] * truth[3] + truth[4] * truth[4] + truth[5] * truth[5]);
   double dt = 0;
   for (int i = 0; i < 3; ++i) dt += (pose.tvec[i] - truth[3 + i]) * (pose.tvec[i] - truth[3 + i]);
-  CHECK(sqrt(dt) < 0.005 * range);
+  /* Measured on this frame (approach view 11, 2.25 m): 0.107 mm and 0.0054 degrees; the limits
+   * are 1.5 times those, so a 2x loss of accuracy fails. */
+  CHECK(sqrt(dt) < 0.16e-3);
   const double a = sqrt(truth[0] * truth[0] + truth[1] * truth[1] + truth[2] * truth[2]);
   const double qt[4] = {cos(a / 2), sin(a / 2) * truth[0] / a, sin(a / 2) * truth[1] / a,
                         sin(a / 2) * truth[2] / a};
@@ -161,7 +261,7 @@ int main(int argc, char** argv) {
   for (int i = 0; i < 4; ++i)
     dot += qt[i] * pose.quaternion[i], qn += pose.quaternion[i] * pose.quaternion[i];
   CHECK(fabs(qn - 1) < 1e-9);
-  CHECK(2 * acos(fmin(1, fabs(dot))) < 0.3 * 3.14159265358979 / 180); /* within 0.3 degrees */
+  CHECK(2 * acos(fmin(1, fabs(dot))) < 0.008 * 3.14159265358979 / 180);
   for (int r = 0; r < 6; ++r) {
     CHECK(pose.covariance[r * 6 + r] > 0);
     for (int c = 0; c < 6; ++c) CHECK(pose.covariance[r * 6 + c] == pose.covariance[c * 6 + r]);
@@ -258,6 +358,9 @@ int main(int argc, char** argv) {
     CHECK(results[i].status == SVMS_OK);
     CHECK(results[i].pose.valid && memcmp(results[i].pose.tvec, pose.tvec, sizeof pose.tvec) == 0);
   }
+
+  /* One handle, two threads: BUSY, not a crash; each thread's own last error. */
+  CheckSharedHandle();
 
   free(frame);
   free(padded);

@@ -1,0 +1,251 @@
+#include "svms/fusion/pose_estimator.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "svms/datasets/datasets.h"
+#include "svms/detect/detector.h"
+#include "svms/marker/model_io.h"
+#include "svms/sim/render.h"
+#include "svms/sim/truth.h"
+#include "svms_testing/flat_marker_views.h"
+
+namespace svms {
+namespace {
+
+struct Approach {
+  Dataset dataset;
+  Layout layout;
+  std::unique_ptr<Renderer> renderer;
+  Approach() {
+    EXPECT_TRUE(MakeDataset("approach", DatasetOptions{1, true}, &dataset).ok());
+    for (const auto& [name, text] : dataset.files)
+      if (name == "true_layout.json") {
+        ModelFile f;
+        EXPECT_TRUE(ParseModelJson(text, name, &f).ok());
+        layout = f.layout;
+      }
+    EXPECT_TRUE(Renderer::Create(dataset.scenes[0].second, &renderer).ok());
+  }
+  const CameraModel& camera() const { return dataset.scenes[0].second.camera; }
+  cv::Mat Image(int view) const { return renderer->Expose(renderer->RenderRadiance(view), view); }
+  Pose Truth(int view) const {
+    const ViewTruth t = ComputeTruth(*renderer, view);
+    for (const auto& [name, pose] : t.cam_from_object)
+      if (name == "module") return pose;
+    ADD_FAILURE() << "no module in view " << view;
+    return {};
+  }
+};
+
+const Approach& Shared() {
+  static const Approach* a = new Approach;
+  return *a;
+}
+
+// End to end on rendered approach frames with the true layout: the fused pose is within a few
+// of its own sigmas of the truth, and the close frames use several markers.
+TEST(PoseEstimator, RenderedApproachFramesMatchTheTruthWithinTheirSigmas) {
+  const Approach& a = Shared();
+  ASSERT_EQ(a.layout.markers.size(), 8u);
+  std::unique_ptr<PoseEstimator> est;
+  PoseEstimatorOptions options;
+  options.fusion.corner_sigma_px = 0.1;
+  ASSERT_TRUE(PoseEstimator::Create(a.camera(), a.layout, options, &est).ok());
+  int several = 0;
+  for (int view : {0, 6, 11}) {
+    FrameResult r;
+    est->Estimate(a.Image(view), 0.1 * view, &r);
+    EXPECT_EQ(r.timestamp, 0.1 * view);
+    ASSERT_TRUE(r.pose.valid) << "view " << view << ": " << r.pose.message;
+    const Pose truth = a.Truth(view);
+    const Eigen::Matrix<double, 6, 1> e = PoseError(truth, r.pose.cam_from_object);
+    for (int k = 0; k < 6; ++k)
+      EXPECT_LT(std::abs(e[k]), 6 * std::sqrt(r.pose.covariance(k, k)) + (k < 3 ? 1e-5 : 1e-5))
+          << "view " << view << " component " << k;
+    // Accuracy: 1.5 times what the method reaches on these frames (measured: view 0, 12.9 m:
+    // 1.89 mm, 0.049 deg; view 6: 0.033 mm, 0.0013 deg; view 11, 2.25 m: 0.107 mm, 0.0054
+    // deg), so a 2x loss of accuracy fails.
+    const double max_mm = view == 0 ? 2.8 : view == 6 ? 0.05 : 0.16;
+    const double max_deg = view == 0 ? 0.074 : view == 6 ? 0.002 : 0.008;
+    EXPECT_LT(1e3 * e.tail<3>().norm(), max_mm) << "view " << view;
+    EXPECT_LT(e.head<3>().norm() * 180 / M_PI, max_deg) << "view " << view;
+    several += r.pose.markers_used >= 3;
+    EXPECT_GE(r.latency_ms, r.detect_ms);
+  }
+  EXPECT_GE(several, 1);
+}
+
+// The single-marker covariance is honest on rendered frames, in both directions: a 0.2 m marker
+// with its post, alone on a plate, from 48 views (1.5 to 6 m, 0 to 55 degrees off its normal,
+// all around; 13 to 53 px through a 320 x 240 pinhole): the mean NEES (6 dof) of the
+// detector's poses stays near 6. A covariance 2x too small (in variance) would give about 12,
+// 2x too large about 3; the bounds [3.5, 9] sit about 2.5 standard errors of the mean
+// (sqrt(12 / 47) = 0.5) from either. Measured: 5.22 over 47 poses (one view's pose is
+// ambiguous).
+TEST(PoseEstimator, RenderedLoneMarkerNeesIsNearSix) {
+  const CameraModel camera = CameraModel::Pinhole(400, 320, 240);
+  const MarkerModel marker = MarkerModel::Standard(21, 0.2, 0.05);
+  const Detector detector(DetectorOptions(), camera, {marker});
+  double sum = 0;
+  int n = 0, views = 0;
+  for (int i = 0; i < 48; ++i) {
+    const double range = 1.5 + 4.5 * (i % 4) / 3.0, off = (i / 4) * 5 * M_PI / 180;
+    const double az = i * 2.4;  // radians: an irrational turn spreads the azimuths
+    const Eigen::Vector3d eye = range * Eigen::Vector3d(std::sin(off) * std::cos(az),
+                                                        std::sin(off) * std::sin(az), std::cos(off));
+    const Pose cam_from_world = LookAt(eye, Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 1, 0.3));
+    std::unique_ptr<Renderer> renderer;
+    ASSERT_TRUE(Renderer::Create(LoneMarkerScene(camera, marker, cam_from_world), &renderer).ok());
+    const cv::Mat image = renderer->Expose(renderer->RenderRadiance(0), 0);
+    const ViewTruth t = ComputeTruth(*renderer, 0);
+    ++views;
+    for (const Detection& d : detector.Detect(image)) {
+      if (d.id != marker.id || !d.cam_from_marker || d.pose_ambiguous) continue;
+      const double nees = Nees(t.markers.at(0).cam_from_marker, *d.cam_from_marker, d.covariance);
+      ASSERT_TRUE(std::isfinite(nees)) << "view " << i;
+      sum += nees;
+      ++n;
+    }
+  }
+  ASSERT_GE(n, 44) << "of " << views << " views";
+  std::printf("mean NEES %.2f over %d single-marker poses\n", sum / n, n);
+  EXPECT_GT(sum / n, 3.5);
+  EXPECT_LT(sum / n, 9);
+}
+
+// The fused pose's covariance over every view of the approach (12 frames, 1 to 8 markers each):
+// its mean NEES stays near 6 (bounds [3, 9.5]: with 12 frames the standard error is 1, so this
+// catches a covariance 2x too small, and only grossly too large ones). Measured: 4.35. The single markers of these frames seen beyond 60 degrees
+// (markers 12, 14 and 15 on the module's other faces) are overconfident (docs/detector.md,
+// limitations): they are not judged here.
+TEST(PoseEstimator, RenderedApproachFusedNeesIsNearSix) {
+  const Approach& a = Shared();
+  std::unique_ptr<PoseEstimator> est;
+  ASSERT_TRUE(PoseEstimator::Create(a.camera(), a.layout, {}, &est).ok());
+  double sum = 0;
+  int fused = 0;
+  const int views = static_cast<int>(a.dataset.scenes[0].second.views.size());
+  for (int view = 0; view < views; ++view) {
+    FrameResult r;
+    est->Estimate(a.Image(view), 0, &r);
+    if (!r.pose.valid || r.pose.ambiguous) continue;
+    sum += Nees(a.Truth(view), r.pose.cam_from_object, r.pose.covariance);
+    ++fused;
+  }
+  ASSERT_GE(fused, 10);
+  std::printf("mean NEES %.2f over %d fused poses\n", sum / fused, fused);
+  EXPECT_GT(sum / fused, 3);
+  EXPECT_LT(sum / fused, 9.5);
+}
+
+// A lone flat marker (no post) of about 20 px, 5-27 degrees off-axis, the only marker of its
+// layout: where the detector cannot tell its planar poses apart, the fused pose is flagged and
+// carries the object's pose under the other one, and where the kept pose is the wrong one the
+// alternative is right.
+TEST(PoseEstimator, ALoneAmbiguousMarkerGivesTheOtherPlanarPoseToo) {
+  const CameraModel cam = CameraModel::Pinhole(1111.1, 320, 240);
+  int ambiguous = 0, wrong = 0;
+  for (int v = 0; v < svms_testing::kFlatMarkerViews; ++v) {
+    const MarkerModel m = svms_testing::FlatMarker(v);
+    const Scene scene =
+        LoneMarkerScene(cam, m,
+                        LookAt(svms_testing::FlatMarkerEye(v), Eigen::Vector3d::Zero(),
+                               Eigen::Vector3d(0, 1, 0.2)));
+    std::unique_ptr<Renderer> renderer;
+    ASSERT_TRUE(Renderer::Create(scene, &renderer).ok());
+    std::unique_ptr<PoseEstimator> est;
+    ASSERT_TRUE(PoseEstimator::Create(cam, LoneMarkerLayout(m), {}, &est).ok());
+    FrameResult r;
+    est->Estimate(renderer->Expose(renderer->RenderRadiance(0), 0), 0, &r);
+    SCOPED_TRACE("view " + std::to_string(v));
+    ASSERT_TRUE(r.pose.valid) << r.pose.message;
+    ASSERT_EQ(r.detections.size(), 1u);
+    Pose truth;
+    for (const auto& [name, pose] : ComputeTruth(*renderer, 0).cam_from_object)
+      if (name == "plate") truth = pose;
+    const double error = PoseError(truth, r.pose.cam_from_object).head<3>().norm() * 180 / M_PI;
+    EXPECT_EQ(r.pose.ambiguous, r.detections[0].pose_ambiguous);
+    ASSERT_EQ(r.pose.alternative_cam_from_object.has_value(), r.pose.ambiguous);
+    ambiguous += r.pose.ambiguous;
+    wrong += error > 5;
+    if (error > 5) {
+      EXPECT_TRUE(r.pose.ambiguous) << error;
+    }
+    if (r.pose.alternative_cam_from_object) {
+      EXPECT_GT(r.pose.alternative_weight, 0.01);
+      EXPECT_LE(r.pose.alternative_weight, 0.5);
+      const double alternative_error =
+          PoseError(truth, *r.pose.alternative_cam_from_object).head<3>().norm() * 180 / M_PI;
+      std::printf("view %d: error %.2f deg, alternative %.2f deg, weight %.3f\n", v, error,
+                  alternative_error, r.pose.alternative_weight);
+      if (error > 5) {
+        EXPECT_LT(alternative_error, 5);
+      }
+      // The alternative is one of the detector's two poses moved to the object.
+      const Pose marker_from_object = LoneMarkerLayout(m).markers[0].object_from_marker.Inverse();
+      const Eigen::Vector3d t = r.pose.alternative_cam_from_object->tvec;
+      EXPECT_LT(std::min((t - (*r.detections[0].alternative_pose * marker_from_object).tvec).norm(),
+                         (t - (*r.detections[0].cam_from_marker * marker_from_object).tvec).norm()),
+                1e-9);
+    }
+  }
+  RecordProperty("ambiguous", ambiguous);
+  RecordProperty("wrong_solution_kept", wrong);
+  EXPECT_GT(ambiguous, 0);
+}
+
+TEST(PoseEstimator, ABudgetTooSmallIsFlaggedAndNeverCrashes) {
+  const Approach& a = Shared();
+  std::unique_ptr<PoseEstimator> est;
+  PoseEstimatorOptions options;
+  options.budget_ms = 1e-6;
+  ASSERT_TRUE(PoseEstimator::Create(a.camera(), a.layout, options, &est).ok());
+  FrameResult r;
+  est->Estimate(a.Image(11), 1.1, &r);
+  EXPECT_TRUE(r.budget_exceeded);
+  EXPECT_FALSE(r.pose.valid);
+  EXPECT_FALSE(r.pose.message.empty());
+}
+
+TEST(PoseEstimator, BadInputsAreRejectedWithTheirNames) {
+  const Approach& a = Shared();
+  std::unique_ptr<PoseEstimator> est;
+  EXPECT_FALSE(PoseEstimator::Create(CameraModel(), a.layout, {}, &est).ok());
+  EXPECT_FALSE(PoseEstimator::Create(a.camera(), Layout{}, {}, &est).ok());
+  PoseEstimatorOptions bad;
+  bad.fusion.corner_sigma_px = std::nan("");
+  Status s = PoseEstimator::Create(a.camera(), a.layout, bad, &est);
+  EXPECT_NE(s.message().find("corner_sigma_px"), std::string::npos) << s.message();
+  bad = {};
+  bad.budget_ms = -1;
+  s = PoseEstimator::Create(a.camera(), a.layout, bad, &est);
+  EXPECT_NE(s.message().find("budget_ms"), std::string::npos) << s.message();
+
+  const std::string dir = ::testing::TempDir();
+  s = PoseEstimator::CreateFromFiles(dir + "/nope.cameramodel", dir + "/nope.json", {}, &est);
+  EXPECT_NE(s.message().find("nope.cameramodel"), std::string::npos) << s.message();
+  ASSERT_TRUE(a.camera().Write(dir + "/cam.cameramodel").ok());
+  {
+    std::ofstream f(dir + "/markers.json");
+    f << MarkerSetToJson({MarkerModel::Standard(3, 0.1, 0.02)});
+  }
+  s = PoseEstimator::CreateFromFiles(dir + "/cam.cameramodel", dir + "/markers.json", {}, &est);
+  EXPECT_NE(s.message().find("expected a layout"), std::string::npos) << s.message();
+
+  // A frame of nothing: no crash, invalid, says why.
+  ASSERT_TRUE(PoseEstimator::Create(a.camera(), a.layout, {}, &est).ok());
+  FrameResult r;
+  est->Estimate(cv::Mat(), 0, &r);
+  EXPECT_FALSE(r.pose.valid);
+  est->Estimate(cv::Mat(1, 1, CV_8UC1, cv::Scalar(0)), 0, &r);
+  EXPECT_FALSE(r.pose.valid);
+  EXPECT_NE(r.pose.message.find("no marker"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace svms
