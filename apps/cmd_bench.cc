@@ -1,4 +1,4 @@
-// svms bench: the benchmark commands that measure each issue's targets on the simulator's
+// svms bench: the benchmark commands that measure the toolkit's targets on the simulator's
 // datasets. Each `svms bench NAME --out DIR` writes CSV/JSON, plots and DIR/report.md;
 // scripts/update_benchmarks assembles docs/benchmarks.md from the reports.
 #include "commands.h"

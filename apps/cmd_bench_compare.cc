@@ -735,7 +735,7 @@ int RunCompare(const CompareCliOptions& o) {
         "is its own pose. SVMS flags a pose *ambiguous* when its planar twin keeps more than 1 % "
         "of "
         "the likelihood (the peers flag nothing).\n";
-  // The targets, checked on this run's numbers.
+  // The comparison's targets, checked on this run's numbers.
   {
     const Tally& sv = small["svms"];
     bool ahead = true, orient_all = true, has_peer_orient = false;

@@ -1,4 +1,4 @@
-// svms bench detect: the detector's targets (issue 4) measured on the simulator's datasets.
+// svms bench detect: the detector's targets measured on the simulator's datasets.
 //
 // Each set is generated, rendered in memory and detected view by view; every marker of every
 // view is scored against the renderer's geometric truth. Writes to DIR:

@@ -1,5 +1,5 @@
-// svms bench profiles: the detector on the pixels real cameras deliver (issue 28), every sensor
-// profile side by side in one run.
+// svms bench profiles: the detector on the pixels real cameras deliver, every sensor profile
+// side by side in one run.
 //
 // Each view of the range and angle sets is rendered once (radiance); each profile then exposes
 // it through its own camera pipeline (scene.h: response, bits, black level, Bayer mosaic,
@@ -354,7 +354,7 @@ int RunBenchProfiles(const BenchProfilesOptions& o) {
   line("detect ms median, textured background", "ms_median_textured", 2);
   line("noise estimate / truth, read (16-bit)", "noise_read_ratio_median", 2);
   line("noise estimate / truth, mid grey (16-bit)", "noise_mid_ratio_median", 2);
-  // The issue's targets, where the profiles they name were run.
+  // The real-camera targets, where the profiles they name were run.
   auto has = [&](const std::string& p) { return per.count(p) > 0; };
   auto num = [&](const std::string& p, const std::string& k) {
     return per[p][k].is_number() ? per[p][k].get<double>() : kNaN;

@@ -512,7 +512,7 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
        << (t.ok ? "" : " (failed)") << " | " << t.images << " | " << t.markers << " | "
        << t.detections << " | " << F(t.init, 2) << " | " << F(t.solve, 2) << " | "
        << F(t.covariance, 2) << " | " << F(t.total, 2) << " |\n";
-  // The targets, judged on this run's numbers.
+  // The survey's targets, judged on this run's numbers.
   {
     auto met = [](bool ok) { return ok ? std::string("**met**") : std::string("**not met**"); };
     const double pos_rms = Rms(ba, &MarkerError::position_mm);

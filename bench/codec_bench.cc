@@ -1,5 +1,5 @@
-// Codec micro-benchmarks. Target (issue 2): decoding one word over all four rotations in at
-// most 1 microsecond. Run: build/bin/svms_bench_codec --benchmark_repetitions=9
+// Codec micro-benchmarks. Target: decoding one word over all four rotations in at most 1
+// microsecond. Run: build/bin/svms_bench_codec --benchmark_repetitions=9
 #include <benchmark/benchmark.h>
 
 #include <random>

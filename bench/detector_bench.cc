@@ -1,6 +1,6 @@
-// Detector speed (issue 4 targets: <= 2 ms per 640x480 and <= 6 ms per 1024x1024 image, median,
-// one core (OpenCV limited to one thread), three markers on a textured, noisy background, markers
-// of 30 px still found). The images are rendered once by the simulator; only Detector::Detect is
+// Detector speed (targets: <= 2 ms per 640x480 and <= 6 ms per 1024x1024 image, median, one
+// core (OpenCV limited to one thread), three markers on a textured, noisy background, markers of
+// 30 px still found). The images are rendered once by the simulator; only Detector::Detect is
 // timed. Run: build/bin/svms_bench_detector --benchmark_repetitions=9
 // --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
@@ -92,9 +92,9 @@ void BM_Detect(benchmark::State& state) {
 }
 BENCHMARK(BM_Detect)->Args({640, 480})->Args({1024, 1024})->Unit(benchmark::kMillisecond);
 
-// Cost against sensor noise (the issue asks that it not balloon): the same 640 x 480 frame
-// with read noise of 0, 60, 240 and 480 electrons RMS (full well 15,000 electrons at level
-// 255: 0, 1, 4 and 8 grey levels), shot noise throughout.
+// Cost against sensor noise (it must not balloon): the same 640 x 480 frame with read noise of
+// 0, 60, 240 and 480 electrons RMS (full well 15,000 electrons at level 255: 0, 1, 4 and 8 grey
+// levels), shot noise throughout.
 void BM_DetectNoise(benchmark::State& state) {
   cv::setNumThreads(1);
   const double read_noise = static_cast<double>(state.range(0));

@@ -1,6 +1,6 @@
-// Scene-simulator benchmarks. Target (issue 3): one 1024x1024 image at 16 rays per pixel in at
-// most 1 s on one core (Renderer::RenderRadiance alone; Create unprojects the pixel grid once
-// and is measured separately). Run:
+// Scene-simulator benchmarks. Target: one 1024x1024 image at 16 rays per pixel in at most 1 s
+// on one core (Renderer::RenderRadiance alone; Create unprojects the pixel grid once and is
+// measured separately). Run:
 //   build/bin/svms_bench_render --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 //
 // The scene: a 1 x 1 x 2 m box 2.85 m away, covering 43 % of the frame (40 % with the OPENCV8

@@ -2,8 +2,9 @@
 // executable (operator new goes through malloc in libstdc++, OpenCV's fastMalloc through
 // posix_memalign or malloc). Usage: svms_capi_alloc_test FIXTURE_DIR.
 //
-// What it checks (issue 8: no allocation at all after the first frames): after warm-up on a
-// fixture frame, 8-bit and 16-bit, every svms_process_frame makes no heap allocation at all.
+// What it checks (the C API's promise: no allocation at all after the first frames): after
+// warm-up on a fixture frame, 8-bit and 16-bit, every svms_process_frame makes no heap
+// allocation at all.
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>

@@ -797,7 +797,7 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
   // J^T J reduced onto the non-camera parameters, accumulated row by row from the Jacobian
   // (every residual touches at most one camera): H_cc per camera, the coupling H_rc of each
   // camera to the reduced rows it touches, and H_rr (dense, small). Forming the whole J^T J
-  // as a sparse product instead took most of the 2000 x 40 covariance step.
+  // as a sparse product instead takes most of the 2000 x 40 covariance step.
   const int nc = 6 * static_cast<int>(cams.size());
   const int nr = crs.num_cols - nc - nt;
   using Row6 = Eigen::Matrix<double, 1, 6>;

@@ -30,8 +30,8 @@ struct SurveyOptions {
   double corner_sigma_px = 0.1;
   bool corner_sigma_from_fit = true;
   double corner_fit_scale = kCornerFitScale;
-  // 0.002 since session 16 (was 0.01), as in the fusion (ObjectPoseOptions): on renders with
-  // 256 rays on edge pixels large markers' line-fit sigmas are honest below 0.01 px.
+  // 0.002, as in the fusion (ObjectPoseOptions): on renders with 256 rays on edge pixels large
+  // markers' line-fit sigmas are honest below 0.01 px.
   double min_corner_sigma_px = 0.002;
   // Floor on a post tip's standard deviation (pixels); the detector's TipObservation::sigma_px
   // is used when larger.
@@ -93,10 +93,9 @@ struct SurveyOptions {
   // the layout, S S^T with S = d layout / d shifts (camera poses eliminated), is added to the
   // covariances, unscaled, as the calibration's is. 0: left out; detections without grey
   // levels (white <= black) add nothing. The value is fitted: on the seed-1 rendered mockup
-  // (256 rays on edge pixels, since session 16) the corners of markers in shadow (about 7 grey
-  // levels) come out 0.023 px inward on average (markers 12-18; the lit one 0.009 px outward),
-  // and 0.023 x 7 = 0.16 (docs/benchmarks.md, survey). On the 16-ray renders before, 0.043 px
-  // inward gave 0.29.
+  // (256 rays on edge pixels) the corners of markers in shadow (about 7 grey levels) come out
+  // 0.023 px inward on average (markers 12-18; the lit one 0.009 px outward), and
+  // 0.023 x 7 = 0.16 (docs/benchmarks.md, survey).
   // Not modelled: that the shifts of different markers share a sign (all seven shadowed
   // markers there came out inward).
   double corner_repeat_px_grey = 0.16;

@@ -1,7 +1,7 @@
-// The survey end to end on rendered images (issue 7's test list: "a survey of a small rendered
-// scene recovers the truth within its reported sigmas"): the simulator renders a few views of a
-// box carrying five markers (one a concave well), the detector measures them, RunSurvey
-// surveys them, and every marker comes out within a few of its own sigmas of the truth.
+// The survey end to end on rendered images (a survey of a small rendered scene recovers the
+// truth within its reported sigmas): the simulator renders a few views of a box carrying five
+// markers (one a concave well), the detector measures them, RunSurvey surveys them, and every
+// marker comes out within a few of its own sigmas of the truth.
 // Unlike survey_test.cc, the corners and tips here carry the renderer's and the detector's real
 // errors, not Gaussian noise drawn to match the assumed sigmas.
 #include <gtest/gtest.h>

@@ -396,8 +396,8 @@ Dataset Calibration(const DatasetOptions& o) {
     const Pose turn{Vec3(0.16 * t.x(), 0.16 * t.y(), 0), Vec3::Zero()};
     base.views.push_back(View{Name("calib_", i), turn * look});
   }
-  // Then eight views that put the board into the image corners (issue 6: the views above never
-  // reach them, so a lens model fitted to them only extrapolates there): 2.2 and 2.7 m away,
+  // Then eight views that put the board into the image corners (the views above never reach
+  // them, so a lens model fitted to them only extrapolates there): 2.2 and 2.7 m away,
   // 20 degrees off the board's normal, the camera turned by 0.27 / 0.30 rad about its x and y
   // axes toward each corner. The whole board and the whole chessboard stay in view, their
   // outermost marker corners and squares 40-70 px from the image corner (checked with

@@ -1,4 +1,4 @@
-// The standard simulated datasets that later issues measure on (issue 3): scene definitions
+// The standard simulated datasets that the tests and benchmarks measure on: scene definitions
 // generated deterministically from a seed. `svms dataset NAME --out DIR` writes them and
 // renders them; images are never committed.
 #pragma once

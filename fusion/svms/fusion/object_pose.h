@@ -51,8 +51,8 @@ struct ObjectPoseOptions {
   // images (docs/flight-interface.md).
   double corner_sigma_px = 0.05;
   double corner_sigma_exponent = 0.5;
-  // 0.002 since session 16 (was 0.01): on renders with 256 rays on edge pixels the corners of
-  // 60 px markers are found to 0.006 px RMS, and their line-fit sigma is honest there.
+  // 0.002: on renders with 256 rays on edge pixels the corners of 60 px markers are found to
+  // 0.006 px RMS, and their line-fit sigma is honest there.
   double min_corner_sigma_px = 0.002;
   // When the detector measured a corner's sigma from its line fits (Detection::corner_sigma),
   // use corner_fit_scale times that instead of the size model (at least min_corner_sigma_px).
@@ -60,10 +60,10 @@ struct ObjectPoseOptions {
   bool corner_sigma_from_fit = true;
   double corner_fit_scale = kCornerFitScale;
   // Added in quadrature to corner_fit_scale x the line-fit sigma: the part of a corner's error
-  // that more edge points do not average away. Pixels, each axis. 0 since session 16: with
-  // the edge profile taken along the pixel rows (CornerRefineOptions::edges_along_rows) that
-  // part is gone on the simulator; 0.004 (chosen in session 5 on 16-ray renders) made large
-  // markers' corners conservative (per-axis Z^2 0.37 at 60 px on the compare size sweep).
+  // that more edge points do not average away. Pixels, each axis. 0: with the edge profile
+  // taken along the pixel rows (CornerRefineOptions::edges_along_rows) that part is gone on the
+  // simulator, and 0.004 (with a 0.01 px floor) makes large markers' corners conservative
+  // (per-axis Z^2 0.37 at 60 px on the compare size sweep).
   double corner_sigma_systematic_px = 0;
   double min_tip_sigma_px = 0.3;      // floor on the detector's own tip sigma
   bool use_tips = true;               // post tips as observations

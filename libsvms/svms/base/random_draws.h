@@ -2,10 +2,9 @@
 //
 // The arguments of one call are unsequenced in C++: gcc evaluates them last to first, clang
 // first to last, so `Eigen::Vector2d(g(rng), g(rng))` gives different data from the same seed
-// with each compiler (found when the sanitizer build moved to clang: two calibration tests saw
-// other noise and other views). These helpers draw in separate statements, the last component
-// first: gcc's order, so every seeded dataset, test and benchmark keeps the numbers it has always
-// given with gcc, and gives the same with clang.
+// with each compiler. These helpers draw in separate statements, the last component first
+// (gcc's order for the one-expression form), so every seeded dataset, test and benchmark gives
+// the same numbers with gcc and with clang.
 #pragma once
 
 #include <Eigen/Core>

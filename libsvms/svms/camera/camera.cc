@@ -307,13 +307,13 @@ std::string Diagnose(const std::string& text) {
 }
 
 // mrcal 2.2's scanner reads past the end of its buffer (and crashes, or reads whatever memory
-// follows) when the text ends inside a quoted string or inside a comment: found by fuzzing
-// (fuzz/fuzz_camera.cc; docs/reliability.md). Returns why `text` ends inside a string, or "".
+// follows) when the text ends inside a quoted string or inside a comment (fuzz/fuzz_camera.cc
+// covers it; docs/reliability.md). Returns why `text` ends inside a string, or "".
 // Strings are delimited exactly as mrcal's scanner delimits them (cameramodel-parser.re:
 // ["'] [^"'\x00]* ["']): either quote opens one, the next quote of either kind closes it, and
-// a backslash escapes nothing. (Until session 11 this honoured escapes and matched the quote
-// kinds, and so passed 'lensmodel": 'LENS... , on which mrcal reads past the end: fuzzing found
-// it.) A comment at the end is made safe by appending a newline.
+// a backslash escapes nothing. (Honouring escapes or matching the quote kinds would pass
+// 'lensmodel": 'LENS... , on which mrcal reads past the end.) A comment at the end is made safe by
+// appending a newline.
 std::string UnclosedString(const std::string& text) {
   std::size_t line = 1;
   for (std::size_t i = 0; i < text.size(); ++i) {
@@ -547,7 +547,7 @@ bool CameraModel::Project(const Eigen::Vector3d& p_cam, Eigen::Vector2d* px,
   const mrcal_lensmodel_t lm = LoadLensModel(mrcal_lensmodel_.data());
   if (lm.type == MRCAL_LENSMODEL_PINHOLE) {
     // mrcal's pinhole formula, inline: the detector and the fits project thousands of points
-    // per frame, and the call into mrcal (metadata, dispatch) cost more than the arithmetic.
+    // per frame, and the call into mrcal (metadata, dispatch) costs more than the arithmetic.
     if (!(p_cam.z() > 0)) return false;
     const double fx = intrinsics_[0], fy = intrinsics_[1], cx = intrinsics_[2], cy = intrinsics_[3];
     const double iz = 1 / p_cam.z(), x = p_cam.x() * iz, y = p_cam.y() * iz;

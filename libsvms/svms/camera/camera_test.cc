@@ -555,9 +555,9 @@ TEST(CameraModelErrors, ReadNonFiniteIntrinsics) {
                   {"extrinsics[5]: expected a finite number, got 'inf'"});
 }
 
-// Regression (found by fuzz/fuzz_camera.cc): mrcal 2.2 read past the end of its buffer, and
-// svms crashed, on a file that ends inside a quoted string or a comment. Every prefix of a good
-// file must now give an error (or, for the whole file, the model).
+// mrcal 2.2 reads past the end of its buffer on a file that ends inside a quoted string or a
+// comment (fuzz/fuzz_camera.cc covers it): every prefix of a good file gives an error (or, for
+// the whole file, the model), never a crash.
 TEST(CameraModelErrors, ReadTruncatedAtEveryByte) {
   const std::string text = "# a comment\n" +
                            ModelText("LENSMODEL_OPENCV4", "[500, 500, 319.5, 239.5, 0, 0, 0, 0]") +
@@ -581,7 +581,6 @@ TEST(CameraModelErrors, ReadTruncatedAtEveryByte) {
                   {"is not closed before the end of the file"});
   // mrcal closes a string at the next quote of either kind and knows no escapes: these are
   // unclosed strings to it (and read past its buffer), whatever the quotes look like.
-  // (The first was found by the fuzzer in session 11.)
   ExpectReadError("mixed_quotes.cameramodel", "{\n  'lensmodel\": 'LENSMODEL_PINHOLE\n}\n",
                   {"the string opened on line 2 is not closed before the end of the file"});
   ExpectReadError("escaped_quote.cameramodel", "{\n  'lensmodel': 'a\\' 'b\n}\n",

@@ -102,7 +102,7 @@ void SuppressRow(const int32_t* __restrict above, const int32_t* __restrict here
   int j = 0;
   for (; j + kBlock <= n; j += kBlock) {
     // Most of an image is flat: a block with no magnitude above `low` has no edge pixel and
-    // needs no direction test (this made the detector's edge stage 2x faster on sparse frames).
+    // needs no direction test (this makes the detector's edge stage 2x faster on sparse frames).
     int32_t any = 0;
     for (int k = 0; k < kBlock; ++k) any |= here[j + k] > low;
     if (!any) {

@@ -59,7 +59,7 @@ class Sampler {
 // whatever the edge's angle and pixel phase: the bright length it gives is the edge's place on
 // the row. Why not the area along the normal alone: a profile sampled bilinearly across pixels
 // at an angle is not the pixels' profile, and its area moves with the pixel phase. On 60 px
-// markers without sensor noise (24 views, 256 rays on edges) that left the corners 0.0109 px
+// markers without sensor noise (24 views, 256 rays on edges) that leaves the corners 0.0109 px
 // RMS off, varying slowly along a side; along the rows 0.0027. With noise, 72 views each: 60 px
 // 0.0108 -> 0.0061, 30 px 0.0171 -> 0.0088, 16 px 0.0213 -> 0.0144; the sun sweep's shadow-edge
 // views 0.0271 -> 0.0277.
@@ -170,11 +170,12 @@ bool LocateEdgeWith(const Sampler& sample, double* line, int steps, const Eigen:
   // by more than kNarrowBandDrop of the contrast from its brightest point to the window's end,
   // that brightest point (the vertex of a parabola through the brightest sample and its
   // neighbours). The white stripe of an 8 px marker is 2.7 px wide, and a black bit cell beyond
-  // it darkens the window's end: read there, the bright level came out low and the edge
-  // 0.05-0.2 px early (the corners of 8 px markers were 0.13 px off RMS on the simulator, now
-  // 0.06). On wide bands the window's end is exact and the brightest point is not: it falls
-  // where noise or shading puts it, short of the plateau (the median corner error on the
-  // noise-free angle set grew from 0.0069 to 0.0085 px when every marker took this path).
+  // it darkens the window's end: read there, the bright level comes out low and the edge
+  // 0.05-0.2 px early (the corners of 8 px markers 0.13 px off RMS on the simulator, against
+  // 0.06 from the brightest point). On wide bands the window's end is exact and the brightest
+  // point is not: it falls where noise or shading puts it, short of the plateau (taking it for
+  // every marker raises the median corner error on the noise-free angle set from 0.0069 to
+  // 0.0085 px).
   for (int i = 0; i < 3; ++i) dark += prof[i] / 3;
   int top = ns;
   for (int i = ns / 2; i <= ns; ++i)
@@ -292,7 +293,7 @@ bool FallTo(const Sampler& sample, const Eigen::Vector2d& edge, const Eigen::Vec
 // The black square's edge under a penumbra, from the located (penumbra's) edge point `edge`:
 // where the profile inward falls half-way from the stripe's shadowed level to `black`. That
 // level is read first 1.5-2 px inside the penumbra's edge, which is already on its rise (the
-// edge came out 0.3-0.5 px outside, on the synthetic penumbra of corner_refine_test and on
+// edge comes out 0.3-0.5 px outside, on the synthetic penumbra of corner_refine_test and on
 // compare view edge_40deg_09), then again 0.5 px outside the edge so found, at the foot
 // (0.05-0.09 px outside there).
 bool EdgeBelowPenumbra(const Sampler& sample, const Eigen::Vector2d& edge,

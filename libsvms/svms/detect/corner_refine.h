@@ -27,11 +27,10 @@ struct CornerRefineOptions {
   // where the bilinear profile across the pixels is not: corners of 60 px markers without
   // sensor noise 0.0109 -> 0.0027 px RMS; with noise on renders with 256 rays on edge pixels
   // (compare size sweep, seed 2, 72-140 views) 60 px 0.0108 -> 0.0061, 30 px 0.0171 ->
-  // 0.0088, 16 px 0.0213 -> 0.0144; on the datasets' 16-ray renders 30 px 0.0326 -> 0.0300.
-  // On since session 16. It had been left off because on the datasets' 16-ray renders `svms
-  // bench detect`'s range set at 16 m gave 0.90 degrees RMS orientation with it against 0.71
-  // without (4 views); rendered with 256 rays on edge pixels, as every dataset now is, it gives
-  // 0.245 against 0.301, and the other distances agree within their 4-view noise.
+  // 0.0088, 16 px 0.0213 -> 0.0144; on 16-ray renders 30 px 0.0326 -> 0.0300. On the datasets
+  // (256 rays on edge pixels) `svms bench detect`'s range set at 16 m gives 0.245 degrees RMS
+  // orientation with it against 0.301 without, and the other distances agree within their
+  // 4-view noise.
   bool edges_along_rows = true;
   // The same on quads narrower than narrow_stripe_side_px, whose edges are placed along the
   // normal (LocateEdge's narrow_band). Measured on the compare size sweep (seed 2, 256 rays on
@@ -129,7 +128,7 @@ double SampleImage(const cv::Mat& image, double u, double v);
 // across pixels at an angle is not). Without it (the white stripe's outer edge, marker_pose.h,
 // bordered by bit cells a sixth of the side long: along a row at an angle the window runs up
 // to 2 px along the edge toward the next cell; with rows there the orientation median / p95
-// on 30 px markers rendered with 256 rays on edges was 0.15 / 0.32 degrees, without 0.12 /
+// on 30 px markers rendered with 256 rays on edges is 0.15 / 0.32 degrees, without 0.12 /
 // 0.28) the profile stays along the normal. *edge: the edge point (pixels);
 // *strength: the derivative's peak (grey levels per pixel). False where no rising edge stands
 // out (at the search's ends, or too little contrast across it).

@@ -177,8 +177,8 @@ TEST(RefineCorners, ASideUnderAPenumbraIsFoundUnderIt) {
 // A wider penumbra that starts 0.5 px outside side 1 (steepest 3.5 px out), with the quad's first
 // corners already on the square's edge: the search about the side (+-2.5 px) sees the rise run
 // on past its end and locates no edge; the side is found under the penumbra from the search's
-// ends. Before, the side kept no edge point and no corner was refined (the smooth penumbra of
-// compare view edge_40deg_09 with 256 rays on edge pixels).
+// ends. Without that, the side keeps no edge point and no corner is refined (the smooth penumbra
+// of compare view edge_40deg_09 with 256 rays on edge pixels is such a case).
 TEST(RefineCorners, ASideUnderAPenumbraBeyondTheSearchIsFoundFromItsEnd) {
   const cv::Mat img = DrawUnderPenumbra(0.5, 6);
   const RefinedCorners blind = RefineCorners(img, Perturbed(), nullptr, {});

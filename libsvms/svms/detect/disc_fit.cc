@@ -18,7 +18,7 @@ double HalfChordIntegral(double r, double x) {
 // Area of the disc of radius r (centred at 0) left of abscissa x, from a table of the unit
 // disc's (linear interpolation between 4097 abscissae: off by less than 1e-5 r^2). FitDisc's
 // profile takes it a few thousand times per fit; with the closed form's asin and sqrt a top of
-// 3 px cost 0.1 ms to fit.
+// 3 px costs 0.1 ms to fit.
 double AreaLeftOf(double r, double x) {
   if (x <= -r) return 0;
   if (x >= r) return M_PI * r * r;

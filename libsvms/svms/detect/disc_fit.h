@@ -3,7 +3,7 @@
 //
 // Why not a centroid: once the disc is about a pixel across or less, the centroid of the
 // pixel values is pulled toward the centre of the pixel the disc falls in ("pixel locking").
-// On the simulator's 8 px markers (top radius 0.4 px) the 3 x 3 centroid was off by 0.44 x
+// On the simulator's 8 px markers (top radius 0.4 px) the 3 x 3 centroid is off by 0.44 x
 // the disc's offset from the nearest pixel centre, 0.17 px RMS per axis: at 14 m, where the
 // post is 2 px long, enough to choose the wrong one of the two planar poses. The pixel
 // coverage below is exact, so the fit has no such bias on an ideal sensor; a symmetric blur

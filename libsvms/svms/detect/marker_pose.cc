@@ -18,12 +18,11 @@ namespace {
 // Per axis, pixels: what the top's disc fit leaves unmodelled (see FindTip). Measured on the
 // compare size sweep (seed 2, 256 rays on edge pixels, 72-142 views per size) as the floor
 // that makes the tip's per-axis Z^2 near 1: at 0.02 it is 0.75 / 0.87 / 1.01 / 0.67 / 0.93 /
-// 1.15 / 1.28 at 8 / 10 / 12 / 16 / 20 / 30 / 60 px; 0.03, chosen on 16-ray renders, gave
-// 0.41-0.73 there (the renderer's edge noise had been part of what it covered).
+// 1.15 / 1.28 at 8 / 10 / 12 / 16 / 20 / 30 / 60 px; at 0.03 it is 0.41-0.73.
 constexpr double kTipDiscModelSigma = 0.02;
 // Tops up to this radius in the image (pixels) are located by the disc fit, larger ones by
 // their centroid (FindTip). In the size sweep of `svms bench compare` (40 views per size, the
-// truth of the simulator) the centroid of a 1-2 px top scattered 0.08-0.14 px RMS against
+// truth of the simulator) the centroid of a 1-2 px top scatters 0.08-0.14 px RMS against
 // its sigma of 0.05 (pixel locking, as below a pixel), the disc fit 0.03-0.05 px; at 6 px
 // (120 px markers) both are at 0.04.
 constexpr double kMaxDiscFitRadiusPx = 5;
@@ -36,7 +35,7 @@ constexpr double kCentroidLockingPxPx = 0.15;
 
 // Adds one residual row J = [jr^T, jt^T] (rotation, translation), weight w, residual r to the
 // upper triangle of JtWJ and to JtWr. Written out: Eigen's rankUpdate and comma initialiser
-// on 6-vectors were not inlined and cost more than the projection.
+// on 6-vectors are not inlined and cost more than the projection.
 inline void AddRow(const Eigen::Vector3d& jr, const Eigen::Vector3d& jt, double w, double r,
                    Eigen::Matrix<double, 6, 6>* JtWJ, Eigen::Matrix<double, 6, 1>* JtWr) {
   const double j[6] = {jr.x(), jr.y(), jr.z(), jt.x(), jt.y(), jt.z()};
@@ -67,7 +66,7 @@ constexpr double kMixtureWeightFloor = 1e-6;
 constexpr double kAmbiguousWeight = 0.01;
 // Nor is it flagged when the other is within this angle (degrees): a marker seen within a
 // degree of head-on is its own twin for any use, and its covariance spans the difference.
-// (Without it, 12 of the 31 poses flagged in `svms bench compare --size-views 40` were 14-40 px
+// (Without it, 12 of the 31 poses flagged in `svms bench compare --size-views 40` are 14-40 px
 // markers 0.1-2.8 degrees off-axis, 0.2-1.2 degrees from the truth.)
 constexpr double kAmbiguousMinDeg = 2;
 
@@ -413,7 +412,7 @@ bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X
     // Done when the step is a millionth of the pose's own standard deviation (its squared
     // Mahalanobis length under J^T W J below 1e-12), or below 1e-12 (radians; translation
     // relative to the range). Where noise leaves residuals and the fit is ill-conditioned (a
-    // small marker), Gauss-Newton converges only linearly: the fixed 1e-12 alone took twice
+    // small marker), Gauss-Newton converges only linearly: the fixed 1e-12 alone takes twice
     // the iterations for no change a covariance could show.
     const double tol = 1e-12;
     if (step.dot(JtWJ * step) < 1e-12 ||
@@ -468,7 +467,7 @@ void RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const 
                                         : Eigen::Vector3d(cc.x() > 0 ? -1 : 1, 0, 0);
     const int side = on_y ? (cc.y() > 0 ? 0 : 2) : (cc.x() > 0 ? 1 : 3);
     // Three points per cell. They share much of their error (below), but not all: with two,
-    // the orientation error at 16 m (30 px) was 0.82 degrees against 0.69 with three.
+    // the orientation error at 16 m (30 px) is 0.82 degrees against 0.69 with three.
     for (double f : {-0.25, 0.0, 0.25}) {
       const Eigen::Vector3d P = (on_y ? Eigen::Vector3d(cc.x() + f * c, cc.y() > 0 ? h : -h, 0)
                                       : Eigen::Vector3d(cc.x() > 0 ? h : -h, cc.y() + f * c, 0));

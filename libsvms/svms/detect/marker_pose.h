@@ -40,9 +40,7 @@ struct TipObservation {
 // --repeat 1`), with edges_along_rows on and no corner floor but min_corner_sigma_px: 0.95
 // makes their mean NEES 6.04. On the compare size sweep (one marker, seed 2) the line-fit
 // sigma times 1.00 gives per-axis corner Z^2 1.07-1.12 at 8-60 px. The approach is the test
-// (docs/flight-interface.md). Until session 16 it was 1.01, calibrated on 16-ray renders with
-// the profile across the pixels, and a floor of 0.01 px plus 0.004 px in quadrature, which on
-// edge-ray renders made 60 px corners' Z^2 0.37.
+// (docs/flight-interface.md).
 inline constexpr double kCornerFitScale = 0.95;
 
 struct MarkerPoseOptions {

@@ -30,8 +30,8 @@ cv::Mat DiscImage(double r, const Eigen::Vector2d& centre, double noise, std::mt
 
 // Over random sub-pixel places, tops of 0.4 to 6 px radius are found where they are, with a
 // sigma that describes the scatter. Tops of 1 to 5 px are fitted as discs: the centroid of
-// their thresholded pixels (what FindTip gave them before) locked to the pixel grid, 0.08 to
-// 0.14 px RMS on the simulator's markers of 20 to 30 px.
+// their thresholded pixels locks to the pixel grid, 0.08 to 0.14 px RMS on the simulator's
+// markers of 20 to 30 px.
 TEST(FindTip, FindsTopsOfEverySizeWhereTheyAreWithAnHonestSigma) {
   for (double r : {0.4, 0.8, 1.2, 2.0, 3.5, 5.0, 6.0}) {
     SCOPED_TRACE("radius " + std::to_string(r) + " px");

@@ -64,7 +64,7 @@ void FindQuads(const std::vector<Segment>& segs, const QuadOptions& o, int width
   const double sin_min_turn = std::sin(o.min_turn_deg * M_PI / 180);
   // Start points `a` binned on a grid of `cell` pixels (with two cells of margin around the
   // image; anything beyond goes to the border cells), by a counting sort. A sorted array of
-  // cell keys searched for every cell a long segment's reach covers took a tenth of the time
+  // cell keys searched for every cell a long segment's reach covers takes a tenth of the time
   // on cluttered frames.
   const double cell = std::max(8.0, o.join_min_px * 2);
   const int margin = 2;

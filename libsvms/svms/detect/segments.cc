@@ -14,7 +14,7 @@ namespace svms {
 namespace {
 
 // The first x' >= x with row[x'] != 0, or `cols`. Edge maps are mostly zero: whole 8-byte
-// words are skipped (a byte-by-byte scan of a 1024 x 1024 map twice cost 0.8 ms).
+// words are skipped (a byte-by-byte scan of a 1024 x 1024 map twice costs 0.8 ms).
 int NextNonZero(const uint8_t* row, int x, int cols) {
   for (; x + 8 <= cols; x += 8) {
     uint64_t word;
@@ -49,10 +49,9 @@ SegmentScratch& Scratch() {
 // 8-connected chains of edge pixels: each pixel belongs to one chain; chains start at end
 // points (pixels with one neighbour) and then at whatever is left (closed loops). Chains of
 // fewer than 4 pixels are left out. `edges` is consumed: a pixel is cleared once a chain has
-// taken it. A separate "visited" map cost a clear of every pixel and a second load per
-// neighbour test: linking took 0.34 ms of the detector benchmark's 640 x 480 frame (4,300
-// chained pixels on a textured plate), and with MergeCollinear's per-pair trigonometry gone
-// the segment step went from 1.20 to 1.01 ms.
+// taken it. A separate "visited" map would cost a clear of every pixel and a second load per
+// neighbour test: with one, linking takes 0.34 ms of the detector benchmark's 640 x 480 frame
+// (4,300 chained pixels on a textured plate).
 void LinkChains(cv::Mat& edges, SegmentScratch* sc) {
   std::vector<cv::Point>& points = sc->points;
   points.clear();
@@ -323,7 +322,7 @@ void FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
         cov += q * q.transpose();
       }
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es;
-      es.computeDirect(cov);  // closed form for 2 x 2 (the iterative solver cost 3x more)
+      es.computeDirect(cov);  // closed form for 2 x 2 (the iterative solver costs 3x more)
       const Eigen::Vector2d dir = es.eigenvectors().col(1);
       auto project = [&](const cv::Point& p) {
         return Eigen::Vector2d(mean + dir * dir.dot(Eigen::Vector2d(p.x, p.y) - mean));
@@ -358,7 +357,7 @@ void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
   // A sweep with a sort on start x to keep the pair search local. A join keeps the first
   // piece's start (Joined), so the order holds through the sweep, and a piece goes on joining
   // from its new end at once: on a cluttered frame (long grid lines in many pieces) sweeping
-  // again after every join was a fifth of the detector's time. A last sweep finds nothing.
+  // again after every join takes a fifth of the detector's time. A last sweep finds nothing.
   while (merged) {
     merged = false;
     std::vector<Segment>& v = *segs;

@@ -181,7 +181,7 @@ TEST(ModelIo, LayoutErrorsAreNamed) {
   json e = entry;
   e["object_from_marker"]["tvec"] = {0, 0};
   // json::array, not `= {e}`: clang takes a one-element braced list for a copy of e (an object),
-  // gcc for an array of it, so the cases below tested "not an array" under clang.
+  // gcc for an array of it, so with it the cases below would test "not an array" under clang.
   l["markers"] = json::array({e});
   ExpectError(l, {"markers[0].object_from_marker.tvec: expected an array of 3 numbers"});
   e = entry;

@@ -1445,7 +1445,7 @@ void Renderer::Impl::ConeCandidates(const Frame& f, const Vec3* c, int nc,
 
 // Renders pixels [x0, x1) x [y0, y1) (inside one culling tile).
 //
-// Each pixel's random numbers are drawn in the same order as ever (per sample: jitter, the
+// Each pixel's random numbers are drawn in one fixed order (per sample: jitter, the
 // motion-blur time, then the sun disc if the ray hit something), and only that order ties its
 // samples together. Most pixels are "planned": no candidate can be hit (every sample sees the
 // background), or a box face covers the pixel (every sample hits something), so which numbers

@@ -38,9 +38,9 @@ constexpr double kEdgeRadianceJump = 0.02;
 
 // The pixels (CV_8U, 1 = edge) that sensor.edge_rays_per_pixel renders again, from the first
 // pass's radiance (CV_32FC1). Pixels on the image border test only the neighbours they have.
-// Why second differences: a first difference of kEdgeRadianceStep also flagged smooth
-// shading and the sun disc's sampling noise (20-50 % of a mockup view's pixels against 2-5 %
-// now), which made a 200-view mockup render 9 times slower for no gain.
+// Why second differences: a first difference of kEdgeRadianceStep also flags smooth shading
+// and the sun disc's sampling noise (20-50 % of a mockup view's pixels against 2-5 %), which
+// makes a 200-view mockup render 9 times slower for no gain.
 cv::Mat EdgePixels(const cv::Mat& radiance);
 
 // What a ray hits first.

@@ -525,7 +525,7 @@ Status ApplySensorProfile(const std::string& name, Sensor* sensor) {
   p.format = defaults.format;
   p.jpeg_quality = defaults.jpeg_quality;
   if (name == "linear") {
-    // The defaults: what every scene rendered before sensor profiles existed.
+    // The defaults: the sensor of a scene that names no profile (an 8-bit linear PNG).
   } else if (name == "srgb8" || name == "jpeg_srgb") {
     // An ordinary camera: sRGB-encoded 8 bits behind optics that blur about a pixel, where
     // the response's bend moves a blurred edge toward its dark side.
