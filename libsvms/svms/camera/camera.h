@@ -38,7 +38,7 @@ class CameraModel {
   // 'lensmodel', 'intrinsics', 'extrinsics' = rt_cam_ref, 'imagersize'), every number with the
   // shortest decimal form that reads back to the same double, so Write then Read is exact.
   // Read by mrcal 2.2's C and Python readers (mrcal.cameramodel(path)). The file is replaced
-  // atomically (atomic_file.h): a failed write leaves the previous file as it was.
+  // atomically (file_io.h): a failed write leaves the previous file as it was.
   Status Write(const std::string& path) const;
   // The text Write writes; `path` only names the file in an error (an empty model, non-finite
   // extrinsics).
