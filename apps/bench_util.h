@@ -12,7 +12,7 @@
 
 namespace svms::cli {
 
-using svms::Fixed;  // `v` with `digits` decimals (svms/format.h)
+using svms::Fixed;  // `v` with `digits` decimals (svms/base/format.h)
 // The p-quantile (p in [0, 1]) of `v`, linear between order statistics; NaN when empty.
 double Percentile(std::vector<double> v, double p);
 // The mean of `v`; NaN when empty.

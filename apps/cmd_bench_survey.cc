@@ -14,6 +14,7 @@
 #include <sstream>
 #include <thread>
 
+#include "bench_targets.h"
 #include "bench_util.h"
 #include "cli_io.h"
 #include "commands.h"
@@ -52,6 +53,7 @@ struct MarkerError {
   int id = -1;
   double position_mm = 0, orientation_deg = 0, nees = -1;
   double post_error_mm = 0;  // estimated - true post height
+  double post_sigma_mm = 0;  // the survey's sigma of the post height (0: none)
   bool has_post = false;
 };
 
@@ -76,6 +78,7 @@ std::vector<MarkerError> Errors(const Layout& layout, const Layout& truth, int r
     if (e.marker.post && true_model.post) {
       m.has_post = true;
       m.post_error_mm = 1000 * (e.marker.post->height - true_model.post->height);
+      if (e.post_height_sigma) m.post_sigma_mm = 1000 * *e.post_height_sigma;
     }
     out.push_back(m);
   }
@@ -512,9 +515,11 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
        << (t.ok ? "" : " (failed)") << " | " << t.images << " | " << t.markers << " | "
        << t.detections << " | " << F(t.init, 2) << " | " << F(t.solve, 2) << " | "
        << F(t.covariance, 2) << " | " << F(t.total, 2) << " |\n";
-  // The survey's targets, judged on this run's numbers.
+  // The targets, judged on this run's numbers. The absolute accuracy targets are those of the
+  // full mockup (200 views); the quick one (8 views) cannot reach the orientation and post-height
+  // ones, so with --quick every marker is held to its own covariance instead.
+  BenchTargets targets;
   {
-    auto met = [](bool ok) { return ok ? std::string("**met**") : std::string("**not met**"); };
     const double pos_rms = Rms(ba, &MarkerError::position_mm);
     const double ang_rms = Rms(ba, &MarkerError::orientation_deg);
     double post_worst = 0;
@@ -522,29 +527,52 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
     int nees_in = 0;
     for (const auto& [id, v] : nees)
       if (mean(v) >= lo && mean(v) <= hi) ++nees_in;
-    md << "\nTargets of the issue, on this run";
+    md << "\nTargets, on this run";
     if (!result.summary.left_out.empty())
       md << " (over the " << ba.size() << " markers surveyed; " << result.summary.left_out.size()
          << " left out)";
     md << ":\n\n";
-    md << "- Marker position error <= 0.2 mm RMS: " << met(st && pos_rms <= 0.2) << " ("
-       << F(pos_rms, 3) << " mm).\n";
-    md << "- Orientation error <= 0.02 deg RMS: " << met(st && ang_rms <= 0.02) << " ("
-       << F(ang_rms, 4) << " deg).\n";
-    md << "- Post heights within 0.1 mm: " << met(st && post_worst <= 0.1) << " (worst "
-       << F(post_worst, 3) << " mm over " << posts.size() << " posts).\n";
-    md << "- Mean NEES within the chi-square 95 % bounds over " << n_ok
-       << " Monte-Carlo surveys: " << met(!nees.empty() && nees_in == static_cast<int>(nees.size()))
-       << " (" << nees_in << " of " << nees.size() << " markers).\n";
-    if (timings.size() >= 2) {
-      md << "- " << timings[0].images
-         << " images x 8 markers in <= 5 s: " << met(timings[0].ok && timings[0].total <= 5) << " ("
-         << F(timings[0].total, 2) << " s).\n";
-      md << "- " << timings[1].images << " images x 40 markers in <= 60 s: "
-         << (o.quick ? std::string("not judged with --quick")
-                     : met(timings[1].ok && timings[1].total <= 60))
-         << " (" << F(timings[1].total, 2) << " s).\n";
+    targets.Add("Marker position error <= 0.2 mm RMS", st && pos_rms <= 0.2, F(pos_rms, 3) + " mm");
+    const std::string why = "the quick mockup's " + std::to_string(images.size()) +
+                            " views are too few; the full run judges it";
+    if (o.quick) {
+      targets.NotJudged("Orientation error <= 0.02 deg RMS", why);
+      targets.NotJudged("Post heights within 0.1 mm", why);
+      // chi-square(6) 99.9 %: 22.46; a post height within 4 of its sigmas (+ 0.01 mm).
+      int beyond = 0, posts_beyond = 0;
+      for (const MarkerError& m : ba) beyond += !(m.nees >= 0 && m.nees < 22.46);
+      for (const MarkerError& m : posts)
+        posts_beyond += !(std::abs(m.post_error_mm) <= 4 * m.post_sigma_mm + 0.01);
+      targets.Add(
+          "Every marker's pose within its covariance (NEES below 22.46, chi-square 6 dof "
+          "99.9 %) and every post height within 4 sigma",
+          st && beyond == 0 && posts_beyond == 0,
+          std::to_string(beyond) + " of " + std::to_string(ba.size()) + " poses and " +
+              std::to_string(posts_beyond) + " of " + std::to_string(posts.size()) +
+              " posts beyond");
+    } else {
+      targets.Add("Orientation error <= 0.02 deg RMS", st && ang_rms <= 0.02,
+                  F(ang_rms, 4) + " deg");
+      targets.Add(
+          "Post heights within 0.1 mm", st && post_worst <= 0.1,
+          "worst " + F(post_worst, 3) + " mm over " + std::to_string(posts.size()) + " posts");
     }
+    targets.Add("Mean NEES within the chi-square 95 % bounds over " + std::to_string(n_ok) +
+                    " Monte-Carlo surveys",
+                !nees.empty() && nees_in == static_cast<int>(nees.size()),
+                std::to_string(nees_in) + " of " + std::to_string(nees.size()) + " markers");
+    if (timings.size() >= 2) {
+      targets.Add(std::to_string(timings[0].images) + " images x 8 markers in <= 5 s",
+                  timings[0].ok && timings[0].total <= 5, F(timings[0].total, 2) + " s");
+      const std::string what =
+          std::to_string(timings[1].images) + " images x 40 markers in <= 60 s";
+      if (o.quick)
+        targets.NotJudged(
+            what, "the quick run has 300 images, not 2000 (" + F(timings[1].total, 2) + " s)");
+      else
+        targets.Add(what, timings[1].ok && timings[1].total <= 60, F(timings[1].total, 2) + " s");
+    }
+    md << targets.Markdown();
   }
   md << "\nThe naive approach: for every pair of markers seen in the same image, the plain mean "
         "of the relative poses from the single-marker poses, chained from the reference along "
@@ -553,7 +581,7 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
         "survey_report/report.md.\n";
   OutputFile(fs::path(o.out) / "report.md") << md.str();
   std::cout << md.str();
-  return st ? kExitOk : kExitFailed;
+  return st ? targets.ExitCode("svms bench survey", kExitOk) : kExitFailed;
 }
 
 }  // namespace

@@ -17,7 +17,8 @@ struct FrameResult;
 
 namespace svms::cli {
 
-constexpr int kExitOk = 0, kExitFailed = 1, kExitBadInput = 2;
+// 3: a benchmark ran and wrote its report but missed one of its targets (bench_targets.h).
+constexpr int kExitOk = 0, kExitFailed = 1, kExitBadInput = 2, kExitTargetMissed = 3;
 
 void AddCodecCommands(CLI::App& app, int* exit_code);
 void AddModelCommands(CLI::App& app, int* exit_code);

@@ -1,4 +1,4 @@
-// libFuzzer target: marker model, marker set and layout JSON (svms/model_io.h).
+// libFuzzer target: marker model, marker set and layout JSON (svms/marker/model_io.h).
 // Property checked beyond "no crash": whatever parses writes back to JSON that parses to the
 // same text (the writers and the parser agree, so `svms survey` output is always readable).
 #include <cstdint>

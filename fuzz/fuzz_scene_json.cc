@@ -1,4 +1,4 @@
-// libFuzzer target: scene JSON (svms/scene.h), parsed with no base directory (file references
+// libFuzzer target: scene JSON (svms/sim/scene.h), parsed with no base directory (file references
 // resolve against the working directory). Whatever parses must write back to JSON that parses.
 #include <cstdint>
 #include <cstdio>

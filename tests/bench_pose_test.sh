@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # `svms bench pose --camera`: a given camera whose principal point is 5 px off the true one is,
 # to the pose, mostly a camera rotated by atan(5 / 1111) = 0.258 deg. The benchmark must find
-# that rotation (calib::AlignCameraFrames), report the errors with and without it, and refuse a
-# camera of another image size with a one-line error.
+# that rotation (AlignCameraFrames, calib/), report the errors with and without it, and refuse a
+# camera of another image size with a one-line error. The NEES target is missed with the wrong
+# camera (exit 3): the covariance does not hide a 5 px error.
 set -uo pipefail
 svms="$1"
 out="$(mktemp -d)"
@@ -13,7 +14,7 @@ source "$(dirname "$0")/expect.sh"
   { echo "FAIL: rendering the quick approach" >&2; exit 1; }
 sed 's/515\.3, 508\.7/520.3, 508.7/' "$out/approach/true.cameramodel" > "$out/shifted.cameramodel"
 grep -q '520\.3, 508\.7' "$out/shifted.cameramodel" || fail "the true camera's cx is not 515.3"
-expect 0 "the given camera's frame against the true camera's" "$svms" bench pose --quick \
+expect 3 "the given camera's frame against the true camera's" "$svms" bench pose --quick \
   --data "$out/approach" --layout "$out/approach/true_layout.json" \
   --camera "$out/shifted.cameramodel" --out "$out/bp"
 /usr/bin/python3 - "$out/bp/summary.json" <<'PY' && pass || fail "summary.json: frame_alignment"
@@ -36,7 +37,7 @@ expect 2 "imagersize: the models differ (1024x1024 and 640x480)" "$svms" bench p
 # No true camera in the dataset: the rest of the report, and a row saying why the frame rows are
 # missing (not a silent omission).
 cp -r "$out/approach" "$out/no_true" && rm "$out/no_true/true.cameramodel"
-expect 0 "warning: the given camera's frame is not aligned" "$svms" bench pose --quick \
+expect 3 "warning: the given camera's frame is not aligned" "$svms" bench pose --quick \
   --data "$out/no_true" --layout "$out/no_true/true_layout.json" \
   --camera "$out/shifted.cameramodel" --out "$out/bp3"
 grep -q "^| the given camera's frame against the true camera's | not measured: .*true.cameramodel" \

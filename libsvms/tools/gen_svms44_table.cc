@@ -2,7 +2,7 @@
 //
 // Usage: gen_svms44_table OUTPUT.cc
 // The table is committed; the test `svms44_table_regenerates` runs this program and compares
-// its output byte for byte with the committed file. See svms/id_selection.h for the rule.
+// its output byte for byte with the committed file. See svms/codec/id_selection.h for the rule.
 #include <chrono>
 #include <cstdio>
 #include <fstream>

@@ -57,8 +57,9 @@ int main(int argc, char** argv) {
     for (int c = 0; c < 6; ++c) ok &= p.covariance[r * 6 + c] == p.covariance[c * 6 + r];
   }
   ok &= nees_t < 3 * 25;
-  printf("svms %s: %d markers, tvec %.4f %.4f %.4f m (truth %.4f %.4f %.4f), sigma_z %.2f mm -> %s\n",
-         svms_version(), p.markers_used, p.tvec[0], p.tvec[1], p.tvec[2], truth[3], truth[4],
-         truth[5], 1e3 * sqrt(p.covariance[35]), ok ? "ok" : "WRONG");
+  printf(
+      "svms %s: %d markers, tvec %.4f %.4f %.4f m (truth %.4f %.4f %.4f), sigma_z %.2f mm -> %s\n",
+      svms_version(), p.markers_used, p.tvec[0], p.tvec[1], p.tvec[2], truth[3], truth[4], truth[5],
+      1e3 * sqrt(p.covariance[35]), ok ? "ok" : "WRONG");
   return ok ? 0 : 1;
 }

@@ -96,8 +96,9 @@ TEST(PoseEstimator, RenderedLoneMarkerNeesIsNearSix) {
   for (int i = 0; i < 48; ++i) {
     const double range = 1.5 + 4.5 * (i % 4) / 3.0, off = (i / 4) * 5 * M_PI / 180;
     const double az = i * 2.4;  // radians: an irrational turn spreads the azimuths
-    const Eigen::Vector3d eye = range * Eigen::Vector3d(std::sin(off) * std::cos(az),
-                                                        std::sin(off) * std::sin(az), std::cos(off));
+    const Eigen::Vector3d eye =
+        range *
+        Eigen::Vector3d(std::sin(off) * std::cos(az), std::sin(off) * std::sin(az), std::cos(off));
     const Pose cam_from_world = LookAt(eye, Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 1, 0.3));
     std::unique_ptr<Renderer> renderer;
     ASSERT_TRUE(Renderer::Create(LoneMarkerScene(camera, marker, cam_from_world), &renderer).ok());
@@ -120,9 +121,9 @@ TEST(PoseEstimator, RenderedLoneMarkerNeesIsNearSix) {
 
 // The fused pose's covariance over every view of the approach (12 frames, 1 to 8 markers each):
 // its mean NEES stays near 6 (bounds [3, 9.5]: with 12 frames the standard error is 1, so this
-// catches a covariance 2x too small, and only grossly too large ones). Measured: 4.35. The single markers of these frames seen beyond 60 degrees
-// (markers 12, 14 and 15 on the module's other faces) are overconfident (docs/detector.md,
-// limitations): they are not judged here.
+// catches a covariance 2x too small, and only grossly too large ones). Measured: 4.35. The single
+// markers of these frames seen beyond 60 degrees (markers 12, 14 and 15 on the module's other
+// faces) are overconfident (docs/detector.md, limitations): they are not judged here.
 TEST(PoseEstimator, RenderedApproachFusedNeesIsNearSix) {
   const Approach& a = Shared();
   std::unique_ptr<PoseEstimator> est;

@@ -4,9 +4,9 @@
 // 2 bottom, 3 left, as printed) at place i % 11, clockwise from the top-left corner. White is 1.
 // Turning the marker by a quarter turn shifts the word by 11 bits, so every ID is chosen to
 // stay at least 9 bits from every rotation of every other ID and of itself
-// (svms/id_selection.h): with minimum-distance decoding over the four rotations, every pattern
-// of up to 4 flipped bits resolves ID and rotation; 5 flips are always corrected in the true
-// orientation, and are reported as ambiguous where another (ID, rotation) is just as close.
+// (svms/codec/id_selection.h): with minimum-distance decoding over the four rotations, every
+// pattern of up to 4 flipped bits resolves ID and rotation; 5 flips are always corrected in the
+// true orientation, and are reported as ambiguous where another (ID, rotation) is just as close.
 #pragma once
 
 #include <cstdint>

@@ -15,7 +15,7 @@
 namespace svms {
 
 struct BitReading {
-  uint64_t word = 0;  // bit i = 1 where cell i reads white, in the order of svms/svms44.h
+  uint64_t word = 0;  // bit i = 1 where cell i reads white, in the order of svms/codec/svms44.h
   // Per cell: (value - threshold) / (white - black), in about [-0.5, 0.5]; near 0 is unsure.
   std::array<float, 44> margin{};
   double black = 0, white = 0;  // mean levels of the square and the stripe references
