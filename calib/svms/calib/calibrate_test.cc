@@ -52,8 +52,14 @@ std::vector<ViewObservations> Synthesise(const BoardViews& s, const CameraModel&
       std::vector<PointObservation> pts;
       for (int k = 0; k < 4; ++k) {
         const Eigen::Vector3d pb = e.object_from_marker * e.marker.Corners()[k];
+        // mrcal's board warp (synthetic_data.py, ref_calibration_object): the board's z moves by
+        // k_x 4 x_r (1 - x_r) + k_y 4 y_r (1 - y_r), x_r and y_r running 0 to 1 over the board.
+        // Written here from that definition, not through ProjectionCost::WarpedPoint, so that
+        // a wrong warp in the solver fails this test instead of being mirrored by it.
+        const double xr = (pb.x() - extent.x_min) / (extent.x_max - extent.x_min);
+        const double yr = (pb.y() - extent.y_min) / (extent.y_max - extent.y_min);
         const Eigen::Vector3d warped =
-            ProjectionCost::WarpedPoint(pb, warp.data(), extent, nullptr, nullptr);
+            pb + Eigen::Vector3d(0, 0, warp.x() * 4 * xr * (1 - xr) + warp.y() * 4 * yr * (1 - yr));
         Eigen::Vector2d q;
         if (!cam.Project(s.cam_from_board[v] * warped, &q)) break;
         if (q.x() < 0 || q.y() < 0 || q.x() > cam.width() - 1 || q.y() > cam.height() - 1) break;
