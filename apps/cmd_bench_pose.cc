@@ -18,7 +18,6 @@
 #include "cli_io.h"
 #include "commands.h"
 #include "gnuplot.h"
-#include "run_program.h"
 #include "svms/calib/frame_alignment.h"
 #include "svms/fusion/pose_estimator.h"
 #include "svms/marker/model_io.h"
@@ -54,13 +53,6 @@ double RssMiB() {
   return resident * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
 }
 
-int Run(const std::vector<std::string>& argv) {
-  std::string line;
-  for (const std::string& a : argv) line += (line.empty() ? "" : " ") + a;
-  std::cerr << "svms bench pose: " << line << "\n";
-  return RunProgram(argv);
-}
-
 struct FrameRow {
   std::string name;
   double range = 0;
@@ -88,13 +80,12 @@ int RunBenchPose(const BenchPoseOptions& o) {
     std::cerr << "svms bench pose: --out " << o.out << ": cannot create the directory\n";
     return kExitBadInput;
   }
-  const std::string exe = fs::read_symlink("/proc/self/exe", ec).string();
-  const std::string threads = std::to_string(o.threads);
-  // `svms dataset NAME --out DIR`, with this run's threads and --quick.
+  // `svms dataset NAME --out DIR`, in-process, with this run's threads and --quick.
   auto dataset = [&](const std::string& name, const std::string& dir) {
-    std::vector<std::string> argv{exe, "dataset", name, "--out", dir, "--threads", threads};
-    if (o.quick) argv.push_back("--quick");
-    return Run(argv);
+    std::cerr << "svms bench pose: rendering " << name << " into " << dir << "\n";
+    DatasetCliOptions d;
+    d.name = name, d.out = dir, d.threads = o.threads, d.quick = o.quick, d.quiet = true;
+    return RunDataset(d);
   };
   // 1. The approach (rendered here unless --data), and the layout: surveyed here from the
   // rendered mockup unless --layout names one.
@@ -112,8 +103,13 @@ int RunBenchPose(const BenchPoseOptions& o) {
     }
     layout_path = (fs::path(o.out) / "layout.json").string();
     const std::string survey_camera = o.camera.empty() ? M + "/true.cameramodel" : o.camera;
-    if (Run({exe, "survey", M, "--camera", survey_camera, "--markers", M + "/markers.json",
-             "--reference", "10", "--out", layout_path, "--quiet", "--threads", threads}) != 0) {
+    SurveyCliOptions survey;
+    survey.inputs = {M};
+    survey.camera = survey_camera, survey.markers = M + "/markers.json";
+    survey.reference = 10, survey.out = layout_path, survey.quiet = true;
+    survey.threads = o.threads;
+    std::cerr << "svms bench pose: surveying " << M << " into " << layout_path << "\n";
+    if (RunSurveyCommand(survey) != kExitOk) {
       std::cerr << "svms bench pose: the survey failed\n";
       return kExitFailed;
     }

@@ -20,7 +20,6 @@
 #include "commands.h"
 #include "gnuplot.h"
 #include "progress.h"
-#include "run_program.h"
 #include "svms/bundle/survey.h"
 #include "svms/bundle/survey_report.h"
 #include "svms/bundle/synthetic.h"
@@ -171,12 +170,10 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
   // 1. The rendered mockup dataset (rendered here unless --data names one).
   std::string D = o.data.empty() ? (fs::path(o.out) / "mockup").string() : o.data;
   if (!fs::exists(fs::path(D) / "truth.json")) {
-    const std::string exe = fs::read_symlink("/proc/self/exe", ec).string();
-    std::vector<std::string> argv{
-        exe, "dataset", "mockup", "--out", D, "--threads", std::to_string(o.threads)};
-    if (o.quick) argv.push_back("--quick");
+    DatasetCliOptions d;
+    d.name = "mockup", d.out = D, d.threads = o.threads, d.quick = o.quick, d.quiet = true;
     std::cerr << "svms bench survey: rendering the mockup dataset into " << D << "\n";
-    if (RunProgram(argv) != 0) {
+    if (RunDataset(d) != kExitOk) {
       std::cerr << "svms bench survey: rendering failed\n";
       return kExitFailed;
     }

@@ -10,15 +10,6 @@
 #include "svms/marker/model_io.h"
 
 namespace svms::cli {
-namespace {
-
-struct DatasetCliOptions {
-  std::string name, out;
-  std::string profile;  // a sensor profile (scene.h) for every scene
-  uint64_t seed = 1;
-  bool quick = false, no_render = false, list = false, quiet = false;
-  int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-};
 
 int RunDataset(const DatasetCliOptions& o) {
   if (o.list || o.name.empty()) {
@@ -93,8 +84,6 @@ int RunDataset(const DatasetCliOptions& o) {
   for (const std::string& w : wrote) std::cout << "wrote " << w << "\n";
   return rc;
 }
-
-}  // namespace
 
 void AddDatasetCommands(CLI::App& app, int* exit_code) {
   auto o = std::make_shared<DatasetCliOptions>();

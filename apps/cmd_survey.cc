@@ -26,17 +26,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct SurveyCliOptions {
-  std::vector<std::string> inputs;
-  std::string camera, markers, out, report;
-  std::optional<int> reference;
-  std::vector<std::string> scale_bars, control_points;
-  bool refine_intrinsics = false, drop_disconnected = false, quiet = false;
-  std::optional<double> corner_sigma;  // unset: each corner's own, from the side fits
-  int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  PhotometryOptions photometry;
-};
-
 std::vector<std::string> Split(const std::string& s, char sep) {
   std::vector<std::string> out;
   std::stringstream ss(s);
@@ -84,6 +73,8 @@ Status ParseControlPoint(const std::string& text, ControlPoint* cp) {
   if (v.size() == 4 && !ParseNumber(v[3], &cp->sigma)) return bad;
   return Status::Ok();
 }
+
+}  // namespace
 
 int RunSurveyCommand(const SurveyCliOptions& o) {
   auto bad_input = [](const std::string& m) {
@@ -241,8 +232,6 @@ int RunSurveyCommand(const SurveyCliOptions& o) {
               << " images could not be used\n";
   return unreadable || report_failed ? kExitFailed : kExitOk;
 }
-
-}  // namespace
 
 void AddSurveyCommands(CLI::App& app, int* exit_code) {
   auto o = std::make_shared<SurveyCliOptions>();

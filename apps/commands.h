@@ -4,10 +4,14 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <nlohmann/json_fwd.hpp>
+#include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "image_inputs.h"
 #include "svms/base/file_io.h"
 #include "svms/sim/scene.h"
 
@@ -38,6 +42,31 @@ void AddBenchCompare(CLI::App& bench, int* exit_code);
 void AddBenchSurvey(CLI::App& bench, int* exit_code);
 void AddBenchPose(CLI::App& bench, int* exit_code);
 void AddBenchProfiles(CLI::App& bench, int* exit_code);
+
+// `svms dataset` and `svms survey` as functions (their options as on the command line): the
+// benchmarks render their datasets and survey their mockup in-process through them. Each
+// returns the command's exit code.
+struct DatasetCliOptions {
+  std::string name, out;
+  std::string profile;  // a sensor profile (scene.h) for every scene
+  uint64_t seed = 1;
+  bool quick = false, no_render = false, list = false, quiet = false;
+  int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+};
+
+int RunDataset(const DatasetCliOptions& o);
+struct SurveyCliOptions {
+  std::vector<std::string> inputs;
+  std::string camera, markers, out, report;
+  std::optional<int> reference;
+  std::vector<std::string> scale_bars, control_points;
+  bool refine_intrinsics = false, drop_disconnected = false, quiet = false;
+  std::optional<double> corner_sigma;  // unset: each corner's own, from the side fits
+  int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  PhotometryOptions photometry;
+};
+
+int RunSurveyCommand(const SurveyCliOptions& o);
 
 // One frame of `svms pose` as its JSON line (cmd_pose.cc; docs/flight-interface.md).
 nlohmann::json FrameJson(const FrameResult& frame);
