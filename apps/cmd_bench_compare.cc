@@ -26,6 +26,7 @@
 #include "svms/camera/image_io.h"
 #include "svms/datasets/datasets.h"
 #include "svms/detect/detector.h"
+#include "svms/geometry/pose.h"
 #include "svms/marker/model_io.h"
 #include "svms/peers/compare_metrics.h"
 #include "svms/peers/compare_scenes.h"
@@ -421,10 +422,7 @@ int RunCompare(const CompareCliOptions& o) {
             row.used = bt->nested_in < 0 ? "outer" : "inner";
             row.range_err_mm = 1000 * std::abs(best->cam_from_marker->tvec.norm() -
                                                bt->cam_from_marker.tvec.norm());
-            row.orient_err_deg = Eigen::AngleAxisd(best->cam_from_marker->Rotation().transpose() *
-                                                   bt->cam_from_marker.Rotation())
-                                     .angle() *
-                                 180 / M_PI;
+            row.orient_err_deg = AngleBetweenDeg(*best->cam_from_marker, bt->cam_from_marker);
           } else {
             row.used = "none";
           }

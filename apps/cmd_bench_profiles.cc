@@ -31,6 +31,7 @@
 #include "svms/datasets/datasets.h"
 #include "svms/detect/detector.h"
 #include "svms/fusion/object_pose.h"
+#include "svms/geometry/pose.h"
 #include "svms/sim/render.h"
 #include "svms/sim/truth.h"
 
@@ -40,7 +41,6 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-constexpr double kRadToDeg = 180 / M_PI;
 const double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kChi2Six95 = 12.5916;  // chi-square, 6 dof, 95 %
 
@@ -105,9 +105,7 @@ void Score(const std::string& profile, const std::string& set, const ViewTruth& 
       r.corner_rms_px = std::sqrt(sum2 / 4);
       r.corner_bias_px = bias;
       if (d.cam_from_marker) {
-        const Eigen::AngleAxisd da(d.cam_from_marker->Rotation() *
-                                   m.cam_from_marker.Rotation().transpose());
-        r.orient_err_deg = std::abs(da.angle()) * kRadToDeg;
+        r.orient_err_deg = AngleBetweenDeg(*d.cam_from_marker, m.cam_from_marker);
         r.range_err_rel = d.cam_from_marker->tvec.norm() / m.cam_from_marker.tvec.norm() - 1;
         r.nees = Nees(m.cam_from_marker, *d.cam_from_marker, d.covariance);
       }

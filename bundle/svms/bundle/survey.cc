@@ -16,6 +16,7 @@
 #include "svms/bundle/cost_functions.h"
 #include "svms/bundle/view_graph.h"
 #include "svms/detect/marker_pose.h"
+#include "svms/geometry/so3.h"
 
 namespace svms {
 namespace {
@@ -637,12 +638,6 @@ void Solver::RejectOutliers() {
     if (points_in_image[i] == 0) image_used_[i] = false;
 }
 
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return m;
-}
-
 Status Solver::ComputeCovariance() {
   // SuiteSparseQR's numerical rank does not always see a gauge freedom (parameters in metres
   // and radians, poorly scaled), so the reduced normal matrix is checked first; with the
@@ -690,7 +685,7 @@ Status Solver::ComputeCovariance() {
       get(b.data(), 6, raw);
       const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov_params(raw);
       Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Identity();
-      J.topLeftCorner<3, 3>() = LeftJacobianSO3(Eigen::Vector3d(b[0], b[1], b[2]));
+      J.topLeftCorner<3, 3>() = LeftJacobian(Eigen::Vector3d(b[0], b[1], b[2]));
       c = factor * J * cov_params * J.transpose();
       for (const Eigen::MatrixXd* share : {&reduced.calibration, &reduced.repeat}) {
         if (share->size() == 0) continue;
@@ -1056,15 +1051,6 @@ Status Solver::Run(const std::vector<MarkerModel>& models) {
 }
 
 }  // namespace
-
-Eigen::Matrix3d LeftJacobianSO3(const Eigen::Vector3d& rvec) {
-  const double theta = rvec.norm();
-  const Eigen::Matrix3d K = Skew(rvec);
-  if (theta < 1e-8) return Eigen::Matrix3d::Identity() + 0.5 * K;
-  const double t2 = theta * theta;
-  return Eigen::Matrix3d::Identity() + (1 - std::cos(theta)) / t2 * K +
-         (theta - std::sin(theta)) / (t2 * theta) * K * K;
-}
 
 bool NamedPointInMarker(const NamedPoint& point, const MarkerModel& model, Eigen::Vector3d* out) {
   switch (point.kind) {

@@ -32,11 +32,6 @@ Eigen::Matrix3d ProjectToRotation(const Eigen::Matrix3d& M) {
 
 }  // namespace
 
-double RotationAngle(const Pose& a, const Pose& b) {
-  const Eigen::Matrix3d R = a.Rotation().transpose() * b.Rotation();
-  return std::acos(std::clamp(0.5 * (R.trace() - 1), -1.0, 1.0));
-}
-
 std::vector<std::vector<int>> ConnectedComponents(const std::vector<ImageSightings>& images) {
   const std::map<int, std::set<int>> adj = Adjacency(images);
   std::set<int> seen;
@@ -98,9 +93,7 @@ RelativePoseAverage RobustAverage(const std::vector<Pose>& samples, double inlie
   // units of the inlier thresholds. Beyond 200 samples, 200 evenly spaced candidates.
   std::vector<Eigen::Matrix3d> R(n);
   for (size_t i = 0; i < n; ++i) R[i] = samples[i].Rotation();
-  auto angle = [&](size_t i, size_t j) {
-    return std::acos(std::clamp(0.5 * ((R[i].transpose() * R[j]).trace() - 1), -1.0, 1.0));
-  };
+  auto angle = [&](size_t i, size_t j) { return AngleBetweenRad(R[i], R[j]); };
   auto dist = [&](size_t i, size_t j) {
     const double d = angle(i, j) / inlier_angle_rad +
                      (samples[i].tvec - samples[j].tvec).norm() / inlier_distance;

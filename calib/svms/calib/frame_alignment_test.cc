@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "svms/geometry/so3.h"
+
 namespace svms {
 namespace {
 
@@ -128,8 +130,7 @@ TEST(AlignCameraFrames, AgreesWithMrcalsProjectionDiff) {
   Eigen::Matrix3d mrcal_b_from_a;
   for (int k = 0; k < 9; ++k) ASSERT_EQ(std::fscanf(file, "%lf", &mrcal_b_from_a(k / 3, k % 3)), 1);
   std::fclose(file);
-  const double between_deg =
-      Eigen::AngleAxisd(mrcal_b_from_a.transpose() * f.b_from_a).angle() * 180 / M_PI;
+  const double between_deg = AngleBetweenDeg(mrcal_b_from_a, f.b_from_a);
   EXPECT_GT(f.angle_deg, 0.3);  // 6 and 4 px at f = 900: 0.46 deg
   // Measured: 1.2 % of the angle (mrcal samples a 32 x 24 grid of corners and drops outliers).
   EXPECT_LT(between_deg, 0.03 * f.angle_deg) << "ours " << f.angle_deg << " deg";
