@@ -3,7 +3,6 @@
 #include <ceres/ceres.h>
 
 #include <Eigen/Eigenvalues>
-#include <Eigen/SVD>
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -16,6 +15,7 @@
 #include "svms/bundle/cost_functions.h"
 #include "svms/bundle/view_graph.h"
 #include "svms/detect/marker_pose.h"
+#include "svms/geometry/alignment.h"
 #include "svms/geometry/so3.h"
 
 namespace svms {
@@ -81,24 +81,6 @@ class IntrinsicsSync : public ceres::EvaluationCallback {
   CameraModel* camera_;
   const std::vector<double>* intrinsics_;
 };
-
-// Rigid transform (Kabsch) b_from_a minimising sum |b_from_a * a_i - b_i|^2.
-Pose Kabsch(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b) {
-  Eigen::Vector3d ca = Eigen::Vector3d::Zero(), cb = Eigen::Vector3d::Zero();
-  for (size_t i = 0; i < a.size(); ++i) {
-    ca += a[i];
-    cb += b[i];
-  }
-  ca /= a.size();
-  cb /= b.size();
-  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
-  for (size_t i = 0; i < a.size(); ++i) H += (a[i] - ca) * (b[i] - cb).transpose();
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-  D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
-  const Eigen::Matrix3d R = svd.matrixV() * D * svd.matrixU().transpose();
-  return Pose::FromRotation(R, cb - R * ca);
-}
 
 std::string Join(const std::vector<int>& v) {
   std::string s;
@@ -408,7 +390,7 @@ Status Solver::Initialise() {
       a.push_back(layout.at(marker) * in_marker);
       b.push_back(c.point_in_object);
     }
-    object_from_root = Kabsch(a, b);
+    object_from_root = FitRigidTransform(a, b);
   }
   for (auto& [id, pose] : layout) {
     pose = object_from_root * pose;

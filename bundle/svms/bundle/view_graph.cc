@@ -1,12 +1,13 @@
 #include "svms/bundle/view_graph.h"
 
-#include <Eigen/SVD>
 #include <algorithm>
 #include <deque>
 #include <functional>
 #include <numeric>
 #include <queue>
 #include <set>
+
+#include "svms/geometry/alignment.h"
 
 namespace svms {
 namespace {
@@ -21,13 +22,6 @@ std::map<int, std::set<int>> Adjacency(const std::vector<ImageSightings>& images
         if (a.marker_id != b.marker_id) adj[a.marker_id].insert(b.marker_id);
     }
   return adj;
-}
-
-Eigen::Matrix3d ProjectToRotation(const Eigen::Matrix3d& M) {
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1 : 1;
-  return svd.matrixU() * D * svd.matrixV().transpose();
 }
 
 }  // namespace
@@ -81,7 +75,7 @@ Pose PlainAverage(const std::vector<Pose>& samples) {
     M += p.Rotation();
     t += p.tvec;
   }
-  return Pose::FromRotation(ProjectToRotation(M), t / static_cast<double>(samples.size()));
+  return Pose::FromRotation(NearestRotation(M), t / static_cast<double>(samples.size()));
 }
 
 RelativePoseAverage RobustAverage(const std::vector<Pose>& samples, double inlier_angle_rad,

@@ -138,27 +138,5 @@ TEST(AlignCameraFrames, AgreesWithMrcalsProjectionDiff) {
               f.angle_deg, between_deg, f.rms_unaligned_px, f.rms_px);
 }
 
-// Nearly planar directions mirrored through their plane: the best orthogonal matrix is that
-// mirror, a reflection; the best rotation is close to the identity.
-TEST(FitRotation, NeverReturnsAReflection) {
-  std::vector<Eigen::Vector3d> from, to;
-  for (int k = 0; k < 20; ++k) {
-    const double a = 0.3 * k;
-    from.push_back(Eigen::Vector3d(std::cos(a), std::sin(a), 0.01 * ((k % 3) - 1)).normalized());
-    to.push_back(Eigen::Vector3d(from.back().x(), from.back().y(), -from.back().z()));
-  }
-  const Eigen::Matrix3d R = FitRotation(from, to);
-  EXPECT_NEAR(R.determinant(), 1, 1e-12);
-  EXPECT_LT((R.transpose() * R - Eigen::Matrix3d::Identity()).norm(), 1e-12);
-  EXPECT_LT(Eigen::AngleAxisd(R).angle(), 0.05);
-  // A known rotation is recovered exactly; mismatched inputs give the identity.
-  const Eigen::Matrix3d Q =
-      Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, -2, 0.5).normalized()).toRotationMatrix();
-  std::vector<Eigen::Vector3d> rotated;
-  for (const Eigen::Vector3d& v : from) rotated.push_back(Q * v);
-  EXPECT_LT((FitRotation(from, rotated) - Q).norm(), 1e-12);
-  EXPECT_EQ(FitRotation(from, {}), Eigen::Matrix3d::Identity());
-}
-
 }  // namespace
 }  // namespace svms
