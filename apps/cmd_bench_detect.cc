@@ -31,6 +31,7 @@
 #include "gnuplot.h"
 #include "overlay.h"
 #include "progress.h"
+#include "svms/base/statistics.h"
 #include "svms/camera/image_io.h"
 #include "svms/datasets/datasets.h"
 #include "svms/detect/detector.h"
@@ -270,13 +271,6 @@ struct Rate {
     return s.str();
   }
 };
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return kNaN;
-  std::sort(v.begin(), v.end());
-  const size_t h = v.size() / 2;
-  return v.size() % 2 ? v[h] : 0.5 * (v[h - 1] + v[h]);
-}
 
 double Rms(const std::vector<double>& v) {
   if (v.empty()) return kNaN;

@@ -19,6 +19,7 @@
 #include "commands.h"
 #include "gnuplot.h"
 #include "run_program.h"
+#include "svms/base/statistics.h"
 #include "svms/calib/frame_alignment.h"
 #include "svms/fusion/pose_estimator.h"
 #include "svms/marker/model_io.h"

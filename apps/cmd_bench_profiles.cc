@@ -27,6 +27,7 @@
 #include "cli_io.h"
 #include "commands.h"
 #include "progress.h"
+#include "svms/base/statistics.h"
 #include "svms/camera/photometric.h"
 #include "svms/datasets/datasets.h"
 #include "svms/detect/detector.h"
@@ -42,7 +43,6 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 const double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kChi2Six95 = 12.5916;  // chi-square, 6 dof, 95 %
 
 struct BenchProfilesOptions {
   std::string out;
@@ -201,8 +201,6 @@ Status RunSet(const SetRun& run, const BenchProfilesOptions& o,
   return Status::Ok();
 }
 
-double Median(std::vector<double> v) { return Percentile(std::move(v), 0.5); }
-
 std::string F(double v, int digits) { return std::isfinite(v) ? Fixed(v, digits) : "-"; }
 
 // The size buckets of the detection-rate table (shortest projected side, px).
@@ -272,7 +270,7 @@ int RunBenchProfiles(const BenchProfilesOptions& o) {
     j["nees_mean"] = Mean(nees);
     j["nees_below_12_59"] =
         nees.empty() ? kNaN : std::count_if(nees.begin(), nees.end(), [](double x) {
-                                return x < kChi2Six95;
+                                return x < kChi2Dof6P95;
                               }) / static_cast<double>(nees.size());
     j["poses"] = nees.size();
     std::vector<double> black_ms, earth_ms;

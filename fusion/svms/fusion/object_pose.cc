@@ -9,6 +9,7 @@
 #include <map>
 #include <set>
 
+#include "svms/base/statistics.h"
 #include "svms/detect/marker_pose.h"
 #include "svms/geometry/so3.h"
 
@@ -27,24 +28,6 @@ using MatRR = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxRows,
 
 // The angle between two poses' rotations, radians (AngleBetweenRad, svms/geometry/pose.h).
 double AngleBetween(const Pose& a, const Pose& b) { return AngleBetweenRad(a, b); }
-
-// The standard normal quantile, by bisection on erfc (called a handful of times per solve).
-double NormalQuantile(double p) {
-  double lo = -10, hi = 10;
-  for (int i = 0; i < 80; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (0.5 * std::erfc(-mid / std::sqrt(2.0)) < p ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
-}
-
-// Chi-square quantile with k dof (Wilson-Hilferty; within 1 % of the exact value for k >= 2
-// at the 99.9 % level, which is all a rejection threshold needs).
-double ChiSquareQuantile(double p, int k) {
-  const double z = NormalQuantile(p), h = 2.0 / (9.0 * k);
-  const double c = 1 - h + z * std::sqrt(h);
-  return k * c * c * c;
-}
 
 // One point of a marker: its position in the marker frame, its pixel and pixel sigma, and how
 // it moves with the post height (d point / d height, marker frame; zero for corners).

@@ -103,16 +103,4 @@ ImageOutcome EvaluateImage(const ViewTruth& truth, const std::vector<FoundMarker
   return out;
 }
 
-double Percentile(std::vector<double> v, double p) {
-  v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }), v.end());
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  const double r = std::clamp(p, 0.0, 100.0) / 100 * (v.size() - 1);
-  const size_t i = static_cast<size_t>(std::floor(r));
-  if (i + 1 >= v.size()) return v.back();
-  return v[i] + (r - i) * (v[i + 1] - v[i]);
-}
-
-double Median(std::vector<double> v) { return Percentile(std::move(v), 50); }
-
 }  // namespace svms

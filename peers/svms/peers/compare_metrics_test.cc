@@ -140,12 +140,5 @@ TEST(CompareMetrics, OnlyAPoseNearATwinFarFromTheTruthIsAPlanarFlip) {
   EXPECT_FALSE(m.planar_flip());
 }
 
-TEST(CompareMetrics, Percentiles) {
-  EXPECT_DOUBLE_EQ(Median({3, 1, 2, NAN}), 2);
-  EXPECT_DOUBLE_EQ(Percentile({0, 10}, 25), 2.5);
-  EXPECT_DOUBLE_EQ(Percentile({1, 2, 3, 4, 5}, 100), 5);
-  EXPECT_TRUE(std::isnan(Median({})));
-}
-
 }  // namespace
 }  // namespace svms
