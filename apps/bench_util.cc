@@ -9,14 +9,6 @@
 
 namespace svms::cli {
 
-double Percentile(std::vector<double> v, double p) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  const double k = p * (v.size() - 1);
-  const size_t i = static_cast<size_t>(k);
-  return i + 1 < v.size() ? v[i] + (k - i) * (v[i + 1] - v[i]) : v[i];
-}
-
 double Mean(const std::vector<double>& v) {
   double s = 0;
   for (double x : v) s += x;

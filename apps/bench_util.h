@@ -1,4 +1,4 @@
-// Small pieces the `svms bench` reports share: number formatting, summary statistics, and the
+// Small pieces the `svms bench` reports share: number formatting, the mean, and the
 // true poses of a rendered dataset.
 #pragma once
 
@@ -13,8 +13,6 @@
 namespace svms::cli {
 
 using svms::Fixed;  // `v` with `digits` decimals (svms/base/format.h)
-// The p-quantile (p in [0, 1]) of `v`, linear between order statistics; NaN when empty.
-double Percentile(std::vector<double> v, double p);
 // The mean of `v`; NaN when empty.
 double Mean(const std::vector<double>& v);
 

@@ -4,7 +4,6 @@
 // OpenCV's findChessboardCornersSB; (c) OpenCV's calibrateCamera on the same corners. For each:
 // the projection error against the true camera over the image, and the tool's own predicted
 // uncertainty.
-#include <Eigen/SVD>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -29,6 +28,7 @@
 #include "svms/base/format.h"
 #include "svms/base/random_draws.h"
 #include "svms/datasets/datasets.h"
+#include "svms/geometry/alignment.h"
 #include "svms/marker/model_io.h"
 
 namespace svms::cli {
@@ -116,16 +116,7 @@ bool TrueFrame(const CameraModel& truth, const Pose& cam_from_board,
     if ((proj[best] - Eigen::Vector2d(corners[k].x, corners[k].y)).norm() > 3) return false;
     A.col(k) = FrameCorner(static_cast<int>(k)), B.col(k) = board[best];
   }
-  const Eigen::Vector3d ca = A.rowwise().mean(), cb = B.rowwise().mean();
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd((B.colwise() - cb) * (A.colwise() - ca).transpose(),
-                                              Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d R = svd.matrixU() * svd.matrixV().transpose();
-  if (R.determinant() < 0) {
-    Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-    D(2, 2) = -1;
-    R = svd.matrixU() * D * svd.matrixV().transpose();
-  }
-  *cam_from_frame = cam_from_board * Pose::FromRotation(R, cb - R * ca);
+  *cam_from_frame = cam_from_board * FitRigidTransform(A, B);
   return true;
 }
 

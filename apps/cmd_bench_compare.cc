@@ -24,9 +24,11 @@
 #include "cli_io.h"
 #include "commands.h"
 #include "gnuplot.h"
+#include "svms/base/statistics.h"
 #include "svms/camera/image_io.h"
 #include "svms/datasets/datasets.h"
 #include "svms/detect/detector.h"
+#include "svms/geometry/pose.h"
 #include "svms/marker/model_io.h"
 #include "svms/peers/compare_metrics.h"
 #include "svms/peers/compare_scenes.h"
@@ -179,10 +181,10 @@ struct Tally {
             {"wrong_id_markers", wrong},
             {"mean_min_side_px", side.empty() ? json() : json(Median(side))},
             {"corner_rms_px_median", corner.empty() ? json() : json(Median(corner))},
-            {"corner_rms_px_p95", corner.empty() ? json() : json(Percentile(corner, 95))},
+            {"corner_rms_px_p95", corner.empty() ? json() : json(Percentile(corner, 0.95))},
             {"range_err_percent_median", range_rel.empty() ? json() : json(Median(range_rel))},
             {"orientation_err_deg_median", orient.empty() ? json() : json(Median(orient))},
-            {"orientation_err_deg_p95", orient.empty() ? json() : json(Percentile(orient, 95))},
+            {"orientation_err_deg_p95", orient.empty() ? json() : json(Percentile(orient, 0.95))},
             {"pose_flips", flips},
             {"planar_flips", planar_flips},
             {"unflagged_flips", unflagged_flips},
@@ -422,10 +424,7 @@ int RunCompare(const CompareCliOptions& o) {
             row.used = bt->nested_in < 0 ? "outer" : "inner";
             row.range_err_mm = 1000 * std::abs(best->cam_from_marker->tvec.norm() -
                                                bt->cam_from_marker.tvec.norm());
-            row.orient_err_deg = Eigen::AngleAxisd(best->cam_from_marker->Rotation().transpose() *
-                                                   bt->cam_from_marker.Rotation())
-                                     .angle() *
-                                 180 / M_PI;
+            row.orient_err_deg = AngleBetweenDeg(*best->cam_from_marker, bt->cam_from_marker);
           } else {
             row.used = "none";
           }
@@ -532,9 +531,9 @@ int RunCompare(const CompareCliOptions& o) {
     json j = overall[n].Json();
     j["small_30px"] = small[n].Json();
     j["time_ms_median"] = Median(t.all);
-    j["time_ms_p99"] = Percentile(t.all, 99);
+    j["time_ms_p99"] = Percentile(t.all, 0.99);
     j["time_ms_median_clutter"] = t.clutter.empty() ? json() : json(Median(t.clutter));
-    j["time_ms_p99_clutter"] = t.clutter.empty() ? json() : json(Percentile(t.clutter, 99));
+    j["time_ms_p99_clutter"] = t.clutter.empty() ? json() : json(Percentile(t.clutter, 0.99));
     j["false_positives_clutter"] = t.fp_clutter;
     j["clutter_images"] = t.clutter_images;
     j["false_positives_scenes"] = t.fp_scenes;
@@ -724,10 +723,10 @@ int RunCompare(const CompareCliOptions& o) {
        << " %) | " << s.detected << "/" << s.eligible << " (" << F(100 * s.rate(), 1) << " %) | "
        << tm.wrong << " | " << tm.fp_clutter << " | " << F(Median(t.corner), 3) << " | "
        << F(Median(t.range_rel), 2) << " | " << F(Median(t.orient), 2) << " / "
-       << F(Percentile(t.orient, 95), 2) << " | " << t.flips << "/" << t.posed << " ("
+       << F(Percentile(t.orient, 0.95), 2) << " | " << t.flips << "/" << t.posed << " ("
        << F(t.posed ? 100.0 * t.flips / t.posed : NAN, 1) << " %) | " << t.planar_flips << " / "
        << t.unflagged_flips << " | " << t.flagged << " | " << F(Median(tm.all), 1) << " | "
-       << F(Percentile(tm.all, 99), 1) << " | " << F(Median(tm.clutter), 1) << " |\n";
+       << F(Percentile(tm.all, 0.99), 1) << " | " << F(Median(tm.clutter), 1) << " |\n";
   }
   md << "\nA flip is *planar* when the pose is nearer the truth's planar twin (its normal mirrored "
         "about the line of sight: what four coplanar corners cannot tell from the truth under weak "

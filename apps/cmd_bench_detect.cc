@@ -31,9 +31,11 @@
 #include "gnuplot.h"
 #include "overlay.h"
 #include "progress.h"
+#include "svms/base/statistics.h"
 #include "svms/camera/image_io.h"
 #include "svms/datasets/datasets.h"
 #include "svms/detect/detector.h"
+#include "svms/geometry/pose.h"
 #include "svms/sim/render.h"
 #include "svms/sim/truth.h"
 
@@ -43,7 +45,6 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-constexpr double kRadToDeg = 180 / M_PI;
 const double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 struct BenchDetectOptions {
@@ -96,11 +97,6 @@ struct ViewRow {
   std::vector<std::string> problems;  // "missed 12 (31.0 px)", "false 977 at (x, y)"
 };
 
-double RotationErrorDeg(const Pose& a, const Pose& b) {
-  const Eigen::AngleAxisd d(a.Rotation() * b.Rotation().transpose());
-  return std::abs(d.angle()) * kRadToDeg;
-}
-
 // Scores the detections of one view against its truth.
 void Score(const std::string& set, const ViewTruth& truth, const std::vector<Detection>& found,
            std::vector<MarkerRow>* rows, ViewRow* view) {
@@ -145,7 +141,7 @@ void Score(const std::string& set, const ViewTruth& truth, const std::vector<Det
       if (d.cam_from_marker) {
         const Eigen::Vector3d t_est = d.cam_from_marker->tvec, t_true = m.cam_from_marker.tvec;
         r.range_err_m = t_est.norm() - t_true.norm();
-        r.orient_err_deg = RotationErrorDeg(*d.cam_from_marker, m.cam_from_marker);
+        r.orient_err_deg = AngleBetweenDeg(*d.cam_from_marker, m.cam_from_marker);
         const Eigen::Vector3d los = t_true.normalized();
         r.range_sigma_m = std::sqrt(los.dot(d.covariance.block<3, 3>(3, 3) * los));
         r.trace_t = d.covariance.block<3, 3>(3, 3).trace();
@@ -275,13 +271,6 @@ struct Rate {
     return s.str();
   }
 };
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return kNaN;
-  std::sort(v.begin(), v.end());
-  const size_t h = v.size() / 2;
-  return v.size() % 2 ? v[h] : 0.5 * (v[h - 1] + v[h]);
-}
 
 double Rms(const std::vector<double>& v) {
   if (v.empty()) return kNaN;

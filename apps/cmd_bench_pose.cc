@@ -18,6 +18,7 @@
 #include "cli_io.h"
 #include "commands.h"
 #include "gnuplot.h"
+#include "svms/base/statistics.h"
 #include "svms/calib/frame_alignment.h"
 #include "svms/fusion/pose_estimator.h"
 #include "svms/marker/model_io.h"

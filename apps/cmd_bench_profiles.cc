@@ -27,10 +27,12 @@
 #include "cli_io.h"
 #include "commands.h"
 #include "progress.h"
+#include "svms/base/statistics.h"
 #include "svms/camera/photometric.h"
 #include "svms/datasets/datasets.h"
 #include "svms/detect/detector.h"
 #include "svms/fusion/object_pose.h"
+#include "svms/geometry/pose.h"
 #include "svms/sim/render.h"
 #include "svms/sim/truth.h"
 
@@ -40,9 +42,7 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-constexpr double kRadToDeg = 180 / M_PI;
 const double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kChi2Six95 = 12.5916;  // chi-square, 6 dof, 95 %
 
 struct BenchProfilesOptions {
   std::string out;
@@ -105,9 +105,7 @@ void Score(const std::string& profile, const std::string& set, const ViewTruth& 
       r.corner_rms_px = std::sqrt(sum2 / 4);
       r.corner_bias_px = bias;
       if (d.cam_from_marker) {
-        const Eigen::AngleAxisd da(d.cam_from_marker->Rotation() *
-                                   m.cam_from_marker.Rotation().transpose());
-        r.orient_err_deg = std::abs(da.angle()) * kRadToDeg;
+        r.orient_err_deg = AngleBetweenDeg(*d.cam_from_marker, m.cam_from_marker);
         r.range_err_rel = d.cam_from_marker->tvec.norm() / m.cam_from_marker.tvec.norm() - 1;
         r.nees = Nees(m.cam_from_marker, *d.cam_from_marker, d.covariance);
       }
@@ -203,8 +201,6 @@ Status RunSet(const SetRun& run, const BenchProfilesOptions& o,
   return Status::Ok();
 }
 
-double Median(std::vector<double> v) { return Percentile(std::move(v), 0.5); }
-
 std::string F(double v, int digits) { return std::isfinite(v) ? Fixed(v, digits) : "-"; }
 
 // The size buckets of the detection-rate table (shortest projected side, px).
@@ -274,7 +270,7 @@ int RunBenchProfiles(const BenchProfilesOptions& o) {
     j["nees_mean"] = Mean(nees);
     j["nees_below_12_59"] =
         nees.empty() ? kNaN : std::count_if(nees.begin(), nees.end(), [](double x) {
-                                return x < kChi2Six95;
+                                return x < kChi2Dof6P95;
                               }) / static_cast<double>(nees.size());
     j["poses"] = nees.size();
     std::vector<double> black_ms, earth_ms;

@@ -20,6 +20,7 @@
 #include "commands.h"
 #include "gnuplot.h"
 #include "progress.h"
+#include "svms/base/statistics.h"
 #include "svms/bundle/survey.h"
 #include "svms/bundle/survey_report.h"
 #include "svms/bundle/synthetic.h"
@@ -41,12 +42,6 @@ struct BenchSurveyOptions {
 };
 
 std::string F(double v, int digits) { return Fixed(v, digits); }
-
-// Chi-square quantile (Wilson-Hilferty; accurate to < 0.1 % for k >= 100).
-double ChiSquareQuantile(double k, double z) {
-  const double a = 2.0 / (9 * k);
-  return k * std::pow(1 - a + z * std::sqrt(a), 3);
-}
 
 struct MarkerError {
   int id = -1;
@@ -309,8 +304,8 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
   }
   monte_carlo.Finish();
   const int n_ok = runs - mc_failed;
-  const double lo = n_ok ? ChiSquareQuantile(6.0 * n_ok, -1.959964) / n_ok : 0;
-  const double hi = n_ok ? ChiSquareQuantile(6.0 * n_ok, 1.959964) / n_ok : 0;
+  const double lo = n_ok ? ChiSquareQuantile(0.025, 6.0 * n_ok) / n_ok : 0;
+  const double hi = n_ok ? ChiSquareQuantile(0.975, 6.0 * n_ok) / n_ok : 0;
   auto mean = [](const std::vector<double>& v) {
     double s = 0;
     for (double x : v) s += x;

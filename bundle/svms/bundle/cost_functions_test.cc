@@ -143,18 +143,6 @@ TEST(PostHeightPriorCost, Jacobians) {
   EXPECT_NEAR(r, 1.5, 1e-12);
 }
 
-TEST(LeftJacobianSO3, MapsRotationVectorIncrementsToLeftAngles) {
-  for (const Eigen::Vector3d& r : {Eigen::Vector3d(0.3, -0.2, 0.1), Eigen::Vector3d(2.5, 1.0, -0.5),
-                                   Eigen::Vector3d(0, 0, 0)}) {
-    const Eigen::Vector3d d(1e-6, -2e-6, 1.5e-6);
-    const Pose a{r, Eigen::Vector3d::Zero()}, b{r + d, Eigen::Vector3d::Zero()};
-    // exp(r + d) exp(r)^T = exp(J d)
-    const Eigen::AngleAxisd left(b.Rotation() * a.Rotation().transpose());
-    const Eigen::Vector3d got = left.axis() * left.angle();
-    EXPECT_LT((got - LeftJacobianSO3(r) * d).norm(), 1e-11) << r.transpose();
-  }
-}
-
 TEST(NamedPoint, ParsesAndRejects) {
   NamedPoint p;
   ASSERT_TRUE(ParseNamedPoint("12", &p));

@@ -3,7 +3,6 @@
 #include <ceres/ceres.h>
 
 #include <Eigen/Eigenvalues>
-#include <Eigen/SVD>
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -16,6 +15,8 @@
 #include "svms/bundle/cost_functions.h"
 #include "svms/bundle/view_graph.h"
 #include "svms/detect/marker_pose.h"
+#include "svms/geometry/alignment.h"
+#include "svms/geometry/so3.h"
 
 namespace svms {
 namespace {
@@ -80,24 +81,6 @@ class IntrinsicsSync : public ceres::EvaluationCallback {
   CameraModel* camera_;
   const std::vector<double>* intrinsics_;
 };
-
-// Rigid transform (Kabsch) b_from_a minimising sum |b_from_a * a_i - b_i|^2.
-Pose Kabsch(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b) {
-  Eigen::Vector3d ca = Eigen::Vector3d::Zero(), cb = Eigen::Vector3d::Zero();
-  for (size_t i = 0; i < a.size(); ++i) {
-    ca += a[i];
-    cb += b[i];
-  }
-  ca /= a.size();
-  cb /= b.size();
-  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
-  for (size_t i = 0; i < a.size(); ++i) H += (a[i] - ca) * (b[i] - cb).transpose();
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-  D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
-  const Eigen::Matrix3d R = svd.matrixV() * D * svd.matrixU().transpose();
-  return Pose::FromRotation(R, cb - R * ca);
-}
 
 std::string Join(const std::vector<int>& v) {
   std::string s;
@@ -407,7 +390,7 @@ Status Solver::Initialise() {
       a.push_back(layout.at(marker) * in_marker);
       b.push_back(c.point_in_object);
     }
-    object_from_root = Kabsch(a, b);
+    object_from_root = FitRigidTransform(a, b);
   }
   for (auto& [id, pose] : layout) {
     pose = object_from_root * pose;
@@ -637,12 +620,6 @@ void Solver::RejectOutliers() {
     if (points_in_image[i] == 0) image_used_[i] = false;
 }
 
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return m;
-}
-
 Status Solver::ComputeCovariance() {
   // SuiteSparseQR's numerical rank does not always see a gauge freedom (parameters in metres
   // and radians, poorly scaled), so the reduced normal matrix is checked first; with the
@@ -690,7 +667,7 @@ Status Solver::ComputeCovariance() {
       get(b.data(), 6, raw);
       const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov_params(raw);
       Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Identity();
-      J.topLeftCorner<3, 3>() = LeftJacobianSO3(Eigen::Vector3d(b[0], b[1], b[2]));
+      J.topLeftCorner<3, 3>() = LeftJacobian(Eigen::Vector3d(b[0], b[1], b[2]));
       c = factor * J * cov_params * J.transpose();
       for (const Eigen::MatrixXd* share : {&reduced.calibration, &reduced.repeat}) {
         if (share->size() == 0) continue;
@@ -1056,15 +1033,6 @@ Status Solver::Run(const std::vector<MarkerModel>& models) {
 }
 
 }  // namespace
-
-Eigen::Matrix3d LeftJacobianSO3(const Eigen::Vector3d& rvec) {
-  const double theta = rvec.norm();
-  const Eigen::Matrix3d K = Skew(rvec);
-  if (theta < 1e-8) return Eigen::Matrix3d::Identity() + 0.5 * K;
-  const double t2 = theta * theta;
-  return Eigen::Matrix3d::Identity() + (1 - std::cos(theta)) / t2 * K +
-         (theta - std::sin(theta)) / (t2 * theta) * K * K;
-}
 
 bool NamedPointInMarker(const NamedPoint& point, const MarkerModel& model, Eigen::Vector3d* out) {
   switch (point.kind) {

@@ -67,9 +67,4 @@ Status RunSurvey(const std::vector<SurveyImage>& images, const std::vector<Marke
 // false if the marker has no post).
 bool NamedPointInMarker(const NamedPoint& point, const MarkerModel& model, Eigen::Vector3d* out);
 
-// d(left rotation increment)/d(rotation vector): the left Jacobian of SO(3) at `rvec`, so that
-// exp(rvec + d) ~ exp(J d) exp(rvec). Converts a rotation-vector covariance to the
-// conventions' small-angle one (Sigma_angle = J Sigma_rvec J^T).
-Eigen::Matrix3d LeftJacobianSO3(const Eigen::Vector3d& rvec);
-
 }  // namespace svms

@@ -8,6 +8,7 @@
 #include "svms/bundle/synthetic.h"
 #include "svms/bundle/view_graph.h"
 #include "svms/datasets/datasets.h"
+#include "svms/geometry/pose.h"
 #include "svms/marker/model_io.h"
 
 namespace svms {
@@ -47,9 +48,8 @@ Pose TruePose(const Layout& layout, int id) {
 
 // The pose error [rotation (left, object axes), translation] of an estimate.
 Eigen::Matrix<double, 6, 1> PoseError(const Pose& estimate, const Pose& truth) {
-  const Eigen::AngleAxisd aa(estimate.Rotation() * truth.Rotation().transpose());
   Eigen::Matrix<double, 6, 1> e;
-  e << aa.axis() * aa.angle(), estimate.tvec - truth.tvec;
+  e << Log(estimate.Rotation() * truth.Rotation().transpose()), estimate.tvec - truth.tvec;
   return e;
 }
 
@@ -562,8 +562,8 @@ TEST(ViewGraph, RobustAverageIgnoresABadSample) {
   samples.push_back(Pose{truth.rvec + Eigen::Vector3d(0.5, 0, 0), truth.tvec});  // a flip
   const RelativePoseAverage a = RobustAverage(samples, 3 * M_PI / 180, 0.05);
   EXPECT_EQ(a.inliers, 9);
-  EXPECT_LT(RotationAngle(a.a_from_b, truth), 2e-3);
-  EXPECT_GT(RotationAngle(PlainAverage(samples), truth), 0.03);
+  EXPECT_LT(AngleBetweenRad(a.a_from_b, truth), 2e-3);
+  EXPECT_GT(AngleBetweenRad(PlainAverage(samples), truth), 0.03);
 }
 
 }  // namespace

@@ -1,12 +1,13 @@
 #include "svms/bundle/view_graph.h"
 
-#include <Eigen/SVD>
 #include <algorithm>
 #include <deque>
 #include <functional>
 #include <numeric>
 #include <queue>
 #include <set>
+
+#include "svms/geometry/alignment.h"
 
 namespace svms {
 namespace {
@@ -23,19 +24,7 @@ std::map<int, std::set<int>> Adjacency(const std::vector<ImageSightings>& images
   return adj;
 }
 
-Eigen::Matrix3d ProjectToRotation(const Eigen::Matrix3d& M) {
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1 : 1;
-  return svd.matrixU() * D * svd.matrixV().transpose();
-}
-
 }  // namespace
-
-double RotationAngle(const Pose& a, const Pose& b) {
-  const Eigen::Matrix3d R = a.Rotation().transpose() * b.Rotation();
-  return std::acos(std::clamp(0.5 * (R.trace() - 1), -1.0, 1.0));
-}
 
 std::vector<std::vector<int>> ConnectedComponents(const std::vector<ImageSightings>& images) {
   const std::map<int, std::set<int>> adj = Adjacency(images);
@@ -86,7 +75,7 @@ Pose PlainAverage(const std::vector<Pose>& samples) {
     M += p.Rotation();
     t += p.tvec;
   }
-  return Pose::FromRotation(ProjectToRotation(M), t / static_cast<double>(samples.size()));
+  return Pose::FromRotation(NearestRotation(M), t / static_cast<double>(samples.size()));
 }
 
 RelativePoseAverage RobustAverage(const std::vector<Pose>& samples, double inlier_angle_rad,
@@ -98,9 +87,7 @@ RelativePoseAverage RobustAverage(const std::vector<Pose>& samples, double inlie
   // units of the inlier thresholds. Beyond 200 samples, 200 evenly spaced candidates.
   std::vector<Eigen::Matrix3d> R(n);
   for (size_t i = 0; i < n; ++i) R[i] = samples[i].Rotation();
-  auto angle = [&](size_t i, size_t j) {
-    return std::acos(std::clamp(0.5 * ((R[i].transpose() * R[j]).trace() - 1), -1.0, 1.0));
-  };
+  auto angle = [&](size_t i, size_t j) { return AngleBetweenRad(R[i], R[j]); };
   auto dist = [&](size_t i, size_t j) {
     const double d = angle(i, j) / inlier_angle_rad +
                      (samples[i].tvec - samples[j].tvec).norm() / inlier_distance;

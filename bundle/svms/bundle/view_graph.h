@@ -73,7 +73,4 @@ std::map<int, Pose> PairwiseAverageLayout(const std::vector<ImageSightings>& ima
 bool InitialCameraPose(const ImageSightings& image, const std::map<int, Pose>& object_from_marker,
                        Pose* cam_from_object);
 
-// Angle of the rotation between two rotations, radians.
-double RotationAngle(const Pose& a, const Pose& b);
-
 }  // namespace svms

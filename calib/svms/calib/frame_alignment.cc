@@ -1,24 +1,12 @@
 #include "svms/calib/frame_alignment.h"
 
 #include <Eigen/Geometry>
-#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
 
 namespace svms {
-
-Eigen::Matrix3d FitRotation(const std::vector<Eigen::Vector3d>& from,
-                            const std::vector<Eigen::Vector3d>& to) {
-  if (from.size() < 2 || from.size() != to.size()) return Eigen::Matrix3d::Identity();
-  Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();
-  for (size_t k = 0; k < from.size(); ++k) cross += to[k] * from[k].transpose();
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d fix = Eigen::Matrix3d::Identity();
-  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) fix(2, 2) = -1;
-  return svd.matrixU() * fix * svd.matrixV().transpose();
-}
 
 Status AlignCameraFrames(const CameraModel& a, const CameraModel& b,
                          const FrameAlignmentOptions& options, FrameAlignment* out) {

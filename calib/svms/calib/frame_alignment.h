@@ -17,6 +17,7 @@
 
 #include "svms/base/status.h"
 #include "svms/camera/camera.h"
+#include "svms/geometry/alignment.h"
 
 namespace svms {
 
@@ -40,18 +41,12 @@ struct FrameAlignment {
 };
 
 // Fits b_from_a minimising sum |b_from_a * a.Unproject(q) - b.Unproject(q)|^2 over the cell
-// centres q (FitRotation below), then measures the pixel differences. Both models must have the
-// same image size. Errors name the field: "lensmodel" (an empty model), "imagersize" (sizes
-// differ), "grid" / "radius_fraction" (out of range), "cells" (fewer than 10 cell centres both
-// models unproject, e.g. CAHVORE, which mrcal 2.2 cannot unproject). `out` must not be null; it
-// is unchanged on error.
+// centres q (FitRotation, svms/geometry/alignment.h), then measures the pixel differences. Both
+// models must have the same image size. Errors name the field: "lensmodel" (an empty model),
+// "imagersize" (sizes differ), "grid" / "radius_fraction" (out of range), "cells" (fewer than 10
+// cell centres both models unproject, e.g. CAHVORE, which mrcal 2.2 cannot unproject). `out` must
+// not be null; it is unchanged on error.
 Status AlignCameraFrames(const CameraModel& a, const CameraModel& b,
                          const FrameAlignmentOptions& options, FrameAlignment* out);
-
-// The rotation R minimising sum_k |R from[k] - to[k]|^2 (Kabsch, no translation, no scale):
-// a proper rotation (det +1) even where the best orthogonal matrix would be a reflection.
-// Requires from.size() == to.size(); fewer than 2 pairs give the identity.
-Eigen::Matrix3d FitRotation(const std::vector<Eigen::Vector3d>& from,
-                            const std::vector<Eigen::Vector3d>& to);
 
 }  // namespace svms

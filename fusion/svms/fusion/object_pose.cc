@@ -9,7 +9,9 @@
 #include <map>
 #include <set>
 
+#include "svms/base/statistics.h"
 #include "svms/detect/marker_pose.h"
+#include "svms/geometry/so3.h"
 
 namespace svms {
 namespace {
@@ -24,40 +26,8 @@ using MatR6 = Eigen::Matrix<double, Eigen::Dynamic, 6, 0, kMaxRows, 6>;
 using MatR7 = Eigen::Matrix<double, Eigen::Dynamic, 7, 0, kMaxRows, 7>;
 using MatRR = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxRows, kMaxRows>;
 
-// The angle between two poses' rotations, radians.
-double AngleBetween(const Pose& a, const Pose& b) {
-  return Eigen::AngleAxisd(a.Rotation() * b.Rotation().transpose()).angle();
-}
-
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d S;
-  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return S;
-}
-
-Eigen::Matrix3d Exp(const Eigen::Vector3d& w) {
-  const double a = w.norm();
-  if (a < 1e-300) return Eigen::Matrix3d::Identity();
-  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
-}
-
-// The standard normal quantile, by bisection on erfc (called a handful of times per solve).
-double NormalQuantile(double p) {
-  double lo = -10, hi = 10;
-  for (int i = 0; i < 80; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (0.5 * std::erfc(-mid / std::sqrt(2.0)) < p ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
-}
-
-// Chi-square quantile with k dof (Wilson-Hilferty; within 1 % of the exact value for k >= 2
-// at the 99.9 % level, which is all a rejection threshold needs).
-double ChiSquareQuantile(double p, int k) {
-  const double z = NormalQuantile(p), h = 2.0 / (9.0 * k);
-  const double c = 1 - h + z * std::sqrt(h);
-  return k * c * c * c;
-}
+// The angle between two poses' rotations, radians (AngleBetweenRad, svms/geometry/pose.h).
+double AngleBetween(const Pose& a, const Pose& b) { return AngleBetweenRad(a, b); }
 
 // One point of a marker: its position in the marker frame, its pixel and pixel sigma, and how
 // it moves with the post height (d point / d height, marker frame; zero for corners).
@@ -570,8 +540,7 @@ void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservat
 
 Eigen::Matrix<double, 6, 1> PoseError(const Pose& truth, const Pose& estimate) {
   Eigen::Matrix<double, 6, 1> e;
-  const Eigen::AngleAxisd aa(truth.Rotation() * estimate.Rotation().transpose());
-  e.head<3>() = aa.axis() * aa.angle();
+  e.head<3>() = Log(truth.Rotation() * estimate.Rotation().transpose());
   e.tail<3>() = truth.tvec - estimate.tvec;
   return e;
 }

@@ -9,6 +9,7 @@
 #include "svms/base/random_draws.h"
 #include "svms/datasets/datasets.h"
 #include "svms/detect/ippe.h"
+#include "svms/geometry/pose.h"
 
 namespace svms {
 namespace {
@@ -64,11 +65,6 @@ void AddNoise(std::mt19937_64* rng, double sigma, double tip_sigma, MarkerObserv
   std::normal_distribution<double> g(0, 1);
   for (auto& c : o->corners) c += sigma * DrawVector2(g, *rng);  // fixed order (random_draws.h)
   if (o->tip) o->tip->pixel += tip_sigma * DrawVector2(g, *rng);
-}
-
-// The angle between two poses' rotations, degrees.
-double AngleDeg(const Pose& a, const Pose& b) {
-  return Eigen::AngleAxisd(a.Rotation() * b.Rotation().transpose()).angle() * 180 / M_PI;
 }
 
 TEST(ObjectPose, ExactObservationsGiveTheTruth) {
@@ -332,7 +328,7 @@ TEST(ObjectPose, ASingleMarkersAlternativePoseIsTheObjectsAlternative) {
   const Pose& object_from_marker = rig.layout.markers[0].object_from_marker;
   const Pose truth = rig.cam_from_object * object_from_marker;
   const Pose twin = PlanarTwin(truth);
-  ASSERT_GT(AngleDeg(truth, twin), 10);
+  ASSERT_GT(AngleBetweenDeg(truth, twin), 10);
   MarkerObservation o = rig.Observe(0, object_from_marker);
   o.pose_ambiguous = true;
   o.ambiguity_covariance = 1e-6 * PoseCovariance::Identity();
@@ -341,9 +337,9 @@ TEST(ObjectPose, ASingleMarkersAlternativePoseIsTheObjectsAlternative) {
   const ObjectPose right = SolveObjectPose(rig.camera, {o}, ObjectPoseOptions{});
   ASSERT_TRUE(right.valid && right.ambiguous) << right.message;
   ASSERT_TRUE(right.alternative_cam_from_object.has_value());
-  EXPECT_LT(AngleDeg(right.cam_from_object, rig.cam_from_object), 1e-6);
+  EXPECT_LT(AngleBetweenDeg(right.cam_from_object, rig.cam_from_object), 1e-6);
   const Pose expected = twin * object_from_marker.Inverse();
-  EXPECT_LT(AngleDeg(*right.alternative_cam_from_object, expected), 1e-9);
+  EXPECT_LT(AngleBetweenDeg(*right.alternative_cam_from_object, expected), 1e-9);
   EXPECT_LT((right.alternative_cam_from_object->tvec - expected.tvec).norm(), 1e-12);
   EXPECT_DOUBLE_EQ(right.alternative_weight, 0.2);
 
@@ -357,10 +353,10 @@ TEST(ObjectPose, ASingleMarkersAlternativePoseIsTheObjectsAlternative) {
   near.alternative_weight = 0.3;
   const ObjectPose swapped = SolveObjectPose(rig.camera, {near}, ObjectPoseOptions{});
   ASSERT_TRUE(swapped.valid && swapped.ambiguous) << swapped.message;
-  EXPECT_LT(AngleDeg(swapped.cam_from_object, rig.cam_from_object), 1e-6);
+  EXPECT_LT(AngleBetweenDeg(swapped.cam_from_object, rig.cam_from_object), 1e-6);
   ASSERT_TRUE(swapped.alternative_cam_from_object.has_value());
-  EXPECT_LT(AngleDeg(*swapped.alternative_cam_from_object,
-                     *near.cam_from_marker * object_from_marker.Inverse()),
+  EXPECT_LT(AngleBetweenDeg(*swapped.alternative_cam_from_object,
+                            *near.cam_from_marker * object_from_marker.Inverse()),
             1e-9);
   EXPECT_DOUBLE_EQ(swapped.alternative_weight, 0.7);
 
@@ -393,7 +389,7 @@ TEST(ObjectPose, AnAmbiguousMarkersAlternativeIsAStart) {
   obs[1].cam_from_marker.reset();
   const ObjectPose p = SolveObjectPose(rig.camera, obs, ObjectPoseOptions{});
   ASSERT_TRUE(p.valid) << p.message;
-  EXPECT_LT(AngleDeg(p.cam_from_object, rig.cam_from_object), 1e-6);
+  EXPECT_LT(AngleBetweenDeg(p.cam_from_object, rig.cam_from_object), 1e-6);
   EXPECT_EQ(p.markers_used, 2);
   EXPECT_FALSE(p.ambiguous);
   EXPECT_FALSE(p.alternative_cam_from_object);

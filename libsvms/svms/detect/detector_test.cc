@@ -7,6 +7,7 @@
 #include <random>
 #include <string>
 
+#include "svms/geometry/pose.h"
 #include "svms/sim/render.h"
 #include "svms/sim/truth.h"
 #include "svms_testing/flat_marker_views.h"
@@ -74,10 +75,6 @@ Scene Base(const CameraModel& cam, const std::vector<std::pair<MarkerModel, Pose
   return s;
 }
 
-double AngleDeg(const Pose& a, const Pose& b) {
-  return Eigen::AngleAxisd(a.Rotation() * b.Rotation().transpose()).angle() * 180 / M_PI;
-}
-
 CameraModel Distorted() {
   CameraModel cam;
   EXPECT_TRUE(CameraModel::Create(
@@ -126,7 +123,7 @@ TEST(Detector, FindsEveryMarkerWithAccurateCornersAndPose) {
     EXPECT_LT(worst, 0.057) << "ID " << d.id << ": corner error in pixels";
     ASSERT_TRUE(d.cam_from_marker.has_value());
     EXPECT_LT((d.cam_from_marker->tvec - t->cam_from_marker.tvec).norm(), 0.125e-3) << d.id;
-    EXPECT_LT(AngleDeg(*d.cam_from_marker, t->cam_from_marker), 0.065) << d.id;
+    EXPECT_LT(AngleBetweenDeg(*d.cam_from_marker, t->cam_from_marker), 0.065) << d.id;
     EXPECT_TRUE(d.tip.has_value()) << d.id;
     // A post's white top is seen whole; a well's bottom only partly (and partly shadowed).
     if (d.tip && d.id == 17) {
@@ -213,7 +210,7 @@ TEST(Detector, APostAcrossASideDoesNotMoveTheCorners) {
   EXPECT_LT(after, 0.03) << "corner RMS error, pixels (" << before << " without step 10b)";
   EXPECT_LT(after, 0.5 * before);
   ASSERT_TRUE(fixed.cam_from_marker.has_value());
-  EXPECT_LT(AngleDeg(*fixed.cam_from_marker, t.cam_from_marker), 0.1);
+  EXPECT_LT(AngleBetweenDeg(*fixed.cam_from_marker, t.cam_from_marker), 0.1);
   EXPECT_LT((fixed.cam_from_marker->tvec - t.cam_from_marker.tvec).norm(), 5e-4);
 }
 
@@ -229,7 +226,7 @@ TEST(Detector, TheTipPicksTheRightPoseWhereThePlanarPoseIsAmbiguous) {
   const std::vector<Detection> found = det.Detect(r.image);
   ASSERT_EQ(found.size(), 1u);
   ASSERT_TRUE(found[0].cam_from_marker && found[0].tip);
-  EXPECT_LT(AngleDeg(*found[0].cam_from_marker, r.truth.markers[0].cam_from_marker), 3.0);
+  EXPECT_LT(AngleBetweenDeg(*found[0].cam_from_marker, r.truth.markers[0].cam_from_marker), 3.0);
   EXPECT_FALSE(found[0].pose_ambiguous);
   // Without the post, the same corners (and the stripe's edges) leave the choice to the fit:
   // either it gets it right or it says it could not tell.
@@ -239,7 +236,8 @@ TEST(Detector, TheTipPicksTheRightPoseWhereThePlanarPoseIsAmbiguous) {
   const std::vector<Detection> f2 = det_flat.Detect(r.image);
   ASSERT_EQ(f2.size(), 1u);
   ASSERT_TRUE(f2[0].cam_from_marker);
-  const double flat_error = AngleDeg(*f2[0].cam_from_marker, r.truth.markers[0].cam_from_marker);
+  const double flat_error =
+      AngleBetweenDeg(*f2[0].cam_from_marker, r.truth.markers[0].cam_from_marker);
   RecordProperty("flat_orientation_error_deg", std::to_string(flat_error));
   EXPECT_TRUE(f2[0].pose_ambiguous || flat_error < 3.0) << flat_error;
 }
@@ -247,8 +245,7 @@ TEST(Detector, TheTipPicksTheRightPoseWhereThePlanarPoseIsAmbiguous) {
 // Rotation error of `estimate` against `truth` (camera axes, radians) in units of the
 // covariance's rotation block: its squared Mahalanobis length (3 degrees of freedom).
 double RotationNees(const Pose& truth, const Pose& estimate, const PoseCovariance& covariance) {
-  const Eigen::AngleAxisd d(estimate.Rotation() * truth.Rotation().transpose());
-  const Eigen::Vector3d w = d.angle() * d.axis();
+  const Eigen::Vector3d w = Log(estimate.Rotation() * truth.Rotation().transpose());
   return w.dot(covariance.topLeftCorner<3, 3>().ldlt().solve(w));
 }
 
@@ -266,7 +263,7 @@ TEST(Detector, AnAmbiguousPoseCoversBothPlanarSolutions) {
     ASSERT_EQ(d.size(), 1u) << v;
     ASSERT_TRUE(d[0].cam_from_marker);
     const Pose& truth = r.truth.markers[0].cam_from_marker;
-    const double error = AngleDeg(*d[0].cam_from_marker, truth);
+    const double error = AngleBetweenDeg(*d[0].cam_from_marker, truth);
     const double nees = RotationNees(truth, *d[0].cam_from_marker, d[0].covariance);
     ambiguous += d[0].pose_ambiguous;
     wrong += error > 5;
@@ -281,7 +278,7 @@ TEST(Detector, AnAmbiguousPoseCoversBothPlanarSolutions) {
       EXPECT_GT(d[0].alternative_weight, 0.01);
       EXPECT_LE(d[0].alternative_weight, 0.5);
       if (error > 5) {
-        EXPECT_LT(AngleDeg(*d[0].alternative_pose, truth), 5);
+        EXPECT_LT(AngleBetweenDeg(*d[0].alternative_pose, truth), 5);
       }
     }
     EXPECT_LT(nees, 16.3);  // chi-square, 3 dof, 99.9 %
@@ -314,9 +311,9 @@ TEST(Detector, TheStripeAndDecalEdgesSharpenTheOrientationOfASmallMarker) {
     ASSERT_EQ(d_stripe.size(), 1u);
     ASSERT_TRUE(d_on[0].cam_from_marker && d_off[0].cam_from_marker && d_stripe[0].cam_from_marker);
     const Pose& truth = r.truth.markers[0].cam_from_marker;
-    err_on += std::pow(AngleDeg(*d_on[0].cam_from_marker, truth), 2);
-    err_off += std::pow(AngleDeg(*d_off[0].cam_from_marker, truth), 2);
-    err_stripe += std::pow(AngleDeg(*d_stripe[0].cam_from_marker, truth), 2);
+    err_on += std::pow(AngleBetweenDeg(*d_on[0].cam_from_marker, truth), 2);
+    err_off += std::pow(AngleBetweenDeg(*d_off[0].cam_from_marker, truth), 2);
+    err_stripe += std::pow(AngleBetweenDeg(*d_stripe[0].cam_from_marker, truth), 2);
     sigma_on += d_on[0].covariance.topLeftCorner<3, 3>().trace();
     sigma_off += d_off[0].covariance.topLeftCorner<3, 3>().trace();
     sigma_stripe += d_stripe[0].covariance.topLeftCorner<3, 3>().trace();
@@ -408,7 +405,7 @@ TipTally DetectTiltedRow(const TiltedRow& row, int first_id, const DetectorOptio
     ++t.posed;
     t.with_tip += d.tip.has_value();
     t.ambiguous += d.pose_ambiguous;
-    const double err = AngleDeg(*d.cam_from_marker, truth.cam_from_marker);
+    const double err = AngleBetweenDeg(*d.cam_from_marker, truth.cam_from_marker);
     if (err > 10) {
       ++t.flipped;
       t.flips += " marker " + std::to_string(d.id) + (d.tip ? " (tip) " : " (no tip) ") +
@@ -561,7 +558,7 @@ TEST(RefinePose, JacobianMatchesFiniteDifferencesAndRecoversThePose) {
   double rms;
   ASSERT_TRUE(RefinePose(cam, X, px, std::vector<double>(5, 0.1), &start, &cov, &rms));
   EXPECT_LT((start.tvec - truth.tvec).norm(), 1e-9);
-  EXPECT_LT(AngleDeg(start, truth), 1e-7);
+  EXPECT_LT(AngleBetweenDeg(start, truth), 1e-7);
   EXPECT_LT(rms, 1e-6);
   // The covariance is (J^T W J)^-1: compare with a finite-difference Jacobian.
   const Eigen::Matrix<double, 10, 6> J =
@@ -610,8 +607,7 @@ TEST(RefinePose, CalibrationCovarianceMatchesMonteCarlo) {
     ASSERT_TRUE(RefinePose(cam, X, px, sigma, &pose, &cov, &rms));
     ASSERT_TRUE(CalibrationCovariance(cam, pose, X, sigma, &calibration));
     Eigen::Matrix<double, 6, 1> e;
-    const Eigen::AngleAxisd d(truth.Rotation() * pose.Rotation().transpose());
-    e << d.angle() * d.axis(), truth.tvec - pose.tvec;
+    e << Log(truth.Rotation() * pose.Rotation().transpose()), truth.tvec - pose.tvec;
     nees_with += e.dot((cov + calibration).ldlt().solve(e));
     nees_without += e.dot(cov.ldlt().solve(e));
   }
@@ -659,7 +655,7 @@ TEST(RefinePose, EdgePointsJacobianMatchesFiniteDifferences) {
   const std::vector<double> sigmas(4, 0.1);
   ASSERT_TRUE(RefinePose(cam, X, px, sigmas, &fit, &cov, &rms, &edges));
   EXPECT_LT((fit.tvec - truth.tvec).norm(), 1e-9);
-  EXPECT_LT(AngleDeg(fit, truth), 1e-7);
+  EXPECT_LT(AngleBetweenDeg(fit, truth), 1e-7);
   // Residuals at the truth perturbed: corners / sigma, then edges along their normals.
   auto normal_at = [&](const EdgeObservation& e) {
     Eigen::Vector2d a, b;

@@ -10,6 +10,8 @@
 #include <random>
 #include <vector>
 
+#include "svms/geometry/pose.h"
+
 namespace svms {
 namespace {
 
@@ -466,9 +468,7 @@ TEST(IppeSquare, BothSolutionsReprojectTheCorners) {
       const Corners q = Project(c.cam_from_marker_R, c.cam_from_marker_t, 0.05);
       for (int k = 0; k < 4; ++k) EXPECT_LE((q[k] - p[k]).norm(), 4e-3);  // 4 px
     }
-    EXPECT_GT(
-        Eigen::AngleAxisd(o[0].cam_from_marker_R.transpose() * o[1].cam_from_marker_R).angle(),
-        0.2);
+    EXPECT_GT(AngleBetweenRad(o[0].cam_from_marker_R, o[1].cam_from_marker_R), 0.2);
   }
 }
 
@@ -495,17 +495,14 @@ TEST(PlanarTwin, IsIppesOtherSolution) {
                                 cv::SOLVEPNP_IPPE_SQUARE),
             2);
   const Eigen::Matrix3d twin = PlanarTwin(truth).Rotation();
-  const double apart = Eigen::AngleAxisd(twin.transpose() * truth.Rotation()).angle() * 180 / M_PI;
+  const double apart = AngleBetweenDeg(twin, truth.Rotation());
   EXPECT_GT(apart, 20);  // twice the view angle
   double to_truth = 1e9, to_twin = 1e9;
   for (const cv::Mat& r : rvecs) {
     Pose p;
     p.rvec = Eigen::Vector3d(r.at<double>(0), r.at<double>(1), r.at<double>(2));
-    to_truth =
-        std::min(to_truth, Eigen::AngleAxisd(p.Rotation().transpose() * truth.Rotation()).angle() *
-                               180 / M_PI);
-    to_twin =
-        std::min(to_twin, Eigen::AngleAxisd(p.Rotation().transpose() * twin).angle() * 180 / M_PI);
+    to_truth = std::min(to_truth, AngleBetweenDeg(p, truth));
+    to_twin = std::min(to_twin, AngleBetweenDeg(p.Rotation(), twin));
   }
   EXPECT_LT(to_truth, 1e-6);
   EXPECT_LT(to_twin, 0.5);  // weak perspective: exact only at infinite distance

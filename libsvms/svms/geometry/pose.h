@@ -5,20 +5,17 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "svms/geometry/so3.h"
+
 namespace svms {
 
 struct Pose {
   Eigen::Vector3d rvec = Eigen::Vector3d::Zero();  // rotation vector (axis * angle, radians)
   Eigen::Vector3d tvec = Eigen::Vector3d::Zero();  // translation, metres
 
-  Eigen::Matrix3d Rotation() const {
-    const double angle = rvec.norm();
-    if (angle < 1e-300) return Eigen::Matrix3d::Identity();
-    return Eigen::AngleAxisd(angle, rvec / angle).toRotationMatrix();
-  }
+  Eigen::Matrix3d Rotation() const { return Exp(rvec); }
   static Pose FromRotation(const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
-    const Eigen::AngleAxisd aa(R);
-    return Pose{aa.axis() * aa.angle(), t};
+    return Pose{Log(R), t};
   }
   Eigen::Vector3d operator*(const Eigen::Vector3d& p) const { return Rotation() * p + tvec; }
   // (a_from_b * b_from_c) = a_from_c
@@ -35,5 +32,14 @@ struct Pose {
 // A 6x6 covariance of a pose, ordered [rotation(3), translation(3)]; the rotation part is a
 // small angle about the axes of the frame named first in the pose (a for a_from_b).
 using PoseCovariance = Eigen::Matrix<double, 6, 6>;
+
+// The angle between two poses' rotations (AngleBetweenRad of their rotation matrices, so3.h):
+// radians in [0, pi], or degrees in [0, 180]. The translations play no part.
+inline double AngleBetweenRad(const Pose& a, const Pose& b) {
+  return AngleBetweenRad(a.Rotation(), b.Rotation());
+}
+inline double AngleBetweenDeg(const Pose& a, const Pose& b) {
+  return AngleBetweenDeg(a.Rotation(), b.Rotation());
+}
 
 }  // namespace svms

@@ -17,6 +17,7 @@
 
 #include "svms/camera/photometric.h"
 #include "svms/codec/svms44.h"
+#include "svms/marker/marker_model.h"
 
 namespace svms {
 namespace {
@@ -141,14 +142,35 @@ bool InsideSquare(double x, double y, double half) {
   return std::abs(x) <= half && std::abs(y) <= half;
 }
 
+// The bit of each cell of the 12 x 12 grid over the ring ([row][col], row 0 at the top, col 0
+// at the left, as printed), inverted once from MarkerModel::BitCellCentre, the one definition of
+// the bit layout. A cell inside the ring is reached only by rounding at the ring's inner edge;
+// it takes the bit of the ring cell at the left end of its row.
+using RingBitTable =
+    std::array<std::array<int8_t, MarkerModel::kCellsPerSide>, MarkerModel::kCellsPerSide>;
+RingBitTable MakeRingBitTable() {
+  constexpr int n = MarkerModel::kCellsPerSide;
+  RingBitTable table;
+  for (auto& row : table) row.fill(-1);
+  MarkerModel unit;  // cell side 1: cell centres at half-integers
+  unit.cell_size = 1;
+  for (int i = 0; i < Svms44::kBits; ++i) {
+    const Eigen::Vector2d c = unit.BitCellCentre(i);
+    table[static_cast<int>(std::floor(0.5 * n - c.y()))]
+         [static_cast<int>(std::floor(c.x() + 0.5 * n))] = i;
+  }
+  for (auto& row : table)
+    for (int8_t& bit : row)
+      if (bit < 0) bit = row[0];
+  return table;
+}
+const RingBitTable kRingBits = MakeRingBitTable();
+
 // Bit index of the ring cell containing (x, y) (inside the ring), for cell size b.
 int CellBit(double x, double y, double b) {
   const int col = std::clamp(static_cast<int>(std::floor((x + 6 * b) / b)), 0, 11);
   const int row = std::clamp(static_cast<int>(std::floor((6 * b - y) / b)), 0, 11);
-  if (row == 0 && col <= 10) return col;
-  if (col == 11 && row <= 10) return 11 + row;
-  if (row == 11 && col >= 1) return 22 + (11 - col);
-  return 33 + (11 - row);  // col == 0, row >= 1
+  return kRingBits[row][col];
 }
 
 // The printed pattern: true = white, at (x, y) on ring geometry (size s, cell b) with `word`.

@@ -162,6 +162,9 @@ TEST(Render, RenderedMarkerDecodesAtItsTruthCorners) {
                                   << br.samples_outside;
     EXPECT_EQ(match.id, id);
     EXPECT_EQ(match.rotation, 0);
+    // Every bit as printed, none corrected: the renderer paints the cells where the detector
+    // samples them (both from MarkerModel::BitCellCentre).
+    EXPECT_EQ(br.word, Svms44::Codeword(id)) << Svms44::ToBitString(br.word);
   }
 }
 

@@ -6,6 +6,7 @@
 
 #include "svms/detect/ippe.h"
 #include "svms/fusion/object_pose.h"
+#include "svms/geometry/pose.h"
 
 namespace svms {
 namespace {
@@ -21,10 +22,6 @@ bool InQuad(const std::array<PointTruth, 4>& q, const Eigen::Vector2d& p) {
       in = !in;
   }
   return in;
-}
-
-double AngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  return Eigen::AngleAxisd(a.transpose() * b).angle() * 180 / M_PI;
 }
 
 }  // namespace
@@ -88,33 +85,22 @@ ImageOutcome EvaluateImage(const ViewTruth& truth, const std::vector<FoundMarker
     m.corner_rms_px = std::sqrt(ss / 4);
     if (f.cam_from_marker) {
       m.range_err_m = std::abs(f.cam_from_marker->tvec.norm() - t.cam_from_marker.tvec.norm());
-      m.orientation_err_deg = AngleDeg(f.cam_from_marker->Rotation(), t.cam_from_marker.Rotation());
+      m.orientation_err_deg =
+          AngleBetweenDeg(f.cam_from_marker->Rotation(), t.cam_from_marker.Rotation());
       m.pose_ambiguous = f.pose_ambiguous;
       m.twin_err_deg =
-          AngleDeg(f.cam_from_marker->Rotation(), PlanarTwin(t.cam_from_marker).Rotation());
+          AngleBetweenDeg(f.cam_from_marker->Rotation(), PlanarTwin(t.cam_from_marker).Rotation());
       if (f.covariance) m.pose_nees = Nees(t.cam_from_marker, *f.cam_from_marker, *f.covariance);
       if (f.alternative_pose) {
         m.alternative_err_deg =
-            AngleDeg(f.alternative_pose->Rotation(), t.cam_from_marker.Rotation());
+            AngleBetweenDeg(f.alternative_pose->Rotation(), t.cam_from_marker.Rotation());
         m.alternative_sep_deg =
-            AngleDeg(f.alternative_pose->Rotation(), f.cam_from_marker->Rotation());
+            AngleBetweenDeg(f.alternative_pose->Rotation(), f.cam_from_marker->Rotation());
         m.alternative_weight = f.alternative_weight;
       }
     }
   }
   return out;
 }
-
-double Percentile(std::vector<double> v, double p) {
-  v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }), v.end());
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  const double r = std::clamp(p, 0.0, 100.0) / 100 * (v.size() - 1);
-  const size_t i = static_cast<size_t>(std::floor(r));
-  if (i + 1 >= v.size()) return v.back();
-  return v[i] + (r - i) * (v[i + 1] - v[i]);
-}
-
-double Median(std::vector<double> v) { return Percentile(std::move(v), 50); }
 
 }  // namespace svms

@@ -75,13 +75,5 @@ ImageOutcome EvaluateImage(const ViewTruth& truth, const std::vector<FoundMarker
 
 // Pose flip: orientation error above this (the planar two-fold ambiguity), degrees.
 inline constexpr double kFlipDeg = 10;
-// The 95th percentile of chi-square with 6 degrees of freedom: an honest 6-dof covariance
-// leaves 95 % of the poses' NEES below it.
-inline constexpr double kChi2Dof6P95 = 12.5916;
-
-// Small statistics over the finite values of `v` (NaN when there are none): median, and the
-// p-th percentile (0-100) by linear interpolation between order statistics.
-double Median(std::vector<double> v);
-double Percentile(std::vector<double> v, double p);
 
 }  // namespace svms

@@ -14,6 +14,7 @@
 #include "svms/detect/detector.h"
 #include "svms/detect/ippe.h"
 #include "svms/fusion/object_pose.h"
+#include "svms/geometry/pose.h"
 #include "svms/sim/render.h"
 #include "svms/sim/truth.h"
 
@@ -22,8 +23,7 @@ namespace {
 
 // The 3-dof NEES of `estimate`'s orientation (`covariance`'s rotation block, camera axes).
 double RotationNees(const Pose& truth, const Pose& estimate, const PoseCovariance& covariance) {
-  const Eigen::AngleAxisd e(estimate.Rotation() * truth.Rotation().transpose());
-  const Eigen::Vector3d w = e.angle() * e.axis();
+  const Eigen::Vector3d w = Log(estimate.Rotation() * truth.Rotation().transpose());
   return w.dot(covariance.topLeftCorner<3, 3>().ldlt().solve(w));
 }
 
@@ -55,9 +55,7 @@ std::vector<Posed> PoseSizeViews(const std::string& px) {
       for (const Detection& d : det.Detect(img)) {
         if (d.id != truth.markers[0].id || !d.cam_from_marker) continue;
         const Pose& t = truth.markers[0].cam_from_marker;
-        p.error_deg =
-            Eigen::AngleAxisd(d.cam_from_marker->Rotation().transpose() * t.Rotation()).angle() *
-            180 / M_PI;
+        p.error_deg = AngleBetweenDeg(*d.cam_from_marker, t);
         p.nees = RotationNees(t, *d.cam_from_marker, d.covariance);
         const Eigen::AngleAxisd e(d.cam_from_marker->Rotation() * t.Rotation().transpose());
         const Eigen::AngleAxisd tw(PlanarTwin(*d.cam_from_marker).Rotation() *
@@ -66,10 +64,7 @@ std::vector<Posed> PoseSizeViews(const std::string& px) {
         p.twin_way_sigmas = std::abs((e.angle() * e.axis()).dot(way)) /
                             std::sqrt(way.dot(d.covariance.topLeftCorner<3, 3>() * way));
         p.ambiguous = d.pose_ambiguous;
-        if (d.alternative_pose)
-          p.alternative_error_deg =
-              Eigen::AngleAxisd(d.alternative_pose->Rotation().transpose() * t.Rotation()).angle() *
-              180 / M_PI;
+        if (d.alternative_pose) p.alternative_error_deg = AngleBetweenDeg(*d.alternative_pose, t);
       }
       out.push_back(p);
     }
@@ -183,10 +178,7 @@ TEST(CompareScenes, AShadowEdgeAlongASideDoesNotMoveIt) {
         worst_px = std::max(worst_px, e);
         worst_sigmas = std::max(worst_sigmas, e / found->corner_sigma[k]);
       }
-      const double error_deg = Eigen::AngleAxisd(found->cam_from_marker->Rotation().transpose() *
-                                                 t.cam_from_marker.Rotation())
-                                   .angle() *
-                               180 / M_PI;
+      const double error_deg = AngleBetweenDeg(*found->cam_from_marker, t.cam_from_marker);
       std::printf("%s: worst corner %.3f px (%.1f sigma), orientation %.3f deg, NEES %.1f\n",
                   name.c_str(), worst_px, worst_sigmas, error_deg,
                   Nees(t.cam_from_marker, *found->cam_from_marker, found->covariance));

@@ -6,6 +6,7 @@
 #include <opencv2/core/utility.hpp>
 
 #include "svms/datasets/datasets.h"
+#include "svms/geometry/pose.h"
 #include "svms/peers/peer_detectors.h"
 #include "svms/peers/peer_pose.h"
 #include "svms/peers/peer_tags.h"
@@ -41,10 +42,6 @@ SceneMarker Svms(int id) {
   m.model = MarkerModel::Standard(id, 0.1, 0.025);
   m.object_from_marker.rvec = Eigen::Vector3d(0, 0, 0.3);  // turned: corner order is tested
   return m;
-}
-
-double AngleDeg(const Pose& a, const Pose& b) {
-  return Eigen::AngleAxisd(a.Rotation().transpose() * b.Rotation()).angle() * 180 / M_PI;
 }
 
 TEST(PeerTags, GridsHaveBlackBordersAndDifferByID) {
@@ -119,7 +116,7 @@ void CheckFamily(const std::string& family, int id) {
       if (coarse) continue;
       const Pose& truth = t.markers[0].cam_from_marker;
       EXPECT_LT((pose.tvec - truth.tvec).norm(), 0.01 * truth.tvec.norm()) << c.name;
-      EXPECT_LT(AngleDeg(pose, truth), 3) << c.name << " view " << v;
+      EXPECT_LT(AngleBetweenDeg(pose, truth), 3) << c.name << " view " << v;
     }
     // The pixel conventions agree: no systematic offset.
     EXPECT_LT((mean_offset / n).norm(), 0.1) << c.name << " mean " << (mean_offset / n).transpose();
@@ -140,7 +137,7 @@ TEST(PeerPose, ExactCornersGiveTheExactPose) {
   Pose p;
   ASSERT_TRUE(PeerPose(cam, px, 0.12, &p));
   EXPECT_LT((p.tvec - truth.tvec).norm(), 1e-9);
-  EXPECT_LT(AngleDeg(p, truth), 1e-6);
+  EXPECT_LT(AngleBetweenDeg(p, truth), 1e-6);
 }
 
 }  // namespace
