@@ -19,7 +19,7 @@
 #include "svms/base/file_io.h"
 #include "svms/calib/observations.h"
 #include "svms/camera/camera_covariance.h"
-#include "svms/camera/image_io.h"
+#include "svms/imageio/image_io.h"
 #include "svms/detect/detector.h"
 
 namespace svms::cli {

@@ -32,7 +32,7 @@
 #include "overlay.h"
 #include "progress.h"
 #include "svms/base/statistics.h"
-#include "svms/camera/image_io.h"
+#include "svms/imageio/image_io.h"
 #include "svms/datasets/datasets.h"
 #include "svms/detect/detector.h"
 #include "svms/geometry/pose.h"

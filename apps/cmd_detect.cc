@@ -21,7 +21,7 @@
 #include "overlay.h"
 #include "progress.h"
 #include "svms/camera/camera_covariance.h"
-#include "svms/camera/image_io.h"
+#include "svms/imageio/image_io.h"
 #include "svms/camera/photometric.h"
 #include "svms/detect/detector.h"
 #include "svms/detect/response_estimate.h"

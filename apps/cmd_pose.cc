@@ -16,7 +16,7 @@
 #include "overlay.h"
 #include "svms/base/file_io.h"
 #include "svms/camera/camera_covariance.h"
-#include "svms/camera/image_io.h"
+#include "svms/imageio/image_io.h"
 #include "svms/fusion/pose_estimator.h"
 
 namespace svms::cli {

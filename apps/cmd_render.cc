@@ -11,7 +11,7 @@
 #include "commands.h"
 #include "progress.h"
 #include "svms/base/memory_limit.h"
-#include "svms/camera/image_io.h"
+#include "svms/imageio/image_io.h"
 #include "svms/marker/model_io.h"
 #include "svms/sim/render.h"
 #include "svms/sim/scene.h"

@@ -17,7 +17,7 @@
 #include "svms/bundle/survey.h"
 #include "svms/bundle/survey_report.h"
 #include "svms/camera/camera_covariance.h"
-#include "svms/camera/image_io.h"
+#include "svms/imageio/image_io.h"
 #include "svms/detect/detector.h"
 #include "svms/marker/model_io.h"
 

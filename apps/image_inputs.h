@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "svms/base/status.h"
-#include "svms/camera/image_io.h"
+#include "svms/imageio/image_io.h"
 #include "svms/camera/photometric.h"
 
 namespace svms::cli {

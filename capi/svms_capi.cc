@@ -43,11 +43,6 @@ svms_status Fail(svms_status s, const std::string& message) {
   return s;
 }
 
-bool IsLive(const svms_estimator* e) {
-  std::lock_guard<std::mutex> lock(registry_mutex);
-  return Live().count(e) > 0;
-}
-
 // A pose as rvec[3], tvec[3] and quaternion[4] ([w, x, y, z]).
 void PoseOut(const svms::Pose& pose, double* rvec, double* tvec, double* quaternion) {
   const Eigen::Quaterniond q(pose.Rotation());
@@ -100,11 +95,25 @@ svms_status Process(svms_estimator* e, const void* pixels, int width, int height
                                              : !pixels ? "pixels"
                                                        : "out") +
                                             " is NULL");
-  if (!IsLive(e) || e->magic != svms_estimator::kMagic || !e->impl)
-    return Fail(SVMS_ERR_BAD_HANDLE,
-                "svms_process_frame: the estimator is not one from svms_create, or was destroyed");
   *out = svms_pose{};
   out->timestamp = timestamp;
+  // The handle is checked and claimed under the registry's lock, the lock svms_destroy takes
+  // to check and claim it too: a destroy can never free it between this check and its use.
+  {
+    std::lock_guard<std::mutex> lock(registry_mutex);
+    if (!Live().count(e) || e->magic != svms_estimator::kMagic || !e->impl)
+      return Fail(SVMS_ERR_BAD_HANDLE,
+                  "svms_process_frame: the estimator is not one from svms_create, or was "
+                  "destroyed");
+    bool expected = false;
+    if (!e->busy.compare_exchange_strong(expected, true))
+      return Fail(SVMS_ERR_BUSY, "svms_process_frame: the estimator is in use by another thread");
+  }
+  // From here on this call holds the handle: every return releases it.
+  struct Release {
+    svms_estimator* e;
+    ~Release() { e->busy.store(false); }
+  } release{e};
   const svms::CameraModel& cam = e->impl->camera();
   if (width != cam.width() || height != cam.height())
     return Fail(SVMS_ERR_INVALID_ARGUMENT,
@@ -119,9 +128,6 @@ svms_status Process(svms_estimator* e, const void* pixels, int width, int height
                     " and a multiple of " + std::to_string(bytes_per_pixel));
   if (!std::isfinite(timestamp))
     return Fail(SVMS_ERR_INVALID_ARGUMENT, "svms_process_frame: timestamp is not finite");
-  bool expected = false;
-  if (!e->busy.compare_exchange_strong(expected, true))
-    return Fail(SVMS_ERR_BUSY, "svms_process_frame: the estimator is in use by another thread");
   svms_status status = SVMS_OK;
   try {
     // Zero-copy view of the caller's pixels.
@@ -136,7 +142,6 @@ svms_status Process(svms_estimator* e, const void* pixels, int width, int height
   } catch (...) {
     status = Fail(SVMS_ERR_INTERNAL, "svms_process_frame: unknown failure");
   }
-  e->busy.store(false);
   return status;
 }
 
@@ -205,16 +210,15 @@ svms_status svms_process_frame_u16(svms_estimator* e, const uint16_t* pixels, in
 svms_status svms_destroy(svms_estimator* e) {
   if (!e) return SVMS_OK;
   {
+    // Checked and claimed under the lock Process takes: a call in progress keeps its handle.
     std::lock_guard<std::mutex> lock(registry_mutex);
-    if (!Live().erase(e))
+    if (!Live().count(e))
       return Fail(SVMS_ERR_BAD_HANDLE,
                   "svms_destroy: the estimator is not one from svms_create, or was destroyed");
-  }
-  bool expected = false;
-  if (!e->busy.compare_exchange_strong(expected, true)) {
-    std::lock_guard<std::mutex> lock(registry_mutex);
-    Live().insert(e);
-    return Fail(SVMS_ERR_BUSY, "svms_destroy: the estimator is in use by another thread");
+    bool expected = false;
+    if (!e->busy.compare_exchange_strong(expected, true))
+      return Fail(SVMS_ERR_BUSY, "svms_destroy: the estimator is in use by another thread");
+    Live().erase(e);
   }
   // Free everything but the shell (see the header): the address is never handed out again.
   e->impl.reset();

@@ -1,8 +1,8 @@
-// libFuzzer target: the image header reader that guards every decode (svms/camera/image_io.h), both
+// libFuzzer target: the image header reader that guards every decode (svms/imageio/image_io.h), both
 // on a whole file and on a prefix.
 #include <cstdint>
 
-#include "svms/camera/image_io.h"
+#include "svms/imageio/image_io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   svms::ImageHeader h;

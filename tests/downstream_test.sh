@@ -2,8 +2,8 @@
 # Installs the build into a scratch prefix, then builds against it as a user would:
 #  - tests/downstream (C++) with find_package(svms COMPONENTS ...);
 #  - tests/downstream/pose.c (C) with pkg-config's svms.pc, run on the C API fixture's frame;
-# and checks that the installed libsvms_c needs nothing of the simulator, the artwork or the
-# benchmarks' peers, and exports only the C API.
+# and checks that the installed libsvms_c needs nothing of the simulator, the artwork, the image
+# codecs or the benchmarks' peers, and exports only the C API.
 set -euo pipefail
 build=${1:?build dir}; src=${2:?source dir}; fixture=${3:?capi fixture dir}
 scratch=$(mktemp -d)
@@ -40,7 +40,8 @@ lib=$(ls "$libdir"/libsvms_c.so.* | head -1)
 needed=$(readelf -d "$lib" | sed -n 's/.*NEEDED.*\[\(.*\)\]/\1/p')
 echo "libsvms_c needs: $(echo $needed)"
 all=$(LD_LIBRARY_PATH=$libdir ldd "$lib")
-for forbidden in libsvms_sim libsvms_print libsvms_datasets libcairo libapriltag libopencv_aruco; do
+for forbidden in libsvms_sim libsvms_print libsvms_datasets libsvms_imageio libcairo libapriltag \
+    libopencv_aruco libopencv_imgcodecs libgdal libgdcm libhdf5; do
   if grep -q "$forbidden" <<< "$all"; then fail "libsvms_c depends on $forbidden"; fi
 done
 exported=$(nm -D --defined-only "$lib" | awk '{print $3}' | grep -v '^$')

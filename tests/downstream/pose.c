@@ -2,8 +2,8 @@
  *   cc pose.c $(pkg-config --cflags --libs svms) -lm
  * It runs the fused pose on the demo frame the C API fixture rendered (capi/tests/
  * capi_fixture.cc: frame_0.raw, 1024 x 1024, 8-bit; frame_0.txt, the true cam_from_object) and
- * exits 0 only if the pose lies within 5 sigma of the truth in position and the covariance is
- * a symmetric matrix with a positive diagonal. */
+ * exits 0 only if each position axis lies within 5 of its sigmas of the truth and the covariance
+ * is a symmetric matrix with a positive diagonal. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -47,16 +47,14 @@ int main(int argc, char** argv) {
     return 1;
   }
   int ok = 1;
-  double nees_t = 0; /* position error against its own 3x3 block, diagonal only */
   for (int i = 0; i < 3; ++i) {
     const double d = p.tvec[i] - truth[3 + i];
-    nees_t += d * d / p.covariance[(3 + i) * 6 + 3 + i];
+    ok &= d * d < 25 * p.covariance[(3 + i) * 6 + 3 + i];
   }
   for (int r = 0; r < 6; ++r) {
     ok &= p.covariance[r * 6 + r] > 0;
     for (int c = 0; c < 6; ++c) ok &= p.covariance[r * 6 + c] == p.covariance[c * 6 + r];
   }
-  ok &= nees_t < 3 * 25;
   printf(
       "svms %s: %d markers, tvec %.4f %.4f %.4f m (truth %.4f %.4f %.4f), sigma_z %.2f mm -> %s\n",
       svms_version(), p.markers_used, p.tvec[0], p.tvec[1], p.tvec[2], truth[3], truth[4], truth[5],

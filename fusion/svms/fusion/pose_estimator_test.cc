@@ -65,7 +65,7 @@ TEST(PoseEstimator, RenderedApproachFramesMatchTheTruthWithinTheirSigmas) {
     const Pose truth = a.Truth(view);
     const Eigen::Matrix<double, 6, 1> e = PoseError(truth, r.pose.cam_from_object);
     for (int k = 0; k < 6; ++k)
-      EXPECT_LT(std::abs(e[k]), 6 * std::sqrt(r.pose.covariance(k, k)) + (k < 3 ? 1e-5 : 1e-5))
+      EXPECT_LT(std::abs(e[k]), 6 * std::sqrt(r.pose.covariance(k, k)) + 1e-5)
           << "view " << view << " component " << k;
     // Accuracy: 1.5 times what the method reaches on these frames (measured: view 0, 12.9 m:
     // 1.89 mm, 0.049 deg; view 6: 0.033 mm, 0.0013 deg; view 11, 2.25 m: 0.107 mm, 0.0054
@@ -83,10 +83,10 @@ TEST(PoseEstimator, RenderedApproachFramesMatchTheTruthWithinTheirSigmas) {
 // The single-marker covariance is honest on rendered frames, in both directions: a 0.2 m marker
 // with its post, alone on a plate, from 48 views (1.5 to 6 m, 0 to 55 degrees off its normal,
 // all around; 13 to 53 px through a 320 x 240 pinhole): the mean NEES (6 dof) of the
-// detector's poses stays near 6. A covariance 2x too small (in variance) would give about 12,
-// 2x too large about 3; the bounds [3.5, 9] sit about 2.5 standard errors of the mean
-// (sqrt(12 / 47) = 0.5) from either. Measured: 5.22 over 47 poses (one view's pose is
-// ambiguous).
+// detector's poses stays near 6. Measured: 5.22 over 47 poses (one view's pose is ambiguous).
+// A covariance 2x too small (in variance) would give about 10.4, 2x too large about 2.6; the
+// bounds [3.6, 8] sit 2 and 4.8 standard errors of the mean (sqrt(12 / 47) = 0.5) from those,
+// and 3.2 and 5.6 from the measured value.
 TEST(PoseEstimator, RenderedLoneMarkerNeesIsNearSix) {
   const CameraModel camera = CameraModel::Pinhole(400, 320, 240);
   const MarkerModel marker = MarkerModel::Standard(21, 0.2, 0.05);
@@ -115,13 +115,14 @@ TEST(PoseEstimator, RenderedLoneMarkerNeesIsNearSix) {
   }
   ASSERT_GE(n, 44) << "of " << views << " views";
   std::printf("mean NEES %.2f over %d single-marker poses\n", sum / n, n);
-  EXPECT_GT(sum / n, 3.5);
-  EXPECT_LT(sum / n, 9);
+  EXPECT_GT(sum / n, 3.6);
+  EXPECT_LT(sum / n, 8);
 }
 
 // The fused pose's covariance over every view of the approach (12 frames, 1 to 8 markers each):
-// its mean NEES stays near 6 (bounds [3, 9.5]: with 12 frames the standard error is 1, so this
-// catches a covariance 2x too small, and only grossly too large ones). Measured: 4.35. The single
+// its mean NEES stays near 6. Measured: 4.35; with 12 frames the standard error is about 1. The
+// bounds [3, 6.8] catch a covariance 2x too small (8.7 expected); one 2x too large (2.2) only
+// marginally: the lone-marker test above covers that direction. The single
 // markers of these frames seen beyond 60 degrees (markers 12, 14 and 15 on the module's other
 // faces) are overconfident (docs/detector.md, limitations): they are not judged here.
 TEST(PoseEstimator, RenderedApproachFusedNeesIsNearSix) {
@@ -141,7 +142,7 @@ TEST(PoseEstimator, RenderedApproachFusedNeesIsNearSix) {
   ASSERT_GE(fused, 10);
   std::printf("mean NEES %.2f over %d fused poses\n", sum / fused, fused);
   EXPECT_GT(sum / fused, 3);
-  EXPECT_LT(sum / fused, 9.5);
+  EXPECT_LT(sum / fused, 6.8);
 }
 
 // A lone flat marker (no post) of about 20 px, 5-27 degrees off-axis, the only marker of its

@@ -107,7 +107,7 @@ Status LinearizeImage(const cv::Mat& stored, const PhotometricModel& model, cv::
 class Linearizer {
  public:
   Linearizer() = default;  // the identity for 8-bit grey; linear for 16-bit
-  // `depth`CV_8U or CV_16U builds the table of that depth only; -1 both.
+  // `depth` CV_8U or CV_16U builds the table of that depth only; -1 both.
   explicit Linearizer(const PhotometricModel& model, int depth = -1);
   // `linear` may be `stored` itself.
   Status Apply(const cv::Mat& stored, cv::Mat* linear) const;

@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "svms/base/status.h"
-#include "svms/camera/image_io.h"
+#include "svms/imageio/image_io.h"
 #include "svms/sim/scene.h"
 
 namespace svms {

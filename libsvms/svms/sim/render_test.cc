@@ -8,7 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "svms/camera/image_io.h"
+#include "svms/imageio/image_io.h"
 #include "svms/camera/photometric.h"
 #include "svms/codec/svms44.h"
 #include "svms/detect/bit_sampler.h"

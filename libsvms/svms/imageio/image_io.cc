@@ -1,4 +1,4 @@
-#include "svms/camera/image_io.h"
+#include "svms/imageio/image_io.h"
 
 #include <zlib.h>
 

@@ -1,4 +1,4 @@
-#include "svms/camera/image_io.h"
+#include "svms/imageio/image_io.h"
 
 #include <gtest/gtest.h>
 
@@ -70,8 +70,9 @@ TEST(ImageIo, ReadsGreySixteenBitAndColour) {
     EXPECT_EQ(got.type(), c.type);
     EXPECT_EQ(got.cols, 40);
     EXPECT_EQ(got.rows, 30);
-    if (c.img.type() == c.type && c.name.find(".jpg") == std::string::npos)
+    if (c.img.type() == c.type && c.name.find(".jpg") == std::string::npos) {
       EXPECT_EQ(cv::norm(got, c.img, cv::NORM_INF), 0);
+    }
   }
   // A 1x1 image is an image (callers decide what is too small to hold a marker).
   cv::Mat one;
