@@ -15,8 +15,11 @@ function(svms_add_module name)
   set(target svms_${name})
   if(M_SOURCES)
     add_library(${target} SHARED ${M_SOURCES})
+    # Installed beside each other: a module finds the modules it needs in its own directory,
+    # whatever the libdir is (lib, lib64, lib/x86_64-linux-gnu).
     set_target_properties(${target} PROPERTIES OUTPUT_NAME svms_${name}
-      VERSION ${PROJECT_VERSION} SOVERSION ${PROJECT_VERSION_MAJOR}.${PROJECT_VERSION_MINOR})
+      VERSION ${PROJECT_VERSION} SOVERSION ${PROJECT_VERSION_MAJOR}.${PROJECT_VERSION_MINOR}
+      INSTALL_RPATH "$ORIGIN")
     target_include_directories(${target} PUBLIC
       $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}>
       $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)

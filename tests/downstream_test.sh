@@ -35,6 +35,13 @@ cc -std=c99 -Wall -Werror -o "$scratch/pose" "$src/tests/downstream/pose.c" $fla
 libdir=$(pkg-config --variable=libdir svms)
 LD_LIBRARY_PATH=$libdir "$scratch/pose" "$fixture"
 
+# The installed libraries find each other without LD_LIBRARY_PATH (their RUNPATH), and the
+# installed command runs.
+if ldd "$(ls "$libdir"/libsvms_c.so.* | head -1)" | grep -q "not found"; then
+  fail "libsvms_c does not find its libraries from the install: $(ldd "$(ls "$libdir"/libsvms_c.so.* | head -1)" | grep 'not found')"
+fi
+"$prefix/bin/svms" --version > /dev/null || fail "the installed svms does not run"
+
 # libsvms_c: what it needs, and what it exports.
 lib=$(ls "$libdir"/libsvms_c.so.* | head -1)
 needed=$(readelf -d "$lib" | sed -n 's/.*NEEDED.*\[\(.*\)\]/\1/p')
