@@ -19,8 +19,8 @@
 #include "svms/base/file_io.h"
 #include "svms/calib/observations.h"
 #include "svms/camera/camera_covariance.h"
-#include "svms/imageio/image_io.h"
 #include "svms/detect/detector.h"
+#include "svms/imageio/image_io.h"
 
 namespace svms::cli {
 namespace {

@@ -673,7 +673,7 @@ int RunBench(const BenchOptions& o) {
   }
 
   OutputFile md(fs::path(o.out) / "report.md");
-  md << "## Camera calibration (issue 6)\n\n"
+  md << "## Camera calibration\n\n"
      << "`svms bench calibrate" << (o.quick ? " --quick" : "")
      << "` on the simulator's calibration dataset: " << nviews
      << " views of a 6x5 SVMS marker board and, at the same poses, of a 10x8 chessboard, "

@@ -32,10 +32,10 @@
 #include "overlay.h"
 #include "progress.h"
 #include "svms/base/statistics.h"
-#include "svms/imageio/image_io.h"
 #include "svms/datasets/datasets.h"
 #include "svms/detect/detector.h"
 #include "svms/geometry/pose.h"
+#include "svms/imageio/image_io.h"
 #include "svms/sim/render.h"
 #include "svms/sim/truth.h"
 
@@ -307,7 +307,7 @@ bool WriteReport(const BenchDetectOptions& o, const std::map<std::string, SetRes
     auto it = results.find(set);
     return it == results.end() ? nullptr : &it->second.markers;
   };
-  md << "## Detector on the simulated datasets (issue 4)\n\n"
+  md << "## Detector on the simulated datasets\n\n"
      << "Produced by `svms bench detect" << (o.quick ? " --quick" : "") << " --out DIR` (seed "
      << o.seed << ", " << o.threads << " threads, " << Fmt(seconds, 0)
      << " s). Every view is rendered in memory, detected with the default `DetectorOptions`, "

@@ -419,7 +419,7 @@ int RunBenchPose(const BenchPoseOptions& o) {
      << (calibration_in_covariance ? " and its calibration's uncertainty" : "")
      << " (`svms bench pose" << (o.quick ? " --quick" : "") << (o.camera.empty() ? "" : " --camera")
      << "`)\n\n"
-     << "Targets (issue 8): mean NEES over the approach within the chi-square(6) 95 % bounds "
+     << "Targets: mean NEES over the approach within the chi-square(6) 95 % bounds "
         "([5.70, 6.31] for 500 frames); fused error clearly below the best single marker's; "
         "latency per 1024x1024 frame, detection included, <= 15 ms median on one core; memory "
         "flat over 10,000 frames.\n\n"

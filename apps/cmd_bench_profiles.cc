@@ -360,7 +360,7 @@ int RunBenchProfiles(const BenchProfilesOptions& o) {
     all_met = all_met && ok;
     return ok ? "**met**" : "**not met**";
   };
-  md << "\nTargets (issue 28):\n\n";
+  md << "\nTargets:\n\n";
   if (has("linear") && has("jpeg_srgb")) {
     double worst = 0;
     std::string where;

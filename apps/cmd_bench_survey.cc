@@ -408,7 +408,7 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
            " with lines lw 2 notitle\n");
 
   std::ostringstream md;
-  md << "## Survey (issue 7)\n\n";
+  md << "## Survey\n\n";
   md << "Targets (mockup dataset: 8 markers, 200 images): marker position error <= 0.2 mm RMS, "
         "orientation <= 0.02 deg, post heights within 0.1 mm; NEES mean within the chi-square "
         "95 % bounds over 100 Monte-Carlo surveys; 200 x 8 in <= 5 s and 2000 x 40 in <= 60 s on "

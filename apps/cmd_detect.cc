@@ -21,10 +21,10 @@
 #include "overlay.h"
 #include "progress.h"
 #include "svms/camera/camera_covariance.h"
-#include "svms/imageio/image_io.h"
 #include "svms/camera/photometric.h"
 #include "svms/detect/detector.h"
 #include "svms/detect/response_estimate.h"
+#include "svms/imageio/image_io.h"
 #include "svms/marker/model_io.h"
 
 namespace svms::cli {

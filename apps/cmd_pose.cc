@@ -16,8 +16,8 @@
 #include "overlay.h"
 #include "svms/base/file_io.h"
 #include "svms/camera/camera_covariance.h"
-#include "svms/imageio/image_io.h"
 #include "svms/fusion/pose_estimator.h"
+#include "svms/imageio/image_io.h"
 
 namespace svms::cli {
 namespace {

@@ -17,8 +17,8 @@
 #include "svms/bundle/survey.h"
 #include "svms/bundle/survey_report.h"
 #include "svms/camera/camera_covariance.h"
-#include "svms/imageio/image_io.h"
 #include "svms/detect/detector.h"
+#include "svms/imageio/image_io.h"
 #include "svms/marker/model_io.h"
 
 namespace svms::cli {

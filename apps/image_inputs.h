@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "svms/base/status.h"
-#include "svms/imageio/image_io.h"
 #include "svms/camera/photometric.h"
+#include "svms/imageio/image_io.h"
 
 namespace svms::cli {
 

@@ -1,5 +1,5 @@
-// libFuzzer target: the image header reader that guards every decode (svms/imageio/image_io.h), both
-// on a whole file and on a prefix.
+// libFuzzer target: the image header reader that guards every decode (svms/imageio/image_io.h),
+// both on a whole file and on a prefix.
 #include <cstdint>
 
 #include "svms/imageio/image_io.h"

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Hostile inputs through the `svms` binary (issue 9; docs/reliability.md): bad numbers in model,
+# Hostile inputs through the `svms` binary (docs/reliability.md): bad numbers in model,
 # layout and camera files, odd and broken images, and a batch of a few hundred images with bad
 # ones among them. Each must give a one-line error naming the file and field, a non-zero exit,
 # and batches must complete.

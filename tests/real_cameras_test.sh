@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Real cameras through the svms binary (issue 28; docs/conventions.md "Photometry"): the same
+# Real cameras through the svms binary (docs/conventions.md "Photometry"): the same
 # views rendered through the linear, JPEG (libjpeg, sRGB) and 12-bit Bayer profiles are read
 # back with the photometric model each file or camera declares; video files through OpenCV's
 # VideoCapture with the container's time stamps; bad photometry options and videos refused.

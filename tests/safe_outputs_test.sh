@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Nothing lost, nothing crashes (issue 27; docs/reliability.md): paths that are not UTF-8,
+# Nothing lost, nothing crashes (docs/reliability.md): paths that are not UTF-8,
 # outputs that would replace inputs, write failures (a file-size limit, /dev/full) that must
 # leave every earlier output byte-identical and exit 1, requests beyond the memory limit,
 # duplicate JSON keys, overflowing sidecars, unusable cameras, FIFOs as inputs, options

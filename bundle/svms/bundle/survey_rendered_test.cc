@@ -149,9 +149,10 @@ TEST(SurveyRendered, SmallRenderedSceneRecoversTheTruthWithinItsSigmas) {
     // The sigmas are what this survey gives, within 30 % either way: a covariance 2x off (in
     // variance, 1.41x in sigma) fails. Measured (mm, deg): 21: 0.0548, 0.0158; 22: 0.0580,
     // 0.0145; 23: 0.1134, 0.0171; 24: 0.1310, 0.0251.
-    const std::map<int, std::pair<double, double>> measured = {
-        {21, {0.0548, 0.0158}}, {22, {0.0580, 0.0145}}, {23, {0.1134, 0.0171}},
-        {24, {0.1310, 0.0251}}};
+    const std::map<int, std::pair<double, double>> measured = {{21, {0.0548, 0.0158}},
+                                                               {22, {0.0580, 0.0145}},
+                                                               {23, {0.1134, 0.0171}},
+                                                               {24, {0.1310, 0.0251}}};
     ASSERT_TRUE(measured.count(e.marker.id)) << e.marker.id;
     const auto [sigma_mm, sigma_deg] = measured.at(e.marker.id);
     EXPECT_GT(1e3 * std::sqrt(C_pos.trace()), sigma_mm / 1.3) << "marker " << e.marker.id;

@@ -131,16 +131,37 @@ TEST(PoseEstimator, RenderedApproachFusedNeesIsNearSix) {
   ASSERT_TRUE(PoseEstimator::Create(a.camera(), a.layout, {}, &est).ok());
   double sum = 0;
   int fused = 0;
+  // Printed, not judged: the single markers' NEES below and beyond 60 degrees off their normal
+  // (the figures of docs/detector.md's limitations).
+  double single[2] = {0, 0};
+  int singles[2] = {0, 0};
   const int views = static_cast<int>(a.dataset.scenes[0].second.views.size());
   for (int view = 0; view < views; ++view) {
     FrameResult r;
     est->Estimate(a.Image(view), 0, &r);
+    const ViewTruth t = ComputeTruth(*a.renderer, view);
+    for (const Detection& d : r.detections) {
+      if (!d.cam_from_marker || d.pose_ambiguous) continue;
+      for (const MarkerTruth& m : t.markers)
+        if (m.id == d.id && m.nested_in < 0) {
+          const Eigen::Vector3d to_cam = -m.cam_from_marker.tvec.normalized();
+          const double cos_angle =
+              std::abs(m.cam_from_marker.Rotation().col(2).dot(to_cam));  // 60 deg: 0.5
+          const int grazing = cos_angle < 0.5;
+          single[grazing] += Nees(m.cam_from_marker, *d.cam_from_marker, d.covariance);
+          ++singles[grazing];
+        }
+    }
     if (!r.pose.valid || r.pose.ambiguous) continue;
     sum += Nees(a.Truth(view), r.pose.cam_from_object, r.pose.covariance);
     ++fused;
   }
   ASSERT_GE(fused, 10);
-  std::printf("mean NEES %.2f over %d fused poses\n", sum / fused, fused);
+  std::printf(
+      "mean NEES %.2f over %d fused poses; single markers %.2f over %d poses within 60 "
+      "degrees of their normal, %.2f over %d beyond\n",
+      sum / fused, fused, single[0] / std::max(1, singles[0]), singles[0],
+      single[1] / std::max(1, singles[1]), singles[1]);
   EXPECT_GT(sum / fused, 3);
   EXPECT_LT(sum / fused, 6.8);
 }

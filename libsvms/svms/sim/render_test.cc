@@ -8,10 +8,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "svms/imageio/image_io.h"
 #include "svms/camera/photometric.h"
 #include "svms/codec/svms44.h"
 #include "svms/detect/bit_sampler.h"
+#include "svms/imageio/image_io.h"
 #include "svms/sim/scene.h"
 #include "svms/sim/truth.h"
 #include "svms_testing/scratch_dir.h"

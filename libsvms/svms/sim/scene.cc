@@ -6,8 +6,8 @@
 
 #include "svms/base/json_fields.h"
 #include "svms/camera/camera_json.h"
-#include "svms/imageio/image_io.h"
 #include "svms/camera/photometric.h"
+#include "svms/imageio/image_io.h"
 #include "svms/marker/marker_json.h"
 #include "svms/marker/model_io.h"
 
