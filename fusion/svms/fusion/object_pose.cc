@@ -11,6 +11,7 @@
 
 #include "svms/base/statistics.h"
 #include "svms/detect/marker_pose.h"
+#include "svms/detect/pose_gauss_newton.h"
 #include "svms/geometry/so3.h"
 
 namespace svms {
@@ -25,6 +26,10 @@ using VecR = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxRows, 1>;
 using MatR6 = Eigen::Matrix<double, Eigen::Dynamic, 6, 0, kMaxRows, 6>;
 using MatR7 = Eigen::Matrix<double, Eigen::Dynamic, 7, 0, kMaxRows, 7>;
 using MatRR = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxRows, kMaxRows>;
+
+// When the fused pose's Gauss-Newton stops (PoseGaussNewtonStep): steps below 1e-10 (radians;
+// translation relative to the range). Every rotation step is applied.
+constexpr PoseStepTolerances kObjectPoseTolerances{1e-10, 0, 0};
 
 // The angle between two poses' rotations, radians (AngleBetweenRad, svms/geometry/pose.h).
 double AngleBetween(const Pose& a, const Pose& b) { return AngleBetweenRad(a, b); }
@@ -351,11 +356,9 @@ void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservat
         ++active;
       }
       if (active == 0) break;
-      const Vec6 step = -H.ldlt().solve(g);
-      if (!step.allFinite()) break;
-      R = Exp(step.head<3>()) * R;
-      t += step.tail<3>();
-      converged = step.head<3>().norm() < 1e-10 && step.tail<3>().norm() < 1e-10 * (1 + t.norm());
+      const PoseStep step = PoseGaussNewtonStep(H, g, kObjectPoseTolerances, &R, &t);
+      if (step == PoseStep::kFailed) break;
+      converged = step == PoseStep::kConverged;
     }
   };
   // Chi-square of a block over its quantile (> 1: inconsistent), and its worst point in sigmas.

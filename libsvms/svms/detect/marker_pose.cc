@@ -11,6 +11,7 @@
 #include "svms/detect/corner_refine.h"
 #include "svms/detect/disc_fit.h"
 #include "svms/detect/ippe.h"
+#include "svms/detect/pose_gauss_newton.h"
 
 namespace svms {
 namespace {
@@ -69,6 +70,14 @@ constexpr double kAmbiguousWeight = 0.01;
 // (Without it, 12 of the 31 poses flagged in `svms bench compare --size-views 40` are 14-40 px
 // markers 0.1-2.8 degrees off-axis, 0.2-1.2 degrees from the truth.)
 constexpr double kAmbiguousMinDeg = 2;
+
+// When RefinePose stops: the step is a millionth of the pose's own standard deviation (its
+// squared Mahalanobis length under J^T W J below 1e-12), or below 1e-12 (radians; translation
+// relative to the range). Where noise leaves residuals and the fit is ill-conditioned (a small
+// marker), Gauss-Newton converges only linearly: the fixed 1e-12 alone takes twice the
+// iterations for no change a covariance could show. Rotation steps below 1e-15 rad are left
+// out (they would move R by rounding only).
+constexpr PoseStepTolerances kMarkerPoseTolerances{1e-12, 1e-12, 1e-15};
 
 // Sum over the points of their squared reprojection error in units of their sigmas.
 double WeightedSquaredResiduals(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X,
@@ -403,21 +412,10 @@ bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X
       AddRow((p - t).cross(g), g, 1.0 / (e.sigma_px * e.sigma_px), r, &JtWJ, &JtWr);
     }
     JtWJ.triangularView<Eigen::StrictlyLower>() = JtWJ.transpose();
-    const Eigen::Matrix<double, 6, 1> step = -JtWJ.ldlt().solve(JtWr);
-    if (!step.allFinite()) return false;
-    const double angle = step.head<3>().norm();
-    if (angle > 1e-15) R = Eigen::AngleAxisd(angle, step.head<3>() / angle).toRotationMatrix() * R;
-    t += step.tail<3>();
+    const PoseStep step = PoseGaussNewtonStep(JtWJ, JtWr, kMarkerPoseTolerances, &R, &t);
+    if (step == PoseStep::kFailed) return false;
     *rms = std::sqrt(ss / X.size());
-    // Done when the step is a millionth of the pose's own standard deviation (its squared
-    // Mahalanobis length under J^T W J below 1e-12), or below 1e-12 (radians; translation
-    // relative to the range). Where noise leaves residuals and the fit is ill-conditioned (a
-    // small marker), Gauss-Newton converges only linearly: the fixed 1e-12 alone takes twice
-    // the iterations for no change a covariance could show.
-    const double tol = 1e-12;
-    if (step.dot(JtWJ * step) < 1e-12 ||
-        (step.head<3>().norm() < tol && step.tail<3>().norm() < tol * (1 + t.norm())))
-      break;
+    if (step == PoseStep::kConverged) break;
   }
   *pose = Pose::FromRotation(R, t);
   Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(JtWJ);
