@@ -140,6 +140,35 @@ class Solver {
     Eigen::MatrixXd repeat;
   };
   std::string RankDeficiency(ReducedSystem* reduced);
+  // RankDeficiency's steps. The Jacobian it reduces, and what it knows of its rows and columns.
+  struct ReducedJacobian {
+    ceres::CRSMatrix crs;
+    bool calibration = false;       // the calibration term's intrinsics columns follow the reduced
+    int nt = 0;                     // its number of columns (0 without it)
+    std::map<int, int> repeat_col;  // marker ID -> its shift column after the intrinsics'
+    int nb = 0;                     // number of shift columns
+    std::vector<std::pair<int, int>> row_of;  // row -> (index in points_, axis); points only
+  };
+  // J^T J over the cameras and the reduced parameters: per camera H_cc and its coupling H_rc
+  // (reduced row -> row of H), S = H_rr (nr x nr), and the couplings to the intrinsics and
+  // shifts: H_rt (nr x (nt + nb)), H_ct per camera.
+  struct ReducedNormal {
+    using Row6 = Eigen::Matrix<double, 1, 6>;
+    int nr = 0;
+    std::vector<Eigen::Matrix<double, 6, 6>> Hcc;
+    std::vector<std::map<int, Row6>> Hrc;
+    Eigen::MatrixXd S, Hrt;
+    std::vector<Eigen::MatrixXd> Hct;
+  };
+  void ReducedParams(std::vector<ReducedParam>* cams, ReducedSystem* reduced);
+  bool EvaluateReducedJacobian(const std::vector<ReducedParam>& cams,
+                               const std::vector<ReducedParam>& rest, ReducedJacobian* jac);
+  void AccumulateReducedNormal(const ReducedJacobian& jac, int ncams, ReducedNormal* h) const;
+  static void EliminateCameras(const std::vector<ReducedParam>& cams, ReducedNormal* h,
+                               std::vector<std::string>* found);
+  static void NullDirections(const std::vector<ReducedParam>& rest, ReducedNormal* h,
+                             Eigen::VectorXd* d, Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>* es,
+                             std::vector<std::string>* found);
   void FillResult();
   bool Resolve(const NamedPoint& p, int* marker, double** h, Eigen::Vector3d* in_marker,
                std::string* why);
@@ -702,11 +731,46 @@ Status Solver::ComputeCovariance() {
 // Empty when every parameter is determined; then reduced->covariance is the inverse of the
 // reduced matrix, which is the markers', posts' and intrinsics' block of (J^T J)^-1.
 std::string Solver::RankDeficiency(ReducedSystem* reduced) {
-  using Param = ReducedParam;
-  std::vector<Param> cams, rest;
+  std::vector<ReducedParam> cams;
+  ReducedParams(&cams, reduced);
+  const std::vector<ReducedParam>& rest = reduced->params;
+  ReducedJacobian jac;
+  if (!EvaluateReducedJacobian(cams, rest, &jac))
+    return "(the Jacobian could not be evaluated at the solution: a point does not project)";
+  ReducedNormal h;
+  AccumulateReducedNormal(jac, static_cast<int>(cams.size()), &h);
+  std::vector<std::string> found;
+  EliminateCameras(cams, &h, &found);
+  Eigen::VectorXd d;
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es;
+  NullDirections(rest, &h, &d, &es, &found);
+  if (found.empty()) {
+    // S^-1 = D^-1 Sn^-1 D^-1, Sn^-1 from its eigen-decomposition (all eigenvalues > 1e-9 top).
+    const Eigen::MatrixXd& V = es.eigenvectors();
+    const Eigen::MatrixXd Sn_inv = V * es.eigenvalues().cwiseInverse().asDiagonal() * V.transpose();
+    const Eigen::VectorXd dinv = d.cwiseInverse();
+    reduced->covariance = dinv.asDiagonal() * Sn_inv * dinv.asDiagonal();
+    // d params / d intrinsics = -S^-1 H_rt (the reduced normal equations at the optimum).
+    if (jac.calibration)
+      reduced->calibration = reduced->covariance * h.Hrt.leftCols(jac.nt) *
+                             work_camera_.intrinsics_covariance_factor();
+    // d params / d shifts likewise (the shifts have unit variance).
+    if (jac.nb > 0) reduced->repeat = reduced->covariance * h.Hrt.rightCols(jac.nb);
+    return "";
+  }
+  std::string s = "not determined: ";
+  for (size_t i = 0; i < found.size(); ++i) s += (i ? "; " : "") + found[i];
+  return s + " (fix the gauge or add observations that constrain them)";
+}
+
+// The camera poses in the problem (*cams), and the other free parameters in the order of the
+// reduced system (reduced->params, ->offset: markers, post heights, refined intrinsics); the
+// rest of *reduced is cleared.
+void Solver::ReducedParams(std::vector<ReducedParam>* cams, ReducedSystem* reduced) {
+  std::vector<ReducedParam> rest;
   for (size_t i = 0; i < cam_from_object_.size(); ++i)
     if (problem_->HasParameterBlock(cam_from_object_[i].data()))
-      cams.push_back({cam_from_object_[i].data(), 6, "image " + images_[i].name});
+      cams->push_back({cam_from_object_[i].data(), 6, "image " + images_[i].name});
   for (auto& [id, b] : object_from_marker_)
     if (problem_->HasParameterBlock(b.data()) && !problem_->IsParameterBlockConstant(b.data()))
       rest.push_back({b.data(), 6, "marker " + std::to_string(id)});
@@ -720,72 +784,76 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
   reduced->covariance.resize(0, 0);
   reduced->calibration.resize(0, 0);
   reduced->repeat.resize(0, 0);
-  {
-    int o = 0;
-    for (const Param& p : rest) {
-      reduced->offset[p.block] = o;
-      o += p.size;
-    }
+  int o = 0;
+  for (const ReducedParam& p : rest) {
+    reduced->offset[p.block] = o;
+    o += p.size;
   }
+}
+
+// The Jacobian at the solution over the columns [cams, rest, then with the calibration term
+// the (constant) intrinsics, evaluated as variables], the points' residuals first, in points_
+// order (so that each row's point is known: jac->row_of), then the others. With the repeated
+// corner error (SurveyOptions::corner_repeat_px_grey) one more column per marker with a corner
+// in the problem that has a repeat_px (jac->repeat_col), filled in by AccumulateReducedNormal.
+// False if it cannot be evaluated.
+bool Solver::EvaluateReducedJacobian(const std::vector<ReducedParam>& cams,
+                                     const std::vector<ReducedParam>& rest, ReducedJacobian* jac) {
   ceres::Problem::EvaluateOptions eo;
-  for (const Param& p : cams) eo.parameter_blocks.push_back(const_cast<double*>(p.block));
-  for (const Param& p : rest) eo.parameter_blocks.push_back(const_cast<double*>(p.block));
+  for (const ReducedParam& p : cams) eo.parameter_blocks.push_back(const_cast<double*>(p.block));
+  for (const ReducedParam& p : rest) eo.parameter_blocks.push_back(const_cast<double*>(p.block));
   // The calibration term: the (constant) intrinsics' columns last, evaluated as variables.
-  const bool calibration = calibration_term_ && problem_->HasParameterBlock(intrinsics_.data());
-  const int nt = calibration ? static_cast<int>(intrinsics_.size()) : 0;
-  if (calibration) {
+  jac->calibration = calibration_term_ && problem_->HasParameterBlock(intrinsics_.data());
+  jac->nt = jac->calibration ? static_cast<int>(intrinsics_.size()) : 0;
+  if (jac->calibration) {
     eo.parameter_blocks.push_back(intrinsics_.data());
     problem_->SetParameterBlockVariable(intrinsics_.data());
   }
-  // The repeated corner error's columns (SurveyOptions::corner_repeat_px_grey), after the
-  // intrinsics': one per marker with a corner in the problem that has a repeat_px: the
-  // marker's shift, of unit variance, moves each of its corners by repeat_px along outward. A
-  // corner's residual is (projection - observed) / sigma, so d residual / d shift =
-  // -outward repeat_px / sigma.
-  // The points' residuals come first, in points_ order, so that each row's point is known.
-  std::map<int, int> repeat_col;            // marker ID -> its column after the intrinsics'
-  std::vector<std::pair<int, int>> row_of;  // row -> (index in points_, axis); points only
-  {
-    std::vector<ceres::ResidualBlockId> all;
-    problem_->GetResidualBlocks(&all);
-    std::set<ceres::ResidualBlockId> point_rows;
-    for (size_t k = 0; k < points_.size(); ++k) {
-      const ceres::ResidualBlockId id = point_blocks_[k];
-      if (!id) continue;
-      point_rows.insert(id);
-      eo.residual_blocks.push_back(id);
-      const int m = problem_->GetCostFunctionForResidualBlock(id)->num_residuals();
-      for (int a = 0; a < m; ++a) row_of.emplace_back(static_cast<int>(k), a);
-      const PointObs& p = points_[k];
-      if (p.point < 4 && p.repeat_px > 0 && !repeat_col.count(p.marker_id)) {
-        const int next = static_cast<int>(repeat_col.size());
-        repeat_col[p.marker_id] = next;
-      }
+  std::vector<ceres::ResidualBlockId> all;
+  problem_->GetResidualBlocks(&all);
+  std::set<ceres::ResidualBlockId> point_rows;
+  for (size_t k = 0; k < points_.size(); ++k) {
+    const ceres::ResidualBlockId id = point_blocks_[k];
+    if (!id) continue;
+    point_rows.insert(id);
+    eo.residual_blocks.push_back(id);
+    const int m = problem_->GetCostFunctionForResidualBlock(id)->num_residuals();
+    for (int a = 0; a < m; ++a) jac->row_of.emplace_back(static_cast<int>(k), a);
+    const PointObs& p = points_[k];
+    if (p.point < 4 && p.repeat_px > 0 && !jac->repeat_col.count(p.marker_id)) {
+      const int next = static_cast<int>(jac->repeat_col.size());
+      jac->repeat_col[p.marker_id] = next;
     }
-    for (ceres::ResidualBlockId id : all)
-      if (!point_rows.count(id)) eo.residual_blocks.push_back(id);
   }
-  const int nb = static_cast<int>(repeat_col.size());
-  ceres::CRSMatrix crs;
-  const bool evaluated = problem_->Evaluate(eo, nullptr, nullptr, nullptr, &crs);
-  if (calibration) problem_->SetParameterBlockConstant(intrinsics_.data());
-  if (!evaluated)
-    return "(the Jacobian could not be evaluated at the solution: a point does not project)";
-  // J^T J reduced onto the non-camera parameters, accumulated row by row from the Jacobian
-  // (every residual touches at most one camera): H_cc per camera, the coupling H_rc of each
-  // camera to the reduced rows it touches, and H_rr (dense, small). Forming the whole J^T J
-  // as a sparse product instead takes most of the 2000 x 40 covariance step.
-  const int nc = 6 * static_cast<int>(cams.size());
+  for (ceres::ResidualBlockId id : all)
+    if (!point_rows.count(id)) eo.residual_blocks.push_back(id);
+  jac->nb = static_cast<int>(jac->repeat_col.size());
+  const bool evaluated = problem_->Evaluate(eo, nullptr, nullptr, nullptr, &jac->crs);
+  if (jac->calibration) problem_->SetParameterBlockConstant(intrinsics_.data());
+  return evaluated;
+}
+
+// J^T J reduced onto the non-camera parameters, accumulated row by row from the Jacobian
+// (every residual touches at most one camera): H_cc per camera, the coupling H_rc of each
+// camera to the reduced rows it touches, and H_rr (dense, small) as S. Forming the whole J^T J
+// as a sparse product instead takes most of the 2000 x 40 covariance step. With the
+// calibration term and the repeated corner error also H(reduced rows, intrinsics and shifts)
+// and H(camera block, intrinsics and shifts). A corner's residual is (projection - observed) /
+// sigma, so its column for its marker's shift (of unit variance, moving each corner by
+// repeat_px along outward) is -outward repeat_px / sigma.
+void Solver::AccumulateReducedNormal(const ReducedJacobian& jac, int ncams,
+                                     ReducedNormal* h) const {
+  const ceres::CRSMatrix& crs = jac.crs;
+  const int nt = jac.nt, nb = jac.nb;
+  const int nc = 6 * ncams;
   const int nr = crs.num_cols - nc - nt;
-  using Row6 = Eigen::Matrix<double, 1, 6>;
-  std::vector<Eigen::Matrix<double, 6, 6>> Hcc(cams.size(), Eigen::Matrix<double, 6, 6>::Zero());
-  std::vector<std::map<int, Row6>> Hrc(cams.size());  // reduced row -> H(row, camera block)
-  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(nr, nr);
-  // With the calibration term and the repeated corner error: H(reduced rows, intrinsics and
-  // shifts) and H(camera block, intrinsics and shifts).
+  h->nr = nr;
+  h->Hcc.assign(ncams, Eigen::Matrix<double, 6, 6>::Zero());
+  h->Hrc.assign(ncams, {});
+  h->S = Eigen::MatrixXd::Zero(nr, nr);
   const int nx = nt + nb;
-  Eigen::MatrixXd Hrt = Eigen::MatrixXd::Zero(nr, nx);
-  std::vector<Eigen::MatrixXd> Hct(nx > 0 ? cams.size() : 0, Eigen::MatrixXd::Zero(6, nx));
+  h->Hrt = Eigen::MatrixXd::Zero(nr, nx);
+  h->Hct.assign(nx > 0 ? ncams : 0, Eigen::MatrixXd::Zero(6, nx));
   std::vector<std::pair<int, double>> cam_entries, rest_entries, extra_entries;
   for (int r = 0; r < crs.num_rows; ++r) {
     cam_entries.clear();
@@ -803,70 +871,92 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
         extra_entries.emplace_back(col - nc - nr, crs.values[k]);
       }
     }
-    if (nb > 0 && r < static_cast<int>(row_of.size())) {
-      const PointObs& p = points_[row_of[r].first];
-      const auto it = repeat_col.find(p.marker_id);
-      if (p.point < 4 && p.repeat_px > 0 && it != repeat_col.end())
+    if (nb > 0 && r < static_cast<int>(jac.row_of.size())) {
+      const PointObs& p = points_[jac.row_of[r].first];
+      const auto it = jac.repeat_col.find(p.marker_id);
+      if (p.point < 4 && p.repeat_px > 0 && it != jac.repeat_col.end())
         extra_entries.emplace_back(nt + it->second,
-                                   -p.outward(row_of[r].second) * p.repeat_px / p.sigma);
+                                   -p.outward(jac.row_of[r].second) * p.repeat_px / p.sigma);
     }
     for (const auto& [a, va] : rest_entries) {
-      for (const auto& [b, vb] : rest_entries) S(a, b) += va * vb;
-      for (const auto& [t, vt] : extra_entries) Hrt(a, t) += va * vt;
+      for (const auto& [b, vb] : rest_entries) h->S(a, b) += va * vb;
+      for (const auto& [t, vt] : extra_entries) h->Hrt(a, t) += va * vt;
     }
     if (cam < 0) continue;
     for (const auto& [a, va] : cam_entries) {
-      for (const auto& [b, vb] : cam_entries) Hcc[cam](a, b) += va * vb;
-      for (const auto& [t, vt] : extra_entries) Hct[cam](a, t) += va * vt;
+      for (const auto& [b, vb] : cam_entries) h->Hcc[cam](a, b) += va * vb;
+      for (const auto& [t, vt] : extra_entries) h->Hct[cam](a, t) += va * vt;
     }
     for (const auto& [a, va] : rest_entries) {
-      Row6& h = Hrc[cam].try_emplace(a, Row6::Zero()).first->second;
-      for (const auto& [b, vb] : cam_entries) h(b) += va * vb;
+      ReducedNormal::Row6& row =
+          h->Hrc[cam].try_emplace(a, ReducedNormal::Row6::Zero()).first->second;
+      for (const auto& [b, vb] : cam_entries) row(b) += va * vb;
     }
   }
-  std::vector<std::string> found;
+}
+
+// Eliminates the cameras from the reduced normal equations (Schur complement: S -= H_rc
+// H_cc^-1 H_cr, and H_rt likewise), over the reduced rows each camera touches only. A camera
+// whose own block is singular is listed in *found instead.
+void Solver::EliminateCameras(const std::vector<ReducedParam>& cams, ReducedNormal* h,
+                              std::vector<std::string>* found) {
+  const int nx = static_cast<int>(h->Hrt.cols());
   for (size_t c = 0; c < cams.size(); ++c) {
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(Hcc[c]);
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(h->Hcc[c]);
     if (es.eigenvalues()(0) <= 1e-12 * std::max(1.0, es.eigenvalues()(5))) {
-      found.push_back(cams[c].name + " (camera pose)");
+      found->push_back(cams[c].name + " (camera pose)");
       continue;
     }
-    // S -= H_rc H_cc^-1 H_cr, over the reduced rows this camera touches only.
     std::vector<int> rows;
-    Eigen::MatrixXd B(Hrc[c].size(), 6);
-    for (const auto& [row, v] : Hrc[c]) {
+    Eigen::MatrixXd B(h->Hrc[c].size(), 6);
+    for (const auto& [row, v] : h->Hrc[c]) {
       B.row(static_cast<Eigen::Index>(rows.size())) = v;
       rows.push_back(row);
     }
-    const Eigen::Matrix<double, 6, 6> Hcc_inv = Hcc[c].inverse();
+    const Eigen::Matrix<double, 6, 6> Hcc_inv = h->Hcc[c].inverse();
     const Eigen::MatrixXd update = B * Hcc_inv * B.transpose();
     for (size_t a = 0; a < rows.size(); ++a)
-      for (size_t b = 0; b < rows.size(); ++b) S(rows[a], rows[b]) -= update(a, b);
+      for (size_t b = 0; b < rows.size(); ++b) h->S(rows[a], rows[b]) -= update(a, b);
     if (nx > 0) {
-      const Eigen::MatrixXd coupling = B * Hcc_inv * Hct[c];
-      for (size_t a = 0; a < rows.size(); ++a) Hrt.row(rows[a]) -= coupling.row(a);
+      const Eigen::MatrixXd coupling = B * Hcc_inv * h->Hct[c];
+      for (size_t a = 0; a < rows.size(); ++a) h->Hrt.row(rows[a]) -= coupling.row(a);
     }
   }
-  Eigen::VectorXd d = S.diagonal().cwiseMax(0).cwiseSqrt();
+}
+
+// What the reduced system S (after EliminateCameras) leaves undetermined, into *found: each
+// parameter no observation constrains (its row and column of S then set to the identity's),
+// and each direction of S's null space (scaled to unit diagonal, *d: sqrt of that diagonal;
+// eigenvalues within 1e-9 of the largest), named by the blocks it moves. *es: the
+// eigen-decomposition of the scaled S.
+void Solver::NullDirections(const std::vector<ReducedParam>& rest, ReducedNormal* h,
+                            Eigen::VectorXd* d_out,
+                            Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>* es_out,
+                            std::vector<std::string>* found) {
+  Eigen::MatrixXd& S = h->S;
+  const int nr = h->nr;
+  Eigen::VectorXd& d = *d_out;
+  d = S.diagonal().cwiseMax(0).cwiseSqrt();
   // Parameter k is component `what[k]` of block `block_of[k]`.
   std::vector<std::string> block_of, what;
   static const char* kAxes[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
-  for (const Param& p : rest)
+  for (const ReducedParam& p : rest)
     for (int k = 0; k < p.size; ++k) {
       block_of.push_back(p.name);
       what.push_back(p.size == 6 ? kAxes[k] : p.size == 1 ? "" : "[" + std::to_string(k) + "]");
     }
   for (int k = 0; k < nr; ++k)
     if (d(k) <= 1e-12 * std::max(1.0, d.maxCoeff())) {
-      found.push_back(block_of[k] + (what[k].empty() ? "" : " " + what[k]) +
-                      " (no observation constrains it)");
+      found->push_back(block_of[k] + (what[k].empty() ? "" : " " + what[k]) +
+                       " (no observation constrains it)");
       d(k) = 1;
       S.row(k).setZero();
       S.col(k).setZero();
       S(k, k) = 1;  // listed; keep it out of the directions below
     }
   const Eigen::MatrixXd Sn = d.asDiagonal().inverse() * S * d.asDiagonal().inverse();
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Sn);
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>& es = *es_out;
+  es.compute(Sn);
   const double top = std::max(1e-300, es.eigenvalues().maxCoeff());
   int null_dims = 0;
   for (int e = 0; e < nr; ++e) {
@@ -887,25 +977,8 @@ std::string Solver::RankDeficiency(ReducedSystem* reduced) {
       dir += (i ? ", " : "") + moved[i].first +
              (moved[i].second.empty() ? "" : " (" + moved[i].second + ")");
     if (moved.size() > 10) dir += ", ... (" + std::to_string(moved.size()) + " blocks in all)";
-    found.push_back("direction " + std::to_string(null_dims) + " moves " + dir);
+    found->push_back("direction " + std::to_string(null_dims) + " moves " + dir);
   }
-  if (found.empty()) {
-    // S^-1 = D^-1 Sn^-1 D^-1, Sn^-1 from its eigen-decomposition (all eigenvalues > 1e-9 top).
-    const Eigen::MatrixXd& V = es.eigenvectors();
-    const Eigen::MatrixXd Sn_inv = V * es.eigenvalues().cwiseInverse().asDiagonal() * V.transpose();
-    const Eigen::VectorXd dinv = d.cwiseInverse();
-    reduced->covariance = dinv.asDiagonal() * Sn_inv * dinv.asDiagonal();
-    // d params / d intrinsics = -S^-1 H_rt (the reduced normal equations at the optimum).
-    if (calibration)
-      reduced->calibration =
-          reduced->covariance * Hrt.leftCols(nt) * work_camera_.intrinsics_covariance_factor();
-    // d params / d shifts likewise (the shifts have unit variance).
-    if (nb > 0) reduced->repeat = reduced->covariance * Hrt.rightCols(nb);
-    return "";
-  }
-  std::string s = "not determined: ";
-  for (size_t i = 0; i < found.size(); ++i) s += (i ? "; " : "") + found[i];
-  return s + " (fix the gauge or add observations that constrain them)";
 }
 
 void Solver::FillResult() {

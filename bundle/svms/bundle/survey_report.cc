@@ -14,38 +14,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-}  // namespace
-
-std::vector<MarkerSigmas> ComputeMarkerSigmas(const Layout& layout) {
-  std::vector<MarkerSigmas> out;
-  for (const LayoutEntry& e : layout.markers) {
-    MarkerSigmas m;
-    m.id = e.marker.id;
-    if (e.covariance) {
-      m.orientation_deg =
-          std::sqrt(std::max(0.0, e.covariance->topLeftCorner<3, 3>().trace())) * 180 / M_PI;
-      m.position_mm =
-          1000 * std::sqrt(std::max(0.0, e.covariance->bottomRightCorner<3, 3>().trace()));
-    }
-    if (e.post_height_sigma) m.post_height_mm = 1000 * *e.post_height_sigma;
-    out.push_back(m);
-  }
-  return out;
-}
-
-Status WriteSurveyReport(const SurveyResult& r, const std::string& dir, const PlotFunction& plot) {
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (!fs::is_directory(dir)) return Status::Error(dir + ": cannot create the directory");
+// markers.csv: each surveyed marker's pose (object frame), sigmas, post and residuals.
+std::string MarkersCsv(const SurveyResult& r, const std::vector<MarkerSigmas>& sig) {
   const SurveySummary& S = r.summary;
-  AtomicFileSet files;
-  auto Write = [&](const std::string& path, const std::string& text) {
-    return files.Add(path, text);
-  };
-  const std::vector<MarkerSigmas> sig = ComputeMarkerSigmas(r.layout);
-
-  // Tables.
-  std::ostringstream markers_csv, images_csv, rejected_csv;
+  std::ostringstream markers_csv;
   markers_csv << "id,x_m,y_m,z_m,rx,ry,rz,position_sigma_mm,orientation_sigma_deg,post_height_m,"
                  "post_height_sigma_mm,points,outliers,rms_px,max_px\n";
   for (size_t i = 0; i < r.layout.markers.size(); ++i) {
@@ -66,23 +38,22 @@ Status WriteSurveyReport(const SurveyResult& r, const std::string& dir, const Pl
       markers_csv << ",0,0,0,0";
     markers_csv << "\n";
   }
-  images_csv << "image,points,outliers,rms_px,max_px\n";
-  for (const ResidualStats& s : S.per_image)
-    images_csv << s.name << "," << s.points << "," << s.outliers << "," << s.rms_px << ","
-               << s.max_px << "\n";
-  rejected_csv << "image,marker,point,residual_px\n";
-  for (const RejectedPoint& p : S.rejected)
-    rejected_csv << p.image << "," << p.marker_id << "," << p.point << "," << p.residual_px << "\n";
-  for (const auto& [name, text] :
-       {std::pair<std::string, std::string>{"markers.csv", markers_csv.str()},
-        {"images.csv", images_csv.str()},
-        {"rejected.csv", rejected_csv.str()}})
-    if (Status s = Write((fs::path(dir) / name).string(), text); !s) return s;
+  return markers_csv.str();
+}
 
-  // The layout picture: marker squares, 3-sigma position ellipsoids magnified, cameras.
+// The layout picture's data (gnuplot's): marker squares, 3-sigma position ellipsoids
+// magnified, camera centres, labels; and its plot box and magnification.
+struct LayoutPicture {
+  std::string squares, ellipses, cams, labels;
+  Eigen::Vector3d lo, hi;  // the plot box, object frame, metres
+  double magnify = 1;      // of the ellipsoids
+};
+
+// The plot box is the markers' bounding box with a margin (cameras outside are clipped); the
+// ellipsoids are magnified by a power of ten that makes the median one about 5 % of the box.
+LayoutPicture MakeLayoutPicture(const SurveyResult& r) {
+  LayoutPicture pic;
   std::ostringstream squares, ellipses, cams, labels;
-  // Plot box: the markers' bounding box with a margin (cameras outside are clipped); the
-  // ellipsoids magnified by a power of ten that makes the median one about 5 % of the box.
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
   std::vector<double> radii3;
   for (const LayoutEntry& e : r.layout.markers) {
@@ -131,41 +102,43 @@ Status WriteSurveyReport(const SurveyResult& r, const std::string& dir, const Pl
       const Eigen::Vector3d c = r.cam_from_object[i].Inverse().tvec;
       cams << c.x() << " " << c.y() << " " << c.z() << "\n";
     }
-  for (const auto& [name, text] :
-       {std::pair<std::string, std::string>{"layout_squares.dat", squares.str()},
-        {"layout_ellipses.dat", ellipses.str()},
-        {"layout_cameras.dat", cams.str()},
-        {"layout_labels.dat", labels.str()}})
-    if (Status s = Write((fs::path(dir) / name).string(), text); !s) return s;
-  const std::string mag =
-      magnify >= 1 ? std::to_string(static_cast<long>(magnify)) : Fixed(magnify, 3);
-  std::string plot_body =
-      "set title 'Surveyed layout (object frame, m): markers, 3-sigma position ellipsoids x" + mag +
-      ", cameras'\n"
-      "set xlabel 'x'\nset ylabel 'y'\nset zlabel 'z'\nset view equal xyz\nset view 60, 30\n"
-      "set key bottom right\nset xrange [" +
-      Fixed(lo.x(), 3) + ":" + Fixed(hi.x(), 3) + "]\nset yrange [" + Fixed(lo.y(), 3) + ":" +
-      Fixed(hi.y(), 3) + "]\nset zrange [" + Fixed(lo.z(), 3) + ":" + Fixed(hi.z(), 3) +
-      "]\n"
-      "splot 'layout_squares.dat' with lines lw 2 lc rgb '#202020' title 'markers', \\\n"
-      "  'layout_ellipses.dat' with lines lc rgb '#d02020' title '3 sigma x" +
-      mag +
-      "', \\\n"
-      "  'layout_cameras.dat' with points pt 7 ps 0.4 lc rgb '#2060d0' title 'cameras (in the "
-      "box)', \\\n"
-      "  'layout_labels.dat' using 1:2:3:4 with labels offset 1,1 notitle\n";
-  auto draw = [&](const std::string& name, const std::string& body, const std::string& size) {
-    return plot && plot(dir, name, body, size, &files).ok();
-  };
-  const bool layout_ok = draw("layout", plot_body, "1100,850");
-  const bool res_ok = draw("residuals",
-                           "set datafile separator ','\nset title 'RMS reprojection residual "
-                           "per image'\nset xlabel 'image'\nset ylabel 'px'\nset yrange [0:*]\n"
-                           "plot 'images.csv' using 0:4 every ::1 with impulses lw 2 title 'RMS', "
-                           "'' using 0:5 every ::1 with points pt 1 title 'max'\n",
-                           "1000,400");
+  pic.squares = squares.str();
+  pic.ellipses = ellipses.str();
+  pic.cams = cams.str();
+  pic.labels = labels.str();
+  pic.lo = lo;
+  pic.hi = hi;
+  pic.magnify = magnify;
+  return pic;
+}
 
-  // report.md
+// The gnuplot script of the layout picture (its data files written beside it).
+std::string LayoutPlotScript(const LayoutPicture& pic) {
+  const Eigen::Vector3d &lo = pic.lo, &hi = pic.hi;
+  const std::string mag =
+      pic.magnify >= 1 ? std::to_string(static_cast<long>(pic.magnify)) : Fixed(pic.magnify, 3);
+  return "set title 'Surveyed layout (object frame, m): markers, 3-sigma position ellipsoids x" +
+         mag +
+         ", cameras'\n"
+         "set xlabel 'x'\nset ylabel 'y'\nset zlabel 'z'\nset view equal xyz\nset view 60, 30\n"
+         "set key bottom right\nset xrange [" +
+         Fixed(lo.x(), 3) + ":" + Fixed(hi.x(), 3) + "]\nset yrange [" + Fixed(lo.y(), 3) + ":" +
+         Fixed(hi.y(), 3) + "]\nset zrange [" + Fixed(lo.z(), 3) + ":" + Fixed(hi.z(), 3) +
+         "]\n"
+         "splot 'layout_squares.dat' with lines lw 2 lc rgb '#202020' title 'markers', \\\n"
+         "  'layout_ellipses.dat' with lines lc rgb '#d02020' title '3 sigma x" +
+         mag +
+         "', \\\n"
+         "  'layout_cameras.dat' with points pt 7 ps 0.4 lc rgb '#2060d0' title 'cameras (in the "
+         "box)', \\\n"
+         "  'layout_labels.dat' using 1:2:3:4 with labels offset 1,1 notitle\n";
+}
+
+// report.md: the summary, the markers' table, the pictures drawn (layout_ok, res_ok) and the
+// solver's reports.
+std::string ReportMarkdown(const SurveyResult& r, const std::vector<MarkerSigmas>& sig,
+                           bool layout_ok, bool res_ok) {
+  const SurveySummary& S = r.summary;
   std::ostringstream md;
   md << "## Survey report\n\n";
   if (!S.success) md << "**The survey failed:** " << S.message << "\n\n";
@@ -210,7 +183,74 @@ Status WriteSurveyReport(const SurveyResult& r, const std::string& dir, const Pl
   md << "Per image: images.csv; per marker: markers.csv; rejected points: rejected.csv.\n\n";
   md << "Solver (first, robust): " << S.ceres_report_first
      << "\n\nSolver (second): " << S.ceres_report_second << "\n";
-  Write((fs::path(dir) / "report.md").string(), md.str());
+  return md.str();
+}
+
+}  // namespace
+
+std::vector<MarkerSigmas> ComputeMarkerSigmas(const Layout& layout) {
+  std::vector<MarkerSigmas> out;
+  for (const LayoutEntry& e : layout.markers) {
+    MarkerSigmas m;
+    m.id = e.marker.id;
+    if (e.covariance) {
+      m.orientation_deg =
+          std::sqrt(std::max(0.0, e.covariance->topLeftCorner<3, 3>().trace())) * 180 / M_PI;
+      m.position_mm =
+          1000 * std::sqrt(std::max(0.0, e.covariance->bottomRightCorner<3, 3>().trace()));
+    }
+    if (e.post_height_sigma) m.post_height_mm = 1000 * *e.post_height_sigma;
+    out.push_back(m);
+  }
+  return out;
+}
+
+Status WriteSurveyReport(const SurveyResult& r, const std::string& dir, const PlotFunction& plot) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!fs::is_directory(dir)) return Status::Error(dir + ": cannot create the directory");
+  const SurveySummary& S = r.summary;
+  AtomicFileSet files;
+  auto Write = [&](const std::string& path, const std::string& text) {
+    return files.Add(path, text);
+  };
+  const std::vector<MarkerSigmas> sig = ComputeMarkerSigmas(r.layout);
+
+  // Tables.
+  std::ostringstream images_csv, rejected_csv;
+  images_csv << "image,points,outliers,rms_px,max_px\n";
+  for (const ResidualStats& s : S.per_image)
+    images_csv << s.name << "," << s.points << "," << s.outliers << "," << s.rms_px << ","
+               << s.max_px << "\n";
+  rejected_csv << "image,marker,point,residual_px\n";
+  for (const RejectedPoint& p : S.rejected)
+    rejected_csv << p.image << "," << p.marker_id << "," << p.point << "," << p.residual_px << "\n";
+  for (const auto& [name, text] :
+       {std::pair<std::string, std::string>{"markers.csv", MarkersCsv(r, sig)},
+        {"images.csv", images_csv.str()},
+        {"rejected.csv", rejected_csv.str()}})
+    if (Status s = Write((fs::path(dir) / name).string(), text); !s) return s;
+
+  // The layout picture: marker squares, 3-sigma position ellipsoids magnified, cameras.
+  const LayoutPicture pic = MakeLayoutPicture(r);
+  for (const auto& [name, text] :
+       {std::pair<std::string, std::string>{"layout_squares.dat", pic.squares},
+        {"layout_ellipses.dat", pic.ellipses},
+        {"layout_cameras.dat", pic.cams},
+        {"layout_labels.dat", pic.labels}})
+    if (Status s = Write((fs::path(dir) / name).string(), text); !s) return s;
+  auto draw = [&](const std::string& name, const std::string& body, const std::string& size) {
+    return plot && plot(dir, name, body, size, &files).ok();
+  };
+  const bool layout_ok = draw("layout", LayoutPlotScript(pic), "1100,850");
+  const bool res_ok = draw("residuals",
+                           "set datafile separator ','\nset title 'RMS reprojection residual "
+                           "per image'\nset xlabel 'image'\nset ylabel 'px'\nset yrange [0:*]\n"
+                           "plot 'images.csv' using 0:4 every ::1 with impulses lw 2 title 'RMS', "
+                           "'' using 0:5 every ::1 with points pt 1 title 'max'\n",
+                           "1000,400");
+
+  Write((fs::path(dir) / "report.md").string(), ReportMarkdown(r, sig, layout_ok, res_ok));
   return files.Commit();
 }
 

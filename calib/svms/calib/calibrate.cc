@@ -131,6 +131,330 @@ bool Residuals(const Problem& p, const State& s, std::vector<std::vector<Eigen::
   return ok;
 }
 
+void Log(const CalibrationOptions& o, const std::string& line) {
+  if (o.verbose) std::cerr << "calibrate: " << line << "\n";
+}
+
+// The views a calibration can use (result->views: their indices) and their points on the
+// board's z = 0 plane (at least min_points_per_view, enough for a homography); the others go
+// to result->skipped with the reason. Fails if fewer than min_views are left.
+Status SelectViews(const std::vector<ViewObservations>& all_views, const CalibrationOptions& o,
+                   CalibrationResult* result, std::vector<const ViewObservations*>* views,
+                   std::vector<std::vector<cv::Point3f>>* object_points,
+                   std::vector<std::vector<cv::Point2f>>* image_points) {
+  for (size_t v = 0; v < all_views.size(); ++v) {
+    std::vector<cv::Point3f> obj;
+    std::vector<cv::Point2f> img;
+    for (const PointObservation& p : all_views[v].points) {
+      if (std::abs(p.point_in_board.z()) > 1e-9) continue;
+      obj.emplace_back(p.point_in_board.x(), p.point_in_board.y(), 0.f);
+      img.emplace_back(p.pixel.x(), p.pixel.y());
+    }
+    if (static_cast<int>(obj.size()) < o.min_points_per_view) {
+      result->skipped.emplace_back(
+          v, all_views[v].name + ": " + std::to_string(all_views[v].markers) + " board markers, " +
+                 std::to_string(obj.size()) + " points; expected at least " +
+                 std::to_string(o.min_points_per_view) + " points");
+      continue;
+    }
+    views->push_back(&all_views[v]);
+    result->views.push_back(static_cast<int>(v));
+    object_points->push_back(std::move(obj));
+    image_points->push_back(std::move(img));
+  }
+  if (static_cast<int>(views->size()) < o.min_views) {
+    return Status::Error("too few views: " + std::to_string(views->size()) + " of " +
+                         std::to_string(all_views.size()) +
+                         " images show enough of the board (at least " +
+                         std::to_string(o.min_points_per_view) + " points); expected at least " +
+                         std::to_string(o.min_views) + " such views");
+  }
+  return Status::Ok();
+}
+
+// How far from the image centre the observed points go, as a fraction of the half diagonal.
+double ImageReach(const std::vector<std::vector<cv::Point2f>>& image_points,
+                  const Eigen::Vector2d& centre) {
+  const double half_diagonal = centre.norm();
+  double reach = 0;
+  for (const auto& img : image_points)
+    for (const cv::Point2f& q : img)
+      reach = std::max(reach, (Eigen::Vector2d(q.x, q.y) - centre).norm() / half_diagonal);
+  return reach;
+}
+
+// The seed camera matrix *K: Zhang's closed form from the views' homographies, principal point
+// at the image centre. Fails on views that give no usable focal length.
+Status SeedCameraMatrix(const std::vector<std::vector<cv::Point3f>>& object_points,
+                        const std::vector<std::vector<cv::Point2f>>& image_points,
+                        const CalibrationOptions& o, const Eigen::Vector2d& centre, cv::Mat* K) {
+  const cv::Size size(o.width, o.height);
+  try {
+    *K = cv::initCameraMatrix2D(object_points, image_points, size, 1.0);
+  } catch (const cv::Exception& e) {
+    return Status::Error(
+        std::string("cannot seed the focal length from the views' homographies (") + e.what() +
+        ")");
+  }
+  const double f0 = K->at<double>(0, 0);
+  if (!(std::isfinite(f0) && f0 > 0.05 * o.width && f0 < 100.0 * o.width)) {
+    return Status::Error(
+        "degenerate views: the homographies give no usable focal length (" + Fmt("%g", f0) +
+        " px); expected views with the board tilted by 20 to 45 degrees, not all fronto-parallel");
+  }
+  K->at<double>(0, 2) = centre.x(), K->at<double>(1, 2) = centre.y();
+  return Status::Ok();
+}
+
+// The seed cam_from_board of each view (s->rt) from its points and the seed camera matrix K
+// (solvePnP, IPPE). Fails if one cannot be seeded, or if every board is within min_tilt_deg
+// of fronto-parallel (the focal length cannot then be told from the distance).
+Status SeedBoardPoses(const std::vector<const ViewObservations*>& views,
+                      const std::vector<std::vector<cv::Point3f>>& object_points,
+                      const std::vector<std::vector<cv::Point2f>>& image_points, const cv::Mat& K,
+                      const CalibrationOptions& o, State* s) {
+  s->rt.resize(views.size());
+  double max_tilt = 0;
+  for (size_t v = 0; v < views.size(); ++v) {
+    cv::Mat rvec, tvec;
+    bool ok = false;
+    try {
+      ok = cv::solvePnP(object_points[v], image_points[v], K, cv::noArray(), rvec, tvec, false,
+                        cv::SOLVEPNP_IPPE);
+    } catch (const cv::Exception&) {
+      ok = false;
+    }
+    if (!ok)
+      return Status::Error(views[v]->name + ": cannot seed the board pose (solvePnP failed)");
+    for (int k = 0; k < 3; ++k)
+      s->rt[v][k] = rvec.at<double>(k), s->rt[v][3 + k] = tvec.at<double>(k);
+    const Pose pose{Eigen::Vector3d(s->rt[v][0], s->rt[v][1], s->rt[v][2]),
+                    Eigen::Vector3d::Zero()};
+    const double tilt = std::acos(std::min(1.0, std::abs(pose.Rotation()(2, 2))));
+    max_tilt = std::max(max_tilt, tilt);
+  }
+  if (max_tilt < o.min_tilt_deg * kDeg) {
+    return Status::Error(
+        Fmt("degenerate views: every board is within %.1f degrees of fronto-parallel, so the "
+            "focal length cannot be told from the distance; expected some views tilted by 20 to "
+            "45 degrees",
+            max_tilt / kDeg));
+  }
+  return Status::Ok();
+}
+
+// The rectangle the board's points on its z = 0 plane cover (the warp's extent); the default
+// extent if they span no area.
+BoardExtent PlaneExtent(const std::vector<std::vector<cv::Point3f>>& object_points) {
+  BoardExtent e;
+  e.x_min = e.y_min = 1e300, e.x_max = e.y_max = -1e300;
+  for (const auto& obj : object_points)
+    for (const cv::Point3f& q : obj) {
+      e.x_min = std::min<double>(e.x_min, q.x), e.x_max = std::max<double>(e.x_max, q.x);
+      e.y_min = std::min<double>(e.y_min, q.y), e.y_max = std::max<double>(e.y_max, q.y);
+    }
+  if (!(e.x_max > e.x_min && e.y_max > e.y_min)) e = BoardExtent();
+  return e;
+}
+
+// The solve in stages from the seed in *s: the core intrinsics (distortion held), then all,
+// both robust (Huber); then outlier rejection (points beyond outlier_threshold sigmas of the
+// weighted residuals, at least min_outlier_px) and robust re-solves until the outliers no
+// longer change (at most max_outlier_rounds); then a final least-squares solve. *outlier:
+// per view and point. Returns the final solve's summary; result->outlier_rounds, ->iterations
+// and ->report are set.
+ceres::Solver::Summary SolveInStages(const Problem& p, double ref_sigma, State* s,
+                                     std::vector<std::vector<bool>>* outlier_io,
+                                     CalibrationResult* result) {
+  const CalibrationOptions& o = p.options;
+  const std::vector<const ViewObservations*>& views = p.views;
+  std::vector<std::vector<bool>>& outlier = *outlier_io;
+  int iterations = 0;
+  auto run = [&](const char* stage, bool core_only, bool robust) {
+    const ceres::Solver::Summary sum = Solve(p, outlier, core_only, robust, ref_sigma, s);
+    iterations += static_cast<int>(sum.iterations.size());
+    Log(o, std::string(stage) + ": " + sum.BriefReport());
+    return sum;
+  };
+  run("stage 1 (core)", true, true);
+  run("stage 2 (all)", false, true);
+
+  // Outlier rejection and re-solve.
+  std::vector<std::vector<Eigen::Vector2d>> res;
+  auto stats = [&](double* sigma) {
+    double sum2 = 0;
+    int count = 0;
+    for (size_t v = 0; v < views.size(); ++v)
+      for (size_t i = 0; i < res[v].size(); ++i)
+        if (!outlier[v][i])
+          sum2 += res[v][i].squaredNorm() * std::pow(Weight(views[v]->points[i], ref_sigma), 2),
+              ++count;
+    *sigma = count > 0 ? std::sqrt(sum2 / (2.0 * count)) : 0;
+  };
+  for (int round = 0; round < o.max_outlier_rounds; ++round) {
+    Residuals(p, *s, &res);
+    double sigma = 0;
+    stats(&sigma);
+    const double threshold = std::max(o.outlier_threshold * sigma, o.min_outlier_px);
+    bool changed = false;
+    int count = 0;
+    for (size_t v = 0; v < views.size(); ++v)
+      for (size_t i = 0; i < res[v].size(); ++i) {
+        const double r = res[v][i].norm() * Weight(views[v]->points[i], ref_sigma);
+        const bool out = r > threshold;
+        changed |= out != outlier[v][i];
+        outlier[v][i] = out;
+        count += out;
+      }
+    result->outlier_rounds = round + 1;
+    Log(o, Fmt("outliers: %.0f beyond %.3f px", count, threshold));
+    if (!changed) break;
+    run("re-solve", false, true);
+  }
+  const ceres::Solver::Summary final_summary = run("final (least squares)", false, false);
+  result->report = final_summary.BriefReport();
+  result->iterations = iterations;
+  return final_summary;
+}
+
+// The residuals of the solution (result->residuals, ->outlier) and their statistics over the
+// inliers: RMS, worst, the per-axis sigma about their mean, the counts.
+void ResidualStatistics(const std::vector<std::vector<Eigen::Vector2d>>& res,
+                        const std::vector<std::vector<bool>>& outlier, CalibrationResult* result) {
+  result->residuals = res;
+  result->outlier = outlier;
+  double sum2 = 0, worst = 0, sumc = 0;
+  int inliers = 0;
+  for (size_t v = 0; v < res.size(); ++v)
+    for (size_t i = 0; i < res[v].size(); ++i) {
+      if (outlier[v][i]) {
+        ++result->num_outliers;
+        continue;
+      }
+      ++inliers;
+      sum2 += res[v][i].squaredNorm();
+      sumc += res[v][i].x() + res[v][i].y();
+      worst = std::max(worst, res[v][i].norm());
+    }
+  result->num_inliers = inliers;
+  result->rms_px = inliers > 0 ? std::sqrt(sum2 / inliers) : 0;
+  result->worst_px = worst;
+  const double mean_c = inliers > 0 ? sumc / (2.0 * inliers) : 0;
+  result->sigma_px =
+      inliers > 0 ? std::sqrt(std::max(0.0, sum2 / (2.0 * inliers) - mean_c * mean_c)) : 0;
+}
+
+// J^T J of the state [intrinsics, 6 per view (cam_from_board), warp (2, with board_warp)] at
+// the solution, from the analytic Jacobian of the inliers' weighted residuals (*JotJo) and
+// with the splined models' prior added (*JtJ).
+void StateInformation(const Problem& p, const State& s,
+                      const std::vector<std::vector<bool>>& outlier, double ref_sigma,
+                      Eigen::MatrixXd* JtJ, Eigen::MatrixXd* JotJo) {
+  const std::vector<const ViewObservations*>& views = p.views;
+  const bool warp = p.options.board_warp;
+  const int n = p.lens->num_params();
+  const int nv = static_cast<int>(views.size());
+  const int nstate = n + 6 * nv + (warp ? 2 : 0);
+  *JotJo = Eigen::MatrixXd::Zero(nstate, nstate);
+  std::vector<double> ji(2 * n);
+  double jrt[12], jw[4], r[2];
+  // Each point touches the intrinsics, its view's pose and the warp: accumulate the outer
+  // product of that compact row into those blocks only.
+  const int m = n + 6 + (warp ? 2 : 0);
+  Eigen::MatrixXd row(2, m);
+  std::vector<int> index(m);
+  for (int v = 0; v < nv; ++v) {
+    for (int k = 0; k < n; ++k) index[k] = k;
+    for (int k = 0; k < 6; ++k) index[n + k] = n + 6 * v + k;
+    if (warp) index[n + 6] = n + 6 * nv, index[n + 7] = n + 6 * nv + 1;
+    Eigen::MatrixXd block = Eigen::MatrixXd::Zero(m, m);
+    for (size_t i = 0; i < views[v]->points.size(); ++i) {
+      if (outlier[v][i]) continue;
+      const PointObservation& ob = views[v]->points[i];
+      ProjectionCost cost(p.lens, ob.point_in_board, ob.pixel, Weight(ob, ref_sigma), warp,
+                          p.extent);
+      const double* params[3] = {s.intrinsics.data(), s.rt[v].data(), s.warp.data()};
+      double* jac[3] = {ji.data(), jrt, jw};
+      if (!cost.Evaluate(params, r, jac)) continue;
+      for (int a = 0; a < 2; ++a) {
+        for (int k = 0; k < n; ++k) row(a, k) = ji[a * n + k];
+        for (int k = 0; k < 6; ++k) row(a, n + k) = jrt[a * 6 + k];
+        if (warp) row(a, n + 6) = jw[a * 2], row(a, n + 7) = jw[a * 2 + 1];
+      }
+      block.noalias() += row.transpose() * row;
+    }
+    for (int a = 0; a < m; ++a)
+      for (int b = 0; b < m; ++b) (*JotJo)(index[a], index[b]) += block(a, b);
+  }
+  *JtJ = *JotJo;
+  if (p.splined) {
+    std::unique_ptr<IntrinsicsPrior> prior = SplinePrior(p);
+    const int mp = prior->num_residuals();
+    std::vector<double> rr(mp), jj(mp * n);
+    const double* params[1] = {s.intrinsics.data()};
+    double* jac[1] = {jj.data()};
+    prior->Evaluate(params, rr.data(), jac);
+    const Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> Jr(
+        jj.data(), mp, n);
+    JtJ->topLeftCorner(n, n) += Jr.transpose() * Jr;
+  }
+}
+
+// The covariance of the state, mrcal's formula, from the analytic Jacobian at the optimum: a
+// pseudo-inverse of J^T J scaled to unit diagonal (rational and splined models have directions
+// in their distortion that the data barely see and that do not move any projection; what
+// matters, the focal length and the projections, is checked on its own), times the
+// a-posteriori noise sigma^2. Sets result->noise_sigma_px, ->covariance_factor and
+// ->covariance.
+void StateCovariance(const Problem& p, const State& s,
+                     const std::vector<std::vector<bool>>& outlier,
+                     const std::vector<std::vector<Eigen::Vector2d>>& res, double ref_sigma,
+                     CalibrationResult* result) {
+  const std::vector<const ViewObservations*>& views = p.views;
+  const int nv = static_cast<int>(views.size());
+  Eigen::MatrixXd JtJ, JotJo;
+  StateInformation(p, s, outlier, ref_sigma, &JtJ, &JotJo);
+  const int nstate = static_cast<int>(JtJ.rows());
+  // Scale to unit diagonal before inverting (the parameters' units differ widely).
+  const Eigen::VectorXd d = JtJ.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+  const Eigen::MatrixXd A = d.asDiagonal() * JtJ * d.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(A);
+  const double lmax = eig.eigenvalues()(nstate - 1);
+  Eigen::VectorXd inv = eig.eigenvalues();
+  for (int k = 0; k < nstate; ++k) inv(k) = inv(k) > 1e-15 * lmax ? 1 / inv(k) : 0.0;
+  // sigma of the weighted residuals (mrcal's observed_pixel_uncertainty, in units of the
+  // reference sigma's pixels): the a-posteriori estimate of the corner noise, over the
+  // residuals' degrees of freedom (2 per inlier, less the state's dimension).
+  double sum_w2 = 0;
+  for (int v = 0; v < nv; ++v)
+    for (size_t i = 0; i < res[v].size(); ++i)
+      if (!outlier[v][i])
+        sum_w2 += res[v][i].squaredNorm() * std::pow(Weight(views[v]->points[i], ref_sigma), 2);
+  const int dof = 2 * result->num_inliers - nstate;
+  const double sigma = dof > 0 ? std::sqrt(sum_w2 / dof) : 0;
+  result->noise_sigma_px = sigma;
+  // The covariance is kept as a factor F (covariance = F F^t), so that everything propagated
+  // from it is positive semi-definite by construction: the rational and splined models have
+  // directions the data barely see (condition numbers near 1e15), and a dense product
+  // Ainv B Ainv then loses its positivity to round-off.
+  Eigen::VectorXd inv_sqrt(nstate);
+  for (int k = 0; k < nstate; ++k) inv_sqrt(k) = std::sqrt(inv(k));
+  Eigen::MatrixXd F;
+  if (!p.splined) {
+    // No prior: J_obs = J, so Ainv B Ainv = Ainv = V diag(1/l) V^t.
+    F = d.asDiagonal() * eig.eigenvectors() * inv_sqrt.asDiagonal();
+  } else {
+    const Eigen::MatrixXd B = d.asDiagonal() * JotJo * d.asDiagonal();
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eb(B);
+    const Eigen::VectorXd b_sqrt = eb.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+    const Eigen::MatrixXd Ainv =
+        eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
+    F = d.asDiagonal() * Ainv * eb.eigenvectors() * b_sqrt.asDiagonal();
+  }
+  result->covariance_factor = sigma * F;
+  result->covariance = result->covariance_factor * result->covariance_factor.transpose();
+}
+
 }  // namespace
 
 Status CalibrationOptions::Check() const {
@@ -169,96 +493,23 @@ Status Calibrate(const std::vector<ViewObservations>& all_views, const Calibrati
                  CalibrationResult* result) {
   if (Status s = o.Check(); !s) return s;
   *result = CalibrationResult();
-  auto log = [&](const std::string& line) {
-    if (o.verbose) std::cerr << "calibrate: " << line << "\n";
-  };
 
   // Usable views: enough points on the object's z = 0 plane for a homography.
   std::vector<const ViewObservations*> views;
   std::vector<std::vector<cv::Point3f>> object_points;
   std::vector<std::vector<cv::Point2f>> image_points;
-  for (size_t v = 0; v < all_views.size(); ++v) {
-    std::vector<cv::Point3f> obj;
-    std::vector<cv::Point2f> img;
-    for (const PointObservation& p : all_views[v].points) {
-      if (std::abs(p.point_in_board.z()) > 1e-9) continue;
-      obj.emplace_back(p.point_in_board.x(), p.point_in_board.y(), 0.f);
-      img.emplace_back(p.pixel.x(), p.pixel.y());
-    }
-    if (static_cast<int>(obj.size()) < o.min_points_per_view) {
-      result->skipped.emplace_back(
-          v, all_views[v].name + ": " + std::to_string(all_views[v].markers) + " board markers, " +
-                 std::to_string(obj.size()) + " points; expected at least " +
-                 std::to_string(o.min_points_per_view) + " points");
-      continue;
-    }
-    views.push_back(&all_views[v]);
-    result->views.push_back(static_cast<int>(v));
-    object_points.push_back(std::move(obj));
-    image_points.push_back(std::move(img));
-  }
-  if (static_cast<int>(views.size()) < o.min_views) {
-    return Status::Error("too few views: " + std::to_string(views.size()) + " of " +
-                         std::to_string(all_views.size()) +
-                         " images show enough of the board (at least " +
-                         std::to_string(o.min_points_per_view) + " points); expected at least " +
-                         std::to_string(o.min_views) + " such views");
-  }
-
-  // Reach: how far from the image centre the observed points go.
+  if (Status s = SelectViews(all_views, o, result, &views, &object_points, &image_points); !s)
+    return s;
   const Eigen::Vector2d centre(0.5 * (o.width - 1), 0.5 * (o.height - 1));
-  const double half_diagonal = centre.norm();
-  double reach = 0;
-  for (const auto& img : image_points)
-    for (const cv::Point2f& q : img)
-      reach = std::max(reach, (Eigen::Vector2d(q.x, q.y) - centre).norm() / half_diagonal);
+  const double reach = ImageReach(image_points, centre);
 
-  // Seed: Zhang's closed form from the homographies, principal point at the centre.
-  const cv::Size size(o.width, o.height);
+  // Seed: Zhang's closed form from the homographies, then each board's pose.
   cv::Mat K;
-  try {
-    K = cv::initCameraMatrix2D(object_points, image_points, size, 1.0);
-  } catch (const cv::Exception& e) {
-    return Status::Error(
-        std::string("cannot seed the focal length from the views' homographies (") + e.what() +
-        ")");
-  }
+  if (Status s = SeedCameraMatrix(object_points, image_points, o, centre, &K); !s) return s;
   const double f0 = K.at<double>(0, 0);
-  if (!(std::isfinite(f0) && f0 > 0.05 * o.width && f0 < 100.0 * o.width)) {
-    return Status::Error(
-        "degenerate views: the homographies give no usable focal length (" + Fmt("%g", f0) +
-        " px); expected views with the board tilted by 20 to 45 degrees, not all fronto-parallel");
-  }
-  K.at<double>(0, 2) = centre.x(), K.at<double>(1, 2) = centre.y();
-  log(Fmt("seed focal length %.1f px from %.0f views", f0, views.size()));
-
+  Log(o, Fmt("seed focal length %.1f px from %.0f views", f0, views.size()));
   State s;
-  s.rt.resize(views.size());
-  double max_tilt = 0;
-  for (size_t v = 0; v < views.size(); ++v) {
-    cv::Mat rvec, tvec;
-    bool ok = false;
-    try {
-      ok = cv::solvePnP(object_points[v], image_points[v], K, cv::noArray(), rvec, tvec, false,
-                        cv::SOLVEPNP_IPPE);
-    } catch (const cv::Exception&) {
-      ok = false;
-    }
-    if (!ok)
-      return Status::Error(views[v]->name + ": cannot seed the board pose (solvePnP failed)");
-    for (int k = 0; k < 3; ++k)
-      s.rt[v][k] = rvec.at<double>(k), s.rt[v][3 + k] = tvec.at<double>(k);
-    const Pose pose{Eigen::Vector3d(s.rt[v][0], s.rt[v][1], s.rt[v][2]), Eigen::Vector3d::Zero()};
-    const double tilt = std::acos(std::min(1.0, std::abs(pose.Rotation()(2, 2))));
-    max_tilt = std::max(max_tilt, tilt);
-  }
-  if (max_tilt < o.min_tilt_deg * kDeg) {
-    return Status::Error(
-        Fmt("degenerate views: every board is within %.1f degrees of fronto-parallel, so the "
-            "focal length cannot be told from the distance; expected some views tilted by 20 to "
-            "45 degrees",
-            max_tilt / kDeg));
-  }
+  if (Status st = SeedBoardPoses(views, object_points, image_points, K, o, &s); !st) return st;
 
   // The lens model and its seed.
   const std::string lensmodel = ResolveLensModel(o.lensmodel, o.width, o.height, f0);
@@ -282,91 +533,19 @@ Status Calibrate(const std::vector<ViewObservations>& all_views, const Calibrati
   s.intrinsics.assign(n, 0.0);
   s.intrinsics[0] = s.intrinsics[1] = f0;
   s.intrinsics[2] = centre.x(), s.intrinsics[3] = centre.y();
+  p.extent = PlaneExtent(object_points);
+  result->extent = p.extent;
 
-  // The warp's extent: the object's points on its z = 0 plane.
-  BoardExtent& e = p.extent;
-  e.x_min = e.y_min = 1e300, e.x_max = e.y_max = -1e300;
-  for (const auto& obj : object_points)
-    for (const cv::Point3f& q : obj) {
-      e.x_min = std::min<double>(e.x_min, q.x), e.x_max = std::max<double>(e.x_max, q.x);
-      e.y_min = std::min<double>(e.y_min, q.y), e.y_max = std::max<double>(e.y_max, q.y);
-    }
-  if (!(e.x_max > e.x_min && e.y_max > e.y_min)) e = BoardExtent();
-  result->extent = e;
-
+  // The solve, with outlier rejection.
   const double ref_sigma = views[0]->points[0].sigma_px;
   std::vector<std::vector<bool>> outlier(views.size());
   for (size_t v = 0; v < views.size(); ++v) outlier[v].assign(views[v]->points.size(), false);
-
-  int iterations = 0;
-  auto run = [&](const char* stage, bool core_only, bool robust) {
-    const ceres::Solver::Summary sum = Solve(p, outlier, core_only, robust, ref_sigma, &s);
-    iterations += static_cast<int>(sum.iterations.size());
-    log(std::string(stage) + ": " + sum.BriefReport());
-    return sum;
-  };
-  run("stage 1 (core)", true, true);
-  run("stage 2 (all)", false, true);
-
-  // Outlier rejection and re-solve.
-  std::vector<std::vector<Eigen::Vector2d>> res;
-  auto stats = [&](double* sigma) {
-    double sum2 = 0;
-    int count = 0;
-    for (size_t v = 0; v < views.size(); ++v)
-      for (size_t i = 0; i < res[v].size(); ++i)
-        if (!outlier[v][i])
-          sum2 += res[v][i].squaredNorm() * std::pow(Weight(views[v]->points[i], ref_sigma), 2),
-              ++count;
-    *sigma = count > 0 ? std::sqrt(sum2 / (2.0 * count)) : 0;
-  };
-  for (int round = 0; round < o.max_outlier_rounds; ++round) {
-    Residuals(p, s, &res);
-    double sigma = 0;
-    stats(&sigma);
-    const double threshold = std::max(o.outlier_threshold * sigma, o.min_outlier_px);
-    bool changed = false;
-    int count = 0;
-    for (size_t v = 0; v < views.size(); ++v)
-      for (size_t i = 0; i < res[v].size(); ++i) {
-        const double r = res[v][i].norm() * Weight(views[v]->points[i], ref_sigma);
-        const bool out = r > threshold;
-        changed |= out != outlier[v][i];
-        outlier[v][i] = out;
-        count += out;
-      }
-    result->outlier_rounds = round + 1;
-    log(Fmt("outliers: %.0f beyond %.3f px", count, threshold));
-    if (!changed) break;
-    run("re-solve", false, true);
-  }
-  const ceres::Solver::Summary final_summary = run("final (least squares)", false, false);
-  result->report = final_summary.BriefReport();
-  result->iterations = iterations;
+  const ceres::Solver::Summary final_summary = SolveInStages(p, ref_sigma, &s, &outlier, result);
 
   // Results.
+  std::vector<std::vector<Eigen::Vector2d>> res;
   Residuals(p, s, &res);
-  result->residuals = res;
-  result->outlier = outlier;
-  double sum2 = 0, worst = 0, sumc = 0;
-  int inliers = 0;
-  for (size_t v = 0; v < views.size(); ++v)
-    for (size_t i = 0; i < res[v].size(); ++i) {
-      if (outlier[v][i]) {
-        ++result->num_outliers;
-        continue;
-      }
-      ++inliers;
-      sum2 += res[v][i].squaredNorm();
-      sumc += res[v][i].x() + res[v][i].y();
-      worst = std::max(worst, res[v][i].norm());
-    }
-  result->num_inliers = inliers;
-  result->rms_px = inliers > 0 ? std::sqrt(sum2 / inliers) : 0;
-  result->worst_px = worst;
-  const double mean_c = inliers > 0 ? sumc / (2.0 * inliers) : 0;
-  result->sigma_px =
-      inliers > 0 ? std::sqrt(std::max(0.0, sum2 / (2.0 * inliers) - mean_c * mean_c)) : 0;
+  ResidualStatistics(res, outlier, result);
   for (const auto& rt : s.rt)
     result->cam_from_board.push_back(
         Pose{Eigen::Vector3d(rt[0], rt[1], rt[2]), Eigen::Vector3d(rt[3], rt[4], rt[5])});
@@ -374,7 +553,6 @@ Status Calibrate(const std::vector<ViewObservations>& all_views, const Calibrati
   if (Status st = CameraModel::Create(lensmodel, s.intrinsics, o.width, o.height, &result->camera);
       !st)
     return Status::Error("the solve gave an invalid camera model: " + st.message());
-
   if (final_summary.termination_type != ceres::CONVERGENCE) {
     return Status::Error("the solve did not converge (" + final_summary.BriefReport() +
                          "); no model written");
@@ -386,98 +564,10 @@ Status Calibrate(const std::vector<ViewObservations>& all_views, const Calibrati
             result->rms_px, o.max_rms_px));
   }
 
-  // Covariance of the state, mrcal's formula, from the analytic Jacobian at the optimum.
-  const bool warp = o.board_warp;
-  const int nv = static_cast<int>(views.size());
-  const int nstate = n + 6 * nv + (warp ? 2 : 0);
-  Eigen::MatrixXd JtJ = Eigen::MatrixXd::Zero(nstate, nstate);
-  Eigen::MatrixXd JotJo = Eigen::MatrixXd::Zero(nstate, nstate);
-  {
-    std::vector<double> ji(2 * n);
-    double jrt[12], jw[4], r[2];
-    // Each point touches the intrinsics, its view's pose and the warp: accumulate the outer
-    // product of that compact row into those blocks only.
-    const int m = n + 6 + (warp ? 2 : 0);
-    Eigen::MatrixXd row(2, m);
-    std::vector<int> index(m);
-    for (int v = 0; v < nv; ++v) {
-      for (int k = 0; k < n; ++k) index[k] = k;
-      for (int k = 0; k < 6; ++k) index[n + k] = n + 6 * v + k;
-      if (warp) index[n + 6] = n + 6 * nv, index[n + 7] = n + 6 * nv + 1;
-      Eigen::MatrixXd block = Eigen::MatrixXd::Zero(m, m);
-      for (size_t i = 0; i < views[v]->points.size(); ++i) {
-        if (outlier[v][i]) continue;
-        const PointObservation& ob = views[v]->points[i];
-        ProjectionCost cost(p.lens, ob.point_in_board, ob.pixel, Weight(ob, ref_sigma), warp, e);
-        const double* params[3] = {s.intrinsics.data(), s.rt[v].data(), s.warp.data()};
-        double* jac[3] = {ji.data(), jrt, jw};
-        if (!cost.Evaluate(params, r, jac)) continue;
-        for (int a = 0; a < 2; ++a) {
-          for (int k = 0; k < n; ++k) row(a, k) = ji[a * n + k];
-          for (int k = 0; k < 6; ++k) row(a, n + k) = jrt[a * 6 + k];
-          if (warp) row(a, n + 6) = jw[a * 2], row(a, n + 7) = jw[a * 2 + 1];
-        }
-        block.noalias() += row.transpose() * row;
-      }
-      for (int a = 0; a < m; ++a)
-        for (int b = 0; b < m; ++b) JotJo(index[a], index[b]) += block(a, b);
-    }
-    JtJ = JotJo;
-    if (p.splined) {
-      std::unique_ptr<IntrinsicsPrior> prior = SplinePrior(p);
-      const int m = prior->num_residuals();
-      std::vector<double> rr(m), jj(m * n);
-      const double* params[1] = {s.intrinsics.data()};
-      double* jac[1] = {jj.data()};
-      prior->Evaluate(params, rr.data(), jac);
-      const Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> Jr(
-          jj.data(), m, n);
-      JtJ.topLeftCorner(n, n) += Jr.transpose() * Jr;
-    }
-  }
-  // Scale to unit diagonal before inverting (the parameters' units differ widely).
-  const Eigen::VectorXd d = JtJ.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
-  const Eigen::MatrixXd A = d.asDiagonal() * JtJ * d.asDiagonal();
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(A);
-  // A pseudo-inverse: rational (OPENCV8/12) and splined models have directions in their
-  // distortion that the data barely see and that do not move any projection; what matters
-  // (the focal length, below, and the projections) is checked on its own.
-  const double lmax = eig.eigenvalues()(nstate - 1);
-  Eigen::VectorXd inv = eig.eigenvalues();
-  for (int k = 0; k < nstate; ++k) inv(k) = inv(k) > 1e-15 * lmax ? 1 / inv(k) : 0.0;
-  // sigma of the weighted residuals (mrcal's observed_pixel_uncertainty, in units of the
-  // reference sigma's pixels): the a-posteriori estimate of the corner noise, over the
-  // residuals' degrees of freedom (2 per inlier, less the state's dimension).
-  double sum_w2 = 0;
-  for (int v = 0; v < nv; ++v)
-    for (size_t i = 0; i < res[v].size(); ++i)
-      if (!outlier[v][i])
-        sum_w2 += res[v][i].squaredNorm() * std::pow(Weight(views[v]->points[i], ref_sigma), 2);
-  const int dof = 2 * inliers - nstate;
-  const double sigma = dof > 0 ? std::sqrt(sum_w2 / dof) : 0;
-  result->noise_sigma_px = sigma;
-  // The covariance is kept as a factor F (covariance = F F^t), so that everything propagated
-  // from it is positive semi-definite by construction: the rational and splined models have
-  // directions the data barely see (condition numbers near 1e15), and a dense product
-  // Ainv B Ainv then loses its positivity to round-off.
-  Eigen::VectorXd inv_sqrt(nstate);
-  for (int k = 0; k < nstate; ++k) inv_sqrt(k) = std::sqrt(inv(k));
-  Eigen::MatrixXd F;
-  if (!p.splined) {
-    // No prior: J_obs = J, so Ainv B Ainv = Ainv = V diag(1/l) V^t.
-    F = d.asDiagonal() * eig.eigenvectors() * inv_sqrt.asDiagonal();
-  } else {
-    const Eigen::MatrixXd B = d.asDiagonal() * JotJo * d.asDiagonal();
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eb(B);
-    const Eigen::VectorXd b_sqrt = eb.eigenvalues().cwiseMax(0.0).cwiseSqrt();
-    const Eigen::MatrixXd Ainv =
-        eig.eigenvectors() * inv.asDiagonal() * eig.eigenvectors().transpose();
-    F = d.asDiagonal() * Ainv * eb.eigenvectors() * b_sqrt.asDiagonal();
-  }
-  result->covariance_factor = sigma * F;
-  result->covariance = result->covariance_factor * result->covariance_factor.transpose();
-  // The camera carries its intrinsics' marginal uncertainty (what a pose in this camera's frame
-  // inherits: unlike ProjectionCovariance, nothing is absorbed into the board poses here).
+  // Covariance of the state. The camera carries its intrinsics' marginal uncertainty (what a
+  // pose in this camera's frame inherits: unlike ProjectionCovariance, nothing is absorbed into
+  // the board poses here).
+  StateCovariance(p, s, outlier, res, ref_sigma, result);
   if (Status st = result->camera.set_intrinsics_covariance_factor(
           CompactFactor(result->covariance_factor.topRows(n)));
       !st) {

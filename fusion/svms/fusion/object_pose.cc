@@ -11,6 +11,7 @@
 
 #include "svms/base/statistics.h"
 #include "svms/detect/marker_pose.h"
+#include "svms/detect/pose_gauss_newton.h"
 #include "svms/geometry/so3.h"
 
 namespace svms {
@@ -25,6 +26,10 @@ using VecR = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxRows, 1>;
 using MatR6 = Eigen::Matrix<double, Eigen::Dynamic, 6, 0, kMaxRows, 6>;
 using MatR7 = Eigen::Matrix<double, Eigen::Dynamic, 7, 0, kMaxRows, 7>;
 using MatRR = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxRows, kMaxRows>;
+
+// When the fused pose's Gauss-Newton stops (PoseGaussNewtonStep): steps below 1e-10 (radians;
+// translation relative to the range). Every rotation step is applied.
+constexpr PoseStepTolerances kObjectPoseTolerances{1e-10, 0, 0};
 
 // The angle between two poses' rotations, radians (AngleBetweenRad, svms/geometry/pose.h).
 double AngleBetween(const Pose& a, const Pose& b) { return AngleBetweenRad(a, b); }
@@ -166,6 +171,335 @@ bool Whitening(const CameraModel& camera, Block* b, const Eigen::Matrix3d& R,
   return true;
 }
 
+// A fresh result in *out that keeps the capacity of *out's vectors and message.
+void ResetResult(ObjectPose* out) {
+  std::vector<int> ids_used = std::move(out->ids_used), ids_rejected = std::move(out->ids_rejected);
+  std::string message = std::move(out->message);
+  *out = ObjectPose{};
+  ObjectPose& result = *out;
+  result.ids_used = std::move(ids_used);
+  result.ids_used.clear();
+  result.ids_rejected = std::move(ids_rejected);
+  result.ids_rejected.clear();
+  result.message = std::move(message);
+  result.message.clear();
+}
+
+// 1. Start: the per-marker candidate with the least robust cost over all markers, into (*R,
+// *t). With several markers, one flagged ambiguous offers both its planar poses (its kept one
+// may be the wrong one, and the others tell). A lone marker starts from the detector's pose
+// alone: the detector chose it on more than these points (the stripe's edges, each point's
+// own sigma), and on a flat marker the robust cost below may prefer the wrong one. False if no
+// marker has a single-marker pose.
+bool StartPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
+               const ObjectPoseOptions& o, std::vector<Block>* blocks, Eigen::Matrix3d* R,
+               Eigen::Vector3d* t) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const MarkerObservation& m : obs) {
+    for (const std::optional<Pose>* cam_from_marker :
+         {&m.cam_from_marker, &m.alternative_cam_from_marker}) {
+      if (!*cam_from_marker || (obs.size() == 1 && cam_from_marker != &m.cam_from_marker)) continue;
+      const Pose candidate = **cam_from_marker * m.object_from_marker.Inverse();
+      const Eigen::Matrix3d Rc = candidate.Rotation();
+      double cost = 0;
+      for (Block& b : *blocks) {
+        UpdatePoints(&b, Rc, candidate.tvec, o);
+        VecR r;
+        MatR6 J;
+        if (!Evaluate(camera, b, Rc, candidate.tvec, &r, &J, nullptr)) {
+          cost += 1e6;
+          continue;
+        }
+        for (int i = 0; i < r.size(); i += 2) {
+          const double e =
+              r.segment<2>(i).norm() / o.corner_sigma_px;  // Cauchy: robust to outliers
+          cost += std::log1p(e * e / 9);
+        }
+      }
+      if (cost < best) {
+        best = cost;
+        *R = Rc;
+        *t = candidate.tvec;
+      }
+    }
+  }
+  return std::isfinite(best);
+}
+
+// 2. Gauss-Newton from (*R, *t) over the active blocks, each marker's residuals whitened by
+// its covariance (refreshed every third iteration: the well's visible bottom and R_m follow
+// the pose) and weighted by Cauchy's robust weight; a block that cannot be evaluated is left
+// out for good. Stops when PoseGaussNewtonStep says converged, after o.max_iterations, or
+// when no block is left.
+void FitPose(const CameraModel& camera, const ObjectPoseOptions& o, std::vector<Block>* blocks,
+             Eigen::Matrix3d* R_io, Eigen::Vector3d* t_io) {
+  Eigen::Matrix3d& R = *R_io;
+  Eigen::Vector3d& t = *t_io;
+  for (Block& b : *blocks) {
+    if (!b.active) continue;
+    UpdatePoints(&b, R, t, o);
+    if (!Whitening(camera, &b, R, t, o)) b.active = false;
+  }
+  bool converged = false;
+  for (int iter = 0; iter < o.max_iterations && !converged; ++iter) {
+    Mat6 H = Mat6::Zero();
+    Vec6 g = Vec6::Zero();
+    int active = 0;
+    for (Block& b : *blocks) {
+      if (!b.active) continue;
+      if (iter > 0 && iter % 3 == 0) {  // the well's visible bottom and R_m follow the pose
+        UpdatePoints(&b, R, t, o);
+        if (!Whitening(camera, &b, R, t, o)) {
+          b.active = false;
+          continue;
+        }
+      }
+      VecR r;
+      MatR6 J;
+      if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) {
+        b.active = false;
+        continue;
+      }
+      const VecR wr = b.L_inv * r;
+      const MatR6 wJ = b.L_inv * J;
+      const double norm = std::sqrt(wr.squaredNorm() / static_cast<double>(r.size()));
+      b.weight = 1.0 / (1.0 + (norm / o.robust_k) * (norm / o.robust_k));  // Cauchy
+      H += b.weight * wJ.transpose() * wJ;
+      g += b.weight * wJ.transpose() * wr;
+      ++active;
+    }
+    if (active == 0) break;
+    const PoseStep step = PoseGaussNewtonStep(H, g, kObjectPoseTolerances, &R, &t);
+    if (step == PoseStep::kFailed) break;
+    converged = step == PoseStep::kConverged;
+  }
+}
+
+// Chi-square of a block at (R, t) over its quantile (> 1: inconsistent), and its worst point
+// (*worst_point: 0-3 a corner, 4 the tip, -1 none) in sigmas of pixel and layout noise.
+double Excess(const CameraModel& camera, const ObjectPoseOptions& o, const Block& b,
+              const Eigen::Matrix3d& R, const Eigen::Vector3d& t, int* worst_point,
+              double* worst_norm) {
+  VecR r;
+  MatR6 J;
+  *worst_point = -1;
+  *worst_norm = 0;
+  if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) return std::numeric_limits<double>::infinity();
+  for (size_t k = 0; k < b.points.size(); ++k) {
+    const double n = r.segment<2>(2 * k).norm() / b.total_sigma[k];
+    if (n > *worst_norm) {
+      *worst_norm = n;
+      *worst_point = b.points[k].index;
+    }
+  }
+  return (b.L_inv * r).squaredNorm() /
+         ChiSquareQuantile(o.reject_quantile, 2 * static_cast<int>(b.points.size()));
+}
+
+// 3. Rejection, one thing at a time, each followed by a new fit (FitPose from (*R, *t)). The
+// most inconsistent marker (chi-square beyond the reject_quantile) is refitted without its
+// worst point: if that makes it consistent, only the point goes (a corner hidden by the post,
+// a glint taken for the tip); if not, the whole marker goes (a misread quad, a marker at a
+// grazing angle), before it pulls the fit and makes good points elsewhere look bad. Then
+// single points beyond point_reject_sigma (pixel and layout noise) go, as long as their marker
+// keeps 3. Counts what went in *result; `trial` is a work buffer.
+void RejectOutliers(const CameraModel& camera, const ObjectPoseOptions& o,
+                    std::vector<Block>* blocks_io, std::vector<Block>* trial_io, Eigen::Matrix3d* R,
+                    Eigen::Vector3d* t, ObjectPose* result) {
+  std::vector<Block>& blocks = *blocks_io;
+  std::vector<Block>& trial = *trial_io;
+  for (;;) {
+    FitPose(camera, o, &blocks, R, t);
+    int worst_marker = -1, worst_block = -1, worst_point = -1, active = 0;
+    double worst_excess = 1, worst_norm = o.point_reject_sigma;
+    for (size_t i = 0; i < blocks.size(); ++i) {
+      if (!blocks[i].active) continue;
+      ++active;
+      int point;
+      double norm;
+      const double e = Excess(camera, o, blocks[i], *R, *t, &point, &norm);
+      if (e > worst_excess) {
+        worst_excess = e;
+        worst_marker = static_cast<int>(i);
+      }
+      if (blocks[i].points.size() > 3 && norm > worst_norm) {
+        worst_norm = norm;
+        worst_block = static_cast<int>(i);
+        worst_point = point;
+      }
+    }
+    if (worst_marker >= 0) {
+      Block& b = blocks[worst_marker];
+      int point;
+      double norm;
+      Excess(camera, o, b, *R, *t, &point, &norm);
+      if (b.points.size() > 3 && point >= 0) {
+        trial = blocks;
+        trial[worst_marker].dropped[point] = true;
+        Eigen::Matrix3d R2 = *R;
+        Eigen::Vector3d t2 = *t;
+        FitPose(camera, o, &trial, &R2, &t2);
+        int p2;
+        double n2;
+        if (trial[worst_marker].active &&
+            Excess(camera, o, trial[worst_marker], R2, t2, &p2, &n2) <= 1) {
+          b.dropped[point] = true;
+          ++result->points_rejected;
+          continue;
+        }
+      }
+      if (active > 1) {
+        b.active = false;
+        result->ids_rejected.push_back(b.obs->id);
+        continue;
+      }
+    }
+    if (worst_block >= 0) {
+      blocks[worst_block].dropped[worst_point] = true;
+      ++result->points_rejected;
+      continue;
+    }
+    break;
+  }
+}
+
+// What the markers kept say at the final pose (step 4).
+struct FitInformation {
+  Mat6 H = Mat6::Zero();  // their unweighted information, sum of (whitened J)^T (whitened J)
+  bool with_calibration = false;  // G below is filled
+  double ss = 0, chi2 = 0;        // sums of squared residuals, pixels and whitened
+  int points = 0;
+  bool ambiguous_single = false;            // the last marker's pose was ambiguous
+  const MarkerObservation* last = nullptr;  // the last marker used
+};
+
+// Step 4's sums over the active blocks at (R, t) into *info (and result->ids_used), with the
+// calibration's coupling G = sum over markers of (whitened d r / d pose)^T (whitened d r /
+// d intrinsics), 6 x N, when the covariance is to include it. False (result->message says
+// why) if the camera gives no intrinsics gradients.
+bool AccumulateInformation(const CameraModel& camera, const ObjectPoseOptions& o,
+                           std::vector<Block>* blocks, const Eigen::Matrix3d& R,
+                           const Eigen::Vector3d& t, FitInformation* info, Eigen::MatrixXd* G,
+                           ObjectPose* result) {
+  const Eigen::MatrixXd& intrinsics_factor = camera.intrinsics_covariance_factor();
+  info->with_calibration = o.use_calibration_covariance && intrinsics_factor.size() > 0;
+  thread_local Eigen::MatrixXd J_intrinsics;
+  if (info->with_calibration) G->setZero(6, intrinsics_factor.rows());
+  for (Block& b : *blocks) {
+    if (!b.active) continue;
+    UpdatePoints(&b, R, t, o);
+    if (!Whitening(camera, &b, R, t, o)) continue;
+    VecR r;
+    MatR6 J;
+    if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) continue;
+    const MatR6 wJ = b.L_inv * J;
+    if (info->with_calibration) {
+      if (!IntrinsicsJacobian(camera, b, R, t, &J_intrinsics)) {
+        result->message = "the camera gives no intrinsics gradients (CAHVORE)";
+        return false;
+      }
+      const Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxRows> wJt_W =
+          wJ.transpose() * b.L_inv;
+      G->noalias() += wJt_W * J_intrinsics.topRows(J.rows());
+    }
+    info->H += wJ.transpose() * wJ;
+    info->ss += r.squaredNorm();
+    info->chi2 += (b.L_inv * r).squaredNorm();
+    info->points += static_cast<int>(b.points.size());
+    result->ids_used.push_back(b.obs->id);
+    info->ambiguous_single = b.obs->pose_ambiguous;
+    info->last = b.obs;
+  }
+  return true;
+}
+
+// The covariance of the fused pose ([rotation, translation], camera axes) from step 4's sums:
+// the inverse information, scaled by the variance factor, plus the calibration's share and,
+// for a single marker, the detector's widening for its mirror solution. False (with
+// result->message) when no marker is left or the pose is not determined.
+bool FusedCovariance(const CameraModel& camera, const ObjectPoseOptions& o,
+                     const FitInformation& info, const Eigen::MatrixXd& G, const Eigen::Matrix3d& R,
+                     const Eigen::Vector3d& t, ObjectPose* out) {
+  ObjectPose& result = *out;
+  const int points = info.points;
+  result.markers_used = static_cast<int>(result.ids_used.size());
+  result.points_used = points;
+  if (result.markers_used == 0 || points < 3) {
+    result.message = "no marker left after rejection";
+    return false;
+  }
+  Eigen::FullPivLU<Mat6> lu(info.H);
+  if (lu.rank() < 6) {
+    result.message = "the pose is not determined (rank " + std::to_string(lu.rank()) + " of 6)";
+    return false;
+  }
+  result.covariance = lu.inverse();
+  result.covariance = 0.5 * (result.covariance + result.covariance.transpose()).eval();
+  const Mat6 H_inv = result.covariance;
+  // The frame's own evidence on the noise level: the variance factor's posterior mean under a
+  // prior worth variance_prior_dof degrees of freedom at 1 (the nominal noise model).
+  const int dof = 2 * points - 6;
+  result.variance_factor = o.variance_prior_dof > 0 ? (o.variance_prior_dof + info.chi2) /
+                                                          (o.variance_prior_dof + std::max(0, dof))
+                                                    : 1.0;
+  result.covariance *= result.variance_factor;
+  if (info.with_calibration) {
+    // The calibration's error moves the optimum by d pose = S d intrinsics,
+    // S = -H^-1 G (the implicit function theorem at J^T W r = 0); its covariance S L L^T S^T
+    // is added after the variance factor (it is not the frame's noise). The same error is in
+    // every frame, so it is a bias along a sequence, not noise that averages away.
+    thread_local Eigen::MatrixXd HG, SL;
+    HG.noalias() = H_inv * G;
+    SL.noalias() = HG * camera.intrinsics_covariance_factor();
+    result.covariance.noalias() += SL * SL.transpose();
+    result.calibration_in_covariance = true;
+  }
+  const MarkerObservation* last = info.last;
+  if (result.markers_used == 1 && !last->ambiguity_covariance.isZero()) {
+    // One marker: its mirror solution is as possible here as it was to the detector. Its
+    // widening, about the marker's origin, moved to the object's: with a left perturbation
+    // in camera axes, d t_object = d t_marker - [a]x d theta, a = object origin - marker
+    // origin (camera axes).
+    const Eigen::Vector3d a = t - (R * last->object_from_marker.tvec + t);
+    Mat6 J = Mat6::Identity();
+    J.bottomLeftCorner<3, 3>() << 0, a.z(), -a.y(), -a.z(), 0, a.x(), a.y(), -a.x(), 0;
+    result.covariance += J * last->ambiguity_covariance * J.transpose();
+  }
+  return true;
+}
+
+// The rest of the result at the fused pose (R, t): residual statistics, the single marker's
+// ambiguity and alternative, the conditioning flag and validity.
+void DescribeResult(const ObjectPoseOptions& o, const FitInformation& info,
+                    const Eigen::Matrix3d& R, const Eigen::Vector3d& t, ObjectPose* out) {
+  ObjectPose& result = *out;
+  const int points = info.points;
+  const MarkerObservation* last = info.last;
+  result.cam_from_object = Pose::FromRotation(R, t);
+  result.rms_px = std::sqrt(info.ss / (2.0 * points));
+  result.chi2 = info.chi2;
+  result.dof = 2 * points - 6;
+  result.ambiguous = result.markers_used == 1 && info.ambiguous_single;
+  if (result.ambiguous && last->alternative_cam_from_marker && last->cam_from_marker) {
+    // Should the fit have ended nearer the detector's other pose than its kept one, the kept
+    // one is the alternative instead.
+    const Pose marker_from_object = last->object_from_marker.Inverse();
+    const Pose cam_from_marker = result.cam_from_object * last->object_from_marker;
+    const Pose& kept = *last->cam_from_marker;
+    const Pose& other = *last->alternative_cam_from_marker;
+    const bool swapped = AngleBetween(cam_from_marker, other) < AngleBetween(cam_from_marker, kept);
+    result.alternative_cam_from_object = (swapped ? kept : other) * marker_from_object;
+    result.alternative_weight = swapped ? 1 - last->alternative_weight : last->alternative_weight;
+  }
+  const double rot_sigma_deg =
+      std::sqrt(result.covariance.topLeftCorner<3, 3>().diagonal().maxCoeff()) * 180 / M_PI;
+  const double trans_sigma = std::sqrt(result.covariance.bottomRightCorner<3, 3>().trace());
+  result.poorly_conditioned = rot_sigma_deg > o.max_rotation_sigma_deg ||
+                              trans_sigma > o.max_translation_sigma_fraction * t.norm();
+  result.valid = result.covariance.allFinite() && result.cam_from_object.tvec.allFinite();
+  if (!result.valid) result.message = "the solve gave non-finite numbers";
+}
+
 }  // namespace
 
 double CornerSigma(const ObjectPoseOptions& o, double side_px) {
@@ -248,18 +582,8 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
 
 void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
                      const ObjectPoseOptions& o, ObjectPose* out) {
-  // A fresh result that keeps the capacity of *out's vectors and message.
-  std::vector<int> ids_used = std::move(out->ids_used), ids_rejected = std::move(out->ids_rejected);
-  std::string message = std::move(out->message);
-  *out = ObjectPose{};
+  ResetResult(out);
   ObjectPose& result = *out;
-  result.ids_used = std::move(ids_used);
-  result.ids_used.clear();
-  result.ids_rejected = std::move(ids_rejected);
-  result.ids_rejected.clear();
-  result.message = std::move(message);
-  result.message.clear();
-
   result.markers_seen = static_cast<int>(obs.size());
   if (obs.empty()) {
     result.message = "no marker of the layout detected";
@@ -274,268 +598,22 @@ void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservat
     blocks[i].t_om = obs[i].object_from_marker.tvec;
   }
 
-  // 1. Start: the per-marker candidate with the least robust cost over all markers. With
-  // several markers, one flagged ambiguous offers both its planar poses (its kept one may be
-  // the wrong one, and the others tell). A lone marker starts from the detector's pose alone:
-  // the detector chose it on more than these points (the stripe's edges, each point's own
-  // sigma), and on a flat marker the robust cost below may prefer the wrong one.
+  // 1. Start: the best single-marker candidate.
   Eigen::Matrix3d R;
   Eigen::Vector3d t;
-  double best = std::numeric_limits<double>::infinity();
-  for (const MarkerObservation& m : obs) {
-    for (const std::optional<Pose>* cam_from_marker :
-         {&m.cam_from_marker, &m.alternative_cam_from_marker}) {
-      if (!*cam_from_marker || (obs.size() == 1 && cam_from_marker != &m.cam_from_marker)) continue;
-      const Pose candidate = **cam_from_marker * m.object_from_marker.Inverse();
-      const Eigen::Matrix3d Rc = candidate.Rotation();
-      double cost = 0;
-      for (Block& b : blocks) {
-        UpdatePoints(&b, Rc, candidate.tvec, o);
-        VecR r;
-        MatR6 J;
-        if (!Evaluate(camera, b, Rc, candidate.tvec, &r, &J, nullptr)) {
-          cost += 1e6;
-          continue;
-        }
-        for (int i = 0; i < r.size(); i += 2) {
-          const double e =
-              r.segment<2>(i).norm() / o.corner_sigma_px;  // Cauchy: robust to outliers
-          cost += std::log1p(e * e / 9);
-        }
-      }
-      if (cost < best) {
-        best = cost;
-        R = Rc;
-        t = candidate.tvec;
-      }
-    }
-  }
-  if (!std::isfinite(best)) {
+  if (!StartPose(camera, obs, o, &blocks, &R, &t)) {
     result.message = "no detected marker has a single-marker pose to start from";
     return;
   }
-
-  // 2. Gauss-Newton with per-marker whitening and Cauchy weights.
-  auto solve = [&](std::vector<Block>& bs, Eigen::Matrix3d& R, Eigen::Vector3d& t) {
-    for (Block& b : bs) {
-      if (!b.active) continue;
-      UpdatePoints(&b, R, t, o);
-      if (!Whitening(camera, &b, R, t, o)) b.active = false;
-    }
-    bool converged = false;
-    for (int iter = 0; iter < o.max_iterations && !converged; ++iter) {
-      Mat6 H = Mat6::Zero();
-      Vec6 g = Vec6::Zero();
-      int active = 0;
-      for (Block& b : bs) {
-        if (!b.active) continue;
-        if (iter > 0 && iter % 3 == 0) {  // the well's visible bottom and R_m follow the pose
-          UpdatePoints(&b, R, t, o);
-          if (!Whitening(camera, &b, R, t, o)) {
-            b.active = false;
-            continue;
-          }
-        }
-        VecR r;
-        MatR6 J;
-        if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) {
-          b.active = false;
-          continue;
-        }
-        const VecR wr = b.L_inv * r;
-        const MatR6 wJ = b.L_inv * J;
-        const double norm = std::sqrt(wr.squaredNorm() / static_cast<double>(r.size()));
-        b.weight = 1.0 / (1.0 + (norm / o.robust_k) * (norm / o.robust_k));  // Cauchy
-        H += b.weight * wJ.transpose() * wJ;
-        g += b.weight * wJ.transpose() * wr;
-        ++active;
-      }
-      if (active == 0) break;
-      const Vec6 step = -H.ldlt().solve(g);
-      if (!step.allFinite()) break;
-      R = Exp(step.head<3>()) * R;
-      t += step.tail<3>();
-      converged = step.head<3>().norm() < 1e-10 && step.tail<3>().norm() < 1e-10 * (1 + t.norm());
-    }
-  };
-  // Chi-square of a block over its quantile (> 1: inconsistent), and its worst point in sigmas.
-  auto excess = [&](const Block& b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
-                    int* worst_point, double* worst_norm) {
-    VecR r;
-    MatR6 J;
-    *worst_point = -1;
-    *worst_norm = 0;
-    if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) return std::numeric_limits<double>::infinity();
-    for (size_t k = 0; k < b.points.size(); ++k) {
-      const double n = r.segment<2>(2 * k).norm() / b.total_sigma[k];
-      if (n > *worst_norm) {
-        *worst_norm = n;
-        *worst_point = b.points[k].index;
-      }
-    }
-    return (b.L_inv * r).squaredNorm() /
-           ChiSquareQuantile(o.reject_quantile, 2 * static_cast<int>(b.points.size()));
-  };
-
-  // 3. Rejection, one thing at a time, each followed by a new fit. The most inconsistent
-  // marker (chi-square beyond the reject_quantile) is refitted without its worst point: if
-  // that makes it consistent, only the point goes (a corner hidden by the post, a glint taken
-  // for the tip); if not, the whole marker goes (a misread quad, a marker at a grazing angle),
-  // before it pulls the fit and makes good points elsewhere look bad. Then single points
-  // beyond point_reject_sigma (pixel and layout noise) go, as long as their marker keeps 3.
-  for (;;) {
-    solve(blocks, R, t);
-    int worst_marker = -1, worst_block = -1, worst_point = -1, active = 0;
-    double worst_excess = 1, worst_norm = o.point_reject_sigma;
-    for (size_t i = 0; i < blocks.size(); ++i) {
-      if (!blocks[i].active) continue;
-      ++active;
-      int point;
-      double norm;
-      const double e = excess(blocks[i], R, t, &point, &norm);
-      if (e > worst_excess) {
-        worst_excess = e;
-        worst_marker = static_cast<int>(i);
-      }
-      if (blocks[i].points.size() > 3 && norm > worst_norm) {
-        worst_norm = norm;
-        worst_block = static_cast<int>(i);
-        worst_point = point;
-      }
-    }
-    if (worst_marker >= 0) {
-      Block& b = blocks[worst_marker];
-      int point;
-      double norm;
-      excess(b, R, t, &point, &norm);
-      if (b.points.size() > 3 && point >= 0) {
-        trial = blocks;
-        trial[worst_marker].dropped[point] = true;
-        Eigen::Matrix3d R2 = R;
-        Eigen::Vector3d t2 = t;
-        solve(trial, R2, t2);
-        int p2;
-        double n2;
-        if (trial[worst_marker].active && excess(trial[worst_marker], R2, t2, &p2, &n2) <= 1) {
-          b.dropped[point] = true;
-          ++result.points_rejected;
-          continue;
-        }
-      }
-      if (active > 1) {
-        b.active = false;
-        result.ids_rejected.push_back(b.obs->id);
-        continue;
-      }
-    }
-    if (worst_block >= 0) {
-      blocks[worst_block].dropped[worst_point] = true;
-      ++result.points_rejected;
-      continue;
-    }
-    break;
-  }
-
+  // 2-3. Gauss-Newton, and rejection of outlying markers and points, each followed by a new
+  // fit.
+  RejectOutliers(camera, o, &blocks, &trial, &R, &t, &result);
   // 4. The result: covariance from the unweighted information of the markers kept.
-  const Eigen::MatrixXd& intrinsics_factor = camera.intrinsics_covariance_factor();
-  const bool with_calibration = o.use_calibration_covariance && intrinsics_factor.size() > 0;
-  // G = sum over markers of (whitened d r / d pose)^T (whitened d r / d intrinsics), 6 x N.
-  thread_local Eigen::MatrixXd G, J_intrinsics, HG, SL;
-  if (with_calibration) G.setZero(6, intrinsics_factor.rows());
-  Mat6 H = Mat6::Zero();
-  double ss = 0, chi2 = 0;
-  int points = 0;
-  bool ambiguous_single = false;
-  const MarkerObservation* last = nullptr;
-  for (Block& b : blocks) {
-    if (!b.active) continue;
-    UpdatePoints(&b, R, t, o);
-    if (!Whitening(camera, &b, R, t, o)) continue;
-    VecR r;
-    MatR6 J;
-    if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) continue;
-    const MatR6 wJ = b.L_inv * J;
-    if (with_calibration) {
-      if (!IntrinsicsJacobian(camera, b, R, t, &J_intrinsics)) {
-        result.message = "the camera gives no intrinsics gradients (CAHVORE)";
-        return;
-      }
-      const Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxRows> wJt_W =
-          wJ.transpose() * b.L_inv;
-      G.noalias() += wJt_W * J_intrinsics.topRows(J.rows());
-    }
-    H += wJ.transpose() * wJ;
-    ss += r.squaredNorm();
-    chi2 += (b.L_inv * r).squaredNorm();
-    points += static_cast<int>(b.points.size());
-    result.ids_used.push_back(b.obs->id);
-    ambiguous_single = b.obs->pose_ambiguous;
-    last = b.obs;
-  }
-  result.markers_used = static_cast<int>(result.ids_used.size());
-  result.points_used = points;
-  if (result.markers_used == 0 || points < 3) {
-    result.message = "no marker left after rejection";
-    return;
-  }
-  Eigen::FullPivLU<Mat6> lu(H);
-  if (lu.rank() < 6) {
-    result.message = "the pose is not determined (rank " + std::to_string(lu.rank()) + " of 6)";
-    return;
-  }
-  result.covariance = lu.inverse();
-  result.covariance = 0.5 * (result.covariance + result.covariance.transpose()).eval();
-  const Mat6 H_inv = result.covariance;
-  // The frame's own evidence on the noise level: the variance factor's posterior mean under a
-  // prior worth variance_prior_dof degrees of freedom at 1 (the nominal noise model).
-  const int dof = 2 * points - 6;
-  result.variance_factor = o.variance_prior_dof > 0 ? (o.variance_prior_dof + chi2) /
-                                                          (o.variance_prior_dof + std::max(0, dof))
-                                                    : 1.0;
-  result.covariance *= result.variance_factor;
-  if (with_calibration) {
-    // The calibration's error moves the optimum by d pose = S d intrinsics,
-    // S = -H^-1 G (the implicit function theorem at J^T W r = 0); its covariance S L L^T S^T
-    // is added after the variance factor (it is not the frame's noise). The same error is in
-    // every frame, so it is a bias along a sequence, not noise that averages away.
-    HG.noalias() = H_inv * G;
-    SL.noalias() = HG * intrinsics_factor;
-    result.covariance.noalias() += SL * SL.transpose();
-    result.calibration_in_covariance = true;
-  }
-  if (result.markers_used == 1 && !last->ambiguity_covariance.isZero()) {
-    // One marker: its mirror solution is as possible here as it was to the detector. Its
-    // widening, about the marker's origin, moved to the object's: with a left perturbation
-    // in camera axes, d t_object = d t_marker - [a]x d theta, a = object origin - marker
-    // origin (camera axes).
-    const Eigen::Vector3d a = t - (R * last->object_from_marker.tvec + t);
-    Mat6 J = Mat6::Identity();
-    J.bottomLeftCorner<3, 3>() << 0, a.z(), -a.y(), -a.z(), 0, a.x(), a.y(), -a.x(), 0;
-    result.covariance += J * last->ambiguity_covariance * J.transpose();
-  }
-  result.cam_from_object = Pose::FromRotation(R, t);
-  result.rms_px = std::sqrt(ss / (2.0 * points));
-  result.chi2 = chi2;
-  result.dof = 2 * points - 6;
-  result.ambiguous = result.markers_used == 1 && ambiguous_single;
-  if (result.ambiguous && last->alternative_cam_from_marker && last->cam_from_marker) {
-    // Should the fit have ended nearer the detector's other pose than its kept one, the kept
-    // one is the alternative instead.
-    const Pose marker_from_object = last->object_from_marker.Inverse();
-    const Pose cam_from_marker = result.cam_from_object * last->object_from_marker;
-    const Pose& kept = *last->cam_from_marker;
-    const Pose& other = *last->alternative_cam_from_marker;
-    const bool swapped = AngleBetween(cam_from_marker, other) < AngleBetween(cam_from_marker, kept);
-    result.alternative_cam_from_object = (swapped ? kept : other) * marker_from_object;
-    result.alternative_weight = swapped ? 1 - last->alternative_weight : last->alternative_weight;
-  }
-  const double rot_sigma_deg =
-      std::sqrt(result.covariance.topLeftCorner<3, 3>().diagonal().maxCoeff()) * 180 / M_PI;
-  const double trans_sigma = std::sqrt(result.covariance.bottomRightCorner<3, 3>().trace());
-  result.poorly_conditioned = rot_sigma_deg > o.max_rotation_sigma_deg ||
-                              trans_sigma > o.max_translation_sigma_fraction * t.norm();
-  result.valid = result.covariance.allFinite() && result.cam_from_object.tvec.allFinite();
-  if (!result.valid) result.message = "the solve gave non-finite numbers";
+  thread_local Eigen::MatrixXd G;
+  FitInformation info;
+  if (!AccumulateInformation(camera, o, &blocks, R, t, &info, &G, &result)) return;
+  if (!FusedCovariance(camera, o, info, G, R, t, &result)) return;
+  DescribeResult(o, info, R, t, &result);
 }
 
 Eigen::Matrix<double, 6, 1> PoseError(const Pose& truth, const Pose& estimate) {

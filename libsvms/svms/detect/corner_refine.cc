@@ -412,6 +412,90 @@ LineFit FitLineRobust(const std::vector<Eigen::Vector2d>& pts, const std::vector
   }
   return fit;
 }
+// Step 8's penumbra rule for one side (`outward`, length `len`; last_iteration: the refinement's
+// last). A shadow's penumbra running along the side on the white stripe: see
+// CornerRefineOptions::penumbra_dark_fraction. Taken from the located edges (*edges, their
+// *weights) only in the last iteration: the earlier ones converge on the penumbra, a clean
+// line to start from. But where the line is already on the square's edge and the penumbra's
+// steepest rise lies beyond the search, most of the side's points find no edge, the rise
+// running on past the search's end (*past_end; compare view edge_40deg_09 rendered with 256
+// rays on edges): those ends are on the penumbra, and the edge is found under it from there,
+// in any iteration. Under a penumbra, *edges and *weights are replaced by the square's edge
+// found below it (EdgeBelowPenumbra); returns whether they were.
+bool EdgesUnderPenumbra(const Sampler& sample, const CornerRefineOptions& o, double black,
+                        double len, const Eigen::Vector2d& outward, bool last_iteration,
+                        std::vector<Eigen::Vector2d>* edges_io, std::vector<double>* weights_io,
+                        std::vector<Eigen::Vector2d>* past_end_io) {
+  std::vector<Eigen::Vector2d>& edges = *edges_io;
+  std::vector<double>& weights = *weights_io;
+  std::vector<Eigen::Vector2d>& past_end = *past_end_io;
+  const bool may_be_penumbra = std::isfinite(black) && len >= o.penumbra_min_side_px;
+  const bool from_ends = may_be_penumbra && past_end.size() > edges.size() &&
+                         InPenumbra(sample, past_end, outward, black, o.penumbra_dark_fraction);
+  if (!(from_ends || (may_be_penumbra && last_iteration &&
+                      InPenumbra(sample, edges, outward, black, o.penumbra_dark_fraction))))
+    return false;
+  if (from_ends) {
+    edges.swap(past_end);
+    weights.resize(edges.size());
+  }
+  const double reach = std::min(o.search_px + 2.5, 0.3 * len);
+  size_t kept = 0;
+  for (size_t i = 0; i < edges.size(); ++i) {
+    Eigen::Vector2d inner;
+    double strength;
+    if (!EdgeBelowPenumbra(sample, edges[i], outward, black, reach, &inner, &strength)) continue;
+    edges[kept] = inner;
+    weights[kept++] = strength;
+  }
+  edges.resize(kept);
+  weights.resize(kept);
+  return true;
+}
+
+// Each corner's sigma (out->corner_sigma) from the four sides' line fits (out->side_points,
+// ->side_rms; the lines in the fitting plane), their points spread over a fraction
+// 1 - 2 end_margin of each side, and the lag-1 sums of their residuals.
+void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, double end_margin,
+                  double lag1_products, double lag1_squares, int lag1_pairs,
+                  const CornerRefineOptions& o, RefinedCorners* out_io) {
+  RefinedCorners& out = *out_io;
+  // Neighbouring edge points (1.5 px apart) err together where the image was smoothed: by
+  // the optics' blur, a JPEG's blocks, a demosaicing filter. Their scatter then says less
+  // than independent points would: with a lag-1 correlation rho along the side, a line's
+  // offset and slope have (1 + rho) / (1 - rho) times the variance the scatter gives (an
+  // AR(1) model). rho is pooled over the four sides and taken only where it stands out of
+  // its own noise (2 / sqrt(pairs)), so that white noise costs nothing.
+  const double rho_raw = lag1_squares > 0 ? lag1_products / lag1_squares : 0;
+  const double rho = rho_raw > 2 / std::sqrt(std::max(lag1_pairs, 1)) ? std::min(rho_raw, 0.9) : 0;
+  out.correlation = rho;
+  const double correlated = (1 + rho) / (1 - rho);
+  // A line fitted to n points spread evenly over a fraction f of a side, residual RMS s: its
+  // offset at the middle has variance s^2 / n and its slope s^2 / (n (f L)^2 / 12); at the
+  // side's end (L / 2 away) the perpendicular variance is s^2 / n (1 + 3 / f^2).
+  const double f = 1 - 2 * end_margin;
+  double pooled_ss = 0, pooled_dof = 0;
+  for (int k = 0; k < 4; ++k) {
+    const double dof = std::max(1, out.side_points[k] - 2);
+    pooled_ss += out.side_rms[k] * out.side_rms[k] * dof;
+    pooled_dof += dof;
+  }
+  const double pooled_var = pooled_ss / pooled_dof;
+  std::array<double, 4> perp{};
+  for (int k = 0; k < 4; ++k) {
+    const double dof = std::max(1, out.side_points[k] - 2);
+    const double var = (out.side_rms[k] * out.side_rms[k] * dof + o.pooled_prior_dof * pooled_var) /
+                       (dof + o.pooled_prior_dof);
+    perp[k] = std::sqrt(correlated * var * (1 + 3 / (f * f)) / std::max(1, out.side_points[k]));
+  }
+  for (int k = 0; k < 4; ++k) {
+    const int j = (k + 3) % 4;
+    const double sin_angle =
+        std::max(0.2, std::abs(lines[j].x() * lines[k].y() - lines[j].y() * lines[k].x()));
+    out.corner_sigma[k] = std::sqrt(0.5 * (perp[j] * perp[j] + perp[k] * perp[k])) / sin_angle;
+  }
+}
+
 }  // namespace
 
 bool ExcludedRegion::Contains(const Eigen::Vector2d& p) const {
@@ -476,37 +560,11 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
         edges.push_back(edge);
         weights.push_back(best);
       }
-      // A shadow's penumbra running along the side on the white stripe: see
-      // CornerRefineOptions::penumbra_dark_fraction. Taken from the located edges only in the
-      // last iteration: the earlier ones converge on the penumbra, a clean line to start from.
-      // But where the line is already on the square's edge and the penumbra's steepest rise
-      // lies beyond the search, most of the side's points find no edge, the rise running on
-      // past the search's end (compare view edge_40deg_09 rendered with 256 rays on edges):
-      // those ends are on the penumbra, and the edge is found under it from there, in any
-      // iteration.
-      const bool may_be_penumbra = std::isfinite(black) && len >= o.penumbra_min_side_px;
-      const bool from_ends = may_be_penumbra && past_end.size() > edges.size() &&
-                             InPenumbra(sample, past_end, outward, black, o.penumbra_dark_fraction);
-      if (from_ends || (may_be_penumbra && it == o.iterations - 1 &&
-                        InPenumbra(sample, edges, outward, black, o.penumbra_dark_fraction))) {
-        if (it == o.iterations - 1) out.penumbra_sides[k] = true;
-        if (from_ends) {
-          edges.swap(past_end);
-          weights.resize(edges.size());
-        }
-        const double reach = std::min(o.search_px + 2.5, 0.3 * len);
-        size_t kept = 0;
-        for (size_t i = 0; i < edges.size(); ++i) {
-          Eigen::Vector2d inner;
-          double strength;
-          if (!EdgeBelowPenumbra(sample, edges[i], outward, black, reach, &inner, &strength))
-            continue;
-          edges[kept] = inner;
-          weights[kept++] = strength;
-        }
-        edges.resize(kept);
-        weights.resize(kept);
-      }
+      // Under a shadow's penumbra along the side, the square's edge below it.
+      if (EdgesUnderPenumbra(sample, o, black, len, outward, it == o.iterations - 1, &edges,
+                             &weights, &past_end) &&
+          it == o.iterations - 1)
+        out.penumbra_sides[k] = true;
       size_t mapped = 0;
       for (size_t i = 0; i < edges.size(); ++i) {
         Eigen::Vector2d q;
@@ -524,42 +582,7 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       lag1_products += fit.lag1_products, lag1_squares += fit.lag1_squares;
       lag1_pairs += fit.lag1_pairs;
     }
-    // Neighbouring edge points (1.5 px apart) err together where the image was smoothed: by
-    // the optics' blur, a JPEG's blocks, a demosaicing filter. Their scatter then says less
-    // than independent points would: with a lag-1 correlation rho along the side, a line's
-    // offset and slope have (1 + rho) / (1 - rho) times the variance the scatter gives (an
-    // AR(1) model). rho is pooled over the four sides and taken only where it stands out of
-    // its own noise (2 / sqrt(pairs)), so that white noise costs nothing.
-    const double rho_raw = lag1_squares > 0 ? lag1_products / lag1_squares : 0;
-    const double rho =
-        rho_raw > 2 / std::sqrt(std::max(lag1_pairs, 1)) ? std::min(rho_raw, 0.9) : 0;
-    out.correlation = rho;
-    const double correlated = (1 + rho) / (1 - rho);
-    // A line fitted to n points spread evenly over a fraction f of a side, residual RMS s: its
-    // offset at the middle has variance s^2 / n and its slope s^2 / (n (f L)^2 / 12); at the
-    // side's end (L / 2 away) the perpendicular variance is s^2 / n (1 + 3 / f^2).
-    const double f = 1 - 2 * end_margin;
-    double pooled_ss = 0, pooled_dof = 0;
-    for (int k = 0; k < 4; ++k) {
-      const double dof = std::max(1, out.side_points[k] - 2);
-      pooled_ss += out.side_rms[k] * out.side_rms[k] * dof;
-      pooled_dof += dof;
-    }
-    const double pooled_var = pooled_ss / pooled_dof;
-    std::array<double, 4> perp{};
-    for (int k = 0; k < 4; ++k) {
-      const double dof = std::max(1, out.side_points[k] - 2);
-      const double var =
-          (out.side_rms[k] * out.side_rms[k] * dof + o.pooled_prior_dof * pooled_var) /
-          (dof + o.pooled_prior_dof);
-      perp[k] = std::sqrt(correlated * var * (1 + 3 / (f * f)) / std::max(1, out.side_points[k]));
-    }
-    for (int k = 0; k < 4; ++k) {
-      const int j = (k + 3) % 4;
-      const double sin_angle =
-          std::max(0.2, std::abs(lines[j].x() * lines[k].y() - lines[j].y() * lines[k].x()));
-      out.corner_sigma[k] = std::sqrt(0.5 * (perp[j] * perp[j] + perp[k] * perp[k])) / sin_angle;
-    }
+    CornerSigmas(lines, end_margin, lag1_products, lag1_squares, lag1_pairs, o, &out);
     for (int k = 0; k < 4; ++k) {
       const Eigen::Vector3d h = lines[(k + 3) % 4].cross(lines[k]);
       if (std::abs(h.z()) < 1e-15) return out;

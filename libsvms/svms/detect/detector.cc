@@ -66,6 +66,202 @@ void SetPose(const MarkerPose& mp, Detection* d) {
   d->pose_rms_px = mp.rms_px;
 }
 
+// Step 0's images: what the other steps read.
+struct StepImages {
+  cv::Mat gray;      // 8-bit grey: steps 1-7 (edges, quads, bits)
+  cv::Mat measure;   // the image at its full depth: steps 8-10 (corners, tip, pose)
+  double level = 1;  // one grey level of `gray` in `measure`'s units
+};
+
+// 0. One 8-bit grey image (16-bit scaled to its used range, colour converted; other depths
+// through 32-bit float, which cvtColor accepts, then saturated to 8 bits), and the image to
+// measure on. An 8-bit grey image is used in place; conversions go to sc's buffers. False when
+// there is nothing to look at: no image, a channel count that is not an image we know how to
+// read (2, 5+), or smaller than 8 x 8.
+bool PrepareImages(const cv::Mat& input, DetectScratch* sc, StepImages* im) {
+  if (input.empty() || (input.channels() != 1 && input.channels() != 3 && input.channels() != 4))
+    return false;
+  cv::Mat gray = input, source = input;
+  if (input.depth() != CV_8U && input.depth() != CV_16U && input.depth() != CV_32F)
+    input.convertTo(source, CV_32F);
+  if (source.channels() == 3) {
+    cv::cvtColor(source, sc->gray, cv::COLOR_BGR2GRAY);
+    gray = sc->gray;
+  } else if (source.channels() == 4) {
+    cv::cvtColor(source, sc->gray, cv::COLOR_BGRA2GRAY);
+    gray = sc->gray;
+  } else {
+    gray = source;
+  }
+  // Steps 1-7 (edges, quads, bits) need only a coarse image: 8 bits. Steps 8-10 (corners, tip,
+  // pose) measure on `measure`, the image at its full depth: a 16-bit image keeps its
+  // precision there, with the grey levels read in steps 5-7 (Detection::black and white, in
+  // the 8-bit image's units) times `level` in its units.
+  cv::Mat measure;
+  double level = 1;
+  if (gray.depth() == CV_16U) {
+    double mx;
+    cv::minMaxLoc(gray, nullptr, &mx);
+    const double k = mx > 0 ? 255.0 / mx : 1.0;
+    measure = gray;
+    level = 1 / k;
+    gray.convertTo(sc->gray8, CV_8U, k);
+    gray = sc->gray8;
+  } else if (gray.depth() != CV_8U) {
+    gray.convertTo(sc->gray8, CV_8U);
+    gray = sc->gray8;
+  }
+  if (measure.empty()) measure = gray;
+  im->gray = gray;
+  im->measure = measure;
+  im->level = level;
+  return gray.cols >= 8 && gray.rows >= 8;
+}
+
+// 1-3. Edges, chains, segments into sc->segments. A 16-bit image's noise is estimated from the
+// image at its full depth (noise_model.h: black backgrounds clipped at 0 and saturated glints
+// left out) and the edges are searched on a scale where it is the same everywhere.
+void FindEdgeSegments(const StepImages& im, const SegmentOptions& options, DetectScratch* sc,
+                      DetectionStats* stats) {
+  const cv::Mat* edge_image = &im.gray;
+  SegmentOptions segment_options = options;
+  if (im.measure.depth() == CV_16U) {
+    stats->noise = EstimateNoise(im.measure);
+    if (stats->noise.valid() && stats->noise.read_sigma + stats->noise.shot_gain > 0) {
+      const double unit = StabiliseVariance(im.measure, stats->noise, &sc->stabilised);
+      segment_options.stabilise_variance = false;
+      // Very clean images would put the thresholds under the 8 bits' own steps.
+      segment_options.noise_sigma = std::max(unit, 0.5);
+      edge_image = &sc->stabilised;
+    }
+  }
+  FindSegments(*edge_image, segment_options, &sc->gx, &sc->gy, &sc->segments);
+  stats->segments = static_cast<int>(sc->segments.size());
+}
+
+// 5-7 for one quad: the homography from its corners, its bits, their decoding. A small square
+// whose bits do not decode gets its corners refined once and is read again (7b). The
+// detection (ID, rotation, corners in the marker's order, grey levels), or nullopt.
+std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorOptions& o,
+                                    const CameraModel* cam) {
+  static const MarkerModel unit = MarkerModel::Standard(0, 1.0, 0);
+  BitReading bits = SampleBits(gray, UnitHomography(q.corners), unit);
+  if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) return std::nullopt;
+  CodeMatch m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
+  // 7b. A small square's corners from the segments are off by tenths of a pixel, which at
+  // its bit cells (a sixth of its side, out to twice its half-side) misplaces the samples:
+  // refine the corners first and read again.
+  if (!m.accepted() && o.refine_corners && q.min_side() < o.small_quad_refine_px &&
+      bits.white - bits.black >= o.small_quad_min_contrast &&
+      bits.separated_refs >= o.small_quad_min_separated_refs) {
+    // One iteration (step 8 runs its own on whatever decodes): most small quads here are
+    // texture, and this retry must stay cheap on a busy background.
+    CornerRefineOptions once = o.refine;
+    once.iterations = 1;
+    const RefinedCorners r = RefineCorners(gray, q.corners, cam, once);
+    if (!r.ok) return std::nullopt;
+    q.corners = r.corners;
+    bits = SampleBits(gray, UnitHomography(q.corners), unit);
+    if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) return std::nullopt;
+    m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
+  }
+  if (!m.accepted()) return std::nullopt;
+  Detection d;
+  d.id = m.id;
+  d.rotation = m.rotation;
+  d.bit_errors = m.bit_errors;
+  for (int k = 0; k < 4; ++k) d.corners[k] = q.corners[(k - m.rotation + 4) % 4];
+  d.black = bits.black;
+  d.white = bits.white;
+  return d;
+}
+
+// 9-10 for one detection of a marker whose model is known: the tip and the pose, and 10b.
+// Without a pose, d->pose_error says why.
+void PoseMarker(const StepImages& im, const CameraModel& camera, const MarkerModel& model,
+                const DetectorOptions& o, DetectScratch* sc, Detection* d) {
+  MarkerPose mp;
+  const bool posed = EstimateMarkerPose(im.measure, d->corners, model, camera, d->black * im.level,
+                                        d->white * im.level, o.pose, &mp, d->corner_sigma);
+  if (!posed) {
+    d->pose_error = mp.failure;
+    return;
+  }
+  SetPose(mp, d);
+  // 10b. At grazing views the post's silhouette crosses a side and moves the edge points
+  // there by pixels: refit the sides without them and solve the pose again.
+  std::optional<ExcludedRegion> post;
+  if (o.refine_corners && o.post_silhouette_margin_px > 0)
+    post = PostSilhouette(model, camera, mp.cam_from_marker, o.post_silhouette_margin_px);
+  if (!post || !RegionTouchesSides(*post, d->corners)) return;
+  sc->excluded.assign(1, *post);
+  const RefinedCorners r =
+      RefineCorners(im.measure, d->corners, &camera, o.refine, sc->excluded, d->black * im.level);
+  MarkerPose again;
+  // Kept only if the sides fit better without those points: on a short side (a small
+  // marker at a grazing angle) the post may hide most of it, and the few points left
+  // say less than all of them did.
+  auto sum2 = [](const std::array<double, 4>& s) {
+    return s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + s[3] * s[3];
+  };
+  if (r.ok && r.excluded_points > 0 && sum2(r.corner_sigma) < sum2(d->corner_sigma) &&
+      EstimateMarkerPose(im.measure, r.corners, model, camera, d->black * im.level,
+                         d->white * im.level, o.pose, &again, r.corner_sigma)) {
+    d->corners = r.corners;
+    d->corner_sigma = r.corner_sigma;
+    d->penumbra_sides = r.penumbra_sides;
+    SetPose(again, d);
+  }
+}
+
+// 11. `accepted` without duplicates (the same marker from two quads: the one with fewer
+// corrected bits stays) into *result, and each inner marker of a dual marked as nested in its
+// outer one (by the models' nesting; without models, any marker inside one 1.5 times its size).
+void MergeAndNest(const std::vector<Detection>& accepted, const std::map<int, int>& outer_of,
+                  std::vector<Detection>* out) {
+  std::vector<Detection>& result = *out;
+  for (const Detection& d : accepted) {
+    bool dup = false;
+    for (Detection& r : result) {
+      if (r.id == d.id && (r.corners[0] - d.corners[0]).norm() < 0.2 * r.side_px()) {
+        if (d.bit_errors < r.bit_errors) r = d;
+        dup = true;
+      }
+    }
+    if (!dup) result.push_back(d);
+  }
+  for (Detection& d : result) {
+    auto it = outer_of.find(d.id);
+    for (const Detection& r : result) {
+      if (&r == &d) continue;
+      const Eigen::Vector2d c = 0.25 * (d.corners[0] + d.corners[1] + d.corners[2] + d.corners[3]);
+      const bool model_says = it != outer_of.end() && it->second == r.id;
+      if ((model_says || outer_of.empty()) && r.side_px() > 1.5 * d.side_px() &&
+          Inside(c, r.corners)) {
+        d.nested_in = r.id;
+      }
+    }
+  }
+}
+
+// The pictures of DetectorOptions::debug_pictures: the segments, the quads.
+void DrawDebugPictures(const cv::Mat& gray, const std::vector<Segment>& segs,
+                       const std::vector<Quad>& quads, DetectionStats* stats) {
+  cv::Mat dbg;
+  cv::cvtColor(gray, dbg, cv::COLOR_GRAY2BGR);
+  for (const Segment& s : segs)
+    cv::line(dbg, cv::Point2d(s.a.x(), s.a.y()), cv::Point2d(s.b.x(), s.b.y()),
+             cv::Scalar(0, 200, 255), 1);
+  stats->debug_pictures.emplace_back("1_segments", dbg);
+  cv::cvtColor(gray, dbg, cv::COLOR_GRAY2BGR);
+  for (const Quad& q : quads)
+    for (int k = 0; k < 4; ++k)
+      cv::line(dbg, cv::Point2d(q.corners[k].x(), q.corners[k].y()),
+               cv::Point2d(q.corners[(k + 1) % 4].x(), q.corners[(k + 1) % 4].y()),
+               cv::Scalar(255, 100, 0), 1);
+  stats->debug_pictures.emplace_back("2_quads", dbg);
+}
+
 }  // namespace
 
 double Detection::side_px() const {
@@ -107,117 +303,39 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   std::vector<Detection>& out = sc.decoded;
   out.clear();
   if (stats_out) *stats_out = stats;
-  // Other channel counts (2, 5+) are not images we know how to read: no detections.
-  if (input.empty() || (input.channels() != 1 && input.channels() != 3 && input.channels() != 4))
-    return;
-  // 0. One 8-bit grey image (16-bit scaled to its used range, colour converted; other depths
-  // through 32-bit float, which cvtColor accepts, then saturated to 8 bits).
-  // An 8-bit grey image is used in place; conversions go to this thread's buffer.
-  cv::Mat gray = input, source = input;
-  if (input.depth() != CV_8U && input.depth() != CV_16U && input.depth() != CV_32F)
-    input.convertTo(source, CV_32F);
-  if (source.channels() == 3) {
-    cv::cvtColor(source, sc.gray, cv::COLOR_BGR2GRAY);
-    gray = sc.gray;
-  } else if (source.channels() == 4) {
-    cv::cvtColor(source, sc.gray, cv::COLOR_BGRA2GRAY);
-    gray = sc.gray;
-  } else {
-    gray = source;
-  }
-  // Steps 1-7 (edges, quads, bits) need only a coarse image: 8 bits. Steps 8-10 (corners, tip,
-  // pose) measure on `measure`, the image at its full depth: a 16-bit image keeps its
-  // precision there, with the grey levels read in steps 5-7 (Detection::black and white, in
-  // the 8-bit image's units) times `level` in its units.
-  cv::Mat measure;
-  double level = 1;
-  if (gray.depth() == CV_16U) {
-    double mx;
-    cv::minMaxLoc(gray, nullptr, &mx);
-    const double k = mx > 0 ? 255.0 / mx : 1.0;
-    measure = gray;
-    level = 1 / k;
-    gray.convertTo(sc.gray8, CV_8U, k);
-    gray = sc.gray8;
-  } else if (gray.depth() != CV_8U) {
-    gray.convertTo(sc.gray8, CV_8U);
-    gray = sc.gray8;
-  }
-  if (measure.empty()) measure = gray;
-  if (gray.cols < 8 || gray.rows < 8) return;
+  const bool has_deadline = deadline != Clock::time_point::max();
+  auto past_deadline = [&] {
+    if (!has_deadline || Clock::now() < deadline) return false;
+    stats.budget_exceeded = true;  // only fully processed markers are reported
+    return true;
+  };
 
-  // 1-3. Edges, chains, segments. A 16-bit image's noise is estimated from the image at its
-  // full depth (noise_model.h: black backgrounds clipped at 0 and saturated glints left out)
-  // and the edges are searched on a scale where it is the same everywhere.
+  // 0. The images the steps read.
+  StepImages im;
+  if (!PrepareImages(input, &sc, &im)) return;
+
+  // 1-3. Edges, chains, segments.
   auto t0 = Clock::now();
-  std::vector<Segment>& segs = sc.segments;
-  const cv::Mat* edge_image = &gray;
-  SegmentOptions segment_options = o.segments;
-  if (measure.depth() == CV_16U) {
-    stats.noise = EstimateNoise(measure);
-    if (stats.noise.valid() && stats.noise.read_sigma + stats.noise.shot_gain > 0) {
-      const double unit = StabiliseVariance(measure, stats.noise, &sc.stabilised);
-      segment_options.stabilise_variance = false;
-      // Very clean images would put the thresholds under the 8 bits' own steps.
-      segment_options.noise_sigma = std::max(unit, 0.5);
-      edge_image = &sc.stabilised;
-    }
-  }
-  FindSegments(*edge_image, segment_options, &sc.gx, &sc.gy, &segs);
-  stats.segments = static_cast<int>(segs.size());
+  FindEdgeSegments(im, o.segments, &sc, &stats);
   auto t1 = Clock::now();
   stats.ms[0] = Ms(t0, t1);
 
   // 4. Quads.
   std::vector<Quad>& quads = sc.quads;
-  FindQuads(segs, o.quads, gray.cols, gray.rows, &quads);
+  FindQuads(sc.segments, o.quads, im.gray.cols, im.gray.rows, &quads);
   stats.quads = static_cast<int>(quads.size());
   auto t2 = Clock::now();
   stats.ms[1] = Ms(t1, t2);
 
-  // 5-7. Homography, bits, decoding.
+  // 5-7. Homography, bits, decoding (the clock is read every 8 quads).
   const CameraModel* cam = camera_.empty() ? nullptr : &camera_;
-  static const MarkerModel unit = MarkerModel::Standard(0, 1.0, 0);
-  const bool has_deadline = deadline != Clock::time_point::max();
-  auto out_of_time = [&](size_t i) {
-    if (!has_deadline || i % 8 != 0 || Clock::now() < deadline) return false;
-    stats.budget_exceeded = true;
-    return true;
-  };
   for (size_t qi = 0; qi < quads.size(); ++qi) {
-    if (out_of_time(qi)) break;
-    Quad q = quads[qi];
-    BitReading bits = SampleBits(gray, UnitHomography(q.corners), unit);
-    if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) continue;
-    CodeMatch m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
-    // 7b. A small square's corners from the segments are off by tenths of a pixel, which at
-    // its bit cells (a sixth of its side, out to twice its half-side) misplaces the samples:
-    // refine the corners first and read again.
-    if (!m.accepted() && o.refine_corners && q.min_side() < o.small_quad_refine_px &&
-        bits.white - bits.black >= o.small_quad_min_contrast &&
-        bits.separated_refs >= o.small_quad_min_separated_refs) {
-      // One iteration (step 8 runs its own on whatever decodes): most small quads here are
-      // texture, and this retry must stay cheap on a busy background.
-      CornerRefineOptions once = o.refine;
-      once.iterations = 1;
-      const RefinedCorners r = RefineCorners(gray, q.corners, cam, once);
-      if (!r.ok) continue;
-      q.corners = r.corners;
-      bits = SampleBits(gray, UnitHomography(q.corners), unit);
-      if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) continue;
-      m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
-    }
-    if (!m.accepted()) continue;
-    const bool known = models_.count(m.id) > 0;
+    if (qi % 8 == 0 && past_deadline()) break;
+    std::optional<Detection> d = DecodeQuad(im.gray, quads[qi], o, cam);
+    if (!d) continue;
+    const bool known = models_.count(d->id) > 0;
     if (!models_.empty() && o.known_ids_only && !known) continue;
-    Detection d;
-    d.id = m.id;
-    d.rotation = m.rotation;
-    d.bit_errors = m.bit_errors;
-    for (int k = 0; k < 4; ++k) d.corners[k] = q.corners[(k - m.rotation + 4) % 4];
-    d.black = bits.black;
-    d.white = bits.white;
-    out.push_back(d);
+    out.push_back(*d);
   }
   auto t3 = Clock::now();
   stats.ms[2] = Ms(t2, t3);
@@ -225,14 +343,14 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   // 8. Sub-pixel corners (in the rotated order: clockwise on screen either way).
   if (o.refine_corners) {
     for (size_t i = 0; i < out.size(); ++i) {
-      if (stats.budget_exceeded || (has_deadline && Clock::now() >= deadline)) {
-        stats.budget_exceeded = true;  // only fully processed markers are reported
+      if (stats.budget_exceeded || past_deadline()) {
+        stats.budget_exceeded = true;
         out.resize(i);
         break;
       }
       Detection& d = out[i];
       const RefinedCorners r =
-          RefineCorners(measure, d.corners, cam, o.refine, {}, d.black * level);
+          RefineCorners(im.measure, d.corners, cam, o.refine, {}, d.black * im.level);
       if (r.ok) {
         d.corners = r.corners;
         d.corner_sigma = r.corner_sigma;
@@ -247,47 +365,9 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   std::vector<Detection>& accepted = sc.accepted;
   accepted.clear();
   for (Detection& d : out) {
-    if (has_deadline && Clock::now() >= deadline) {
-      stats.budget_exceeded = true;  // only fully processed markers are reported
-      break;
-    }
+    if (past_deadline()) break;
     auto it = models_.find(d.id);
-    if (cam && it != models_.end()) {
-      MarkerPose mp;
-      const bool posed =
-          EstimateMarkerPose(measure, d.corners, it->second, camera_, d.black * level,
-                             d.white * level, o.pose, &mp, d.corner_sigma);
-      if (!posed) d.pose_error = mp.failure;
-      if (posed) {
-        SetPose(mp, &d);
-        // 10b. At grazing views the post's silhouette crosses a side and moves the edge points
-        // there by pixels: refit the sides without them and solve the pose again.
-        std::optional<ExcludedRegion> post;
-        if (o.refine_corners && o.post_silhouette_margin_px > 0)
-          post =
-              PostSilhouette(it->second, camera_, mp.cam_from_marker, o.post_silhouette_margin_px);
-        if (post && RegionTouchesSides(*post, d.corners)) {
-          sc.excluded.assign(1, *post);
-          const RefinedCorners r =
-              RefineCorners(measure, d.corners, cam, o.refine, sc.excluded, d.black * level);
-          MarkerPose again;
-          // Kept only if the sides fit better without those points: on a short side (a small
-          // marker at a grazing angle) the post may hide most of it, and the few points left
-          // say less than all of them did.
-          auto sum2 = [](const std::array<double, 4>& s) {
-            return s[0] * s[0] + s[1] * s[1] + s[2] * s[2] + s[3] * s[3];
-          };
-          if (r.ok && r.excluded_points > 0 && sum2(r.corner_sigma) < sum2(d.corner_sigma) &&
-              EstimateMarkerPose(measure, r.corners, it->second, camera_, d.black * level,
-                                 d.white * level, o.pose, &again, r.corner_sigma)) {
-            d.corners = r.corners;
-            d.corner_sigma = r.corner_sigma;
-            d.penumbra_sides = r.penumbra_sides;
-            SetPose(again, &d);
-          }
-        }
-      }
-    }
+    if (cam && it != models_.end()) PoseMarker(im, camera_, it->second, o, &sc, &d);
     if (d.bit_errors > o.max_unsupported_corrections) {
       // Independent evidence: the post tip found where the pose puts it (and, for 3
       // corrections, membership of the known set is enough).
@@ -304,46 +384,11 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   stats.ms[4] = Ms(t4, t5);
 
   // 11. Duplicates (the same marker from two quads) and nesting.
-  for (const Detection& d : accepted) {
-    bool dup = false;
-    for (Detection& r : result) {
-      if (r.id == d.id && (r.corners[0] - d.corners[0]).norm() < 0.2 * r.side_px()) {
-        if (d.bit_errors < r.bit_errors) r = d;
-        dup = true;
-      }
-    }
-    if (!dup) result.push_back(d);
-  }
-  for (Detection& d : result) {
-    auto it = outer_of_.find(d.id);
-    for (const Detection& r : result) {
-      if (&r == &d) continue;
-      const Eigen::Vector2d c = 0.25 * (d.corners[0] + d.corners[1] + d.corners[2] + d.corners[3]);
-      const bool model_says = it != outer_of_.end() && it->second == r.id;
-      if ((model_says || outer_of_.empty()) && r.side_px() > 1.5 * d.side_px() &&
-          Inside(c, r.corners)) {
-        d.nested_in = r.id;
-      }
-    }
-  }
+  MergeAndNest(accepted, outer_of_, &result);
   stats.decoded = static_cast<int>(result.size());
   stats.ms[5] = Ms(t5, Clock::now());
 
-  if (o.debug_pictures) {
-    cv::Mat dbg;
-    cv::cvtColor(gray, dbg, cv::COLOR_GRAY2BGR);
-    for (const Segment& s : segs)
-      cv::line(dbg, cv::Point2d(s.a.x(), s.a.y()), cv::Point2d(s.b.x(), s.b.y()),
-               cv::Scalar(0, 200, 255), 1);
-    stats.debug_pictures.emplace_back("1_segments", dbg);
-    cv::cvtColor(gray, dbg, cv::COLOR_GRAY2BGR);
-    for (const Quad& q : quads)
-      for (int k = 0; k < 4; ++k)
-        cv::line(dbg, cv::Point2d(q.corners[k].x(), q.corners[k].y()),
-                 cv::Point2d(q.corners[(k + 1) % 4].x(), q.corners[(k + 1) % 4].y()),
-                 cv::Scalar(255, 100, 0), 1);
-    stats.debug_pictures.emplace_back("2_quads", dbg);
-  }
+  if (o.debug_pictures) DrawDebugPictures(im.gray, sc.segments, quads, &stats);
   if (stats_out) *stats_out = stats;
 }
 

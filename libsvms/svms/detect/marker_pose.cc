@@ -11,6 +11,7 @@
 #include "svms/detect/corner_refine.h"
 #include "svms/detect/disc_fit.h"
 #include "svms/detect/ippe.h"
+#include "svms/detect/pose_gauss_newton.h"
 
 namespace svms {
 namespace {
@@ -70,6 +71,14 @@ constexpr double kAmbiguousWeight = 0.01;
 // markers 0.1-2.8 degrees off-axis, 0.2-1.2 degrees from the truth.)
 constexpr double kAmbiguousMinDeg = 2;
 
+// When RefinePose stops: the step is a millionth of the pose's own standard deviation (its
+// squared Mahalanobis length under J^T W J below 1e-12), or below 1e-12 (radians; translation
+// relative to the range). Where noise leaves residuals and the fit is ill-conditioned (a small
+// marker), Gauss-Newton converges only linearly: the fixed 1e-12 alone takes twice the
+// iterations for no change a covariance could show. Rotation steps below 1e-15 rad are left
+// out (they would move R by rounding only).
+constexpr PoseStepTolerances kMarkerPoseTolerances{1e-12, 1e-12, 1e-15};
+
 // Sum over the points of their squared reprojection error in units of their sigmas.
 double WeightedSquaredResiduals(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X,
                                 const std::vector<Eigen::Vector2d>& px,
@@ -81,6 +90,214 @@ double WeightedSquaredResiduals(const CameraModel& camera, const std::vector<Eig
     chi2 += (q - px[i]).squaredNorm() / (sigma[i] * sigma[i]);
   }
   return chi2;
+}
+
+// A pixel of a CV_8U or CV_16U image as a grey level.
+double Grey(const cv::Mat& img, int y, int x) {
+  return img.depth() == CV_16U ? img.at<uint16_t>(y, x) : img.at<uint8_t>(y, x);
+}
+
+// FindTip's search window, pixels, inclusive.
+struct TipWindow {
+  int x0 = 0, x1 = -1, y0 = 0, y1 = -1;
+};
+
+// The window of the image within `radius` of `pred` (clipped), and in it the brightest pixel
+// nearest the prediction (*bx, *by; -1 if none within the radius). False if the window is
+// empty.
+bool TipSeed(const cv::Mat& img, const Eigen::Vector2d& pred, double radius, double black,
+             double white, TipWindow* w, int* bx, int* by) {
+  w->x0 = std::max(0, static_cast<int>(std::floor(pred.x() - radius)));
+  w->x1 = std::min(img.cols - 1, static_cast<int>(std::ceil(pred.x() + radius)));
+  w->y0 = std::max(0, static_cast<int>(std::floor(pred.y() - radius)));
+  w->y1 = std::min(img.rows - 1, static_cast<int>(std::ceil(pred.y() + radius)));
+  if (w->x0 > w->x1 || w->y0 > w->y1) return false;
+  double best = -1;
+  *bx = -1;
+  *by = -1;
+  for (int y = w->y0; y <= w->y1; ++y)
+    for (int x = w->x0; x <= w->x1; ++x) {
+      const double d2 = (x - pred.x()) * (x - pred.x()) + (y - pred.y()) * (y - pred.y());
+      if (d2 > radius * radius) continue;
+      const double v = Grey(img, y, x) - 0.02 * (white - black) * std::sqrt(d2);  // prefer near
+      if (v > best) {
+        best = v;
+        *bx = x;
+        *by = y;
+      }
+    }
+  return true;
+}
+
+// Whether `memo` holds the answer of a FindTip call on `img` with these arguments, seeded at
+// (bx, by) with threshold local_thr in window w (TipSearchMemo, marker_pose.h).
+bool MemoAnswers(const TipSearchMemo& memo, const cv::Mat& img, double radius, double black,
+                 double white, double min_contrast, double tip_radius_px, bool sub_pixel,
+                 const TipWindow& w, int bx, int by, double local_thr) {
+  const int x0 = w.x0, x1 = w.x1, y0 = w.y0, y1 = w.y1;
+  return memo.valid && memo.data == img.data && memo.rows == img.rows && memo.cols == img.cols &&
+         memo.type == img.type() && memo.radius == radius && memo.black == black &&
+         memo.white == white && memo.min_contrast == min_contrast &&
+         memo.tip_radius_px == tip_radius_px &&
+         (sub_pixel
+              ? memo.seed_x == bx && memo.seed_y == by
+              : memo.local_thr == local_thr && memo.blob_x0 > x0 - (x0 == 0) &&
+                    memo.blob_x1 < x1 + (x1 == img.cols - 1) && memo.blob_y0 > y0 - (y0 == 0) &&
+                    memo.blob_y1 < y1 + (y1 == img.rows - 1) &&
+                    std::find(memo.blob.begin(), memo.blob.end(), std::make_pair(bx, by)) !=
+                        memo.blob.end());
+}
+
+// Sets `memo` to this FindTip call's arguments, seed and threshold (not yet valid: no answer).
+void StartMemo(TipSearchMemo* memo, const cv::Mat& img, double radius, double black, double white,
+               double min_contrast, double tip_radius_px, int bx, int by, double local_thr) {
+  memo->valid = false;
+  memo->data = img.data;
+  memo->rows = img.rows;
+  memo->cols = img.cols;
+  memo->type = img.type();
+  memo->radius = radius;
+  memo->black = black;
+  memo->white = white;
+  memo->min_contrast = min_contrast;
+  memo->tip_radius_px = tip_radius_px;
+  memo->seed_x = bx;
+  memo->seed_y = by;
+  memo->local_thr = local_thr;
+  memo->blob.clear();
+}
+
+// A top below a pixel (radius tip_radius_px) seeded at (bx, by): the 3 x 3 around the seed
+// hold its light; the ring around them must be dark (a bright ring means the stripe, a bit
+// cell or a glint, not an isolated top). Its place is the disc fit's, not the centroid (which
+// locks to pixel centres: disc_fit.h).
+std::optional<TipObservation> SubPixelTip(const cv::Mat& img, int bx, int by, double black,
+                                          double tip_radius_px) {
+  if (bx < 2 || by < 2 || bx > img.cols - 3 || by > img.rows - 3) return std::nullopt;
+  const double ring_max = black + 0.5 * (Grey(img, by, bx) - black);
+  std::array<double, 25> window;
+  for (int dy = -2; dy <= 2; ++dy)
+    for (int dx = -2; dx <= 2; ++dx) {
+      const double v = Grey(img, by + dy, bx + dx);
+      // The ring's four corners (2.8 px out) are not held to it: on an 8 px marker seen
+      // 15-20 degrees off-axis the top sits that close to a corner of the white stripe.
+      const bool ring = std::abs(dx) == 2 || std::abs(dy) == 2;
+      const bool ring_corner = std::abs(dx) == 2 && std::abs(dy) == 2;
+      if (ring && !ring_corner && v > ring_max) return std::nullopt;
+      window[(dy + 2) * 5 + dx + 2] = v;
+    }
+  // A top of at most half a pixel centred in the seed lies within its 3 x 3, and the ring is
+  // then left out of the fit: on a small marker it may already hold a bit of the stripe.
+  std::optional<DiscFit> fit;
+  if (tip_radius_px <= 0.5) {
+    std::array<double, 9> inner;
+    for (int k = 0; k < 9; ++k) inner[k] = window[(k / 3 + 1) * 5 + k % 3 + 1];
+    fit = FitDisc(inner.data(), 3, bx - 1, by - 1, tip_radius_px);
+  } else {
+    fit = FitDisc(window.data(), 5, bx - 2, by - 2, tip_radius_px);
+  }
+  if (!fit) return std::nullopt;
+  TipObservation t;
+  t.pixel = fit->centre;
+  // The fit's own sigma, and a floor for what it does not model: the top is an ellipse in
+  // an oblique view, and the lens and sensor blur it.
+  t.sigma_px = std::hypot(fit->sigma_px, kTipDiscModelSigma);
+  return t;
+}
+
+// Floods the connected pixels of at least local_thr from the seed (bx, by) within window w
+// into sc->blob (sc->seen marks them, over the window). False if the blob touches the window's
+// edge (inside the image): then it is not a small blob (e.g. the white stripe). *bounds: the
+// blob's bounding box.
+bool FloodBlob(const cv::Mat& img, const TipWindow& w, int bx, int by, double local_thr,
+               PoseScratch* sc, TipWindow* bounds) {
+  const int x0 = w.x0, x1 = w.x1, y0 = w.y0, y1 = w.y1;
+  std::vector<std::pair<int, int>>&stack = sc->stack, &blob = sc->blob;
+  stack.assign(1, {bx, by});
+  blob.clear();
+  std::vector<uint8_t>& seen = sc->seen;
+  seen.assign(static_cast<size_t>(x1 - x0 + 1) * (y1 - y0 + 1), 0);
+  while (!stack.empty()) {
+    auto [x, y] = stack.back();
+    stack.pop_back();
+    if (x < x0 || x > x1 || y < y0 || y > y1) continue;
+    uint8_t& s = seen[(y - y0) * (x1 - x0 + 1) + (x - x0)];
+    if (s || Grey(img, y, x) < local_thr) continue;
+    s = 1;
+    blob.emplace_back(x, y);
+    stack.push_back({x + 1, y});
+    stack.push_back({x - 1, y});
+    stack.push_back({x, y + 1});
+    stack.push_back({x, y - 1});
+  }
+  int bx0 = bx, bx1 = bx, by0 = by, by1 = by;
+  for (auto [x, y] : blob) {
+    if ((x == x0 && x0 > 0) || (x == x1 && x1 < img.cols - 1) || (y == y0 && y0 > 0) ||
+        (y == y1 && y1 < img.rows - 1))
+      return false;
+    bx0 = std::min(bx0, x);
+    bx1 = std::max(bx1, x);
+    by0 = std::min(by0, y);
+    by1 = std::max(by1, y);
+  }
+  *bounds = TipWindow{bx0, bx1, by0, by1};
+  return true;
+}
+
+// The top that FloodBlob found (sc->blob, sc->seen over window w): up to kMaxDiscFitRadiusPx,
+// the disc fit on a window about the blob's centroid when nothing else bright is in it; else
+// the centroid weighted by brightness, with a sigma that counts its pixel locking.
+std::optional<TipObservation> BlobTip(const cv::Mat& img, const TipWindow& w, const PoseScratch& sc,
+                                      double black, double local_thr, double tip_radius_px) {
+  const int x0 = w.x0, x1 = w.x1, y0 = w.y0, y1 = w.y1;
+  const std::vector<std::pair<int, int>>& blob = sc.blob;
+  const std::vector<uint8_t>& seen = sc.seen;
+  double wsum = 0, w2 = 0;
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  for (auto [x, y] : blob) {
+    const double wi = Grey(img, y, x) - black;
+    c += wi * Eigen::Vector2d(x, y);
+    wsum += wi;
+  }
+  if (wsum <= 0) return std::nullopt;
+  c /= wsum;
+  if (tip_radius_px <= kMaxDiscFitRadiusPx) {
+    // A top of a few pixels: the disc fit on a window about the centroid with a pixel and a
+    // half of margin, when nothing else bright is in it (else the centroid, below).
+    const int h = static_cast<int>(std::ceil(tip_radius_px + 1.5));
+    const int size = 2 * h + 1;
+    const int cx = static_cast<int>(std::lround(c.x())), cy = static_cast<int>(std::lround(c.y()));
+    bool clear = cx - h >= 0 && cy - h >= 0 && cx + h < img.cols && cy + h < img.rows;
+    std::array<double, 256> window;
+    for (int dy = -h; clear && dy <= h; ++dy)
+      for (int dx = -h; clear && dx <= h; ++dx) {
+        const int x = cx + dx, y = cy + dy;
+        const double v = Grey(img, y, x);
+        const bool in_blob =
+            x >= x0 && x <= x1 && y >= y0 && y <= y1 && seen[(y - y0) * (x1 - x0 + 1) + (x - x0)];
+        clear = in_blob || v < local_thr;
+        window[(dy + h) * size + dx + h] = v;
+      }
+    if (clear) {
+      if (const std::optional<DiscFit> fit =
+              FitDisc(window.data(), size, cx - h, cy - h, tip_radius_px, 1.0)) {
+        TipObservation t;
+        t.pixel = fit->centre;
+        t.sigma_px = std::hypot(fit->sigma_px, kTipDiscModelSigma);
+        return t;
+      }
+    }
+  }
+  for (auto [x, y] : blob) w2 += std::pow(Grey(img, y, x) - black, 2);
+  TipObservation t;
+  t.pixel = c;
+  // Centroid standard error for ~1 grey level of noise, plus a floor for the disc's
+  // perspective and the sampling of the blob's edge; for a top of a few pixels at least its
+  // pixel locking.
+  t.sigma_px = std::sqrt(0.05 * 0.05 + 1.0 / std::max(1.0, w2) * blob.size() * 0.25);
+  if (tip_radius_px <= kMaxDiscFitRadiusPx)
+    t.sigma_px = std::max(t.sigma_px, kCentroidLockingPxPx / std::max(1.0, tip_radius_px));
+  return t;
 }
 
 }  // namespace
@@ -96,71 +313,30 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
                                       double min_contrast, double tip_radius_px,
                                       TipSearchMemo* memo) {
   const double thr = black + 0.5 * (white - black);
-  const int x0 = std::max(0, static_cast<int>(std::floor(pred.x() - radius)));
-  const int x1 = std::min(img.cols - 1, static_cast<int>(std::ceil(pred.x() + radius)));
-  const int y0 = std::max(0, static_cast<int>(std::floor(pred.y() - radius)));
-  const int y1 = std::min(img.rows - 1, static_cast<int>(std::ceil(pred.y() + radius)));
-  if (x0 > x1 || y0 > y1) return std::nullopt;
-  auto at = [&](int y, int x) -> double {
-    return img.depth() == CV_16U ? img.at<uint16_t>(y, x) : img.at<uint8_t>(y, x);
-  };
   // The brightest pixel nearest the prediction seeds the blob.
-  double best = -1;
-  int bx = -1, by = -1;
-  for (int y = y0; y <= y1; ++y)
-    for (int x = x0; x <= x1; ++x) {
-      const double d2 = (x - pred.x()) * (x - pred.x()) + (y - pred.y()) * (y - pred.y());
-      if (d2 > radius * radius) continue;
-      const double v = at(y, x) - 0.02 * (white - black) * std::sqrt(d2);  // prefer near
-      if (v > best) {
-        best = v;
-        bx = x;
-        by = y;
-      }
-    }
+  TipWindow w;
+  int bx, by;
+  if (!TipSeed(img, pred, radius, black, white, &w, &bx, &by)) return std::nullopt;
   const bool sub_pixel = tip_radius_px < 1;
   const double peak_fraction =
       sub_pixel ? std::min(1.0, 0.5 * M_PI * tip_radius_px * tip_radius_px) : 1.0;
-  if (bx < 0 || at(by, bx) - black < min_contrast * peak_fraction * (white - black))
+  if (bx < 0 || Grey(img, by, bx) - black < min_contrast * peak_fraction * (white - black))
     return std::nullopt;
   // The blob's threshold (a top of a pixel or more): halfway to white, or to the seed if that
   // is dimmer.
-  const double local_thr = std::min(thr, black + 0.5 * (at(by, bx) - black));
+  const double local_thr = std::min(thr, black + 0.5 * (Grey(img, by, bx) - black));
   // What follows depends, below a pixel, on the seed only; above, on the blob that the seed
   // and threshold flood, and on the window only through whether that blob reaches its edge.
   // So the memo answers for the same seed below a pixel, and above for a seed in its blob with
   // the same threshold when the whole blob lies strictly inside this window (or at the image's
   // border).
-  if (memo && memo->valid && memo->data == img.data && memo->rows == img.rows &&
-      memo->cols == img.cols && memo->type == img.type() && memo->radius == radius &&
-      memo->black == black && memo->white == white && memo->min_contrast == min_contrast &&
-      memo->tip_radius_px == tip_radius_px &&
-      (sub_pixel
-           ? memo->seed_x == bx && memo->seed_y == by
-           : memo->local_thr == local_thr && memo->blob_x0 > x0 - (x0 == 0) &&
-                 memo->blob_x1 < x1 + (x1 == img.cols - 1) && memo->blob_y0 > y0 - (y0 == 0) &&
-                 memo->blob_y1 < y1 + (y1 == img.rows - 1) &&
-                 std::find(memo->blob.begin(), memo->blob.end(), std::make_pair(bx, by)) !=
-                     memo->blob.end())) {
+  if (memo && MemoAnswers(*memo, img, radius, black, white, min_contrast, tip_radius_px, sub_pixel,
+                          w, bx, by, local_thr)) {
     ++memo->reused;
     return memo->tip;
   }
-  if (memo) {
-    memo->valid = false;
-    memo->data = img.data;
-    memo->rows = img.rows;
-    memo->cols = img.cols;
-    memo->type = img.type();
-    memo->radius = radius;
-    memo->black = black;
-    memo->white = white;
-    memo->min_contrast = min_contrast;
-    memo->tip_radius_px = tip_radius_px;
-    memo->seed_x = bx;
-    memo->seed_y = by;
-    memo->local_thr = local_thr;
-    memo->blob.clear();
-  }
+  if (memo)
+    StartMemo(memo, img, radius, black, white, min_contrast, tip_radius_px, bx, by, local_thr);
   // The answer, kept in the memo: every answer below but a blob's that reaches the window's
   // edge (which depends on the window).
   auto answer = [&](const std::optional<TipObservation>& t) {
@@ -170,125 +346,18 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
     }
     return t;
   };
-  if (sub_pixel) {
-    // A sub-pixel disc: the 3 x 3 around the seed hold its light; the ring around them must be
-    // dark (a bright ring means the stripe, a bit cell or a glint, not an isolated top).
-    if (bx < 2 || by < 2 || bx > img.cols - 3 || by > img.rows - 3) return answer(std::nullopt);
-    const double ring_max = black + 0.5 * (at(by, bx) - black);
-    std::array<double, 25> window;
-    for (int dy = -2; dy <= 2; ++dy)
-      for (int dx = -2; dx <= 2; ++dx) {
-        const double v = at(by + dy, bx + dx);
-        // The ring's four corners (2.8 px out) are not held to it: on an 8 px marker seen
-        // 15-20 degrees off-axis the top sits that close to a corner of the white stripe.
-        const bool ring = std::abs(dx) == 2 || std::abs(dy) == 2;
-        const bool ring_corner = std::abs(dx) == 2 && std::abs(dy) == 2;
-        if (ring && !ring_corner && v > ring_max) return answer(std::nullopt);
-        window[(dy + 2) * 5 + dx + 2] = v;
-      }
-    // Not the centroid: it locks to pixel centres (disc_fit.h). A top of at most half a pixel
-    // centred in the seed lies within its 3 x 3, and the ring is then left out of the fit: on a
-    // small marker it may already hold a bit of the stripe.
-    std::optional<DiscFit> fit;
-    if (tip_radius_px <= 0.5) {
-      std::array<double, 9> inner;
-      for (int k = 0; k < 9; ++k) inner[k] = window[(k / 3 + 1) * 5 + k % 3 + 1];
-      fit = FitDisc(inner.data(), 3, bx - 1, by - 1, tip_radius_px);
-    } else {
-      fit = FitDisc(window.data(), 5, bx - 2, by - 2, tip_radius_px);
-    }
-    if (!fit) return answer(std::nullopt);
-    TipObservation t;
-    t.pixel = fit->centre;
-    // The fit's own sigma, and a floor for what it does not model: the top is an ellipse in
-    // an oblique view, and the lens and sensor blur it.
-    t.sigma_px = std::hypot(fit->sigma_px, kTipDiscModelSigma);
-    return answer(t);
-  }
-  // Flood the connected bright region from the seed (bounded by the window).
+  if (sub_pixel) return answer(SubPixelTip(img, bx, by, black, tip_radius_px));
   PoseScratch& sc = Scratch();
-  std::vector<std::pair<int, int>>&stack = sc.stack, &blob = sc.blob;
-  stack.assign(1, {bx, by});
-  blob.clear();
-  std::vector<uint8_t>& seen = sc.seen;
-  seen.assign(static_cast<size_t>(x1 - x0 + 1) * (y1 - y0 + 1), 0);
-  while (!stack.empty()) {
-    auto [x, y] = stack.back();
-    stack.pop_back();
-    if (x < x0 || x > x1 || y < y0 || y > y1) continue;
-    uint8_t& s = seen[(y - y0) * (x1 - x0 + 1) + (x - x0)];
-    if (s || at(y, x) < local_thr) continue;
-    s = 1;
-    blob.emplace_back(x, y);
-    stack.push_back({x + 1, y});
-    stack.push_back({x - 1, y});
-    stack.push_back({x, y + 1});
-    stack.push_back({x, y - 1});
-  }
-  // Touching the window's edge means it is not a small blob (e.g. the white stripe).
-  int bx0 = bx, bx1 = bx, by0 = by, by1 = by;
-  for (auto [x, y] : blob) {
-    if ((x == x0 && x0 > 0) || (x == x1 && x1 < img.cols - 1) || (y == y0 && y0 > 0) ||
-        (y == y1 && y1 < img.rows - 1))
-      return std::nullopt;
-    bx0 = std::min(bx0, x);
-    bx1 = std::max(bx1, x);
-    by0 = std::min(by0, y);
-    by1 = std::max(by1, y);
-  }
+  TipWindow bounds;
+  if (!FloodBlob(img, w, bx, by, local_thr, &sc, &bounds)) return std::nullopt;
   if (memo) {
-    memo->blob_x0 = bx0;
-    memo->blob_x1 = bx1;
-    memo->blob_y0 = by0;
-    memo->blob_y1 = by1;
-    memo->blob.assign(blob.begin(), blob.end());
+    memo->blob_x0 = bounds.x0;
+    memo->blob_x1 = bounds.x1;
+    memo->blob_y0 = bounds.y0;
+    memo->blob_y1 = bounds.y1;
+    memo->blob.assign(sc.blob.begin(), sc.blob.end());
   }
-  double w = 0, w2 = 0;
-  Eigen::Vector2d c = Eigen::Vector2d::Zero();
-  for (auto [x, y] : blob) {
-    const double wi = at(y, x) - black;
-    c += wi * Eigen::Vector2d(x, y);
-    w += wi;
-  }
-  if (w <= 0) return answer(std::nullopt);
-  c /= w;
-  if (tip_radius_px <= kMaxDiscFitRadiusPx) {
-    // A top of a few pixels: the disc fit on a window about the centroid with a pixel and a
-    // half of margin, when nothing else bright is in it (else the centroid, below).
-    const int h = static_cast<int>(std::ceil(tip_radius_px + 1.5));
-    const int size = 2 * h + 1;
-    const int cx = static_cast<int>(std::lround(c.x())), cy = static_cast<int>(std::lround(c.y()));
-    bool clear = cx - h >= 0 && cy - h >= 0 && cx + h < img.cols && cy + h < img.rows;
-    std::array<double, 256> window;
-    for (int dy = -h; clear && dy <= h; ++dy)
-      for (int dx = -h; clear && dx <= h; ++dx) {
-        const int x = cx + dx, y = cy + dy;
-        const double v = at(y, x);
-        const bool in_blob =
-            x >= x0 && x <= x1 && y >= y0 && y <= y1 && seen[(y - y0) * (x1 - x0 + 1) + (x - x0)];
-        clear = in_blob || v < local_thr;
-        window[(dy + h) * size + dx + h] = v;
-      }
-    if (clear) {
-      if (const std::optional<DiscFit> fit =
-              FitDisc(window.data(), size, cx - h, cy - h, tip_radius_px, 1.0)) {
-        TipObservation t;
-        t.pixel = fit->centre;
-        t.sigma_px = std::hypot(fit->sigma_px, kTipDiscModelSigma);
-        return answer(t);
-      }
-    }
-  }
-  for (auto [x, y] : blob) w2 += std::pow(at(y, x) - black, 2);
-  TipObservation t;
-  t.pixel = c;
-  // Centroid standard error for ~1 grey level of noise, plus a floor for the disc's
-  // perspective and the sampling of the blob's edge; for a top of a few pixels at least its
-  // pixel locking.
-  t.sigma_px = std::sqrt(0.05 * 0.05 + 1.0 / std::max(1.0, w2) * blob.size() * 0.25);
-  if (tip_radius_px <= kMaxDiscFitRadiusPx)
-    t.sigma_px = std::max(t.sigma_px, kCentroidLockingPxPx / std::max(1.0, tip_radius_px));
-  return answer(t);
+  return answer(BlobTip(img, w, sc, black, local_thr, tip_radius_px));
 }
 
 Eigen::Vector3d VisibleTipPoint(const MarkerModel& model, const Eigen::Vector3d& cam,
@@ -403,21 +472,10 @@ bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X
       AddRow((p - t).cross(g), g, 1.0 / (e.sigma_px * e.sigma_px), r, &JtWJ, &JtWr);
     }
     JtWJ.triangularView<Eigen::StrictlyLower>() = JtWJ.transpose();
-    const Eigen::Matrix<double, 6, 1> step = -JtWJ.ldlt().solve(JtWr);
-    if (!step.allFinite()) return false;
-    const double angle = step.head<3>().norm();
-    if (angle > 1e-15) R = Eigen::AngleAxisd(angle, step.head<3>() / angle).toRotationMatrix() * R;
-    t += step.tail<3>();
+    const PoseStep step = PoseGaussNewtonStep(JtWJ, JtWr, kMarkerPoseTolerances, &R, &t);
+    if (step == PoseStep::kFailed) return false;
     *rms = std::sqrt(ss / X.size());
-    // Done when the step is a millionth of the pose's own standard deviation (its squared
-    // Mahalanobis length under J^T W J below 1e-12), or below 1e-12 (radians; translation
-    // relative to the range). Where noise leaves residuals and the fit is ill-conditioned (a
-    // small marker), Gauss-Newton converges only linearly: the fixed 1e-12 alone takes twice
-    // the iterations for no change a covariance could show.
-    const double tol = 1e-12;
-    if (step.dot(JtWJ * step) < 1e-12 ||
-        (step.head<3>().norm() < tol && step.tail<3>().norm() < tol * (1 + t.norm())))
-      break;
+    if (step == PoseStep::kConverged) break;
   }
   *pose = Pose::FromRotation(R, t);
   Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(JtWJ);
@@ -561,58 +619,73 @@ void RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const 
   *cov = C;
 }
 
-}  // namespace
+// A planar solution of the corners, with the white top found where it predicts the tip.
+struct TipCandidate {
+  Pose pose;
+  std::optional<TipObservation> tip;
+  double tip_error = 1e300;  // pixels between the top found and the prediction
+};
+// At most two candidates, in a fixed array (no allocation per frame).
+struct TipCandidates {
+  std::array<TipCandidate, 2> c;
+  size_t n = 0;
+  size_t size() const { return n; }
+  bool empty() const { return n == 0; }
+  void push_back(const TipCandidate& x) { c[n++] = x; }
+  const TipCandidate& operator[](size_t i) const { return c[i]; }
+};
+// A candidate refined over the corners (and the tip).
+struct RefinedCandidate {
+  Pose pose;
+  PoseCovariance covariance = PoseCovariance::Zero();
+  double chi2 = 1e300, rms = 0;  // weighted squared residuals; RMS residual, pixels
+  bool ok = false;
+};
 
-bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 4>& corners,
-                        const MarkerModel& model, const CameraModel& camera, double black,
-                        double white, const MarkerPoseOptions& o, MarkerPose* out,
-                        const std::array<double, 4>& corner_sigma) {
-  // Both planar solutions (IPPE, as OpenCV's SOLVEPNP_IPPE_SQUARE; ippe.h), from the corners
-  // on the z = 1 plane.
+// Both planar solutions of the corners (IPPE, as OpenCV's SOLVEPNP_IPPE_SQUARE; ippe.h), from
+// the corners on the z = 1 plane. False (and *failure) if a corner does not unproject in
+// front of the camera or the quadrilateral is degenerate.
+bool PlanarSolutions(const std::array<Eigen::Vector2d, 4>& corners, const MarkerModel& model,
+                     const CameraModel& camera, std::array<PlanarPoseCandidate, 2>* ippe,
+                     std::string* failure) {
   std::array<Eigen::Vector2d, 4> normalized;
   for (int k = 0; k < 4; ++k) {
     Eigen::Vector3d d;
     if (!camera.Unproject(corners[k], &d) || d.z() <= 0) {
-      out->failure = "corner " + std::to_string(k) +
-                     " does not unproject to a direction in front "
-                     "of the camera";
+      *failure = "corner " + std::to_string(k) +
+                 " does not unproject to a direction in front "
+                 "of the camera";
       return false;
     }
     normalized[k] = d.head<2>() / d.z();
   }
-  std::array<PlanarPoseCandidate, 2> ippe;
-  if (!SolveSquareIppe(normalized, model.size, &ippe)) {
-    out->failure = "the corners give no planar pose (degenerate quadrilateral)";
+  if (!SolveSquareIppe(normalized, model.size, ippe)) {
+    *failure = "the corners give no planar pose (degenerate quadrilateral)";
     return false;
   }
+  return true;
+}
+
+// The planar solutions in front of the camera, each with the white top searched for where it
+// puts the tip (FindTip, sharing one memo: the two usually find the same top). The tip is
+// looked for only where it can be told from the marker's own print: a white top of at least
+// tip_min_radius_px, searched no farther than 60 % of the way to the edge of the innermost
+// black square (a dual's inner stripe and bits lie beyond it).
+void FindCandidateTips(const cv::Mat& image, const std::array<Eigen::Vector2d, 4>& corners,
+                       const MarkerModel& model, const CameraModel& camera, double black,
+                       double white, const MarkerPoseOptions& o,
+                       const std::array<PlanarPoseCandidate, 2>& ippe, TipCandidates* cands) {
   const double side_px =
       0.25 * ((corners[1] - corners[0]).norm() + (corners[2] - corners[1]).norm() +
               (corners[3] - corners[2]).norm() + (corners[0] - corners[3]).norm());
-  struct Candidate {
-    Pose pose;
-    std::optional<TipObservation> tip;
-    double tip_error = 1e300;
-  };
-  // At most two candidates, in a fixed array (no allocation per frame).
-  struct Candidates {
-    std::array<Candidate, 2> c;
-    size_t n = 0;
-    size_t size() const { return n; }
-    bool empty() const { return n == 0; }
-    void push_back(const Candidate& x) { c[n++] = x; }
-    const Candidate& operator[](size_t i) const { return c[i]; }
-  } cands;
   // The candidates usually find the same top (kept per thread: its blob's buffer is reused).
   TipSearchMemo& tip_memo = Scratch().tip_memo;
   tip_memo.valid = false;
   tip_memo.reused = 0;
   for (const PlanarPoseCandidate& solution : ippe) {
-    Candidate c;
+    TipCandidate c;
     c.pose = Pose::FromRotation(solution.cam_from_marker_R, solution.cam_from_marker_t);
     if (c.pose.tvec.z() <= 0) continue;
-    // The tip is looked for only where it can be told from the marker's own print: a white
-    // top of at least tip_min_radius_px, searched no farther than 60 % of the way to the edge
-    // of the innermost black square (a dual's inner stripe and bits lie beyond it).
     const double px_per_m = side_px / model.size;
     const double innermost_half = 0.5 * (model.inner ? model.inner->size : model.size) * px_per_m;
     const double search = std::min(o.tip_search_fraction * side_px, 0.6 * innermost_half);
@@ -626,8 +699,177 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
         if (c.tip) c.tip_error = (c.tip->pixel - pred).norm();
       }
     }
-    cands.push_back(c);
+    cands->push_back(c);
   }
+}
+
+// The points a candidate at `pose` is fitted over (marker frame), their pixels and sigmas: the
+// four corners (each corner_fit_scale x its line-fit sigma, at least min_corner_sigma_px; or
+// corner_sigma_px where that is not known) and, with `tip`, the part of the white top the
+// camera sees.
+void FitPoints(const std::array<Eigen::Vector2d, 4>& corners, const MarkerModel& model,
+               const CameraModel& camera, const MarkerPoseOptions& o,
+               const std::array<double, 4>& corner_sigma, const Pose& pose,
+               const TipObservation* tip, std::vector<Eigen::Vector3d>* X,
+               std::vector<Eigen::Vector2d>* px, std::vector<double>* sig) {
+  X->clear();
+  px->clear();
+  sig->clear();
+  for (int k = 0; k < 4; ++k) {
+    X->push_back(model.Corners()[k]);
+    px->push_back(corners[k]);
+    sig->push_back(corner_sigma[k] > 0
+                       ? std::max(o.min_corner_sigma_px, o.corner_fit_scale * corner_sigma[k])
+                       : o.corner_sigma_px);
+  }
+  if (!tip) return;
+  double fraction = 1;
+  X->push_back(VisibleTipPoint(model, pose.Inverse().tvec, &fraction));
+  px->push_back(tip->pixel);
+  double sigma = tip->sigma_px;
+  if (model.post->concave()) {
+    // What is bright at the bottom of a well is what is both seen and lit; the detector
+    // does not know where the light comes from, so the observation is only good to about
+    // half the bore's image: enough to choose the planar solution, little weight in the
+    // refinement.
+    Eigen::Vector2d c0, c1;
+    if (camera.Project(pose * Eigen::Vector3d(0, 0, 0), &c0) &&
+        camera.Project(pose * Eigen::Vector3d(model.post->radius, 0, 0), &c1))
+      sigma = std::max(sigma, 0.5 * (c1 - c0).norm());
+  }
+  sig->push_back(sigma);
+}
+
+// Refines f->pose over X (RefinePose) and weighs the result (f->chi2, f->ok). With a well's
+// tip (`well_tip`), whose visible bottom depends on the pose, once more with the refined one.
+void RefineCandidate(const CameraModel& camera, const MarkerModel& model, bool well_tip,
+                     std::vector<Eigen::Vector3d>* X, const std::vector<Eigen::Vector2d>& px,
+                     const std::vector<double>& sig, RefinedCandidate* f) {
+  if (!RefinePose(camera, *X, px, sig, &f->pose, &f->covariance, &f->rms)) return;
+  if (well_tip) {
+    double fraction = 1;
+    X->back() = VisibleTipPoint(model, f->pose.Inverse().tvec, &fraction);
+    if (!RefinePose(camera, *X, px, sig, &f->pose, &f->covariance, &f->rms)) return;
+  }
+  f->chi2 = WeightedSquaredResiduals(camera, *X, px, sig, f->pose);
+  f->ok = std::isfinite(f->chi2);
+}
+
+// Every candidate refined over the corners (and the tip), into refined[0..cands.size()), and
+// the one whose weighted squared residuals are least (*pick): unlike the tip's distance from
+// each prediction alone, this weighs the tip against the corners by their sigmas, and two
+// candidates that the tip pulls to the same pose (a nearly head-on view) count as one. A tip
+// that the kept pose cannot explain (a reflection, a bright speck) is dropped (*use_tip
+// false) and the candidates weighed again on their corners alone. X, px and sig are left
+// holding the last candidate's points. False (and *failure) if no refinement converged.
+bool ChooseCandidate(const std::array<Eigen::Vector2d, 4>& corners, const MarkerModel& model,
+                     const CameraModel& camera, const MarkerPoseOptions& o,
+                     const std::array<double, 4>& corner_sigma, const TipCandidates& cands,
+                     const std::optional<TipObservation>& tip, std::vector<Eigen::Vector3d>* X,
+                     std::vector<Eigen::Vector2d>* px, std::vector<double>* sig,
+                     std::array<RefinedCandidate, 2>* refined, size_t* pick_out, bool* use_tip,
+                     std::string* failure) {
+  size_t pick = 0;
+  *use_tip = tip.has_value();
+  for (int pass = 0; pass < 2; ++pass) {
+    for (size_t s = 0; s < cands.size(); ++s) {
+      RefinedCandidate& f = (*refined)[s];
+      f = RefinedCandidate();
+      f.pose = cands[s].pose;
+      FitPoints(corners, model, camera, o, corner_sigma, f.pose, *use_tip ? &*tip : nullptr, X, px,
+                sig);
+      RefineCandidate(camera, model, *use_tip && model.post->concave(), X, *px, *sig, &f);
+      if (f.ok && (!(*refined)[pick].ok || s == 0 || f.chi2 < (*refined)[pick].chi2)) pick = s;
+    }
+    if (!(*refined)[pick].ok) {
+      *failure = "the pose refinement over the corners did not converge";
+      return false;
+    }
+    if (!*use_tip) break;
+    double fraction = 1;
+    Eigen::Vector2d pred;
+    const Eigen::Vector3d tip3 =
+        VisibleTipPoint(model, (*refined)[pick].pose.Inverse().tvec, &fraction);
+    if (camera.Project((*refined)[pick].pose * tip3, &pred) &&
+        (pred - tip->pixel).norm() <= 4 * sig->back() + 1.0)
+      break;
+    *use_tip = false;
+    pick = 0;
+  }
+  *pick_out = pick;
+  return true;
+}
+
+// The other candidate (b; the kept one a), when it is a distinct pose and not much less
+// likely, is what the covariance must also cover: the two as a mixture weighted by their
+// likelihoods, about the kept one, (1 - w) C + w (C' + d d^T) with w = 1 / (1 + exp(dchi2 /
+// 2)), added to out->covariance. Flagged ambiguous when w is above 1 % (dchi2 below 9.2). Both
+// are as refined over the same points (the edges, fitted to the kept one only, would set the
+// two apart when they are one). True if the two are distinct (their likelihoods weighed).
+bool WidenForOtherCandidate(const RefinedCandidate& a, const RefinedCandidate& b, MarkerPose* out) {
+  Eigen::Matrix<double, 6, 1> d;
+  const Eigen::AngleAxisd delta(b.pose.Rotation() * a.pose.Rotation().transpose());
+  d << delta.angle() * delta.axis(), b.pose.tvec - a.pose.tvec;
+  const double separation = d.dot(a.covariance.ldlt().solve(d));
+  const double dchi2 = std::max(0.0, b.chi2 - a.chi2);
+  if (separation > 9 && dchi2 < 2 * std::log(1 / kMixtureWeightFloor - 1)) {
+    const double w = 1 / (1 + std::exp(0.5 * dchi2));
+    out->ambiguity_covariance = w * (b.covariance - out->covariance + d * d.transpose());
+    out->covariance += out->ambiguity_covariance;
+    out->ambiguous = w > kAmbiguousWeight && delta.angle() > kAmbiguousMinDeg * M_PI / 180;
+    if (out->ambiguous) {
+      out->alternative = b.pose;
+      out->alternative_weight = w;
+    }
+  }
+  return separation > 9;
+}
+
+// Where no distinct second solution survived the refinement (both slid to one minimum: on a
+// marker of 8-10 px a corner 3 sigmas off outweighs a tip 1 sigma off), the kept pose's planar
+// twin is what the data may still have confused it with. How far apart the two put the
+// points X (pixel sigmas sig), in sigmas (D = sum |twin - kept|^2 / sigma^2, the expected
+// difference of their weighted squared residuals), says how often noise alone would swap
+// them: Phi(-sqrt(D) / 2). The covariance spans the twin with that weight; above 1 % (and
+// kAmbiguousMinDeg) the pose is flagged ambiguous.
+void WidenForPlanarTwin(const CameraModel& camera, const Pose& pose,
+                        const std::vector<Eigen::Vector3d>& X, const std::vector<double>& sig,
+                        MarkerPose* out) {
+  const Pose twin = PlanarTwin(pose);
+  Eigen::Matrix<double, 6, 1> d;
+  const Eigen::AngleAxisd delta(twin.Rotation() * pose.Rotation().transpose());
+  d << delta.angle() * delta.axis(), Eigen::Vector3d::Zero();
+  const double separation = d.dot(out->covariance.ldlt().solve(d));
+  double D = 0;
+  bool projected = true;
+  for (size_t i = 0; i < X.size() && projected; ++i) {
+    Eigen::Vector2d p_kept, p_twin;
+    projected = camera.Project(pose * X[i], &p_kept) && camera.Project(twin * X[i], &p_twin);
+    D += (p_twin - p_kept).squaredNorm() / (sig[i] * sig[i]);
+  }
+  const double w = 0.5 * std::erfc(std::sqrt(D) / 2 / std::sqrt(2.0));
+  if (projected && separation > 9 && w > kMixtureWeightFloor) {
+    out->ambiguity_covariance = w * d * d.transpose();
+    out->covariance += out->ambiguity_covariance;
+    out->ambiguous = w > kAmbiguousWeight && delta.angle() > kAmbiguousMinDeg * M_PI / 180;
+    if (out->ambiguous) {
+      out->alternative = twin;
+      out->alternative_weight = w;
+    }
+  }
+}
+
+}  // namespace
+
+bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 4>& corners,
+                        const MarkerModel& model, const CameraModel& camera, double black,
+                        double white, const MarkerPoseOptions& o, MarkerPose* out,
+                        const std::array<double, 4>& corner_sigma) {
+  // Both planar solutions, and the tip where each puts it.
+  std::array<PlanarPoseCandidate, 2> ippe;
+  if (!PlanarSolutions(corners, model, camera, &ippe, &out->failure)) return false;
+  TipCandidates cands;
+  FindCandidateTips(image, corners, model, camera, black, white, o, ippe, &cands);
   if (cands.empty()) {
     out->failure = "both planar poses put the marker behind the camera";
     return false;
@@ -638,84 +880,17 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
   for (size_t s = 1; s < cands.size(); ++s)
     if (cands[s].tip_error < cands[tip_from].tip_error) tip_from = s;
   const std::optional<TipObservation> tip = cands[tip_from].tip;
+  // Every candidate refined over the corners (and the tip); the best one kept.
   PoseScratch& sc = Scratch();
   std::vector<Eigen::Vector3d>& X = sc.X;
   std::vector<Eigen::Vector2d>& px = sc.px;
   std::vector<double>& sig = sc.sigma;
-  // Every candidate is refined over the corners (and the tip), and the one whose weighted
-  // squared residuals are least is kept: unlike the tip's distance from each prediction alone,
-  // this weighs the tip against the corners by their sigmas, and two candidates that the tip
-  // pulls to the same pose (a nearly head-on view) count as one.
-  struct Refined {
-    Pose pose;
-    PoseCovariance covariance = PoseCovariance::Zero();
-    double chi2 = 1e300, rms = 0;
-    bool ok = false;
-  };
-  std::array<Refined, 2> refined;
+  std::array<RefinedCandidate, 2> refined;
   size_t pick = 0;
-  bool use_tip = tip.has_value();
-  for (int pass = 0; pass < 2; ++pass) {
-    for (size_t s = 0; s < cands.size(); ++s) {
-      Refined& f = refined[s];
-      f = Refined();
-      X.clear();
-      px.clear();
-      sig.clear();
-      for (int k = 0; k < 4; ++k) {
-        X.push_back(model.Corners()[k]);
-        px.push_back(corners[k]);
-        sig.push_back(corner_sigma[k] > 0
-                          ? std::max(o.min_corner_sigma_px, o.corner_fit_scale * corner_sigma[k])
-                          : o.corner_sigma_px);
-      }
-      f.pose = cands[s].pose;
-      if (use_tip) {
-        double fraction = 1;
-        X.push_back(VisibleTipPoint(model, f.pose.Inverse().tvec, &fraction));
-        px.push_back(tip->pixel);
-        double sigma = tip->sigma_px;
-        if (model.post->concave()) {
-          // What is bright at the bottom of a well is what is both seen and lit; the detector
-          // does not know where the light comes from, so the observation is only good to about
-          // half the bore's image: enough to choose the planar solution, little weight in the
-          // refinement.
-          Eigen::Vector2d c0, c1;
-          if (camera.Project(f.pose * Eigen::Vector3d(0, 0, 0), &c0) &&
-              camera.Project(f.pose * Eigen::Vector3d(model.post->radius, 0, 0), &c1))
-            sigma = std::max(sigma, 0.5 * (c1 - c0).norm());
-        }
-        sig.push_back(sigma);
-      }
-      if (!RefinePose(camera, X, px, sig, &f.pose, &f.covariance, &f.rms)) continue;
-      if (use_tip && model.post->concave()) {
-        // The visible part of the well's bottom depends on the pose: once more with the
-        // refined one.
-        double fraction = 1;
-        X.back() = VisibleTipPoint(model, f.pose.Inverse().tvec, &fraction);
-        if (!RefinePose(camera, X, px, sig, &f.pose, &f.covariance, &f.rms)) continue;
-      }
-      f.chi2 = WeightedSquaredResiduals(camera, X, px, sig, f.pose);
-      f.ok = std::isfinite(f.chi2);
-      if (f.ok && (!refined[pick].ok || s == 0 || f.chi2 < refined[pick].chi2)) pick = s;
-    }
-    if (!refined[pick].ok) {
-      out->failure = "the pose refinement over the corners did not converge";
-      return false;
-    }
-    if (!use_tip) break;
-    // A tip that the kept pose cannot explain is dropped (a reflection, a bright speck), and
-    // the candidates are weighed again on their corners alone.
-    double fraction = 1;
-    Eigen::Vector2d pred;
-    const Eigen::Vector3d tip3 =
-        VisibleTipPoint(model, refined[pick].pose.Inverse().tvec, &fraction);
-    if (camera.Project(refined[pick].pose * tip3, &pred) &&
-        (pred - tip->pixel).norm() <= 4 * sig.back() + 1.0)
-      break;
-    use_tip = false;
-    pick = 0;
-  }
+  bool use_tip = false;
+  if (!ChooseCandidate(corners, model, camera, o, corner_sigma, cands, tip, &X, &px, &sig, &refined,
+                       &pick, &use_tip, &out->failure))
+    return false;
   // X, px and sig hold the last candidate's points; the kept one's differ only in a well's
   // visible bottom, which follows the pose.
   if (use_tip) {
@@ -726,68 +901,16 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
   out->covariance = refined[pick].covariance;
   out->rms_px = refined[pick].rms;
   RefineWithStripeEdge(image, model, camera, o, X, px, sig, &pose, &out->covariance);
-  // The other candidate, when it is a distinct pose and not much less likely, is what the
-  // covariance must also cover: the two as a mixture weighted by their likelihoods, about the
-  // kept one, (1 - w) C + w (C' + d d^T) with w = 1 / (1 + exp(dchi2 / 2)). Flagged ambiguous
-  // when w is above 1 % (dchi2 below 9.2).
+  // The other planar solution, as far as the data leave it likely, widens the covariance.
   out->ambiguous = false;
   out->ambiguity_covariance.setZero();
   out->alternative.reset();
   out->alternative_weight = 0;
   bool weighed = false;  // the other solution's likelihood is known
   const size_t other = 1 - pick;
-  if (cands.size() > 1 && refined[other].ok) {
-    // Both as refined over the same points (the edges, fitted to the kept one only, would set
-    // the two apart when they are one).
-    const Refined &a = refined[pick], &b = refined[other];
-    Eigen::Matrix<double, 6, 1> d;
-    const Eigen::AngleAxisd delta(b.pose.Rotation() * a.pose.Rotation().transpose());
-    d << delta.angle() * delta.axis(), b.pose.tvec - a.pose.tvec;
-    const double separation = d.dot(a.covariance.ldlt().solve(d));
-    const double dchi2 = std::max(0.0, b.chi2 - a.chi2);
-    if (separation > 9 && dchi2 < 2 * std::log(1 / kMixtureWeightFloor - 1)) {
-      const double w = 1 / (1 + std::exp(0.5 * dchi2));
-      out->ambiguity_covariance = w * (b.covariance - out->covariance + d * d.transpose());
-      out->covariance += out->ambiguity_covariance;
-      out->ambiguous = w > kAmbiguousWeight && delta.angle() > kAmbiguousMinDeg * M_PI / 180;
-      if (out->ambiguous) {
-        out->alternative = b.pose;
-        out->alternative_weight = w;
-      }
-    }
-    weighed = separation > 9;
-  }
-  // Where no distinct second solution survived the refinement (both slid to one minimum: on a
-  // marker of 8-10 px a corner 3 sigmas off outweighs a tip 1 sigma off), the kept pose's planar
-  // twin is what the data may still have confused it with. How far apart the two put the
-  // points, in sigmas (D = sum |twin - kept|^2 / sigma^2, the expected difference of their
-  // weighted squared residuals), says how often noise alone would swap them: Phi(-sqrt(D) / 2).
-  // The covariance spans the twin with that weight; above 1 % (and kAmbiguousMinDeg) the pose is
-  // flagged ambiguous.
-  if (!weighed) {
-    const Pose twin = PlanarTwin(pose);
-    Eigen::Matrix<double, 6, 1> d;
-    const Eigen::AngleAxisd delta(twin.Rotation() * pose.Rotation().transpose());
-    d << delta.angle() * delta.axis(), Eigen::Vector3d::Zero();
-    const double separation = d.dot(out->covariance.ldlt().solve(d));
-    double D = 0;
-    bool projected = true;
-    for (size_t i = 0; i < X.size() && projected; ++i) {
-      Eigen::Vector2d p_kept, p_twin;
-      projected = camera.Project(pose * X[i], &p_kept) && camera.Project(twin * X[i], &p_twin);
-      D += (p_twin - p_kept).squaredNorm() / (sig[i] * sig[i]);
-    }
-    const double w = 0.5 * std::erfc(std::sqrt(D) / 2 / std::sqrt(2.0));
-    if (projected && separation > 9 && w > kMixtureWeightFloor) {
-      out->ambiguity_covariance = w * d * d.transpose();
-      out->covariance += out->ambiguity_covariance;
-      out->ambiguous = w > kAmbiguousWeight && delta.angle() > kAmbiguousMinDeg * M_PI / 180;
-      if (out->ambiguous) {
-        out->alternative = twin;
-        out->alternative_weight = w;
-      }
-    }
-  }
+  if (cands.size() > 1 && refined[other].ok)
+    weighed = WidenForOtherCandidate(refined[pick], refined[other], out);
+  if (!weighed) WidenForPlanarTwin(camera, pose, X, sig, out);
   out->calibration_in_covariance = false;
   if (o.use_calibration_covariance && camera.intrinsics_covariance_factor().size() > 0) {
     PoseCovariance calibration;

@@ -213,128 +213,109 @@ Sensor ParseSensor(const json& j) {
   return s;
 }
 
-void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
+// The scene's "light" object into *l.
+void ParseLighting(const json& j, Lighting* l_out) {
+  Lighting& l = *l_out;
+  const std::string p = "light";
   CheckKeys(
-      root, "",
-      {"type", "seed", "camera", "sensor", "light", "background", "objects", "occluders", "views"});
-  const std::string type = String(root, "", "type");
-  if (type != "svms.scene") throw FieldError{"type: expected \"svms.scene\", got \"" + type + "\""};
-  const json& seed = Required(root, "", "seed");
-  if (!seed.is_number_unsigned()) Fail("seed", "a non-negative integer", seed);
-  scene->seed = seed.get<uint64_t>();
-  scene->camera = ParseCamera(Required(root, "", "camera"), "camera", base_dir);
-  if (int64_t{scene->camera.width()} * scene->camera.height() > kDefaultMaxImagePixels) {
-    throw FieldError{"camera: " + std::to_string(scene->camera.width()) + "x" +
-                     std::to_string(scene->camera.height()) + " pixels; expected at most " +
-                     std::to_string(kDefaultMaxImagePixels / 1000000) + " megapixels"};
-  }
+      j, p,
+      {"sun", "ambient", "earthshine", "ring_light", "narrow_band_filter", "filter_transmission"});
+  if (j.contains("sun")) l.sun = ParseSun(j["sun"], "light.sun");
+  if (j.contains("earthshine")) l.earthshine = ParseSun(j["earthshine"], "light.earthshine");
+  if (j.contains("ambient")) l.ambient = NumberIn(j, p, "ambient", 0, 1e6);
+  if (j.contains("ring_light")) l.ring_light = NumberIn(j, p, "ring_light", 0, 1e9);
+  if (j.contains("narrow_band_filter")) l.narrow_band_filter = Boolean(j, p, "narrow_band_filter");
+  if (j.contains("filter_transmission"))
+    l.filter_transmission = NumberIn(j, p, "filter_transmission", 0, 1);
+}
 
-  if (root.contains("sensor")) scene->sensor = ParseSensor(root["sensor"]);
-  if (root.contains("light")) {
-    const json& j = root["light"];
-    const std::string p = "light";
-    CheckKeys(j, p,
-              {"sun", "ambient", "earthshine", "ring_light", "narrow_band_filter",
-               "filter_transmission"});
-    Lighting& l = scene->light;
-    if (j.contains("sun")) l.sun = ParseSun(j["sun"], "light.sun");
-    if (j.contains("earthshine")) l.earthshine = ParseSun(j["earthshine"], "light.earthshine");
-    if (j.contains("ambient")) l.ambient = NumberIn(j, p, "ambient", 0, 1e6);
-    if (j.contains("ring_light")) l.ring_light = NumberIn(j, p, "ring_light", 0, 1e9);
-    if (j.contains("narrow_band_filter"))
-      l.narrow_band_filter = Boolean(j, p, "narrow_band_filter");
-    if (j.contains("filter_transmission"))
-      l.filter_transmission = NumberIn(j, p, "filter_transmission", 0, 1);
+// The scene's "background" object into *b (an image's path resolved against base_dir).
+void ParseBackground(const json& j, const std::string& base_dir, Background* b_out) {
+  Background& b = *b_out;
+  const std::string p = "background";
+  CheckKeys(j, p, {"kind", "brightness", "image"});
+  const std::string kind = String(j, p, "kind");
+  if (kind == "black") {
+    b.kind = Background::Kind::kBlack;
+  } else if (kind == "earth") {
+    b.kind = Background::Kind::kEarth;
+  } else if (kind == "image") {
+    b.kind = Background::Kind::kImage;
+    b.image_path = Resolve(base_dir, String(j, p, "image"));
+    if (!std::filesystem::is_regular_file(b.image_path))
+      throw FieldError{"background.image: " + b.image_path + ": no such file"};
+  } else {
+    throw FieldError{"background.kind: expected \"black\", \"earth\" or \"image\", got \"" + kind +
+                     "\""};
   }
-  if (root.contains("background")) {
-    const json& j = root["background"];
-    const std::string p = "background";
-    CheckKeys(j, p, {"kind", "brightness", "image"});
-    Background& b = scene->background;
-    const std::string kind = String(j, p, "kind");
-    if (kind == "black") {
-      b.kind = Background::Kind::kBlack;
-    } else if (kind == "earth") {
-      b.kind = Background::Kind::kEarth;
-    } else if (kind == "image") {
-      b.kind = Background::Kind::kImage;
-      b.image_path = Resolve(base_dir, String(j, p, "image"));
-      if (!std::filesystem::is_regular_file(b.image_path))
-        throw FieldError{"background.image: " + b.image_path + ": no such file"};
-    } else {
-      throw FieldError{"background.kind: expected \"black\", \"earth\" or \"image\", got \"" +
-                       kind + "\""};
-    }
-    if (j.contains("brightness")) b.brightness = NumberIn(j, p, "brightness", 0, 1e6);
-  }
+  if (j.contains("brightness")) b.brightness = NumberIn(j, p, "brightness", 0, 1e6);
+}
 
-  const json& objects = Required(root, "", "objects");
-  if (!objects.is_array()) Fail("objects", "an array of objects", objects);
-  std::set<int> ids;
-  for (size_t i = 0; i < objects.size(); ++i) {
-    const std::string p = "objects[" + std::to_string(i) + "]";
-    const json& j = objects[i];
-    CheckKeys(j, p,
-              {"name", "shape", "size", "world_from_object", "reflectance", "specular", "shininess",
-               "pattern", "markers"});
-    SceneObject o;
-    o.name = String(j, p, "name");
-    const std::string shape = String(j, p, "shape");
-    if (shape == "plane") {
-      o.shape = SceneObject::Shape::kPlane;
-    } else if (shape == "box") {
-      o.shape = SceneObject::Shape::kBox;
-    } else {
-      throw FieldError{Join(p, "shape") + ": expected \"plane\" or \"box\", got \"" + shape + "\""};
-    }
-    o.size = Vector<3>(j, p, "size");
-    const bool size_ok = o.shape == SceneObject::Shape::kBox ? o.size.minCoeff() > 0
-                                                             : o.size.head<2>().minCoeff() > 0;
-    if (!size_ok || !o.size.allFinite())
-      throw FieldError{Join(p, "size") + ": expected positive extents in metres"};
-    o.world_from_object = ParsePose(j, p, "world_from_object");
-    o.material.reflectance = NumberIn(j, p, "reflectance", 0, 1);
-    if (j.contains("specular")) o.material.specular = NumberIn(j, p, "specular", 0, 100);
-    if (j.contains("shininess")) o.material.shininess = NumberIn(j, p, "shininess", 1, 10000);
-    if (j.contains("pattern")) o.material.pattern = ParsePattern(j["pattern"], Join(p, "pattern"));
-    if (j.contains("markers")) {
-      const json& ms = j["markers"];
-      if (!ms.is_array()) Fail(Join(p, "markers"), "an array of markers", ms);
-      for (size_t k = 0; k < ms.size(); ++k) {
-        const std::string mp = p + ".markers[" + std::to_string(k) + "]";
-        const json& mj = ms[k];
-        CheckKeys(
-            mj, mp,
+// One marker on an object (JSON path `mp`); its IDs (and its inner marker's) must not be in
+// *ids already, and are added.
+SceneMarker ParseSceneMarker(const json& mj, const std::string& mp, std::set<int>* ids) {
+  CheckKeys(mj, mp,
             {"marker", "object_from_marker", "black", "white", "retro", "retro_gain", "print"});
-        SceneMarker m;
-        m.model = ParseMarker(Required(mj, mp, "marker"), mp + ".marker", false);
-        m.object_from_marker = ParsePose(mj, mp, "object_from_marker");
-        if (mj.contains("black")) m.black = NumberIn(mj, mp, "black", 0, 1);
-        if (mj.contains("white")) m.white = NumberIn(mj, mp, "white", 0, 1);
-        if (m.white <= m.black)
-          throw FieldError{mp + ".white: expected a reflectance above black (" +
-                           json(m.black).dump() + ")"};
-        if (mj.contains("retro")) m.retro = Boolean(mj, mp, "retro");
-        if (mj.contains("retro_gain")) m.retro_gain = NumberIn(mj, mp, "retro_gain", 0, 1e6);
-        if (mj.contains("print")) {
-          m.print = ParsePrint(mj["print"], mp + ".print");
-          if (m.print.peer() && m.model.inner)
-            throw FieldError{mp + ".print.family: expected \"svms44\" for a dual marker, got \"" +
-                             m.print.family + "\""};
-        }
-        for (int id : {m.model.id, m.model.inner ? m.model.inner->id : -1}) {
-          if (id >= 0 && !ids.insert(id).second)
-            throw FieldError{mp + ".marker.id: ID " + std::to_string(id) +
-                             " appears twice in the scene; expected unique IDs"};
-        }
-        o.markers.push_back(m);
-      }
-    }
-    scene->objects.push_back(o);
+  SceneMarker m;
+  m.model = ParseMarker(Required(mj, mp, "marker"), mp + ".marker", false);
+  m.object_from_marker = ParsePose(mj, mp, "object_from_marker");
+  if (mj.contains("black")) m.black = NumberIn(mj, mp, "black", 0, 1);
+  if (mj.contains("white")) m.white = NumberIn(mj, mp, "white", 0, 1);
+  if (m.white <= m.black)
+    throw FieldError{mp + ".white: expected a reflectance above black (" + json(m.black).dump() +
+                     ")"};
+  if (mj.contains("retro")) m.retro = Boolean(mj, mp, "retro");
+  if (mj.contains("retro_gain")) m.retro_gain = NumberIn(mj, mp, "retro_gain", 0, 1e6);
+  if (mj.contains("print")) {
+    m.print = ParsePrint(mj["print"], mp + ".print");
+    if (m.print.peer() && m.model.inner)
+      throw FieldError{mp + ".print.family: expected \"svms44\" for a dual marker, got \"" +
+                       m.print.family + "\""};
   }
-  if (root.contains("occluders")) scene->occluders = ParseOccluders(root["occluders"], "occluders");
+  for (int id : {m.model.id, m.model.inner ? m.model.inner->id : -1}) {
+    if (id >= 0 && !ids->insert(id).second)
+      throw FieldError{mp + ".marker.id: ID " + std::to_string(id) +
+                       " appears twice in the scene; expected unique IDs"};
+  }
+  return m;
+}
 
-  const json& views = Required(root, "", "views");
+// One object of the scene (JSON path p), with its markers (their IDs added to *ids).
+SceneObject ParseObject(const json& j, const std::string& p, std::set<int>* ids) {
+  CheckKeys(j, p,
+            {"name", "shape", "size", "world_from_object", "reflectance", "specular", "shininess",
+             "pattern", "markers"});
+  SceneObject o;
+  o.name = String(j, p, "name");
+  const std::string shape = String(j, p, "shape");
+  if (shape == "plane") {
+    o.shape = SceneObject::Shape::kPlane;
+  } else if (shape == "box") {
+    o.shape = SceneObject::Shape::kBox;
+  } else {
+    throw FieldError{Join(p, "shape") + ": expected \"plane\" or \"box\", got \"" + shape + "\""};
+  }
+  o.size = Vector<3>(j, p, "size");
+  const bool size_ok =
+      o.shape == SceneObject::Shape::kBox ? o.size.minCoeff() > 0 : o.size.head<2>().minCoeff() > 0;
+  if (!size_ok || !o.size.allFinite())
+    throw FieldError{Join(p, "size") + ": expected positive extents in metres"};
+  o.world_from_object = ParsePose(j, p, "world_from_object");
+  o.material.reflectance = NumberIn(j, p, "reflectance", 0, 1);
+  if (j.contains("specular")) o.material.specular = NumberIn(j, p, "specular", 0, 100);
+  if (j.contains("shininess")) o.material.shininess = NumberIn(j, p, "shininess", 1, 10000);
+  if (j.contains("pattern")) o.material.pattern = ParsePattern(j["pattern"], Join(p, "pattern"));
+  if (j.contains("markers")) {
+    const json& ms = j["markers"];
+    if (!ms.is_array()) Fail(Join(p, "markers"), "an array of markers", ms);
+    for (size_t k = 0; k < ms.size(); ++k)
+      o.markers.push_back(ParseSceneMarker(ms[k], p + ".markers[" + std::to_string(k) + "]", ids));
+  }
+  return o;
+}
+
+// The scene's views (a non-empty array, unique names that are file names), appended to *out.
+void ParseViews(const json& views, std::vector<View>* out) {
   if (!views.is_array() || views.empty()) Fail("views", "a non-empty array of views", views);
   std::set<std::string> names;
   for (size_t i = 0; i < views.size(); ++i) {
@@ -351,8 +332,36 @@ void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
     v.cam_from_world = ParsePose(j, p, "cam_from_world");
     if (j.contains("sun")) v.sun = ParseSun(j["sun"], Join(p, "sun"));
     if (j.contains("occluders")) v.occluders = ParseOccluders(j["occluders"], Join(p, "occluders"));
-    scene->views.push_back(v);
+    out->push_back(v);
   }
+}
+
+void ParseRoot(const json& root, const std::string& base_dir, Scene* scene) {
+  CheckKeys(
+      root, "",
+      {"type", "seed", "camera", "sensor", "light", "background", "objects", "occluders", "views"});
+  const std::string type = String(root, "", "type");
+  if (type != "svms.scene") throw FieldError{"type: expected \"svms.scene\", got \"" + type + "\""};
+  const json& seed = Required(root, "", "seed");
+  if (!seed.is_number_unsigned()) Fail("seed", "a non-negative integer", seed);
+  scene->seed = seed.get<uint64_t>();
+  scene->camera = ParseCamera(Required(root, "", "camera"), "camera", base_dir);
+  if (int64_t{scene->camera.width()} * scene->camera.height() > kDefaultMaxImagePixels) {
+    throw FieldError{"camera: " + std::to_string(scene->camera.width()) + "x" +
+                     std::to_string(scene->camera.height()) + " pixels; expected at most " +
+                     std::to_string(kDefaultMaxImagePixels / 1000000) + " megapixels"};
+  }
+  if (root.contains("sensor")) scene->sensor = ParseSensor(root["sensor"]);
+  if (root.contains("light")) ParseLighting(root["light"], &scene->light);
+  if (root.contains("background"))
+    ParseBackground(root["background"], base_dir, &scene->background);
+  const json& objects = Required(root, "", "objects");
+  if (!objects.is_array()) Fail("objects", "an array of objects", objects);
+  std::set<int> ids;
+  for (size_t i = 0; i < objects.size(); ++i)
+    scene->objects.push_back(ParseObject(objects[i], "objects[" + std::to_string(i) + "]", &ids));
+  if (root.contains("occluders")) scene->occluders = ParseOccluders(root["occluders"], "occluders");
+  ParseViews(Required(root, "", "views"), &scene->views);
 }
 
 PrintedTag ParsePrint(const json& j, const std::string& path) {
