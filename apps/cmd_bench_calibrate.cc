@@ -19,17 +19,22 @@
 #include <thread>
 
 #include "bench_targets.h"
-#include "calibrate_run.h"
 #include "cli_io.h"
 #include "commands.h"
-#include "gnuplot.h"
-#include "progress.h"
-#include "run_program.h"
 #include "svms/base/format.h"
 #include "svms/base/random_draws.h"
 #include "svms/datasets/datasets.h"
 #include "svms/geometry/alignment.h"
 #include "svms/marker/model_io.h"
+#include "svms/pipelines/calibration_run.h"
+#include "svms/pipelines/gnuplot.h"
+#include "svms/pipelines/item_failure.h"
+#include "svms/pipelines/json_text.h"
+#include "svms/pipelines/output_checks.h"
+#include "svms/pipelines/progress.h"
+#include "svms/pipelines/render_scene.h"
+#include "svms/pipelines/report_file.h"
+#include "svms/pipelines/run_program.h"
 
 namespace svms::cli {
 namespace {
@@ -302,7 +307,7 @@ int RunBench(const BenchOptions& o) {
     char focal[32], spacing[32];
     std::snprintf(focal, sizeof focal, "%.0f", truth.intrinsics()[0]);
     std::snprintf(spacing, sizeof spacing, "%g", kSquare);
-    RunOptions ro;
+    RunProgramOptions ro;
     ro.cwd = fs::absolute(fs::path(o.out) / "data" / "chessboard").string();
     ro.stdout_path = ro.stderr_path = fs::absolute(mdir / "mrcal.log").string();
     // mrcal-calibrate-cameras expands the image glob itself.
@@ -342,7 +347,7 @@ int RunBench(const BenchOptions& o) {
                         "x = mrcal.optimizer_callback(**oi)[1]\n"
                         "r = mrcal.residuals_chessboard(oi, residuals=x).reshape(-1,2)\n"
                         "print(np.sqrt(np.mean(np.sum(r*r,axis=-1))))\n";
-      RunOptions pro;
+      RunProgramOptions pro;
       pro.stdout_path = (mdir / "rms.txt").string();
       pro.stderr_path = (mdir / "py.log").string();
       if (RunProgram({"/usr/bin/python3", py, model, std::to_string(kRange),
@@ -457,7 +462,7 @@ int RunBench(const BenchOptions& o) {
                                     (fs::path(o.out) / "grid.txt").string(),
                                     (dir / "cells.txt").string()};
       argv.insert(argv.end(), models.begin(), models.end());
-      RunOptions dro;
+      RunProgramOptions dro;
       dro.stdout_path = (dir / "diff.txt").string();
       dro.stderr_path = (dir / "diff.log").string();
       if (RunProgram(argv, dro) != 0)

@@ -17,11 +17,17 @@
 #include "bench_util.h"
 #include "cli_io.h"
 #include "commands.h"
-#include "gnuplot.h"
 #include "svms/base/statistics.h"
 #include "svms/calib/frame_alignment.h"
 #include "svms/fusion/pose_estimator.h"
 #include "svms/marker/model_io.h"
+#include "svms/pipelines/dataset_run.h"
+#include "svms/pipelines/gnuplot.h"
+#include "svms/pipelines/item_failure.h"
+#include "svms/pipelines/json_text.h"
+#include "svms/pipelines/output_checks.h"
+#include "svms/pipelines/report_file.h"
+#include "svms/pipelines/survey_run.h"
 
 namespace svms::cli {
 namespace {
@@ -84,7 +90,7 @@ int RunBenchPose(const BenchPoseOptions& o) {
   // `svms dataset NAME --out DIR`, in-process, with this run's threads and --quick.
   auto dataset = [&](const std::string& name, const std::string& dir) {
     std::cerr << "svms bench pose: rendering " << name << " into " << dir << "\n";
-    DatasetCliOptions d;
+    DatasetRunOptions d;
     d.name = name, d.out = dir, d.threads = o.threads, d.quick = o.quick, d.quiet = true;
     return RunDataset(d);
   };
@@ -104,13 +110,13 @@ int RunBenchPose(const BenchPoseOptions& o) {
     }
     layout_path = (fs::path(o.out) / "layout.json").string();
     const std::string survey_camera = o.camera.empty() ? M + "/true.cameramodel" : o.camera;
-    SurveyCliOptions survey;
+    SurveyRunOptions survey;
     survey.inputs = {M};
     survey.camera = survey_camera, survey.markers = M + "/markers.json";
     survey.reference = 10, survey.out = layout_path, survey.quiet = true;
     survey.threads = o.threads;
     std::cerr << "svms bench pose: surveying " << M << " into " << layout_path << "\n";
-    if (RunSurveyCommand(survey) != kExitOk) {
+    if (RunSurveyFromImages(survey) != kExitOk) {
       std::cerr << "svms bench pose: the survey failed\n";
       return kExitFailed;
     }

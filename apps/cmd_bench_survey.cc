@@ -18,8 +18,6 @@
 #include "bench_util.h"
 #include "cli_io.h"
 #include "commands.h"
-#include "gnuplot.h"
-#include "progress.h"
 #include "svms/base/statistics.h"
 #include "svms/bundle/survey.h"
 #include "svms/bundle/survey_report.h"
@@ -27,6 +25,13 @@
 #include "svms/bundle/view_graph.h"
 #include "svms/detect/detector.h"
 #include "svms/marker/model_io.h"
+#include "svms/pipelines/dataset_run.h"
+#include "svms/pipelines/gnuplot.h"
+#include "svms/pipelines/item_failure.h"
+#include "svms/pipelines/json_text.h"
+#include "svms/pipelines/output_checks.h"
+#include "svms/pipelines/progress.h"
+#include "svms/pipelines/report_file.h"
 
 namespace svms::cli {
 namespace {
@@ -165,7 +170,7 @@ int RunBenchSurvey(const BenchSurveyOptions& o) {
   // 1. The rendered mockup dataset (rendered here unless --data names one).
   std::string D = o.data.empty() ? (fs::path(o.out) / "mockup").string() : o.data;
   if (!fs::exists(fs::path(D) / "truth.json")) {
-    DatasetCliOptions d;
+    DatasetRunOptions d;
     d.name = "mockup", d.out = D, d.threads = o.threads, d.quick = o.quick, d.quiet = true;
     std::cerr << "svms bench survey: rendering the mockup dataset into " << D << "\n";
     if (RunDataset(d) != kExitOk) {

@@ -17,15 +17,22 @@
 
 #include "cli_io.h"
 #include "commands.h"
-#include "image_inputs.h"
-#include "overlay.h"
-#include "progress.h"
+#include "photometry_options.h"
 #include "svms/camera/camera_covariance.h"
 #include "svms/camera/photometric.h"
 #include "svms/detect/detector.h"
 #include "svms/detect/response_estimate.h"
 #include "svms/imageio/image_io.h"
 #include "svms/marker/model_io.h"
+#include "svms/pipelines/image_inputs.h"
+#include "svms/pipelines/item_failure.h"
+#include "svms/pipelines/json_text.h"
+#include "svms/pipelines/output_checks.h"
+#include "svms/pipelines/overlay.h"
+#include "svms/pipelines/photometry.h"
+#include "svms/pipelines/progress.h"
+#include "svms/pipelines/report_file.h"
+#include "svms/pipelines/video_frames.h"
 
 namespace svms::cli {
 namespace {

@@ -22,7 +22,7 @@ int main(int argc, char** argv) {
       "  svms model check m17.json\n"
       "  svms codec stats --json\n"
       "Run 'svms COMMAND --help' for each command's options and examples.");
-  int exit_code = svms::cli::kExitOk;
+  int exit_code = svms::kExitOk;
   svms::cli::AddCodecCommands(app, &exit_code);
   svms::cli::AddModelCommands(app, &exit_code);
   svms::cli::AddGenerateCommands(app, &exit_code);
@@ -47,20 +47,20 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     const int rc = app.exit(e);  // prints help, version or the usage error
-    return rc == 0 ? 0 : svms::cli::kExitBadInput;
+    return rc == 0 ? 0 : svms::kExitBadInput;
   } catch (const std::bad_alloc&) {
     std::cerr << "svms: out of memory; expected a smaller request (see the limits in "
                  "docs/reliability.md)\n";
-    return svms::cli::kExitFailed;
+    return svms::kExitFailed;
   } catch (const std::exception& e) {
     std::cerr << "svms: internal error: " << e.what() << "\n";
-    return svms::cli::kExitFailed;
+    return svms::kExitFailed;
   }
   // Whatever a command printed must have reached its reader.
   if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
     std::cerr << "svms: standard output: cannot write: " << std::strerror(errno)
               << "; the output is incomplete\n";
-    return svms::cli::kExitFailed;
+    return svms::kExitFailed;
   }
   return exit_code;
 }
