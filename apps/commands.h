@@ -24,13 +24,11 @@ void AddSurveyCommands(CLI::App& app, int* exit_code);
 void AddPoseCommands(CLI::App& app, int* exit_code);
 void AddBenchCommands(CLI::App& app, int* exit_code);
 
-// The `svms bench` subcommands, each registered on the `bench` group (cmd_bench.cc).
-void AddBenchDetect(CLI::App& bench, int* exit_code);
-void AddBenchCalibrate(CLI::App& bench, int* exit_code);
-void AddBenchCompare(CLI::App& bench, int* exit_code);
-void AddBenchSurvey(CLI::App& bench, int* exit_code);
-void AddBenchPose(CLI::App& bench, int* exit_code);
-void AddBenchProfiles(CLI::App& bench, int* exit_code);
+// `svms bench ARGS...`: runs the svms-bench program beside this one (/proc/self/exe's
+// directory) with ARGS, replacing this process. Returns only when it cannot: 2 when svms-bench
+// is not there (an installation without the benchmarks), 1 when it cannot be started; one line
+// on stderr says which.
+int RunBenchProgram(int argc, char** argv);
 
 // One frame of `svms pose` as its JSON line (cmd_pose.cc; docs/flight-interface.md).
 nlohmann::json FrameJson(const FrameResult& frame);

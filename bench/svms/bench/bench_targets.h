@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-namespace svms::cli {
+namespace svms {
 
 // Each target is written into the report with its verdict and what the run measured; a run that
 // misses any of them ends with kExitTargetMissed (after writing every output), so that the
@@ -30,4 +30,4 @@ class BenchTargets {
   std::vector<Target> targets_;
 };
 
-}  // namespace svms::cli
+}  // namespace svms

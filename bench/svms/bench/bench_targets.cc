@@ -1,10 +1,10 @@
-#include "bench_targets.h"
+#include "svms/bench/bench_targets.h"
 
 #include <iostream>
 
-#include "commands.h"
+#include "svms/pipelines/exit_codes.h"
 
-namespace svms::cli {
+namespace svms {
 
 void BenchTargets::Add(const std::string& what, bool met, const std::string& measured) {
   targets_.push_back({what, measured, true, met});
@@ -41,4 +41,4 @@ int BenchTargets::ExitCode(const std::string& command, int otherwise) const {
   return missed ? kExitTargetMissed : otherwise;
 }
 
-}  // namespace svms::cli
+}  // namespace svms

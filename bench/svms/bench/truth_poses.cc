@@ -1,19 +1,12 @@
-#include "bench_util.h"
+#include "svms/bench/truth_poses.h"
 
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
-#include "svms/marker/model_io.h"
+#include "svms/base/file_io.h"
 
-namespace svms::cli {
-
-double Mean(const std::vector<double>& v) {
-  double s = 0;
-  for (double x : v) s += x;
-  return v.empty() ? std::nan("") : s / v.size();
-}
+namespace svms {
 
 Status ReadTruthPoses(const std::string& truth_json, const std::string& object,
                       std::vector<std::pair<std::string, Pose>>* out) {
@@ -44,4 +37,4 @@ double ViewAngleDeg(const Pose& cam_from_marker) {
   return std::acos(std::clamp(n.dot(to_cam), -1.0, 1.0)) * 180 / M_PI;
 }
 
-}  // namespace svms::cli
+}  // namespace svms
