@@ -3,13 +3,8 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
-#include <nlohmann/json_fwd.hpp>
 
 #include "svms/pipelines/exit_codes.h"
-
-namespace svms {
-struct FrameResult;
-}
 
 namespace svms::cli {
 
@@ -29,8 +24,5 @@ void AddBenchCommands(CLI::App& app, int* exit_code);
 // is not there (an installation without the benchmarks), 1 when it cannot be started; one line
 // on stderr says which.
 int RunBenchProgram(int argc, char** argv);
-
-// One frame of `svms pose` as its JSON line (cmd_pose.cc; docs/flight-interface.md).
-nlohmann::json FrameJson(const FrameResult& frame);
 
 }  // namespace svms::cli
