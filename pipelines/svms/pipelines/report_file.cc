@@ -1,6 +1,6 @@
 #include "svms/pipelines/report_file.h"
 
-#include <cstdio>
+#include <iostream>
 #include <mutex>
 
 #include "svms/base/file_io.h"
@@ -41,11 +41,10 @@ std::vector<std::string> TakeOutputFailures() {
 
 int FinishOutputs(const std::string& program, int rc) {
   const std::vector<std::string> failures = TakeOutputFailures();
-  for (const std::string& f : failures)
-    std::fprintf(stderr, "%s: %s\n", program.c_str(), f.c_str());
+  for (const std::string& f : failures) std::cerr << program << ": " << f << "\n";
   if (failures.empty()) return rc;
-  std::fprintf(stderr, "%s: %zu output file(s) not written; earlier files are as they were\n",
-               program.c_str(), failures.size());
+  std::cerr << program << ": " << failures.size()
+            << " output file(s) not written; earlier files are as they were\n";
   return rc == 0 ? 1 : rc;
 }
 
