@@ -3,12 +3,15 @@
 #include <memory>
 #include <thread>
 
-#include "calibrate_run.h"
 #include "commands.h"
-#include "image_inputs.h"
+#include "photometry_options.h"
 #include "svms/camera/camera_covariance.h"
 #include "svms/camera/photometric.h"
 #include "svms/marker/model_io.h"
+#include "svms/pipelines/calibration_run.h"
+#include "svms/pipelines/image_inputs.h"
+#include "svms/pipelines/photometry.h"
+#include "svms/pipelines/video_frames.h"
 
 namespace svms::cli {
 namespace {

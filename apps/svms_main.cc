@@ -1,18 +1,18 @@
 // svms: the command-line front end of the Space Vision Marker System.
-#include <cerrno>
-#include <csignal>
-#include <cstdio>
 #include <cstring>
-#include <iostream>
-#include <new>
 
 #include "commands.h"
+#include "run_command_line.h"
 
 #ifndef SVMS_VERSION
 #define SVMS_VERSION "unknown"
 #endif
 
 int main(int argc, char** argv) {
+  // `svms bench ...` is the svms-bench program beside this one (cmd_bench.cc): the benchmarks
+  // and the peers they compare with are not linked into svms.
+  if (argc >= 2 && std::strcmp(argv[1], "bench") == 0)
+    return svms::cli::RunBenchProgram(argc - 2, argv + 2);
   CLI::App app{"svms: Space Vision Marker System -- markers, detection, calibration, survey, pose"};
   app.set_version_flag("--version", std::string("svms ") + SVMS_VERSION);
   app.require_subcommand(1);
@@ -22,7 +22,7 @@ int main(int argc, char** argv) {
       "  svms model check m17.json\n"
       "  svms codec stats --json\n"
       "Run 'svms COMMAND --help' for each command's options and examples.");
-  int exit_code = svms::cli::kExitOk;
+  int exit_code = svms::kExitOk;
   svms::cli::AddCodecCommands(app, &exit_code);
   svms::cli::AddModelCommands(app, &exit_code);
   svms::cli::AddGenerateCommands(app, &exit_code);
@@ -33,34 +33,5 @@ int main(int argc, char** argv) {
   svms::cli::AddSurveyCommands(app, &exit_code);
   svms::cli::AddPoseCommands(app, &exit_code);
   svms::cli::AddBenchCommands(app, &exit_code);
-  // A file-size limit (ulimit -f) would kill us with SIGXFSZ before write(2) could say EFBIG;
-  // ignored, the limit is a write error like a full disk: reported, and the earlier file kept
-  // (file_io.h).
-  std::signal(SIGXFSZ, SIG_IGN);
-  // A closed pipe is a write error too (EPIPE), reported once, exit 1: not a silent death.
-  std::signal(SIGPIPE, SIG_IGN);
-  // The commands run inside parse(). What they do not catch themselves ends here as one line
-  // and exit code 1, never as an abort: running out of memory (each command estimates what a
-  // request needs and refuses what is beyond its documented limits first, docs/reliability.md)
-  // or an internal error.
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    const int rc = app.exit(e);  // prints help, version or the usage error
-    return rc == 0 ? 0 : svms::cli::kExitBadInput;
-  } catch (const std::bad_alloc&) {
-    std::cerr << "svms: out of memory; expected a smaller request (see the limits in "
-                 "docs/reliability.md)\n";
-    return svms::cli::kExitFailed;
-  } catch (const std::exception& e) {
-    std::cerr << "svms: internal error: " << e.what() << "\n";
-    return svms::cli::kExitFailed;
-  }
-  // Whatever a command printed must have reached its reader.
-  if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
-    std::cerr << "svms: standard output: cannot write: " << std::strerror(errno)
-              << "; the output is incomplete\n";
-    return svms::cli::kExitFailed;
-  }
-  return exit_code;
+  return svms::cli::RunCommandLine(app, argc, argv, &exit_code);
 }

@@ -3,7 +3,9 @@
 #  - tests/downstream (C++) with find_package(svms COMPONENTS ...);
 #  - tests/downstream/pose.c (C) with pkg-config's svms.pc, run on the C API fixture's frame;
 # and checks that the installed libsvms_c needs nothing of the simulator, the artwork, the image
-# codecs or the benchmarks' peers, and exports only the C API.
+# codecs or the benchmarks' peers, and exports only the C API; that the svms command links
+# neither the benchmarks nor their peers (AprilTag, ArUco), which only the svms-bench program of
+# the build does; and that the installed svms, without svms-bench, says so in one line.
 set -euo pipefail
 build=${1:?build dir}; src=${2:?source dir}; fixture=${3:?capi fixture dir}
 scratch=$(mktemp -d)
@@ -55,3 +57,32 @@ exported=$(nm -D --defined-only "$lib" | awk '{print $3}' | grep -v '^$')
 others=$(grep -v '^svms_' <<< "$exported" || true)
 [ -z "$others" ] || fail "libsvms_c exports more than svms_*: $(echo $others | head -c 300)"
 echo "libsvms_c exports $(wc -l <<< "$exported") symbols, all svms_*"
+
+# The svms command (built and installed): no benchmark code and no peers, directly (readelf -d)
+# or through its libraries (ldd); the benchmarks are the svms-bench program's, which must link
+# them (else the checks above would prove nothing).
+for svms in "$build/bin/svms" "$prefix/bin/svms"; do
+  needed=$(readelf -d "$svms" | sed -n 's/.*NEEDED.*\[\(.*\)\]/\1/p')
+  all=$(ldd "$svms")
+  for forbidden in libapriltag libopencv_aruco libsvms_bench libsvms_peers; do
+    if grep -q "$forbidden" <<< "$needed$all"; then fail "$svms links $forbidden"; fi
+  done
+  symbols=$(nm -C "$svms")
+  if grep -q "svms::PeerDetector\|svms::RunCompareBenchmark" <<< "$symbols"; then
+    fail "$svms holds the benchmarks' code (svms::PeerDetector, svms::RunCompareBenchmark)"
+  fi
+done
+bench=$build/bin/svms-bench
+grep -q libapriltag <<< "$(ldd "$bench")" || fail "$bench does not link AprilTag: the checks of svms prove nothing"
+grep -q "svms::PeerDetector" <<< "$(nm -C "$bench")" || fail "$bench holds no svms::PeerDetector"
+[ ! -e "$prefix/bin/svms-bench" ] || fail "svms-bench is installed; the benchmarks are not shipped"
+echo "svms links no benchmark and no peer; svms-bench does"
+# `svms bench` in the install: one line naming svms-bench, exit 2, nothing written.
+set +e
+"$prefix/bin/svms" bench detect --quick --out "$scratch/bench" > "$scratch/bench.out" 2> "$scratch/bench.err"
+rc=$?
+set -e
+[ "$rc" -eq 2 ] || fail "svms bench without svms-bench: exit $rc, expected 2"
+[ "$(wc -l < "$scratch/bench.err")" -eq 1 ] && grep -q "svms-bench not found" "$scratch/bench.err" \
+  || fail "svms bench without svms-bench: expected one line naming svms-bench, got: $(cat "$scratch/bench.err")"
+[ ! -e "$scratch/bench" ] || fail "svms bench without svms-bench wrote $scratch/bench"

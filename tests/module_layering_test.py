@@ -7,7 +7,8 @@ BUILD_DIR/svms_modules.txt holds each module's direct dependencies as the build 
 (top CMakeLists.txt). Every non-test source file of a module may include headers only of its
 own module and of the modules it depends on (transitively); the modules a flight program links
 (the C API and everything it reaches, and calib and bundle) must not reach the simulator, the
-artwork, the datasets, the benchmarks' peers or the image codecs (imageio); and every header lives in a module folder.
+artwork, the datasets, the commands' pipelines, the benchmarks or their peers, or the image
+codecs (imageio); and every header lives in a module folder.
 Exits 1 with one line per violation.
 """
 import os
@@ -36,7 +37,8 @@ folder = {m: os.path.join('libsvms', 'svms', m) if m in LIBSVMS else os.path.joi
           for m in deps if m != 'c'}
 folder['c'] = 'capi'
 problems = []
-expected = LIBSVMS | {'calib', 'bundle', 'fusion', 'datasets', 'peers', 'c'}
+expected = LIBSVMS | {'calib', 'bundle', 'fusion', 'datasets', 'pipelines', 'peers', 'bench',
+                      'c'}
 if set(deps) != expected:
     problems.append(f'svms_modules.txt lists {sorted(deps)}, expected {sorted(expected)}')
 
@@ -56,13 +58,13 @@ for m, d in folder.items():
 FLIGHT = ['c', 'fusion', 'calib', 'bundle', 'detect', 'camera', 'marker', 'codec', 'base',
           'geometry']
 for m in FLIGHT:
-    bad = closure(m) & {'sim', 'print', 'datasets', 'peers', 'imageio'}
+    bad = closure(m) & {'sim', 'print', 'datasets', 'pipelines', 'peers', 'bench', 'imageio'}
     if bad:
         problems.append(f'module {m} (linked by flight programs) depends on {sorted(bad)}')
 
 # Headers outside a module folder (the include prefix would not say the module).
 for top in ['libsvms/svms', 'calib/svms', 'bundle/svms', 'fusion/svms', 'datasets/svms',
-            'peers/svms']:
+            'pipelines/svms', 'peers/svms', 'bench/svms']:
     for name in os.listdir(os.path.join(src, top)):
         if os.path.isfile(os.path.join(src, top, name)):
             problems.append(f'{top}/{name}: not in a module folder ({top}/<module>/)')

@@ -1,0 +1,169 @@
+// The options of each benchmark of svms-bench (`svms bench NAME`), parsed into the benchmark
+// library's options structs (bench/svms/bench/); the runs are the library's.
+#include "bench_commands.h"
+
+#include <memory>
+#include <string>
+
+#include "svms/bench/calibrate_benchmark.h"
+#include "svms/bench/compare_benchmark.h"
+#include "svms/bench/detect_benchmark.h"
+#include "svms/bench/pose_benchmark.h"
+#include "svms/bench/profiles_benchmark.h"
+#include "svms/bench/survey_benchmark.h"
+#include "svms/sim/scene.h"
+
+namespace svms::cli {
+
+void AddBenchDetect(CLI::App& bench, int* exit_code) {
+  auto o = std::make_shared<DetectBenchmarkOptions>();
+  CLI::App* c = bench.add_subcommand(
+      "detect",
+      "Detection rate, false positives, corner and pose accuracy of the detector against the "
+      "simulator's truth (range, angle, sun, occlusion, clutter and noise-free sets)");
+  c->add_option("--out", o->out, "Output directory (report.md, CSV, JSON, plots)")->required();
+  c->add_flag("--quick", o->quick, "A few views per set (a smoke test, about a minute)");
+  c->add_option("--seed", o->seed, "Seed of the datasets and of the sensor noise");
+  c->add_option("--threads", o->threads, "Views rendered and detected at once")
+      ->check(CLI::Range(1, 256));
+  c->add_option("--sets", o->sets, "Only these sets (default: all)")->delimiter(',');
+  c->footer("Example:\n  svms bench detect --quick --out out/bench/detect");
+  c->callback([o, exit_code] { *exit_code = RunDetectBenchmark(*o); });
+}
+
+void AddBenchCalibrate(CLI::App& bench, int* exit_code) {
+  auto o = std::make_shared<CalibrateBenchmarkOptions>();
+  CLI::App* cmd = bench.add_subcommand(
+      "calibrate", "Calibration accuracy vs the true camera: svms, mrcal and OpenCV side by side");
+  cmd->add_option("--out", o->out, "Output directory (data/, CSV, JSON, plots, report.md)")
+      ->required();
+  cmd->add_flag("--quick", o->quick, "The first 12 views only (smoke test)");
+  cmd->add_option("--threads", o->threads, "Rendering and detection threads")
+      ->check(CLI::Range(1, 256));
+  cmd->footer("Example:\n  svms bench calibrate --out out/bench/calibrate");
+  cmd->callback([o, exit_code] { *exit_code = RunCalibrateBenchmark(*o); });
+}
+
+void AddBenchCompare(CLI::App& bench, int* exit_code) {
+  auto o = std::make_shared<CompareBenchmarkOptions>();
+  CLI::App* c = bench.add_subcommand(
+      "compare", "SVMS vs AprilTag 3 (tag36h11) and OpenCV ArUco (6x6) on the same scenes");
+  c->add_option("--out", o->out, "Output directory (CSV, JSON, plots, report.md)")->required();
+  c->add_flag("--quick", o->quick, "A few views per sweep (smoke test, under 2 minutes)");
+  c->add_option("--seed", o->seed, "Seed of every scene and of the noise")->capture_default_str();
+  c->add_option("--size-views", o->size_views,
+                "Views per marker size in the size sweep (more to measure rare events, such as "
+                "flips at 8 px)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 200));
+  c->add_option("--post-height", o->post_height,
+                "The SVMS post's height as a fraction of the black square's side (a taller post "
+                "tells a small marker's tilt better, and leaves the square sooner off-axis)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.05, 1.0));
+  c->add_option("--edge-rays", o->edge_rays,
+                "Rays per pixel on edge pixels (0: off; a square number up to 4096): the "
+                "rendered coverage of edge pixels, which sets every system's corner error on "
+                "small markers")
+      ->capture_default_str()
+      ->check([](const std::string& v) -> std::string {
+        Sensor sensor;
+        try {
+          size_t used = 0;
+          sensor.edge_rays_per_pixel = std::stoi(v, &used);
+          if (used != v.size()) sensor.edge_rays_per_pixel = -1;
+        } catch (const std::exception&) {
+          sensor.edge_rays_per_pixel = -1;
+        }
+        if (!ValidEdgeRays(sensor))
+          return "expected 0 (off) or a square number up to 4096, got " + v;
+        return "";
+      });
+  c->add_flag("--save-images", o->save_images,
+              "Also write every rendered sweep image (DIR/images/SWEEP_FAMILY/VIEW.png)");
+  c->add_option("--threads", o->threads, "Rendering threads (detectors always run on one core)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
+  c->footer("Example:\n  svms bench compare --out out/bench/compare --quick");
+  c->callback([o, exit_code] { *exit_code = RunCompareBenchmark(*o); });
+}
+
+void AddBenchSurvey(CLI::App& bench, int* exit_code) {
+  auto o = std::make_shared<SurveyBenchmarkOptions>();
+  CLI::App* cmd = bench.add_subcommand(
+      "survey", "The survey on the rendered mockup vs truth, NEES Monte-Carlo, timing, baseline");
+  cmd->add_option("--out", o->out, "Output directory (report.md, CSV, plots)")->required();
+  cmd->add_flag("--quick", o->quick, "Quick mockup (6 views), 10 Monte-Carlo runs, 300 x 40");
+  cmd->add_option("--data", o->data,
+                  "A rendered mockup dataset to reuse (default: render one into OUT/mockup)");
+  cmd->add_option("--runs", o->runs, "Monte-Carlo runs")->capture_default_str();
+  cmd->add_option("--threads", o->threads, "Threads for rendering and detection")
+      ->check(CLI::Range(1, 256))
+      ->capture_default_str();
+  cmd->footer("Example:\n  svms bench survey --out out/bench/survey");
+  cmd->callback([o, exit_code] { *exit_code = RunSurveyBenchmark(*o); });
+}
+
+void AddBenchPose(CLI::App& bench, int* exit_code) {
+  auto o = std::make_shared<PoseBenchmarkOptions>();
+  CLI::App* cmd = bench.add_subcommand(
+      "pose",
+      "Fused pose along the rendered approach: error, NEES, single vs fused, latency, soak");
+  cmd->add_option("--out", o->out, "Output directory (report.md, CSV, plots)")->required();
+  cmd->add_flag("--quick", o->quick, "Quick approach (12 frames) and mockup (8 views), 2 passes");
+  cmd->add_option("--data", o->data, "A rendered approach dataset to reuse");
+  cmd->add_option("--mockup", o->mockup, "A rendered mockup dataset to survey (reuse)");
+  cmd->add_option("--layout", o->layout, "A surveyed layout to use instead of surveying");
+  cmd->add_option("--camera", o->camera,
+                  "Camera model for the survey and the pose (default: the dataset's true one); "
+                  "its frame's rotation against the true camera's is measured and the errors are "
+                  "also given in its own frame");
+  cmd->add_option("--repeat", o->repeat, "Passes over the approach in the long run")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  cmd->add_option("--corner-sigma", o->corner_sigma_px, "Corner pixel noise for the fusion")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--corner-sigma-exponent", o->corner_sigma_exponent,
+                  "Corner sigma scales as (30 px / side)^this")
+      ->capture_default_str();
+  cmd->add_option("--variance-prior-dof", o->variance_prior_dof,
+                  "Scale covariances by the frame's variance factor with this prior (0: off)")
+      ->capture_default_str();
+  cmd->add_option("--corner-fit-scale", o->corner_fit_scale,
+                  "Corner sigma = this times the detector's line-fit sigma")
+      ->capture_default_str();
+  cmd->add_option("--corner-sigma-systematic", o->corner_sigma_systematic_px,
+                  "Added in quadrature to the scaled line-fit sigma (px)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd->add_option("--min-corner-sigma", o->min_corner_sigma_px, "No corner sigma below this (px)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_flag("--no-calibration-covariance", o->no_calibration_covariance,
+                "Leave the camera's calibration uncertainty (CAMERA.covariance.json) out of the "
+                "pose covariance");
+  cmd->add_flag("--size-model", o->size_model,
+                "Corner sigma from the marker's size only (--corner-sigma, exponent)");
+  cmd->add_option("--threads", o->threads, "Threads for rendering and the survey")
+      ->check(CLI::Range(1, 256))
+      ->capture_default_str();
+  cmd->footer("Example:\n  svms bench pose --out out/bench/pose");
+  cmd->callback([o, exit_code] { *exit_code = RunPoseBenchmark(*o); });
+}
+
+void AddBenchProfiles(CLI::App& bench, int* exit_code) {
+  auto o = std::make_shared<ProfilesBenchmarkOptions>();
+  CLI::App* c = bench.add_subcommand(
+      "profiles", "The detector through each sensor profile's camera pipeline and codec");
+  c->add_option("--out", o->out, "Output directory (report.md, summary.json, markers.csv)")
+      ->required();
+  c->add_flag("--quick", o->quick, "The datasets' quick subsets");
+  c->add_option("--seed", o->seed, "Dataset seed")->capture_default_str();
+  c->add_option("--threads", o->threads, "Views in parallel")->check(CLI::Range(1, 256));
+  c->add_option("--profiles", o->profiles, "Profiles to run (default: all)")->delimiter(',');
+  c->footer("Example:\n  svms bench profiles --out out/bench/profiles");
+  c->callback([o, exit_code] { *exit_code = RunProfilesBenchmark(*o); });
+}
+
+}  // namespace svms::cli

@@ -1,0 +1,94 @@
+#include "json_lines.h"
+
+#include <Eigen/Geometry>
+#include <vector>
+
+namespace svms::cli {
+namespace {
+
+// {rvec, tvec} of a pose.
+nlohmann::json PoseJson(const Pose& p) {
+  return {{"rvec", {p.rvec(0), p.rvec(1), p.rvec(2)}}, {"tvec", {p.tvec(0), p.tvec(1), p.tvec(2)}}};
+}
+
+// {rvec, tvec, quaternion [w, x, y, z]} of a pose.
+nlohmann::json PoseWithQuaternionJson(const Pose& pose) {
+  const Eigen::Quaterniond q(pose.Rotation());
+  return {{"rvec", {pose.rvec(0), pose.rvec(1), pose.rvec(2)}},
+          {"tvec", {pose.tvec(0), pose.tvec(1), pose.tvec(2)}},
+          {"quaternion", {q.w(), q.x(), q.y(), q.z()}}};
+}
+
+}  // namespace
+
+nlohmann::json DetectionJson(const Detection& d) {
+  nlohmann::json c = nlohmann::json::array();
+  for (const auto& p : d.corners) c.push_back({p.x(), p.y()});
+  nlohmann::json j = {{"id", d.id}, {"corners", c}, {"bit_errors", d.bit_errors}};
+  if (d.corner_sigma[0] > 0)
+    j["corner_sigma"] = {d.corner_sigma[0], d.corner_sigma[1], d.corner_sigma[2],
+                         d.corner_sigma[3]};
+  if (d.penumbra_sides[0] || d.penumbra_sides[1] || d.penumbra_sides[2] || d.penumbra_sides[3]) {
+    nlohmann::json sides = nlohmann::json::array();
+    for (int k = 0; k < 4; ++k)
+      if (d.penumbra_sides[k]) sides.push_back(k);
+    j["penumbra_sides"] = sides;
+  }
+  j["tip"] = d.tip ? nlohmann::json{d.tip->pixel.x(), d.tip->pixel.y()} : nlohmann::json();
+  if (d.tip) j["tip_sigma"] = d.tip->sigma_px;
+  if (d.cam_from_marker) {
+    j["cam_from_marker"] = PoseJson(*d.cam_from_marker);
+    std::vector<double> cov(36);
+    for (int r = 0; r < 6; ++r)
+      for (int k = 0; k < 6; ++k) cov[r * 6 + k] = d.covariance(r, k);
+    j["covariance"] = cov;
+    j["pose_ambiguous"] = d.pose_ambiguous;
+    if (d.alternative_pose) {
+      j["alternative_pose"] = PoseJson(*d.alternative_pose);
+      j["alternative_pose"]["weight"] = d.alternative_weight;
+    }
+    j["calibration_in_covariance"] = d.calibration_in_covariance;
+  }
+  if (!d.pose_error.empty()) j["pose_error"] = d.pose_error;
+  if (d.nested_in >= 0) j["nested_in"] = d.nested_in;
+  return j;
+}
+
+nlohmann::json FrameJson(const FrameResult& r) {
+  const ObjectPose& p = r.pose;
+  nlohmann::json j;
+  j["timestamp"] = r.timestamp;
+  j["valid"] = p.valid;
+  if (p.valid) {
+    j["cam_from_object"] = PoseWithQuaternionJson(p.cam_from_object);
+    std::vector<double> cov(36);
+    for (int a = 0; a < 6; ++a)
+      for (int b = 0; b < 6; ++b) cov[a * 6 + b] = p.covariance(a, b);
+    j["covariance"] = cov;
+    if (p.alternative_cam_from_object) {
+      j["alternative"] = PoseWithQuaternionJson(*p.alternative_cam_from_object);
+      j["alternative"]["weight"] = p.alternative_weight;
+    }
+  } else {
+    j["cam_from_object"] = nullptr;
+    j["covariance"] = nullptr;
+    j["message"] = p.message;
+  }
+  j["markers"] = p.ids_used;
+  j["markers_rejected"] = p.ids_rejected;
+  j["points_rejected"] = p.points_rejected;
+  j["markers_seen"] = p.markers_seen;
+  j["points"] = p.points_used;
+  j["rms"] = p.rms_px;
+  j["chi2"] = p.chi2;
+  j["dof"] = p.dof;
+  j["flags"] = {{"ambiguous", p.ambiguous},
+                {"poorly_conditioned", p.poorly_conditioned},
+                {"budget_exceeded", r.budget_exceeded},
+                {"calibration_in_covariance", p.calibration_in_covariance}};
+  j["latency_ms"] = r.latency_ms;
+  j["detect_ms"] = r.detect_ms;
+  return j;
+}
+
+}  // namespace svms::cli

@@ -1,0 +1,21 @@
+// The JSON lines `svms detect` and `svms pose` print (docs/flight-interface.md): a detection
+// with its pose and covariance, and a frame's fused object pose.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include "svms/detect/detector.h"
+#include "svms/fusion/pose_estimator.h"
+
+namespace svms::cli {
+
+// One detection of `svms detect`: id, corners, corner_sigma, penumbra_sides, tip, tip_sigma,
+// bit_errors, and with a pose cam_from_marker {rvec, tvec}, covariance (36, row-major,
+// [rotation, translation] in camera axes), pose_ambiguous, alternative_pose,
+// calibration_in_covariance; pose_error and nested_in where they apply.
+nlohmann::json DetectionJson(const Detection& d);
+
+// One frame of `svms pose` as its JSON line.
+nlohmann::json FrameJson(const FrameResult& frame);
+
+}  // namespace svms::cli

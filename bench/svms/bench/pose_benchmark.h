@@ -1,0 +1,39 @@
+// The fused-pose benchmark (`svms bench pose`): the fused object pose (fusion/) along the
+// rendered approach path, with the layout surveyed by the survey pipeline on the rendered
+// mockup: error against truth, NEES, fused vs best single marker, latency on one core, and a
+// long run for memory and latency stability. Writes frames.csv, soak.csv, latency.csv,
+// summary.json, plots and report.md to options.out.
+#pragma once
+
+#include <string>
+
+#include "svms/fusion/object_pose.h"
+
+namespace svms {
+
+struct PoseBenchmarkOptions {
+  std::string out;     // the output directory
+  std::string data;    // a rendered approach dataset to reuse ("" = render one into OUT/approach)
+  std::string mockup;  // a rendered mockup dataset to survey ("" = render one into OUT/mockup)
+  std::string layout;  // a surveyed layout to use instead of surveying
+  std::string camera;  // the camera for the survey and the pose ("" = the dataset's true one)
+  bool quick = false;  // the quick approach and mockup, 2 passes
+  int repeat = 20;     // passes over the approach for the long run (500 x 20 = 10,000 frames)
+  int threads = 2;     // rendering and the survey only; the pose runs on one thread
+  // The fusion's corner noise model (object_pose.h).
+  double corner_sigma_px = ObjectPoseOptions{}.corner_sigma_px;
+  double corner_sigma_exponent = ObjectPoseOptions{}.corner_sigma_exponent;
+  double variance_prior_dof = ObjectPoseOptions{}.variance_prior_dof;
+  double corner_fit_scale = ObjectPoseOptions{}.corner_fit_scale;
+  double min_corner_sigma_px = ObjectPoseOptions{}.min_corner_sigma_px;
+  double corner_sigma_systematic_px = ObjectPoseOptions{}.corner_sigma_systematic_px;
+  bool size_model = false;                 // corner sigma from the marker's size only
+  bool no_calibration_covariance = false;  // leave the calibration's uncertainty out
+};
+
+// Runs the benchmark. Returns an exit code (exit_codes.h): 3 when a target was missed, 2 for
+// unusable inputs (a camera for another image size, a missing reference marker), 1 when a
+// dataset or the survey failed or an output could not be written; report.md also on stdout.
+int RunPoseBenchmark(const PoseBenchmarkOptions& options);
+
+}  // namespace svms

@@ -1,0 +1,196 @@
+#include "svms/bench/profiles_benchmark.h"
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <memory>
+#include <mutex>
+
+#include "svms/bench/profiles_report.h"
+#include "svms/bench/truth_poses.h"
+#include "svms/camera/photometric.h"
+#include "svms/datasets/datasets.h"
+#include "svms/detect/detector.h"
+#include "svms/fusion/object_pose.h"
+#include "svms/geometry/pose.h"
+#include "svms/pipelines/exit_codes.h"
+#include "svms/pipelines/output_checks.h"
+#include "svms/pipelines/progress.h"
+#include "svms/pipelines/report_file.h"
+#include "svms/sim/render.h"
+#include "svms/sim/truth.h"
+
+namespace svms {
+namespace {
+
+// What the camera's photometric file would say of a sensor: the reader's model.
+PhotometricModel SensorPhotometry(const Sensor& s) {
+  PhotometricModel m;
+  Response::Parse(s.response, &m.response);
+  m.black_level = s.black_level;
+  m.white_level = s.white_level();
+  ParseBayerPattern(s.bayer, &m.bayer);
+  return m;
+}
+
+// Scores the detections of one view through `profile` against its truth, a row per marker.
+void Score(const std::string& profile, const std::string& set, const ViewTruth& truth,
+           const std::vector<Detection>& found, std::vector<ProfileRow>* rows) {
+  std::vector<bool> used(found.size(), false);
+  for (const MarkerTruth& m : truth.markers) {
+    ProfileRow r;
+    r.profile = profile, r.set = set, r.view = truth.name, r.id = m.id;
+    r.min_side_px = m.min_side_px;
+    r.view_angle_deg = ViewAngleDeg(m.cam_from_marker);
+    r.fully_visible = m.fully_visible() && r.view_angle_deg <= 75.0 + 1e-6;
+    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+    for (const PointTruth& c : m.corners) centre += 0.25 * c.pixel;
+    for (size_t i = 0; i < found.size(); ++i) {
+      const Detection& d = found[i];
+      if (d.id != m.id || used[i]) continue;
+      double sum2 = 0, worst = 0, bias = 0;
+      for (int k = 0; k < 4; ++k) {
+        const Eigen::Vector2d e = d.corners[k] - m.corners[k].pixel;
+        sum2 += e.squaredNorm();
+        worst = std::max(worst, e.norm());
+        bias += 0.25 * e.dot((m.corners[k].pixel - centre).normalized());
+      }
+      if (worst > std::max(3.0, 0.1 * m.side_px)) continue;
+      used[i] = true;
+      r.found = true;
+      r.corner_rms_px = std::sqrt(sum2 / 4);
+      r.corner_bias_px = bias;
+      if (d.cam_from_marker) {
+        r.orient_err_deg = AngleBetweenDeg(*d.cam_from_marker, m.cam_from_marker);
+        r.range_err_rel = d.cam_from_marker->tvec.norm() / m.cam_from_marker.tvec.norm() - 1;
+        r.nees = Nees(m.cam_from_marker, *d.cam_from_marker, d.covariance);
+      }
+      break;
+    }
+    rows->push_back(r);
+  }
+}
+
+// The sets: range and angle as the datasets make them, and the angle set again on the Earth.
+struct SetRun {
+  std::string name;
+  std::string dataset;
+  bool textured = false;
+};
+
+Status RunSet(const SetRun& run, const ProfilesBenchmarkOptions& o,
+              const std::vector<std::string>& profiles, std::vector<ProfileRow>* rows,
+              std::vector<ViewTiming>* timings) {
+  DatasetOptions dopt;
+  dopt.seed = o.seed;
+  dopt.quick = o.quick;
+  Dataset dataset;
+  if (Status s = MakeDataset(run.dataset, dopt, &dataset); !s) return s;
+  for (auto& [subdir, scene_in] : dataset.scenes) {
+    Scene scene = scene_in;
+    if (run.textured) {
+      scene.background.kind = Background::Kind::kEarth;
+      scene.background.brightness = 0.7;
+    }
+    std::unique_ptr<Renderer> renderer;
+    if (Status s = Renderer::Create(scene, &renderer); !s)
+      return Status::Error(run.name + ": " + s.message());
+    std::vector<MarkerModel> models;
+    for (const SceneObject& ob : scene.objects)
+      for (const SceneMarker& m : ob.markers) models.push_back(m.model);
+    const Detector detector(DetectorOptions{}, scene.camera, models);
+    std::vector<Sensor> sensors;
+    std::vector<Linearizer> readers;
+    for (const std::string& p : profiles) {
+      Sensor s = scene.sensor;
+      if (Status st = ApplySensorProfile(p, &s); !st) return st;
+      sensors.push_back(s);
+      readers.emplace_back(SensorPhotometry(s));
+    }
+    const int n = static_cast<int>(scene.views.size());
+    std::vector<std::vector<ProfileRow>> view_rows(n);
+    std::vector<std::vector<ViewTiming>> view_timings(n);
+    std::atomic<int> next{0};
+    int done = 0;
+    std::mutex io;
+    std::string failure;
+    Progress progress("svms bench profiles: " + run.name, n);
+    auto worker = [&] {
+      for (int v; (v = next++) < n;) {
+        const cv::Mat radiance = renderer->RenderRadiance(v);
+        const ViewTruth truth = ComputeTruth(*renderer, v);
+        for (size_t p = 0; p < profiles.size(); ++p) {
+          const cv::Mat exposed = renderer->Expose(radiance, v, sensors[p]);
+          cv::Mat decoded, linear;
+          Status s = ThroughCodec(sensors[p], exposed, &decoded);
+          if (s) s = readers[p].Apply(decoded, &linear);
+          if (!s) {
+            std::lock_guard<std::mutex> lock(io);
+            failure = profiles[p] + ", " + truth.name + ": " + s.message();
+            continue;
+          }
+          DetectionStats stats;
+          const auto t0 = std::chrono::steady_clock::now();
+          const std::vector<Detection> found = detector.Detect(linear, &stats);
+          ViewTiming t;
+          t.profile = profiles[p], t.set = run.name, t.textured = run.textured;
+          t.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                     .count();
+          t.noise = stats.noise;
+          view_timings[v].push_back(t);
+          if (!run.textured) Score(profiles[p], run.name, truth, found, &view_rows[v]);
+        }
+        std::lock_guard<std::mutex> lock(io);
+        progress.Update(++done);
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int t = 0; t < std::min(o.threads, n); ++t) pool.emplace_back(worker);
+    for (auto& t : pool) t.join();
+    progress.Finish();
+    if (!failure.empty()) return Status::Error(failure);
+    for (int v = 0; v < n; ++v) {
+      rows->insert(rows->end(), view_rows[v].begin(), view_rows[v].end());
+      timings->insert(timings->end(), view_timings[v].begin(), view_timings[v].end());
+    }
+  }
+  return Status::Ok();
+}
+
+int RunBenchmark(const ProfilesBenchmarkOptions& o) {
+  std::vector<std::string> profiles = o.profiles;
+  if (profiles.empty()) profiles = SensorProfileNames();
+  for (const std::string& p : profiles) {
+    Sensor s;
+    if (Status st = ApplySensorProfile(p, &s); !st) {
+      std::cerr << "svms bench profiles: --profiles: " << st.message() << "\n";
+      return kExitBadInput;
+    }
+  }
+  if (Status s = PrepareOutputDirectory("--out", o.out); !s) {
+    std::cerr << "svms bench profiles: " << s.message() << "\n";
+    return kExitBadInput;
+  }
+  std::vector<ProfileRow> rows;
+  std::vector<ViewTiming> timings;
+  const auto t_start = std::chrono::steady_clock::now();
+  for (const SetRun& run : {SetRun{"range", "range", false}, SetRun{"angle", "angle", false},
+                            SetRun{"angle_earth", "angle", true}}) {
+    if (Status s = RunSet(run, o, profiles, &rows, &timings); !s) {
+      std::cerr << "svms bench profiles: " << s.message() << "\n";
+      return kExitFailed;
+    }
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  return WriteProfilesReport(o, profiles, rows, timings, seconds);
+}
+
+}  // namespace
+
+int RunProfilesBenchmark(const ProfilesBenchmarkOptions& options) {
+  return FinishOutputs("svms bench profiles", RunBenchmark(options));
+}
+
+}  // namespace svms

@@ -1,0 +1,37 @@
+// The sensor-profile benchmark (`svms bench profiles`): the detector on the pixels real cameras
+// deliver, every sensor profile side by side in one run.
+//
+// Each view of the range and angle sets is rendered once (radiance); each profile then exposes
+// it through its own camera pipeline (scene.h: response, bits, black level, Bayer mosaic,
+// defocus) and its own codec (libjpeg for JPEG, render.h ThroughCodec), and the image is
+// turned back into linear light as a reader with the camera's photometric file would
+// (photometric.h LinearizeImage) before detection. Every marker is scored against the
+// renderer's truth: detection rate by size, the corners' bias along their outward diagonal
+// and RMS, the single-marker pose's orientation error and NEES. The angle set is also rendered
+// on a textured (Earth) background to time black-background frames against textured ones; the
+// noise the detector estimates on 16-bit images is compared with the sensor's. Writes
+// markers.csv, summary.json and report.md to options.out.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace svms {
+
+struct ProfilesBenchmarkOptions {
+  std::string out;     // the output directory
+  bool quick = false;  // the datasets' quick subsets
+  uint64_t seed = 1;   // of the datasets
+  int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  std::vector<std::string> profiles;  // the sensor profiles to run (scene.h); empty: every one
+};
+
+// Runs the benchmark. Returns an exit code (exit_codes.h): 3 when a target was missed, 2 for an
+// unknown profile or an unusable output directory, 1 when a set failed or an output could not be
+// written; report.md also on stdout.
+int RunProfilesBenchmark(const ProfilesBenchmarkOptions& options);
+
+}  // namespace svms

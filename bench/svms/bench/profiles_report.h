@@ -1,0 +1,40 @@
+// The sensor-profile benchmark's scoring (profiles_benchmark.h): each marker of each view,
+// per profile, against the renderer's truth, and each detection's time and noise estimate.
+#pragma once
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "svms/bench/profiles_benchmark.h"
+#include "svms/detect/noise_model.h"
+
+namespace svms {
+
+// One marker of one view through one profile.
+struct ProfileRow {
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  std::string profile, set, view;
+  int id = -1;
+  double min_side_px = 0, view_angle_deg = 0;
+  bool fully_visible = false, found = false;
+  double corner_rms_px = kNaN, corner_bias_px = kNaN;  // bias: mean outward error of the 4
+  double orient_err_deg = kNaN, range_err_rel = kNaN, nees = kNaN;
+};
+
+// One detection of one view through one profile: its time and the noise it estimated.
+struct ViewTiming {
+  std::string profile, set;
+  bool textured = false;
+  double ms = 0;
+  NoiseModel noise;
+};
+
+// Writes summary.json, report.md (also on stdout) and markers.csv; `seconds` the run's wall
+// time. Returns the benchmark's exit code (exit_codes.h).
+int WriteProfilesReport(const ProfilesBenchmarkOptions& options,
+                        const std::vector<std::string>& profiles,
+                        const std::vector<ProfileRow>& rows, const std::vector<ViewTiming>& timings,
+                        double seconds);
+
+}  // namespace svms

@@ -1,0 +1,17 @@
+#include "svms/bench/report_numbers.h"
+
+#include <cmath>
+
+#include "svms/base/format.h"
+
+namespace svms {
+
+double Mean(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x;
+  return v.empty() ? std::nan("") : s / v.size();
+}
+
+std::string Cell(double v, int digits) { return std::isfinite(v) ? Fixed(v, digits) : "-"; }
+
+}  // namespace svms

@@ -1,0 +1,35 @@
+#include "svms/pipelines/response_check.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "svms/base/format.h"
+#include "svms/camera/photometric.h"
+#include "svms/detect/response_estimate.h"
+
+namespace svms {
+
+std::string CheckDeclaredResponse(const cv::Mat& stored, const std::vector<Detection>& found,
+                                  const nlohmann::json& photometric) {
+  if (photometric.contains("bayer")) return "";  // a mosaic's edges are the demosaic's
+  std::vector<EdgeProfile> profiles;
+  CollectEdgeProfiles(stored, found, photometric["black_level"].get<double>(),
+                      photometric["white_level"].get<double>(), &profiles, 80);
+  const ResponseEstimate e = EstimateGammaFromEdges(profiles);
+  if (e.profiles == 0) return "";
+  Response declared;
+  if (!Response::Parse(photometric["response"].get<std::string>(), &declared).ok()) return "";
+  // The declared curve's gamma: sRGB is close to 2.2; a table is not checked.
+  double g = 1;
+  if (declared.kind() == Response::Kind::kSrgb) g = 2.2;
+  if (declared.kind() == Response::Kind::kGamma) g = declared.gamma();
+  if (declared.kind() == Response::Kind::kTable) return "";
+  if (std::abs(e.gamma - g) <= std::max(0.4, 4 * e.sigma)) return "";
+  return "the response " + photometric["response"].get<std::string>() +
+         " contradicts the image: the markers' edges (" + std::to_string(e.profiles) +
+         " profiles) say gamma " + Fixed(e.gamma, 2) + " +- " + Fixed(e.sigma, 2) +
+         "; expected --response gamma:" + Fixed(e.gamma, 1) +
+         ", or srgb for a camera's JPEG (docs/detector.md)";
+}
+
+}  // namespace svms
