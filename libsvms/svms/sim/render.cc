@@ -197,7 +197,7 @@ Renderer::Impl::Frame Renderer::Impl::MakeFrame(int view) const {
 }
 
 // How an image is rendered (one core; about 0.9 s for a 1024 x 1024 image at 16 rays per
-// pixel, bench/render_bench.cc): 16 x 16 pixel tiles keep the primitives their cone of rays
+// pixel, bench/micro/render_bench.cc): 16 x 16 pixel tiles keep the primitives their cone of rays
 // may meet; 4 x 4 blocks, then pixels, narrow that down (ConeCandidates) and find out which
 // pixels see only the background or lie inside one box face; those pixels' random numbers are
 // drawn up front and their samples traced and shaded in tight loops (EarthPixel, FacePixel,
