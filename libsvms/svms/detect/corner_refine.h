@@ -32,6 +32,11 @@ struct CornerRefineOptions {
   // orientation with it against 0.301 without, and the other distances agree within their
   // 4-view noise.
   bool edges_along_rows = true;
+  // The widest window (half-width across the edge, pixels) of the area along the rows where an
+  // edge is blurred (corner_refine.cc: RowWindow; 2 px on sharp edges), and never wider than the
+  // white stripe (a third of the quad's shortest side) less 2 px, so that the stripe's far
+  // edge, blurred, stays out of it.
+  double max_row_window_px = 3.5;
   // The same on quads narrower than narrow_stripe_side_px, whose edges are placed along the
   // normal (LocateEdge's narrow_band). Measured on the compare size sweep (seed 2, 256 rays on
   // edge pixels, 128-142 views per size; corner per-axis Z^2 against its sigma, and RMS): at
@@ -134,9 +139,12 @@ double SampleImage(const cv::Mat& image, double u, double v);
 // out (at the search's ends, or too little contrast across it).
 // `narrow_band`: the bright side may be a band narrower than about 4.5 px with something darker
 // beyond it; where the profile falls again by more than 2 % of its contrast within 2 px, the
-// area is taken up to its brightest point only.
+// area is taken up to its brightest point only. `max_row_window` (along_rows only): the
+// half-width across the edge up to which the window along the row widens where the edge is
+// blurred (2: never).
 bool LocateEdge(const cv::Mat& image, const Eigen::Vector2d& p,
                 const Eigen::Vector2d& dark_to_bright, double search_px, Eigen::Vector2d* edge,
-                double* strength, bool narrow_band = false, bool along_rows = false);
+                double* strength, bool narrow_band = false, bool along_rows = false,
+                double max_row_window = 2.0);
 
 }  // namespace svms
