@@ -11,8 +11,12 @@ void AddPhotometryOptions(CLI::App* cmd, PhotometryOptions* o) {
   cmd->add_option("--white-level", o->white_level,
                   "Pixel value of saturation (e.g. 4095 for 12 bits in a 16-bit file)");
   cmd->add_option("--bayer", o->bayer,
-                  "The images are raw Bayer mosaics: RGGB, BGGR, GRBG or GBRG (demosaiced by "
-                  "OpenCV in linear light)");
+                  "The images are raw Bayer mosaics: RGGB, BGGR, GRBG or GBRG (turned into "
+                  "luminance in linear light, --demosaic)");
+  cmd->add_option("--demosaic", o->demosaic,
+                  "How a Bayer mosaic becomes luminance: luminance (white-balanced mosaic "
+                  "through a frequency-selection filter, which cannot move edges; the default) "
+                  "or opencv (OpenCV's edge-aware demosaic)");
 }
 
 }  // namespace svms::cli

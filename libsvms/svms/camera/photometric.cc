@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "svms/base/file_io.h"
+#include "svms/camera/bayer_luminance.h"
 #include "svms/base/json_fields.h"
 
 namespace svms {
@@ -166,6 +167,21 @@ Status ParseBayerPattern(const std::string& text, BayerPattern* out) {
   return Status::Ok();
 }
 
+Status ParseBayerMethod(const std::string& text, BayerMethod* out) {
+  if (text == "luminance") {
+    *out = BayerMethod::kLuminance;
+  } else if (text == "opencv") {
+    *out = BayerMethod::kOpenCv;
+  } else {
+    return Status::Error("--demosaic \"" + text + "\": unknown; expected luminance or opencv");
+  }
+  return Status::Ok();
+}
+
+std::string BayerMethodName(BayerMethod method) {
+  return method == BayerMethod::kOpenCv ? "opencv" : "luminance";
+}
+
 std::string BayerPatternName(BayerPattern p) {
   switch (p) {
     case BayerPattern::kRggb:
@@ -252,6 +268,11 @@ Status Linearizer::Apply(const cv::Mat& stored_in, cv::Mat* linear) const {
     }
   }
   if (direct) return Status::Ok();
+  if (m.bayer != BayerPattern::kNone && m.demosaic == BayerMethod::kLuminance) {
+    if (out.data == stored.data) out = cv::Mat();
+    BayerLuminance(mosaic, m.bayer, EstimateBayerGains(mosaic, m.bayer), &out);
+    return Status::Ok();
+  }
   if (m.bayer != BayerPattern::kNone) {
     static const int codes[] = {0, cv::COLOR_BayerRGGB2BGR_EA, cv::COLOR_BayerBGGR2BGR_EA,
                                 cv::COLOR_BayerGRBG2BGR_EA, cv::COLOR_BayerGBRG2BGR_EA};
@@ -310,7 +331,8 @@ Status ParsePhotometricJson(const std::string& text, const std::string& source,
   if (!ParseText(text, source, &j, &error)) return Status::Error(error);
   PhotometricModel m;
   try {
-    CheckKeys(j, "", {"type", "response", "response_table", "black_level", "white_level", "bayer"});
+    CheckKeys(j, "", {"type", "response", "response_table", "black_level", "white_level", "bayer",
+                      "demosaic"});
     if (String(j, "", "type") != "svms.photometric")
       Fail("type", "\"svms.photometric\"", j["type"]);
     if (j.contains("response") == j.contains("response_table"))
@@ -335,6 +357,9 @@ Status ParsePhotometricJson(const std::string& text, const std::string& source,
     if (j.contains("bayer"))
       if (Status s = ParseBayerPattern(String(j, "", "bayer"), &m.bayer); !s)
         throw FieldError{"bayer: expected RGGB, BGGR, GRBG or GBRG, got " + j["bayer"].dump()};
+    if (j.contains("demosaic"))
+      if (Status s = ParseBayerMethod(String(j, "", "demosaic"), &m.demosaic); !s)
+        throw FieldError{"demosaic: expected luminance or opencv, got " + j["demosaic"].dump()};
     if (Status s = m.Check(); !s) throw FieldError{s.message()};
   } catch (const FieldError& e) {
     return Status::Error(source + ": " + e.message);
@@ -352,7 +377,10 @@ Status ReadPhotometricFile(const std::string& path, PhotometricModel* out) {
 std::string PhotometricToJson(const PhotometricModel& m) {
   json_fields::json j = {
       {"type", "svms.photometric"}, {"black_level", m.black_level}, {"white_level", m.white_level}};
-  if (m.bayer != BayerPattern::kNone) j["bayer"] = BayerPatternName(m.bayer);
+  if (m.bayer != BayerPattern::kNone) {
+    j["bayer"] = BayerPatternName(m.bayer);
+    j["demosaic"] = BayerMethodName(m.demosaic);
+  }
   if (m.response.kind() == Response::Kind::kTable)
     j["response_table"] = m.response.table();
   else

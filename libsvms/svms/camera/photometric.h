@@ -74,6 +74,16 @@ enum class BayerPattern { kNone, kRggb, kBggr, kGrbg, kGbrg };
 Status ParseBayerPattern(const std::string& text, BayerPattern* out);
 std::string BayerPatternName(BayerPattern pattern);  // "RGGB", ... or "none"
 
+// How a mosaic becomes the one channel the detector measures on. kLuminance (the default): the
+// white-balanced mosaic filtered by a frequency-selection kernel (bayer_luminance.h), which
+// cannot move an edge. kOpenCv: OpenCV's edge-aware demosaic (COLOR_Bayer..._EA) to BGR, then
+// the Rec. 709 luminance; it moves sharp edges by a few hundredths of a pixel (docs/detector.md)
+// and is kept for comparison and for colour scenes where its sharper result matters more.
+enum class BayerMethod { kLuminance, kOpenCv };
+// "luminance" or "opencv"; errors name the text.
+Status ParseBayerMethod(const std::string& text, BayerMethod* out);
+std::string BayerMethodName(BayerMethod method);
+
 struct PhotometricModel {
   Response response;
   // Pixel values of no light and of saturation, in the units of the stored image (0..255 or
@@ -82,6 +92,7 @@ struct PhotometricModel {
   double white_level = 0;
   // A raw sensor's mosaic, demosaiced before the luminance is taken (kNone: grey or colour).
   BayerPattern bayer = BayerPattern::kNone;
+  BayerMethod demosaic = BayerMethod::kLuminance;
 
   // True when stored values are linear light already and need no conversion (linear
   // response, black level 0, white level the full scale of `depth_max`, no mosaic).
@@ -96,8 +107,8 @@ struct PhotometricModel {
 // An image as stored (1 channel: grey or, with model.bayer, a mosaic; 3 channels: BGR; 8 or 16
 // bits) in linear light, as the detector measures it: one channel, CV_16UC1, 0 at the black
 // level and 65535 at the white level (values beyond clipped), the luminance of colour images
-// taken in linear light (Rec. 709 weights, the sRGB primaries), a mosaic demosaiced by OpenCV
-// (edge-aware, COLOR_Bayer..._EA) in linear light first. Where the model is the identity for
+// taken in linear light (Rec. 709 weights, the sRGB primaries), a mosaic turned into luminance
+// in linear light as model.demosaic says. Where the model is the identity for
 // an 8-bit grey image the image itself is returned (no copy, no change).
 Status LinearizeImage(const cv::Mat& stored, const PhotometricModel& model, cv::Mat* linear);
 
@@ -126,7 +137,8 @@ const char* PhotometrySourceName(PhotometrySource source);
 std::string PhotometricPath(const std::string& cameramodel_path);
 
 // {"type": "svms.photometric", "response": "srgb" | "linear" | "gamma:2.2", or
-// "response_table": [numbers], "black_level": B, "white_level": W, optional "bayer": "RGGB"}.
+// "response_table": [numbers], "black_level": B, "white_level": W, optional "bayer": "RGGB"
+// and "demosaic": "luminance" | "opencv"}.
 // Errors name the field.
 Status ParsePhotometricJson(const std::string& text, const std::string& source,
                             PhotometricModel* out);

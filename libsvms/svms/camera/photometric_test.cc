@@ -107,9 +107,9 @@ TEST(LinearizeImage, ColourBecomesLuminanceInLinearLight) {
 }
 
 TEST(LinearizeImage, BayerPatternsAreDemosaicedWhereTheirColoursAre) {
-  // A mosaic whose red pixels are bright and the rest dark: read with the right pattern the
-  // luminance is red's weight of it everywhere away from the border; with another pattern the
-  // bright pixels are taken for another colour.
+  // A mosaic whose red pixels are bright and the rest dark, through OpenCV's demosaic: read
+  // with the right pattern the luminance is red's weight of it everywhere away from the
+  // border; with another pattern the bright pixels are taken for another colour.
   const std::pair<BayerPattern, cv::Point> red_at[] = {{BayerPattern::kRggb, {0, 0}},
                                                        {BayerPattern::kBggr, {1, 1}},
                                                        {BayerPattern::kGrbg, {1, 0}},
@@ -120,6 +120,7 @@ TEST(LinearizeImage, BayerPatternsAreDemosaicedWhereTheirColoursAre) {
       for (int x = red.x; x < 16; x += 2) mosaic.at<uint16_t>(y, x) = 40000;
     PhotometricModel m;
     m.bayer = pattern;
+    m.demosaic = BayerMethod::kOpenCv;
     cv::Mat out;
     ASSERT_TRUE(LinearizeImage(mosaic, m, &out).ok());
     EXPECT_NEAR(out.at<uint16_t>(8, 8), 0.2126 * 40000, 0.02 * 40000) << BayerPatternName(pattern);

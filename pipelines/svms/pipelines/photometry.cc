@@ -22,6 +22,8 @@ Status Photometry::Create(const PhotometryOptions& options, const std::string& c
   }
   if (!options.bayer.empty())
     if (Status s = ParseBayerPattern(options.bayer, &p.option_bayer_); !s) return s;
+  if (!options.demosaic.empty())
+    if (Status s = ParseBayerMethod(options.demosaic, &p.option_demosaic_); !s) return s;
   PhotometricModel check;
   check.black_level = options.black_level.value_or(0);
   check.white_level = options.white_level.value_or(0);
@@ -48,6 +50,7 @@ std::optional<PhotometricModel> Photometry::GivenModel() const {
   m.black_level = black_level();
   m.white_level = white_level();
   m.bayer = option_bayer_;
+  m.demosaic = option_demosaic_;
   return m;
 }
 
@@ -73,6 +76,7 @@ PhotometricModel Photometry::Resolve(double depth_max, const std::string& declar
   if (options_.any()) *source = PhotometrySource::kOption;
   if (!options_.response.empty()) m.response = option_response_;
   if (!options_.bayer.empty()) m.bayer = option_bayer_;
+  if (!options_.demosaic.empty()) m.demosaic = option_demosaic_;
   if (options_.black_level) m.black_level = *options_.black_level;
   if (options_.white_level) m.white_level = *options_.white_level;
   return m;
@@ -86,7 +90,10 @@ nlohmann::json PhotometryJson(const PhotometricModel& m, double depth_max,
                       {"black_level", m.black_level},
                       {"white_level", m.white_level > 0 ? m.white_level : depth_max},
                       {"source", PhotometrySourceName(source)}};
-  if (m.bayer != BayerPattern::kNone) j["bayer"] = BayerPatternName(m.bayer);
+  if (m.bayer != BayerPattern::kNone) {
+    j["bayer"] = BayerPatternName(m.bayer);
+    j["demosaic"] = BayerMethodName(m.demosaic);
+  }
   return j;
 }
 

@@ -14,14 +14,17 @@
 namespace svms {
 
 // The photometry options every command that reads images takes (--response, --black-level,
-// --white-level, --bayer). Each given option overrides that part of the model that would
+// --white-level, --bayer, --demosaic). Each given option overrides that part of the model that would
 // apply otherwise (photometric.h: the camera's photometric file, the file's own declaration,
 // the default by depth).
 struct PhotometryOptions {
   std::string response;  // Response::Parse text, or "estimate" (svms calibrate); "" = not given
   std::string bayer;     // "" = not given
+  std::string demosaic;  // ParseBayerMethod text; "" = not given
   std::optional<double> black_level, white_level;
-  bool any() const { return !response.empty() || !bayer.empty() || black_level || white_level; }
+  bool any() const {
+    return !response.empty() || !bayer.empty() || !demosaic.empty() || black_level || white_level;
+  }
   bool estimate() const { return response == "estimate"; }
 };
 
@@ -51,7 +54,7 @@ class Photometry {
 
   // Loads an image file (at most `max_pixels`, checked from its header) and linearises it
   // (LoadStoredImage, LinearizeImage). *json gets {"response", "black_level", "white_level",
-  // "bayer", "source"}; *stored_grey (optional) the image as stored, one channel (colour turned
+  // "bayer", "demosaic", "source"}; *stored_grey (optional) the image as stored, one channel (colour turned
   // to grey on the stored values).
   Status Load(const std::string& path, int64_t max_pixels, cv::Mat* linear, nlohmann::json* json,
               cv::Mat* stored_grey = nullptr) const;
@@ -63,6 +66,7 @@ class Photometry {
   PhotometryOptions options_;
   Response option_response_;
   BayerPattern option_bayer_ = BayerPattern::kNone;
+  BayerMethod option_demosaic_ = BayerMethod::kLuminance;
   std::optional<PhotometricModel> camera_;
   std::string camera_file_;
   bool estimating_ = false;
