@@ -387,8 +387,8 @@ Status OpenCvCameraText(const std::string& path, const CameraModel& camera, std:
     cv::FileStorage fs(".", cv::FileStorage::WRITE | cv::FileStorage::MEMORY | format);
     if (!json) {
       fs.writeComment("Written by svms camera export from an mrcal " + camera.lensmodel() +
-                      " model; OpenCV's pinhole camera (cv::calibrateCamera), pixel (0,0) is "
-                      "the centre of the top-left pixel.");
+                      " model: OpenCV's pinhole camera");
+      fs.writeComment("(cv::calibrateCamera's); pixel (0,0) is the centre of the top-left pixel.");
     }
     fs << "image_width" << c.width << "image_height" << c.height;
     fs << "camera_matrix" << cv::Mat(3, 3, CV_64F, &c.K[0][0]).clone();
