@@ -4,6 +4,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <opencv2/core.hpp>
 
 #include "svms/base/file_io.h"
@@ -30,6 +31,23 @@ bool EndsWith(const std::string& s, const std::string& suffix) {
 constexpr const char* kExpectedFile =
     "expected an OpenCV camera file (cv::FileStorage YAML, XML or JSON) with a camera matrix, "
     "distortion coefficients and the image size";
+
+// What OpenCV says about a file it cannot parse, in one line. OpenCV 4.6 passes a parse
+// error's text, "FILENAME(LINE): what", as the exception's function name and the function's
+// name as its text (FileStorage::Impl::parseError), so the text is taken from where it is; the
+// line number is corrected for the `added_lines` WithOpenCvYamlDirective put in front.
+std::string ParseErrorText(const cv::Exception& e, int added_lines) {
+  std::string why = e.code == cv::Error::StsParseError && !e.func.empty() ? e.func : e.err;
+  if (!why.empty() && why[0] == '(') {  // "(LINE): what" for text read from memory
+    const size_t close = why.find("): ");
+    int line = 0;
+    if (close != std::string::npos && std::sscanf(why.c_str(), "(%d)", &line) == 1) {
+      why = "line " + std::to_string(line - added_lines) + ": " + why.substr(close + 3);
+    }
+  }
+  std::replace(why.begin(), why.end(), '\n', ' ');
+  return why;
+}
 
 // A matrix read from a file node: its values row by row, and its shape.
 struct Numbers {
@@ -81,7 +99,7 @@ std::string ReadNumbers(const cv::FileNode& n, Numbers* out) {
     try {
       n >> m;
     } catch (const cv::Exception& e) {
-      return "OpenCV cannot read this matrix (" + e.err + ")";
+      return "OpenCV cannot read this matrix (" + ParseErrorText(e, 0) + ")";
     }
     if (m.empty()) return "expected a non-empty matrix";
     if (m.channels() != 1) return "expected a single-channel matrix";
@@ -174,12 +192,14 @@ Status ReadOpenCvCameraFile(const std::string& path, int width, int height, Open
     return Status::Error(path + ": the file is empty; " + kExpectedFile);
   }
   cv::FileStorage fs;
+  const std::string yaml = WithOpenCvYamlDirective(text);
   try {
-    fs.open(WithOpenCvYamlDirective(text), cv::FileStorage::READ | cv::FileStorage::MEMORY);
+    fs.open(yaml, cv::FileStorage::READ | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
-    std::string why = e.err;
-    std::replace(why.begin(), why.end(), '\n', ' ');
-    return Status::Error(path + ": OpenCV cannot parse the file (" + why + "); " + kExpectedFile);
+    const int added_lines = static_cast<int>(std::count(yaml.begin(), yaml.end(), '\n') -
+                                             std::count(text.begin(), text.end(), '\n'));
+    return Status::Error(path + ": OpenCV cannot parse the file (" +
+                         ParseErrorText(e, added_lines) + "); " + kExpectedFile);
   }
   if (!fs.isOpened() || !fs.root().isMap()) {
     return Status::Error(path + ": OpenCV cannot parse the file; " + kExpectedFile);
@@ -266,9 +286,8 @@ Status ReadOpenCvCameraFile(const std::string& path, int width, int height, Open
       }
     }
   } catch (const cv::Exception& e) {
-    std::string why = e.err;
-    std::replace(why.begin(), why.end(), '\n', ' ');
-    return Status::Error(path + ": OpenCV cannot read the file (" + why + "); " + kExpectedFile);
+    return Status::Error(path + ": OpenCV cannot read the file (" + ParseErrorText(e, 0) + "); " +
+                         kExpectedFile);
   }
 
   if (width > 0 && height > 0) {

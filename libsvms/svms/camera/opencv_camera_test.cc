@@ -284,7 +284,13 @@ TEST(OpenCvCamera, RefusesWhatMrcalCannotRepresent) {
 
   const std::string garbage = Dir().File("garbage.yml");
   WriteText(garbage, "%YAML:1.0\n---\n[[[ : this is not yaml\n");
-  ExpectErrorWith(ImportOpenCvCamera(garbage, 0, 0, &cam), {garbage + ": ", "OpenCV cannot"});
+  ExpectErrorWith(ImportOpenCvCamera(garbage, 0, 0, &cam),
+                  {garbage + ": OpenCV cannot parse the file (line 3: "});
+  // Without the directive (supplied, one line) the line is still the file's own.
+  const std::string garbage_ros = Dir().File("garbage_ros.yaml");
+  WriteText(garbage_ros, "image_width: 640\nK: [1, 2\n");
+  ExpectErrorWith(ImportOpenCvCamera(garbage_ros, 0, 0, &cam),
+                  {garbage_ros + ": OpenCV cannot parse the file (line "});
 
   const std::string halfsize = Dir().File("halfsize.yml");
   WriteText(halfsize, "%YAML:1.0\n---\nimage_width: 640\nK: [500, 0, 320, 0, 510, 240, 0, 0, 1]\n");
