@@ -17,6 +17,7 @@ void AddDetectCommands(CLI::App& app, int* exit_code);
 void AddCalibrateCommands(CLI::App& app, int* exit_code);
 void AddSurveyCommands(CLI::App& app, int* exit_code);
 void AddPoseCommands(CLI::App& app, int* exit_code);
+void AddCameraCommands(CLI::App& app, int* exit_code);
 void AddBenchCommands(CLI::App& app, int* exit_code);
 
 // `svms bench ARGS...`: runs the svms-bench program beside this one (/proc/self/exe's

@@ -32,6 +32,7 @@ int main(int argc, char** argv) {
   svms::cli::AddCalibrateCommands(app, &exit_code);
   svms::cli::AddSurveyCommands(app, &exit_code);
   svms::cli::AddPoseCommands(app, &exit_code);
+  svms::cli::AddCameraCommands(app, &exit_code);
   svms::cli::AddBenchCommands(app, &exit_code);
   return svms::cli::RunCommandLine(app, argc, argv, &exit_code);
 }

@@ -51,6 +51,20 @@ expect 0 "read ID 17" "$svms" codec read "$tmp/m17.png" --model "$tmp/m17.json"
 expect 0 "dual marker 3/4" "$svms" generate marker --id 3 --size 0.432 --inner-id 4 --inner-size 0.108 --dpi 60 --out "$tmp/dual"
 expect 0 "read ID 4" "$svms" codec read "$tmp/dual.png" --model "$tmp/dual.json" --dpi 60
 expect 0 "concave well" "$svms" generate marker --id 9 --size 0.1 --concave --out "$tmp/well"
+# The PNG declares its resolution (pHYs) as another program reads it (PIL, when installed):
+# 60 dpi is 2362 pixels per metre, and that times the page's width in the SVG is the width.
+if /usr/bin/python3 -c "import PIL" 2>/dev/null; then
+  /usr/bin/python3 - "$tmp/dual" <<'PY' && pass || fail "dual.png: pHYs missing or not its drawn resolution"
+import re, sys
+from PIL import Image
+im = Image.open(sys.argv[1] + ".png")
+dpi = im.info["dpi"]
+ppm = round(dpi[0] / 0.0254)
+assert ppm == 2362 and dpi[0] == dpi[1], dpi
+w_mm, h_mm = map(float, re.search(r'width="([0-9.]+)mm" height="([0-9.]+)mm"', open(sys.argv[1] + ".svg").read()).groups())
+assert abs(ppm * w_mm / 1000 - im.size[0]) <= 0.5 and abs(ppm * h_mm / 1000 - im.size[1]) <= 0.5, (ppm, w_mm, h_mm, im.size)
+PY
+fi
 # Reading a PNG with the wrong model fails, and says so.
 expect 1 "MISMATCH" "$svms" codec read "$tmp/m17.png" --model "$tmp/well.json"
 expect 2 "" "$svms" generate marker --id 1 --size -1 --out "$tmp/x"

@@ -17,6 +17,7 @@
 #include <utility>
 
 #include "svms/base/file_io.h"
+#include "svms/camera/opencv_camera.h"
 
 // mrcal 2.2's header has no extern "C" guard of its own.
 extern "C" {
@@ -339,6 +340,22 @@ std::string UnclosedString(const std::string& text) {
   return "";
 }
 
+// Whether the first thing in `text` after blanks and '#' comments is '{', as in every
+// .cameramodel (and in no OpenCV YAML or XML file).
+bool StartsLikeADict(const std::string& text) {
+  std::size_t i = 0;
+  while (i < text.size()) {
+    if (std::isspace(static_cast<unsigned char>(text[i]))) {
+      ++i;
+    } else if (text[i] == '#') {
+      while (i < text.size() && text[i] != '\n') ++i;
+    } else {
+      return text[i] == '{';
+    }
+  }
+  return false;
+}
+
 // ---------------------------------------------------------------------------------------------
 
 struct MrcalCameraModelDeleter {
@@ -426,6 +443,13 @@ Status CameraModel::Read(const std::string& path, CameraModel* out) {
   if (Status s = ReadTextFile(path, &text); !s) return s;
   if (text.find('\0') != std::string::npos) {
     return Status::Error(path + ": contains a NUL byte; " + kExpectedFile);
+  }
+  // An OpenCV camera file (cv::FileStorage YAML or XML) is a common mistake: say how to
+  // convert it rather than pass it to mrcal's parser, whose complaint would not say.
+  if (LooksLikeOpenCvCameraFile(path, text) && !StartsLikeADict(text)) {
+    return Status::Error(path +
+                         ": an OpenCV camera file, not an mrcal .cameramodel; convert it with "
+                         "`svms camera import " + path + " --out CAM.cameramodel`");
   }
   if (std::string e = UnclosedString(text); !e.empty()) {
     return Status::Error(path + ": " + e + "; " + kExpectedFile);

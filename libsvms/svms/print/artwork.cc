@@ -13,6 +13,7 @@
 #include "svms/base/file_io.h"
 #include "svms/codec/svms44.h"
 #include "svms/marker/model_io.h"
+#include "svms/print/png_encode.h"
 
 namespace svms {
 namespace {
@@ -279,8 +280,10 @@ Status RenderPages(const std::vector<Page>& pages, double w, double h, const std
     if (!st) return st;
     files->Add(svg, std::move(bytes));
     if (!o.write_png) continue;
-    // PNG: the page centre at the image centre, dpi / 25.4 pixels per mm.
-    const double k = o.dpi / 25.4;
+    // PNG: the page centre at the image centre, drawn at exactly the resolution its pHYs
+    // chunk declares (ArtworkPixelsPerMetre), k pixels per mm.
+    const std::uint32_t ppm = ArtworkPixelsPerMetre(o.dpi);
+    const double k = ppm / 1000.0;
     const int wp = static_cast<int>(std::lround(w * k)), hp = static_cast<int>(std::lround(h * k));
     if (wp < 1 || hp < 1 || static_cast<double>(wp) * hp > 4e8)
       return Status::Error(page_name(i, ".png") + ": " + std::to_string(wp) + "x" +
@@ -294,11 +297,16 @@ Status RenderPages(const std::vector<Page>& pages, double w, double h, const std
     draw_page(cr, pages[i]);
     cairo_destroy(cr);
     const std::string png = page_name(i, ".png");
+    cairo_surface_flush(img);
+    if (Status st = check(img, png); !st) {
+      cairo_surface_destroy(img);
+      return st;
+    }
     bytes.clear();
-    const cairo_status_t ws = cairo_surface_write_to_png_stream(img, append, &bytes);
+    const Status ws = EncodePngWithResolution(png, cairo_image_surface_get_data(img), wp, hp,
+                                              cairo_image_surface_get_stride(img), ppm, &bytes);
     cairo_surface_destroy(img);
-    if (ws != CAIRO_STATUS_SUCCESS)
-      return Status::Error(png + ": cannot draw (" + cairo_status_to_string(ws) + ")");
+    if (!ws) return ws;
     files->Add(png, std::move(bytes));
   }
   return Status::Ok();
@@ -426,8 +434,13 @@ Status WriteLayoutArtwork(const Layout& layout, const std::string& base_in,
   return Commit(&files, written);
 }
 
+std::uint32_t ArtworkPixelsPerMetre(double dpi) {
+  const double ppm = std::round(dpi / 0.0254);
+  return ppm < 1 ? 1 : ppm > 4e9 ? 4000000000u : static_cast<std::uint32_t>(ppm);
+}
+
 Eigen::Matrix3d ArtworkPixelFromPlane(int width, int height, double dpi) {
-  const double k = dpi / 0.0254;  // pixels per metre
+  const double k = ArtworkPixelsPerMetre(dpi);  // pixels per metre
   Eigen::Matrix3d H;
   H << k, 0, 0.5 * (width - 1), 0, -k, 0.5 * (height - 1), 0, 0, 1;
   return H;

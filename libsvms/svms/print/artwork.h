@@ -5,10 +5,17 @@
 // outside that, a small label (family, ID, size, post) below it, and a centre cross with the
 // post's (or the well's) outline for drilling. In the PNG of a single marker, the marker's
 // centre is at the image centre, ((W - 1) / 2, (H - 1) / 2) in pixel-centre coordinates, and
-// one metre is dpi / 0.0254 pixels: ArtworkPixelFromPlane gives that mapping.
+// one metre is ArtworkPixelsPerMetre(dpi) pixels: ArtworkPixelFromPlane gives that mapping.
+//
+// The PDF (and the SVG) is the printed reference: vector, at exact physical size. The PNG
+// carries its resolution in a pHYs chunk (pixels per metre, the unit PNG has), and is drawn at
+// exactly that resolution: printed at its declared resolution, every length in it is its
+// physical length. Its width and height are the page's rounded to whole pixels (the page
+// centre stays at the image centre).
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -65,8 +72,13 @@ Status WriteSheet(const std::vector<MarkerModel>& models, const std::string& bas
 Status WriteLayoutArtwork(const Layout& layout, const std::string& base,
                           const ArtworkOptions& options, double margin_mm, WrittenFiles* written);
 
+// The resolution the PNG artwork is drawn at and declares (pHYs): `dpi` as a whole number of
+// pixels per metre, round(dpi / 0.0254) (at least 1), because pHYs holds an integer; 300 dpi
+// is 11811 pixels per metre (299.9994 dpi), 254 dpi exactly 10000.
+std::uint32_t ArtworkPixelsPerMetre(double dpi);
+
 // The homography from the marker plane (metres) to pixels of the single-marker PNG of an
-// image of `width` x `height` pixels at `dpi`.
+// image of `width` x `height` pixels at `dpi` (ArtworkPixelsPerMetre(dpi) pixels per metre).
 Eigen::Matrix3d ArtworkPixelFromPlane(int width, int height, double dpi);
 
 }  // namespace svms

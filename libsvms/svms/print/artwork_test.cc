@@ -181,5 +181,48 @@ TEST(PageSpec, ParsesNamesAndSizes) {
   EXPECT_FALSE(PageSpec::Parse("10x10", &p).ok());
 }
 
+// The PNG declares its resolution (pHYs, pixels per metre) and is drawn at it: printed at that
+// resolution the page is its physical size (to the half pixel its edges are rounded to) and the
+// marker reads back where ArtworkPixelFromPlane puts it at that same resolution.
+TEST(Artwork, PngCarriesItsResolution) {
+  for (const double dpi : {254.0, 300.0, 72.0}) {
+    const MarkerModel m = MarkerModel::Standard(21, 0.05, 0.01);
+    const std::string base = TempBase("phys" + std::to_string(static_cast<int>(dpi)));
+    WrittenFiles files;
+    ArtworkOptions o;
+    o.dpi = dpi;
+    ASSERT_TRUE(WriteMarkerArtwork(m, base, o, &files).ok());
+    const std::string png = Slurp(base + ".png");
+    // The pHYs chunk, found by its type: length 9, then x and y pixels per metre, unit 1.
+    const size_t at = png.find("pHYs");
+    ASSERT_NE(at, std::string::npos) << "no pHYs chunk at " << dpi << " dpi";
+    ASSERT_LT(at, png.find("IDAT"));
+    auto u32 = [&](size_t i) {
+      const auto* b = reinterpret_cast<const unsigned char*>(png.data() + i);
+      return (uint32_t{b[0]} << 24) | (uint32_t{b[1]} << 16) | (uint32_t{b[2]} << 8) | b[3];
+    };
+    EXPECT_EQ(u32(at - 4), 9u);
+    const uint32_t ppm = u32(at + 4);
+    EXPECT_EQ(ppm, u32(at + 8));
+    EXPECT_EQ(png[at + 12], 1) << "unit: metre";
+    EXPECT_EQ(ppm, ArtworkPixelsPerMetre(dpi));
+    EXPECT_NEAR(ppm, dpi / 0.0254, 0.5);
+    if (dpi == 254.0) {
+      EXPECT_EQ(ppm, 10000u);
+    }
+    // The page's physical size, from the SVG (millimetres), times the resolution is the
+    // image's size in pixels.
+    const std::string svg = Slurp(base + ".svg");
+    const std::regex size_mm(R"(width="([0-9.]+)mm\" height="([0-9.]+)mm\")");
+    std::smatch mm;
+    ASSERT_TRUE(std::regex_search(svg, mm, size_mm)) << "no page size in the SVG";
+    const cv::Mat img = cv::imread(base + ".png", cv::IMREAD_GRAYSCALE);
+    ASSERT_FALSE(img.empty());
+    EXPECT_NEAR(ppm * std::stod(mm[1]) / 1000, img.cols, 0.5);
+    EXPECT_NEAR(ppm * std::stod(mm[2]) / 1000, img.rows, 0.5);
+    if (dpi >= 254) ExpectReadsBack(base + ".png", m, dpi);
+  }
+}
+
 }  // namespace
 }  // namespace svms

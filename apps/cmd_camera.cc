@@ -1,0 +1,202 @@
+// svms camera: OpenCV camera files in and out of mrcal .cameramodel files, and what a camera
+// model holds (svms/camera/opencv_camera.h, svms/camera/camera_info.h).
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+
+#include "commands.h"
+#include "svms/camera/camera_covariance.h"
+#include "svms/camera/camera_info.h"
+#include "svms/camera/opencv_camera.h"
+#include "svms/pipelines/output_checks.h"
+
+namespace svms::cli {
+namespace {
+
+struct CameraCliOptions {
+  std::string input, out, image_size, format = "opencv";
+  std::vector<std::string> show;
+};
+
+// The shortest text that reads back to the same double.
+std::string Exact(double v) {
+  char buf[64];
+  const std::to_chars_result r = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, r.ptr);
+}
+
+std::string Fixed1(double v) {
+  if (!std::isfinite(v)) return "n/a";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.1f", v);
+  return buf;
+}
+
+// "WxH" -> width, height (positive). False on anything else.
+bool ParseImageSize(const std::string& s, int* w, int* h) {
+  char x = 0, extra = 0;
+  return std::sscanf(s.c_str(), "%d%c%d%c", w, &x, h, &extra) == 3 && (x == 'x' || x == 'X') &&
+         *w > 0 && *h > 0;
+}
+
+int RunImport(const CameraCliOptions& o) {
+  int w = 0, h = 0;
+  if (!o.image_size.empty() && !ParseImageSize(o.image_size, &w, &h)) {
+    std::cerr << "svms camera import: --image-size " << o.image_size
+              << ": expected WIDTHxHEIGHT in pixels, e.g. 1280x960\n";
+    return kExitBadInput;
+  }
+  if (Status s = CheckNotAnInput("--out", o.out, {o.input}); !s) {
+    std::cerr << "svms camera import: " << s.message() << "\n";
+    return kExitBadInput;
+  }
+  CameraModel cam;
+  if (Status s = ImportOpenCvCamera(o.input, w, h, &cam); !s) {
+    std::cerr << s.message() << "\n";
+    return kExitBadInput;
+  }
+  // Written with the sidecar rule: an earlier CAM.cameramodel.covariance.json belonged to
+  // another camera and is removed with the model it described.
+  if (Status s = WriteCameraWithSidecar(o.out, cam, 0, 0); !s) {
+    std::cerr << s.message() << "\n";
+    return kExitFailed;
+  }
+  std::cout << o.out << ": " << cam.Summary() << " (from " << o.input << ")\n";
+  return kExitOk;
+}
+
+int RunExport(const CameraCliOptions& o) {
+  if (o.format != "opencv") {
+    std::cerr << "svms camera export: --format " << o.format << ": expected opencv\n";
+    return kExitBadInput;
+  }
+  if (Status s = CheckNotAnInput("--out", o.out, {o.input, CovarianceSidecarPath(o.input)}); !s) {
+    std::cerr << "svms camera export: " << s.message() << "\n";
+    return kExitBadInput;
+  }
+  CameraModel cam;
+  if (Status s = CameraModel::Read(o.input, &cam); !s) {
+    std::cerr << s.message() << "\n";
+    return kExitBadInput;
+  }
+  if (Status s = WriteOpenCvCameraFile(o.out, cam); !s) {
+    // A lens model OpenCV lacks is bad input; anything else a failed write.
+    const bool unsupported = s.message().find("no OpenCV equivalent") != std::string::npos;
+    std::cerr << s.message() << "\n";
+    return unsupported ? kExitBadInput : kExitFailed;
+  }
+  std::cout << o.out << ": OpenCV camera (" << cam.Summary() << ")\n";
+  if (!cam.cam_from_ref().rvec.isZero(0) || !cam.cam_from_ref().tvec.isZero(0)) {
+    std::cerr << "svms camera export: note: " << o.input
+              << " has extrinsics (rt_cam_ref); an OpenCV camera file has none, they are not "
+                 "written\n";
+  }
+  return kExitOk;
+}
+
+void PrintInfo(const std::string& path, const CameraInfo& info) {
+  const CameraModel& c = info.camera;
+  const std::vector<double>& in = c.intrinsics();
+  std::cout << path << ": " << c.lensmodel() << ", " << c.width() << "x" << c.height()
+            << " pixels\n";
+  if (in.size() >= 4 && info.distortion_count >= 0) {
+    std::cout << "  fx " << Exact(in[0]) << "  fy " << Exact(in[1]) << "  cx " << Exact(in[2])
+              << "  cy " << Exact(in[3]) << " (pixels)\n";
+  }
+  std::cout << "  field of view: " << Fixed1(info.fov_x_deg) << " x " << Fixed1(info.fov_y_deg)
+            << " degrees (edge to edge, through the image centre)\n";
+  std::cout << "  distortion: ";
+  if (c.lensmodel() == "LENSMODEL_PINHOLE") {
+    std::cout << "none (pinhole)\n";
+  } else {
+    if (!info.distortion.empty()) {
+      for (const auto& [name, value] : info.distortion) {
+        std::cout << name << " " << Exact(value) << (&value == &info.distortion.back().second ? "; " : ", ");
+      }
+    } else {
+      std::cout << info.distortion_count << " parameters; ";
+    }
+    std::cout << "moves pixels by up to " << Fixed1(info.max_distortion_px)
+              << " px from the pinhole image\n";
+  }
+  std::cout << "  uncertainty: ";
+  if (info.sidecar_path.empty()) {
+    std::cout << "none (no " << CovarianceSidecarPath(path)
+              << "; poses leave the calibration's error out)\n";
+  } else if (info.sidecar_error.empty()) {
+    std::cout << info.sidecar_path << " (intrinsics covariance, used by svms pose)\n";
+  } else {
+    std::cout << info.sidecar_path << " is not usable: " << info.sidecar_error << "\n";
+  }
+  std::cout << "  mrcal optimization_inputs: "
+            << (info.has_optimization_inputs
+                    ? "yes (mrcal's tools can compute its projection uncertainty)\n"
+                    : "no\n");
+  if (std::string why = c.UnusableReason(); !why.empty()) {
+    std::cout << "  cannot measure poses: " << why << "\n";
+  }
+}
+
+int RunShow(const CameraCliOptions& o) {
+  int bad = 0;
+  for (const std::string& path : o.show) {
+    CameraInfo info;
+    if (Status s = ReadCameraInfo(path, &info); !s) {
+      std::cerr << s.message() << "\n";
+      ++bad;
+      continue;
+    }
+    PrintInfo(path, info);
+  }
+  return bad ? kExitBadInput : kExitOk;
+}
+
+}  // namespace
+
+void AddCameraCommands(CLI::App& app, int* exit_code) {
+  CLI::App* camera = app.add_subcommand("camera", "Camera model files: OpenCV in and out, show");
+  camera->require_subcommand(1);
+  auto o = std::make_shared<CameraCliOptions>();
+
+  auto* import = camera->add_subcommand("import", "An OpenCV camera file as an mrcal .cameramodel");
+  import->add_option("FILE", o->input, "OpenCV camera (cv::FileStorage YAML, XML or JSON; ROS YAML)")
+      ->required();
+  import->add_option("--out", o->out, "the mrcal camera model to write (CAM.cameramodel)")
+      ->required();
+  import->add_option("--image-size", o->image_size,
+                     "WIDTHxHEIGHT in pixels, for a file without image_width/image_height");
+  import->footer(
+      "Reads camera_matrix (cameraMatrix, K), distortion_coefficients (distCoeffs, dist_coeffs,\n"
+      "D) and image_width/image_height (imageSize): k1 k2 p1 p2 [k3 [k4 k5 k6 [s1..s4]]] become\n"
+      "LENSMODEL_OPENCV4/5/8/12, no distortion LENSMODEL_PINHOLE (docs/conventions.md).\n"
+      "Skew, a tilted sensor and cv::fisheye have no mrcal 2.2 model and are refused (exit 2).\n"
+      "Examples:\n  svms camera import opencv_cam.yml --out cam.cameramodel\n"
+      "  svms camera import ost.yaml --image-size 1280x960 --out cam.cameramodel");
+  import->callback([o, exit_code] { *exit_code = RunImport(*o); });
+
+  auto* exp = camera->add_subcommand("export", "An mrcal camera model as an OpenCV camera file");
+  exp->add_option("CAM", o->input, "mrcal camera model (LENSMODEL_PINHOLE or _OPENCV4/5/8/12)")
+      ->required();
+  exp->add_option("--format", o->format, "output format: opencv")->required();
+  exp->add_option("--out", o->out, "the file to write: .yml/.yaml (YAML), .xml, .json")
+      ->required();
+  exp->footer(
+      "Writes image_width, image_height, camera_matrix and distortion_coefficients with\n"
+      "cv::FileStorage, every number exact (17 digits). Extrinsics and the covariance sidecar\n"
+      "have no place in an OpenCV camera file and are not written.\n"
+      "Example:\n  svms camera export cam.cameramodel --format opencv --out cam.yml");
+  exp->callback([o, exit_code] { *exit_code = RunExport(*o); });
+
+  auto* show = camera->add_subcommand("show", "What a camera model holds");
+  show->add_option("CAM", o->show, "mrcal camera models")->required();
+  show->footer(
+      "Prints the lens model, image size, intrinsics, field of view, the distortion and how far\n"
+      "it moves pixels, whether the intrinsics' covariance sidecar (CAM.covariance.json) is\n"
+      "there and matches, and whether the file has mrcal's optimization_inputs.\n"
+      "Example:\n  svms camera show cam.cameramodel");
+  show->callback([o, exit_code] { *exit_code = RunShow(*o); });
+}
+
+}  // namespace svms::cli
