@@ -122,7 +122,7 @@ constexpr double kNarrowBandDrop = 0.02;
 // interpolant between pixels; where a blurred edge has not reached its plateaus there, the two
 // levels fall short by different amounts at each pixel phase and the edge moves. Noise-free
 // straight edges at 0-45 degrees behind a Gaussian blur of sigma 0.5 / 0.7 / 1.0 / 1.4 px came
-// out 0.012 / 0.025 / 0.033 / 0.040 px RMS off at +-2 px, 0.0000 / 0.0002 / 0.0009 / 0.0030 at
+// out 0.012 / 0.025 / 0.033 / 0.040 px RMS off at +-2 px (worst 0.11), within 0.01 px at
 // +-3.5 (corner_refine_test: LocateEdge.ABlurredEdgeIsFoundWithAWiderWindow). The spread (the
 // standard deviation of the profile's rising steps about their mean) is 0.36-0.58 px on sharp
 // edges (pixels only, by angle), 0.67 / 0.80 / 0.92 / 1.02 at those blurs (truncated by the
