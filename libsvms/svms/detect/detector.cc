@@ -120,9 +120,10 @@ bool PrepareImages(const cv::Mat& input, DetectScratch* sc, StepImages* im) {
 
 // 1-3. Edges, chains, segments into sc->segments. A 16-bit image's noise is estimated from the
 // image at its full depth (noise_model.h: black backgrounds clipped at 0 and saturated glints
-// left out) and the edges are searched on a scale where it is the same everywhere.
-void FindEdgeSegments(const StepImages& im, const SegmentOptions& options, DetectScratch* sc,
-                      DetectionStats* stats) {
+// left out) and the edges are searched on a scale where it is the same everywhere. False when
+// `deadline` passed before every edge chain was processed (sc->segments then holds a part).
+bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, DetectScratch* sc,
+                      DetectionStats* stats, Clock::time_point deadline) {
   const cv::Mat* edge_image = &im.gray;
   SegmentOptions segment_options = options;
   if (im.measure.depth() == CV_16U) {
@@ -135,8 +136,10 @@ void FindEdgeSegments(const StepImages& im, const SegmentOptions& options, Detec
       edge_image = &sc->stabilised;
     }
   }
-  FindSegments(*edge_image, segment_options, &sc->gx, &sc->gy, &sc->segments);
+  const bool complete =
+      FindSegments(*edge_image, segment_options, &sc->gx, &sc->gy, &sc->segments, deadline);
   stats->segments = static_cast<int>(sc->segments.size());
+  return complete;
 }
 
 // 5-7 for one quad: the homography from its corners, its bits, their decoding. A small square
@@ -316,16 +319,30 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
 
   // 1-3. Edges, chains, segments.
   auto t0 = Clock::now();
-  FindEdgeSegments(im, o.segments, &sc, &stats);
+  // Past the deadline in steps 1-4 the frame ends there, flagged, with no detections: a part of
+  // the edges or quads would find the markers of a part of the image, which a caller could not
+  // tell from a frame without the others.
+  const bool edges_complete = FindEdgeSegments(im, o.segments, &sc, &stats, deadline);
   auto t1 = Clock::now();
   stats.ms[0] = Ms(t0, t1);
+  if (!edges_complete) {
+    stats.budget_exceeded = true;
+    if (stats_out) *stats_out = stats;
+    return;
+  }
 
   // 4. Quads.
   std::vector<Quad>& quads = sc.quads;
-  FindQuads(sc.segments, o.quads, im.gray.cols, im.gray.rows, &quads);
+  const bool quads_complete =
+      FindQuads(sc.segments, o.quads, im.gray.cols, im.gray.rows, &quads, deadline);
   stats.quads = static_cast<int>(quads.size());
   auto t2 = Clock::now();
   stats.ms[1] = Ms(t1, t2);
+  if (!quads_complete) {
+    stats.budget_exceeded = true;
+    if (stats_out) *stats_out = stats;
+    return;
+  }
 
   // 5-7. Homography, bits, decoding (the clock is read every 8 quads).
   const CameraModel* cam = camera_.empty() ? nullptr : &camera_;

@@ -101,7 +101,8 @@ struct DetectionStats {
                                                      "refine",   "pose",  "nesting"};
   std::array<double, kSteps> ms{};
   int segments = 0, quads = 0, decoded = 0, rejected_for_evidence = 0;
-  // The deadline passed before every quad was processed: what was finished is returned.
+  // The deadline passed before the frame was done: what was finished is returned (nothing when
+  // it passed in steps 1-4, the edges or the quads).
   bool budget_exceeded = false;
   // With DetectorOptions::debug_pictures: {"1_segments", BGR picture}, {"2_quads", ...}, each
   // the frame's size.
@@ -124,9 +125,12 @@ class Detector {
   // images and other depths are converted to grey with OpenCV's weights (other depths through
   // float, saturated to 8 bits); 1, 3 or 4 channels, none for other counts.
   std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats = nullptr) const;
-  // The same under a deadline: steps 5-10 stop once it has passed (steps 1-4 cost what the
-  // image size says and are not interrupted), stats->budget_exceeded is set, and only the
-  // markers that went through every step before it are returned.
+  // The same under a deadline: every step checks it (the edge chains every 64, the quad search
+  // every 256 segments, the decoding every 8 quads, corners, tip and pose every marker); once
+  // it has passed, stats->budget_exceeded is set and only the markers that went through every
+  // step before it are returned: none when it passed in steps 1-4 (edges, segments, quads).
+  // Not interrupted: the 16-bit noise estimate and the edge map (gradients and hysteresis),
+  // whose cost the image size sets.
   std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats,
                                 std::chrono::steady_clock::time_point deadline) const;
   // The same into *detections (replaced), whose capacity is reused: with one vector kept by

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -151,6 +152,24 @@ TEST(Detector, FindsEveryMarkerWithAccurateCornersAndPose) {
     for (int k = 0; k < 6; ++k)
       EXPECT_GT(again[i].covariance(k, k), found[i].covariance(k, k)) << again[i].id << " " << k;
   }
+}
+
+TEST(Detector, ADeadlinePassedBeforeTheEdgesEndsTheFrameFlaggedAndEmpty) {
+  const MarkerModel a = MarkerModel::Standard(17, 0.1, 0.025);
+  Pose pa;
+  pa.rvec = Eigen::Vector3d(0, 0, 0.4);
+  const Rendered r = Render(Base(Distorted(), {{a, pa}}, Look({0.05, -0.2, 0.7}, {0, 0, 0})));
+  const Detector det(DetectorOptions{}, r.scene.camera, {a});
+  DetectionStats stats;
+  ASSERT_FALSE(det.Detect(r.image, &stats).empty());
+  EXPECT_FALSE(stats.budget_exceeded);
+  const auto past = std::chrono::steady_clock::now() - std::chrono::seconds(1);
+  EXPECT_TRUE(det.Detect(r.image, &stats, past).empty());
+  EXPECT_TRUE(stats.budget_exceeded);
+  EXPECT_EQ(stats.quads, 0);  // the quad search never ran
+  const auto later = std::chrono::steady_clock::now() + std::chrono::hours(1);
+  EXPECT_EQ(det.Detect(r.image, &stats, later).size(), det.Detect(r.image).size());
+  EXPECT_FALSE(stats.budget_exceeded);
 }
 
 TEST(Detector, DualMarkerReportsBothWithTheirNesting) {

@@ -57,8 +57,11 @@ std::vector<Quad> FindQuads(const std::vector<Segment>& segs, const QuadOptions&
   return quads;
 }
 
-void FindQuads(const std::vector<Segment>& segs, const QuadOptions& o, int width, int height,
-               std::vector<Quad>* quads_out) {
+bool FindQuads(const std::vector<Segment>& segs, const QuadOptions& o, int width, int height,
+               std::vector<Quad>* quads_out, std::chrono::steady_clock::time_point deadline) {
+  const bool has_deadline = deadline != std::chrono::steady_clock::time_point::max();
+  auto past = [&] { return has_deadline && std::chrono::steady_clock::now() >= deadline; };
+  quads_out->clear();
   thread_local QuadScratch sc;
   const int n = static_cast<int>(segs.size());
   const double sin_min_turn = std::sin(o.min_turn_deg * M_PI / 180);
@@ -90,6 +93,7 @@ void FindQuads(const std::vector<Segment>& segs, const QuadOptions& o, int width
   sc.follows.clear();
   sc.follow_begin.assign(1, 0);
   for (int i = 0; i < n; ++i) {
+    if (i % 256 == 255 && past()) return false;
     const Segment& s = segs[i];
     const Eigen::Vector2d di = (s.b - s.a) / s.length();
     // Candidates: starts within the largest join radius of this end.
@@ -126,6 +130,7 @@ void FindQuads(const std::vector<Segment>& segs, const QuadOptions& o, int width
   std::vector<Quad>& quads = *quads_out;
   quads.clear();
   for (int i = 0; i < n && static_cast<int>(quads.size()) < o.max_quads; ++i) {
+    if (i % 256 == 255 && past()) return false;
     for (const auto* a = begin(i); a != end(i); ++a) {
       const int j = a->next;
       if (j <= i) continue;  // i is the smallest index of its cycle
@@ -154,6 +159,7 @@ void FindQuads(const std::vector<Segment>& segs, const QuadOptions& o, int width
       }
     }
   }
+  return true;
 }
 
 }  // namespace svms

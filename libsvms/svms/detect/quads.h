@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <chrono>
 #include <vector>
 
 #include "svms/detect/segments.h"
@@ -34,9 +35,12 @@ struct QuadOptions {
 std::vector<Quad> FindQuads(const std::vector<Segment>& segments, const QuadOptions& options,
                             int width, int height);
 // The same into *quads (replaced); with *quads kept by the caller, and this thread's scratch
-// kept between calls, no allocation once they have grown.
-void FindQuads(const std::vector<Segment>& segments, const QuadOptions& options, int width,
-               int height, std::vector<Quad>* quads);
+// kept between calls, no allocation once they have grown. `deadline`: checked every 256
+// segments; once it has passed, the quads found so far are returned and the result is false.
+bool FindQuads(const std::vector<Segment>& segments, const QuadOptions& options, int width,
+               int height, std::vector<Quad>* quads,
+               std::chrono::steady_clock::time_point deadline =
+                   std::chrono::steady_clock::time_point::max());
 
 // Intersection of two lines (nx, ny, c); false if they are parallel.
 bool Intersect(const Eigen::Vector3d& l1, const Eigen::Vector3d& l2, Eigen::Vector2d* p);

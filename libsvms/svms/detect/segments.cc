@@ -235,8 +235,10 @@ std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& o,
   return out;
 }
 
-void FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv::Mat* gy,
-                  std::vector<Segment>* segments) {
+bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv::Mat* gy,
+                  std::vector<Segment>* segments, std::chrono::steady_clock::time_point deadline) {
+  const bool has_deadline = deadline != std::chrono::steady_clock::time_point::max();
+  auto past = [&] { return has_deadline && std::chrono::steady_clock::now() >= deadline; };
   SegmentScratch& sc = Scratch();
   std::vector<Segment>& out = *segments;
   out.clear();
@@ -287,9 +289,11 @@ void FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
   CannyFromDerivatives(*gx, *gy, o.canny_low * 8 * o.noise_sigma, o.canny_high * 8 * o.noise_sigma,
                        true, &sc.canny,
                        &sc.edges);  // Sobel is 8x the slope
+  if (past()) return false;
   LinkChains(sc.edges, &sc);
   std::vector<std::pair<int, int>>& pieces = sc.pieces;
   for (size_t c = 0; c + 1 < sc.chain_begin.size(); ++c) {
+    if (c % 64 == 63 && past()) return false;
     cv::Point* const chain = sc.points.data() + sc.chain_begin[c];
     const int chain_size = sc.chain_begin[c + 1] - sc.chain_begin[c];
     auto split = [&] {
@@ -341,8 +345,11 @@ void FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
       out.push_back(s);
     }
   }
+  if (past()) return false;
   MergeCollinear(o, &out);
+  if (past()) return false;
   BridgeKinks(o, &out);
+  return true;
 }
 
 void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {

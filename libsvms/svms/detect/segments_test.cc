@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <opencv2/core.hpp>
 
@@ -174,6 +175,30 @@ TEST(Segments, ReadNoiseIsEstimatedAndDoesNotMultiplyTheEdges) {
   RecordProperty("segments_plain_scale", static_cast<int>(unadapted));
   EXPECT_LE(adapted, 12u);
   EXPECT_GT(unadapted, 5 * adapted);
+}
+
+TEST(Segments, APassedDeadlineStopsTheEdgeChainsAndTheQuadSearch) {
+  // A grid of 100 squares: hundreds of edge chains and segments. Under a deadline already
+  // passed both steps stop at their first check and say so; without one (or one far off) they
+  // finish and give the same segments and quads.
+  cv::Mat img(400, 400, CV_8U, cv::Scalar(200));
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 10; ++j) DrawSquare(img, 20 + 40 * i, 20 + 40 * j, 24, 7 * i + j, 20);
+  cv::Mat gx, gy;
+  std::vector<Segment> all, part;
+  ASSERT_TRUE(FindSegments(img, SegmentOptions{}, &gx, &gy, &all));
+  ASSERT_GT(all.size(), 300u);
+  const auto now = std::chrono::steady_clock::now();
+  EXPECT_FALSE(FindSegments(img, SegmentOptions{}, &gx, &gy, &part, now - std::chrono::seconds(1)));
+  EXPECT_LT(part.size(), all.size());
+  ASSERT_TRUE(FindSegments(img, SegmentOptions{}, &gx, &gy, &part, now + std::chrono::hours(1)));
+  EXPECT_EQ(part.size(), all.size());
+  std::vector<Quad> quads, some;
+  ASSERT_TRUE(FindQuads(all, QuadOptions{}, img.cols, img.rows, &quads));
+  EXPECT_GE(quads.size(), 100u);
+  EXPECT_FALSE(
+      FindQuads(all, QuadOptions{}, img.cols, img.rows, &some, now - std::chrono::seconds(1)));
+  EXPECT_LT(some.size(), quads.size());
 }
 
 TEST(Quads, NestedAndAdjacentSquaresAreAllFound) {
