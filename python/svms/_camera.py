@@ -27,7 +27,7 @@ def to_mrcal(camera):
     import mrcal
     rt = np.concatenate([camera.cam_from_ref.rvec, camera.cam_from_ref.tvec])
     return mrcal.cameramodel(intrinsics=(camera.lensmodel, camera.intrinsics),
-                             imagersize=np.array(camera.imagersize), rt_cam_ref=rt)
+                             imagersize=np.array(camera.imagersize), extrinsics_rt_fromref=rt)
 
 
 def from_opencv(K, dist, imagersize):
