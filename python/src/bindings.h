@@ -18,6 +18,7 @@ void BindCamera(py::module_& m);         // Camera
 void BindMarkers(py::module_& m);        // MarkerModel, Layout, model files
 void BindDetector(py::module_& m);       // Detector, Detection, DetectorOptions
 void BindPoseEstimator(py::module_& m);  // PoseEstimator, ObjectPose, FrameResult
+void BindArtwork(py::module_& m);        // marker artwork as arrays
 
 // Raises ValueError with the status' one-line message unless it is OK.
 inline void RaiseIfError(const Status& s) {

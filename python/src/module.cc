@@ -13,4 +13,5 @@ PYBIND11_MODULE(_svms, m) {
   sp::BindMarkers(m);
   sp::BindDetector(m);
   sp::BindPoseEstimator(m);
+  sp::BindArtwork(m);
 }

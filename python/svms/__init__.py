@@ -23,6 +23,8 @@ from ._svms import (  # noqa: F401
     PoseEstimatorOptions,
     PostModel,
     read_layout,
+    artwork_pixel_from_plane,
+    marker_image,
     read_markers,
 )
 from . import _camera

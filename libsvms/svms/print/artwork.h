@@ -9,6 +9,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -64,6 +65,13 @@ Status WriteSheet(const std::vector<MarkerModel>& models, const std::string& bas
 // with the layout's name below the markers. Errors name the marker that is not planar.
 Status WriteLayoutArtwork(const Layout& layout, const std::string& base,
                           const ArtworkOptions& options, double margin_mm, WrittenFiles* written);
+
+// The single-marker PNG that WriteMarkerArtwork writes (unless !write_png), drawn in memory:
+// *grey gets *height rows of *width pixels, row-major, 0 black to 255 white (the artwork has no
+// colour), the marker's centre at ((W - 1) / 2, (H - 1) / 2) (ArtworkPixelFromPlane). Errors:
+// an invalid model (MarkerModel::Validate), a dpi that is not positive, over 400 megapixels.
+Status RenderMarkerImage(const MarkerModel& model, const ArtworkOptions& options,
+                         std::vector<uint8_t>* grey, int* width, int* height);
 
 // The homography from the marker plane (metres) to pixels of the single-marker PNG of an
 // image of `width` x `height` pixels at `dpi`.
