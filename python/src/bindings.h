@@ -19,6 +19,8 @@ void BindMarkers(py::module_& m);        // MarkerModel, Layout, model files
 void BindDetector(py::module_& m);       // Detector, Detection, DetectorOptions
 void BindPoseEstimator(py::module_& m);  // PoseEstimator, ObjectPose, FrameResult
 void BindArtwork(py::module_& m);        // marker artwork as arrays
+void BindSurvey(py::module_& m);         // survey, SurveyResult
+void BindCalibration(py::module_& m);    // calibrate, CalibrationResult
 
 // Raises ValueError with the status' one-line message unless it is OK.
 inline void RaiseIfError(const Status& s) {

@@ -85,6 +85,15 @@ std::vector<MarkerModel> MarkerModelsFrom(const py::object& markers) {
   return out;
 }
 
+CameraModel CameraFrom(const py::object& camera) {
+  if (py::isinstance<CameraModel>(camera)) return camera.cast<CameraModel>();
+  if (py::isinstance<py::str>(camera) || py::hasattr(camera, "__fspath__")) {
+    return py::module_::import("svms").attr("Camera")(camera).cast<CameraModel>();
+  }
+  throw py::type_error("camera: expected a Camera or a path to a .cameramodel, got " +
+                       py::str(py::type::of(camera)).cast<std::string>());
+}
+
 std::optional<PhotometricModel> PhotometricFrom(const std::optional<std::string>& response) {
   if (!response) return std::nullopt;
   PhotometricModel p;

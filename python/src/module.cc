@@ -14,4 +14,6 @@ PYBIND11_MODULE(_svms, m) {
   sp::BindDetector(m);
   sp::BindPoseEstimator(m);
   sp::BindArtwork(m);
+  sp::BindSurvey(m);
+  sp::BindCalibration(m);
 }

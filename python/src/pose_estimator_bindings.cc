@@ -41,15 +41,6 @@ struct PyPoseEstimator {
   }
 };
 
-CameraModel CameraFrom(const py::object& camera) {
-  if (py::isinstance<CameraModel>(camera)) return camera.cast<CameraModel>();
-  if (py::isinstance<py::str>(camera) || py::hasattr(camera, "__fspath__")) {
-    return py::module_::import("svms").attr("Camera")(camera).cast<CameraModel>();
-  }
-  throw py::type_error("camera: expected a Camera or a path to a .cameramodel, got " +
-                       py::str(py::type::of(camera)).cast<std::string>());
-}
-
 Layout LayoutFrom(const py::object& layout) {
   if (py::isinstance<Layout>(layout)) return layout.cast<Layout>();
   if (py::isinstance<py::str>(layout) || py::hasattr(layout, "__fspath__")) {

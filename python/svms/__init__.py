@@ -7,6 +7,7 @@ covariance is ordered [rotation, translation], the rotation a small angle about 
 frame named first.
 """
 from ._svms import (  # noqa: F401
+    CalibrationResult,
     Camera,
     Detection,
     Detector,
@@ -22,10 +23,14 @@ from ._svms import (  # noqa: F401
     PoseEstimator,
     PoseEstimatorOptions,
     PostModel,
-    read_layout,
+    SurveyResult,
+    SurveySummary,
     artwork_pixel_from_plane,
+    calibrate,
     marker_image,
+    read_layout,
     read_markers,
+    survey,
 )
 from . import _camera
 
