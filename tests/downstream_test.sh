@@ -5,7 +5,8 @@
 # and checks that the installed libsvms_c needs nothing of the simulator, the artwork, the image
 # codecs or the benchmarks' peers, and exports only the C API; that the svms command links
 # neither the benchmarks nor their peers (AprilTag, ArUco), which only the svms-bench program of
-# the build does; and that the installed svms, without svms-bench, says so in one line.
+# the build does; that the installed svms, without svms-bench, says so in one line; and that the
+# installed Python package (when built) loads the installed libraries and gives the fused pose.
 set -euo pipefail
 build=${1:?build dir}; src=${2:?source dir}; fixture=${3:?capi fixture dir}
 scratch=$(mktemp -d)
@@ -86,3 +87,28 @@ set -e
 [ "$(wc -l < "$scratch/bench.err")" -eq 1 ] && grep -q "svms-bench not found" "$scratch/bench.err" \
   || fail "svms bench without svms-bench: expected one line naming svms-bench, got: $(cat "$scratch/bench.err")"
 [ ! -e "$scratch/bench" ] || fail "svms bench without svms-bench wrote $scratch/bench"
+
+# The Python package, when the build has it (SVMS_BUILD_PYTHON): installed under the prefix's
+# lib/python3.X/dist-packages, it loads the installed libraries through its RUNPATH (not the
+# build's) and computes the fused pose of the fixture's frame.
+pkg=$(find "$prefix" -path '*dist-packages/svms/__init__.py' | head -1)
+if [ -f "$build/python/svms/__init__.py" ]; then
+  [ -n "$pkg" ] || fail "the build has the Python package, the install does not"
+  pydir=$(dirname "$(dirname "$pkg")")
+  ext=$(ls "$pydir"/svms/_svms*.so)
+  if ldd "$ext" | grep -q "not found"; then fail "the installed svms._svms misses: $(ldd "$ext" | grep 'not found')"; fi
+  ldd "$ext" | grep libsvms_ | grep -qv "$prefix" && fail "the installed svms._svms loads libraries from outside the prefix: $(ldd "$ext" | grep libsvms_)"
+  python=$(sed -n 's/^Python_EXECUTABLE:[A-Z]*=//p' "$build/CMakeCache.txt")
+  (cd "$scratch" && PYTHONPATH="$pydir" "${python:-/usr/bin/python3}" - "$fixture" "$pydir" <<'PY') || fail "the installed Python package does not work"
+import os, sys
+import numpy as np
+import svms
+fixture, pydir = sys.argv[1], sys.argv[2]
+assert svms.__file__.startswith(pydir), svms.__file__
+camera = svms.Camera(os.path.join(fixture, "true.cameramodel"))
+frame = np.fromfile(os.path.join(fixture, "frame_11.raw"), np.uint8).reshape(camera.height, camera.width)
+pose = svms.PoseEstimator(camera, os.path.join(fixture, "true_layout.json")).estimate(frame, 0).pose
+assert pose.valid, pose.message
+print(f"the installed Python package: {pose.markers_used} markers, range {np.linalg.norm(pose.cam_from_object.tvec):.3f} m")
+PY
+fi

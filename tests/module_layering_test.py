@@ -55,6 +55,26 @@ for m, d in folder.items():
                 problems.append(f'{d}/{name}:{n}: module {m} includes svms/{mm.group(1)}/, '
                                 f'which it does not depend on (it may use: {sorted(allowed)})')
 
+# The Python package (python/src/) is no module: its includes must stay within the modules its
+# extension links (python/CMakeLists.txt, target_link_libraries(svms_python ...)) and theirs.
+python_cmake = os.path.join(src, 'python', 'CMakeLists.txt')
+if os.path.exists(python_cmake):
+    text = open(python_cmake).read()
+    link = re.search(r'target_link_libraries\(svms_python\b(.*?)\)', text, re.S)
+    linked = set(re.findall(r'svms::([a-z]+)', link.group(1))) if link else set()
+    allowed = set(linked)
+    for m in linked:
+        allowed |= closure(m)
+    pysrc = os.path.join(src, 'python', 'src')
+    for name in sorted(os.listdir(pysrc)):
+        if not re.search(r'\.(h|cc)$', name):
+            continue
+        for n, line in enumerate(open(os.path.join(pysrc, name)), 1):
+            mm = include.search(line)
+            if mm and mm.group(1) not in allowed:
+                problems.append(f'python/src/{name}:{n}: includes svms/{mm.group(1)}/, which the '
+                                f'extension does not link (it may use: {sorted(allowed)})')
+
 FLIGHT = ['c', 'fusion', 'calib', 'bundle', 'detect', 'camera', 'marker', 'codec', 'base',
           'geometry']
 for m in FLIGHT:

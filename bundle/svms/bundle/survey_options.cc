@@ -124,6 +124,16 @@ Status SurveyConfig::Check() const {
   return Status::Ok();
 }
 
+std::string SurveySummary::LayoutName() const {
+  return "survey of " + std::to_string(images_used) +
+         " images; covariances scaled by the a-posteriori variance factor " +
+         std::to_string(variance_factor) +
+         (calibration_in_covariance ? ", plus the camera calibration's uncertainty" : "") +
+         (corner_repeat_in_covariance
+              ? ", plus the repeated corner error of the markers seen with grey levels"
+              : "");
+}
+
 std::string SurveySummary::BriefReport() const {
   std::ostringstream s;
   s.precision(4);

@@ -205,6 +205,8 @@ struct SurveySummary {
   std::string ceres_report_first, ceres_report_second;  // Ceres' BriefReport()
 
   std::string BriefReport() const;  // a few lines for a terminal
+  // The surveyed layout's name (Layout::name): how many images, and what its covariances hold.
+  std::string LayoutName() const;
 };
 
 }  // namespace svms

@@ -205,6 +205,46 @@ void DrawBareMarker(cairo_t* cr, const Placement& p) {
   cairo_restore(cr);
 }
 
+// Draws a page of `w` x `h` mm with `draw` (user units mm, y down) into a new RGB24 image at
+// `dpi`, the page centre at the image centre, dpi / 25.4 pixels per mm. *out is the caller's to
+// destroy. Refuses more than 400 megapixels (`name` says which image).
+Status Rasterize(const std::function<void(cairo_t*)>& draw, double w, double h, double dpi,
+                 const std::string& name, cairo_surface_t** out) {
+  // Drawn at exactly the resolution the PNG's pHYs chunk declares (ArtworkPixelsPerMetre): k
+  // pixels per mm.
+  const double k = ArtworkPixelsPerMetre(dpi) / 1000.0;
+  const double wd = std::round(w * k), hd = std::round(h * k);
+  if (!(wd >= 1 && hd >= 1 && wd * hd <= 4e8))
+    return Status::Error(name + ": " + std::to_string(static_cast<long long>(wd)) + "x" +
+                         std::to_string(static_cast<long long>(hd)) +
+                         " pixels at " + std::to_string(dpi) +
+                         " dpi; expected at most 400 megapixels (lower --dpi)");
+  const int wp = static_cast<int>(wd), hp = static_cast<int>(hd);
+  cairo_surface_t* img = cairo_image_surface_create(CAIRO_FORMAT_RGB24, wp, hp);
+  cairo_t* cr = cairo_create(img);
+  cairo_translate(cr, 0.5 * wp, 0.5 * hp);
+  cairo_scale(cr, k, k);
+  cairo_translate(cr, -0.5 * w, -0.5 * h);
+  draw(cr);
+  cairo_destroy(cr);
+  cairo_surface_flush(img);
+  if (const cairo_status_t st = cairo_surface_status(img); st != CAIRO_STATUS_SUCCESS) {
+    cairo_surface_destroy(img);
+    return Status::Error(name + ": cannot draw (" + cairo_status_to_string(st) + ")");
+  }
+  *out = img;
+  return Status::Ok();
+}
+
+// The page of one marker's artwork: `w` x `h` mm with the marker at its centre.
+void MarkerPageSize(const MarkerModel& model, const ArtworkOptions& options, double* w,
+                    double* h) {
+  const MarkerBox box = BoxFor(model, options);
+  const double margin = 4.0;  // mm of paper around the marks
+  *w = box.width() + 2 * margin;
+  *h = box.width() + 2 * (box.label_mm + margin);  // symmetric: centre stays centred
+}
+
 // Renders `pages` (each `w` x `h` mm) into SVG, PDF and PNG files named from `base`.
 Status RenderPages(const std::vector<Page>& pages, double w, double h, const std::string& base,
                    const ArtworkOptions& o, AtomicFileSet* files, const std::string& caption = "") {
@@ -280,28 +320,13 @@ Status RenderPages(const std::vector<Page>& pages, double w, double h, const std
     if (!st) return st;
     files->Add(svg, std::move(bytes));
     if (!o.write_png) continue;
-    // PNG: the page centre at the image centre, drawn at exactly the resolution its pHYs
-    // chunk declares (ArtworkPixelsPerMetre), k pixels per mm.
-    const std::uint32_t ppm = ArtworkPixelsPerMetre(o.dpi);
-    const double k = ppm / 1000.0;
-    const int wp = static_cast<int>(std::lround(w * k)), hp = static_cast<int>(std::lround(h * k));
-    if (wp < 1 || hp < 1 || static_cast<double>(wp) * hp > 4e8)
-      return Status::Error(page_name(i, ".png") + ": " + std::to_string(wp) + "x" +
-                           std::to_string(hp) + " pixels at " + std::to_string(o.dpi) +
-                           " dpi; expected at most 400 megapixels (lower --dpi)");
-    cairo_surface_t* img = cairo_image_surface_create(CAIRO_FORMAT_RGB24, wp, hp);
-    cr = cairo_create(img);
-    cairo_translate(cr, 0.5 * wp, 0.5 * hp);
-    cairo_scale(cr, k, k);
-    cairo_translate(cr, -0.5 * w, -0.5 * h);
-    draw_page(cr, pages[i]);
-    cairo_destroy(cr);
     const std::string png = page_name(i, ".png");
-    cairo_surface_flush(img);
-    if (Status st = check(img, png); !st) {
-      cairo_surface_destroy(img);
-      return st;
-    }
+    cairo_surface_t* img = nullptr;
+    if (Status r = Rasterize([&](cairo_t* c) { draw_page(c, pages[i]); }, w, h, o.dpi, png, &img);
+        !r)
+      return r;
+    const std::uint32_t ppm = ArtworkPixelsPerMetre(o.dpi);
+    const int wp = cairo_image_surface_get_width(img), hp = cairo_image_surface_get_height(img);
     bytes.clear();
     const Status ws = EncodePngWithResolution(png, cairo_image_surface_get_data(img), wp, hp,
                                               cairo_image_surface_get_stride(img), ppm, &bytes);
@@ -344,10 +369,8 @@ Status WriteMarkerArtwork(const MarkerModel& model, const std::string& base_in,
   if (Status s = model.Validate(); !s) return s;
   const std::string base = StripExtension(base_in);
   if (Status s = CheckOutputDirectory(base); !s) return s;
-  const MarkerBox box = BoxFor(model, options);
-  const double margin = 4.0;  // mm of paper around the marks
-  const double w = box.width() + 2 * margin;
-  const double h = box.width() + 2 * (box.label_mm + margin);  // symmetric: centre stays centred
+  double w = 0, h = 0;
+  MarkerPageSize(model, options, &w, &h);
   AtomicFileSet files;
   if (Status s = RenderPages({{Placement{&model, 0.5 * w, 0.5 * h}}}, w, h, base, options, &files);
       !s)
@@ -437,6 +460,38 @@ Status WriteLayoutArtwork(const Layout& layout, const std::string& base_in,
 std::uint32_t ArtworkPixelsPerMetre(double dpi) {
   const double ppm = std::round(dpi / 0.0254);
   return ppm < 1 ? 1 : ppm > 4e9 ? 4000000000u : static_cast<std::uint32_t>(ppm);
+}
+
+Status RenderMarkerImage(const MarkerModel& model, const ArtworkOptions& options,
+                         std::vector<uint8_t>* grey, int* width, int* height) {
+  if (Status s = model.Validate(); !s) return s;
+  if (!(options.dpi > 0 && std::isfinite(options.dpi)))
+    return Status::Error("dpi: expected a positive number, got " + std::to_string(options.dpi));
+  double w = 0, h = 0;
+  MarkerPageSize(model, options, &w, &h);
+  cairo_surface_t* img = nullptr;
+  const auto draw = [&](cairo_t* cr) {
+    cairo_set_source_rgb(cr, 1, 1, 1);
+    cairo_paint(cr);
+    DrawMarker(cr, model, 0.5 * w, 0.5 * h, options);
+  };
+  if (Status s = Rasterize(draw, w, h, options.dpi, "marker " + std::to_string(model.id), &img);
+      !s)
+    return s;
+  const int wp = cairo_image_surface_get_width(img), hp = cairo_image_surface_get_height(img);
+  const int stride = cairo_image_surface_get_stride(img);
+  const unsigned char* data = cairo_image_surface_get_data(img);
+  grey->resize(static_cast<size_t>(wp) * hp);
+  // RGB24 keeps each pixel in a native-endian uint32 (0x00RRGGBB); everything is drawn in grey,
+  // so green is the grey level.
+  for (int y = 0; y < hp; ++y) {
+    const auto* row = reinterpret_cast<const uint32_t*>(data + static_cast<size_t>(y) * stride);
+    for (int x = 0; x < wp; ++x) (*grey)[static_cast<size_t>(y) * wp + x] = (row[x] >> 8) & 0xff;
+  }
+  cairo_surface_destroy(img);
+  *width = wp;
+  *height = hp;
+  return Status::Ok();
 }
 
 Eigen::Matrix3d ArtworkPixelFromPlane(int width, int height, double dpi) {

@@ -77,6 +77,13 @@ Status WriteLayoutArtwork(const Layout& layout, const std::string& base,
 // is 11811 pixels per metre (299.9994 dpi), 254 dpi exactly 10000.
 std::uint32_t ArtworkPixelsPerMetre(double dpi);
 
+// The single-marker PNG that WriteMarkerArtwork writes (unless !write_png), drawn in memory:
+// *grey gets *height rows of *width pixels, row-major, 0 black to 255 white (the artwork has no
+// colour), the marker's centre at ((W - 1) / 2, (H - 1) / 2) (ArtworkPixelFromPlane). Errors:
+// an invalid model (MarkerModel::Validate), a dpi that is not positive, over 400 megapixels.
+Status RenderMarkerImage(const MarkerModel& model, const ArtworkOptions& options,
+                         std::vector<uint8_t>* grey, int* width, int* height);
+
 // The homography from the marker plane (metres) to pixels of the single-marker PNG of an
 // image of `width` x `height` pixels at `dpi` (ArtworkPixelsPerMetre(dpi) pixels per metre).
 Eigen::Matrix3d ArtworkPixelFromPlane(int width, int height, double dpi);

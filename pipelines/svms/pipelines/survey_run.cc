@@ -185,17 +185,6 @@ std::vector<SurveyImage> DetectAll(const SurveyRunOptions& o, const std::vector<
   return images;
 }
 
-// The layout's name: what its covariances hold.
-std::string LayoutName(const SurveySummary& summary) {
-  return "survey of " + std::to_string(summary.images_used) +
-         " images; covariances scaled by the a-posteriori variance factor " +
-         std::to_string(summary.variance_factor) +
-         (summary.calibration_in_covariance ? ", plus the camera calibration's uncertainty" : "") +
-         (summary.corner_repeat_in_covariance
-              ? ", plus the repeated corner error of the markers seen with grey levels"
-              : "");
-}
-
 // Solves, writes the report (when asked) and then the layout. The exit code of the run but
 // for the images that could not be used.
 int SolveAndWrite(const SurveyRunOptions& o, const std::vector<SurveyImage>& images,
@@ -216,7 +205,7 @@ int SolveAndWrite(const SurveyRunOptions& o, const std::vector<SurveyImage>& ima
     std::cerr << "svms survey: " << s.message() << "\n";
     return kExitFailed;
   }
-  result.layout.name = LayoutName(result.summary);
+  result.layout.name = result.summary.LayoutName();
   // The layout last: a report that could not be written (a full disk) leaves the earlier
   // layout as it was.
   if (report_failed) {

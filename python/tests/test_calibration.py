@@ -1,0 +1,78 @@
+"""svms.calibrate on the calibration benchmark's quick board views: the camera `svms calibrate`
+writes from the same images, and the truth."""
+import glob
+import os
+import subprocess
+import tempfile
+import unittest
+
+import numpy as np
+
+import svms
+from svms_test_data import need
+
+
+class CalibrationTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        import cv2
+        cls.board_dir = need("SVMS_BOARD_IMAGES")
+        cls.binary = need("SVMS_BINARY")
+        cls.tmp = tempfile.TemporaryDirectory()
+        # The board's layout and the true camera, as the dataset writes them (no rendering).
+        subprocess.run([cls.binary, "dataset", "calibration", "--quick", "--no-render", "--out",
+                        os.path.join(cls.tmp.name, "cal"), "--quiet"], check=True,
+                       capture_output=True)
+        cls.board = os.path.join(cls.tmp.name, "cal", "board_layout.json")
+        cls.truth = svms.Camera(os.path.join(cls.tmp.name, "cal", "true.cameramodel"))
+        cls.files = sorted(glob.glob(os.path.join(cls.board_dir, "*.png")))
+        cls.images = [cv2.imread(f, cv2.IMREAD_UNCHANGED) for f in cls.files]
+        cls.result = svms.calibrate(cls.images, cls.board, names=cls.files)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_same_camera_as_svms_calibrate(self):
+        out = os.path.join(self.tmp.name, "cam.cameramodel")
+        subprocess.run([self.binary, "calibrate", *self.files, "--board", self.board, "--out", out,
+                        "--threads", "1", "--quiet"], check=True, capture_output=True)
+        cli = svms.Camera(out)  # with its covariance sidecar
+        cam = self.result.camera
+        self.assertEqual(cam.lensmodel, cli.lensmodel)
+        # The same solve (equal to the last bit here; the limits leave room for sums whose
+        # order follows the heap's layout, docs/architecture.md).
+        np.testing.assert_allclose(cam.intrinsics, cli.intrinsics, rtol=1e-9, atol=0)
+        L = cli.intrinsics_covariance_factor
+        np.testing.assert_allclose(cam.intrinsics_covariance_factor, L, rtol=1e-6,
+                                   atol=1e-6 * np.abs(L).max())
+
+    def test_against_the_truth(self):
+        r = self.result
+        self.assertGreaterEqual(len(r.views), 3)
+        self.assertLess(r.rms_px, 0.5)
+        e, t = r.camera.intrinsics, self.truth.intrinsics
+        # cli_success_test.sh's limits: focal lengths within 0.1 %, centre within 1 px.
+        self.assertLess(np.max(np.abs(e[:2] / t[:2] - 1)), 1e-3)
+        self.assertLess(np.max(np.abs(e[2:4] - t[2:4])), 1.0)
+        n = len(e)
+        m = n + 6 * len(r.views)  # [intrinsics, cam_from_board per view]
+        self.assertEqual(r.covariance.shape, (m, m))
+        L = r.camera.intrinsics_covariance_factor
+        np.testing.assert_allclose(L @ L.T, r.covariance[:n, :n], rtol=1e-6,
+                                   atol=1e-9 * np.abs(r.covariance[:n, :n]).max())
+        self.assertEqual(len(r.cam_from_board), len(r.views))
+
+    def test_bad_input(self):
+        with self.assertRaises(ValueError) as e:
+            svms.calibrate(self.images, self.board, lensmodel="LENSMODEL_NOSUCH")
+        self.assertIn("lensmodel", str(e.exception))
+        with self.assertRaises(ValueError) as e:
+            svms.calibrate([self.images[0], self.images[1][:-1]], self.board)
+        self.assertIn("images[1]", str(e.exception))
+        with self.assertRaises(ValueError):
+            svms.calibrate(self.images, self.board, names=["one"])
+
+
+if __name__ == "__main__":
+    unittest.main()
