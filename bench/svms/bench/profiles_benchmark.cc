@@ -9,6 +9,7 @@
 
 #include "svms/bench/profiles_report.h"
 #include "svms/bench/truth_poses.h"
+#include "svms/camera/bayer_luminance.h"
 #include "svms/camera/photometric.h"
 #include "svms/datasets/datasets.h"
 #include "svms/detect/detector.h"
@@ -99,14 +100,17 @@ Status RunSet(const SetRun& run, const ProfilesBenchmarkOptions& o,
     std::vector<MarkerModel> models;
     for (const SceneObject& ob : scene.objects)
       for (const SceneMarker& m : ob.markers) models.push_back(m.model);
-    const Detector detector(DetectorOptions{}, scene.camera, models);
     std::vector<Sensor> sensors;
     std::vector<Linearizer> readers;
+    std::vector<std::unique_ptr<Detector>> detectors;  // per profile: its corner row window
     for (const std::string& p : profiles) {
       Sensor s = scene.sensor;
       if (Status st = ApplySensorProfile(p, &s); !st) return st;
       sensors.push_back(s);
       readers.emplace_back(SensorPhotometry(s));
+      DetectorOptions options;
+      options.refine.max_row_window_px = CornerRowWindowPx(readers.back().model());
+      detectors.push_back(std::make_unique<Detector>(options, scene.camera, models));
     }
     const int n = static_cast<int>(scene.views.size());
     std::vector<std::vector<ProfileRow>> view_rows(n);
@@ -132,7 +136,7 @@ Status RunSet(const SetRun& run, const ProfilesBenchmarkOptions& o,
           }
           DetectionStats stats;
           const auto t0 = std::chrono::steady_clock::now();
-          const std::vector<Detection> found = detector.Detect(linear, &stats);
+          const std::vector<Detection> found = detectors[p]->Detect(linear, &stats);
           ViewTiming t;
           t.profile = profiles[p], t.set = run.name, t.textured = run.textured;
           t.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)

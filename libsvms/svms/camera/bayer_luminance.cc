@@ -76,6 +76,11 @@ std::array<double, 3> EstimateBayerGains(const cv::Mat& mosaic, BayerPattern pat
   return {1 / Median(&red_over_green), 1, 1 / Median(&blue_over_green)};
 }
 
+double CornerRowWindowPx(const PhotometricModel& model) {
+  return model.bayer != BayerPattern::kNone && model.demosaic == BayerMethod::kLuminance ? 3.5
+                                                                                          : 2.0;
+}
+
 void BayerLuminance(const cv::Mat& mosaic, BayerPattern pattern,
                     const std::array<double, 3>& gains, cv::Mat* out) {
   CV_Assert(mosaic.type() == CV_16UC1 && out->data != mosaic.data);

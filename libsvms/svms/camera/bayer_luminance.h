@@ -28,6 +28,7 @@
 namespace svms {
 
 enum class BayerPattern;
+struct PhotometricModel;
 
 // Gains that scale each colour of the mosaic to green's sensitivity: {red, green, blue}, the
 // green one 1. Estimated from `mosaic` (CV_16UC1, linear, 0 = black, `saturation` = white) as
@@ -47,5 +48,16 @@ void BayerLuminance(const cv::Mat& mosaic, BayerPattern pattern,
 
 // The 5 x 5 frequency-selection kernel, sum 1.
 cv::Matx<float, 5, 5> BayerLuminanceKernel();
+
+// The widest window (half-width across an edge, pixels) the corner fit should use along the
+// pixel rows on images read through `model` (CornerRefineOptions::max_row_window_px): 3.5 for
+// a mosaic turned into luminance here, whose filter blurs every edge about as much as a
+// Gaussian of 0.7 px, so that the window's levels are read on the edge's plateaus (on the
+// range set through raw12_bayer the single-marker NEES mean goes from 16.1 at 2 px to 6.0);
+// 2 otherwise. Not widened on every image: on sharp linear renders a window widened by each
+// edge's own measured spread moved shadowed, low-contrast sides (the survey's mockup: marker
+// positions 0.37 mm RMS against under 0.2), and on JPEGs its corners' sigmas shrank more than
+// their errors (neighbouring edge points err together over a JPEG block).
+double CornerRowWindowPx(const PhotometricModel& model);
 
 }  // namespace svms

@@ -35,8 +35,10 @@ struct CornerRefineOptions {
   // The widest window (half-width across the edge, pixels) of the area along the rows where an
   // edge is blurred (corner_refine.cc: RowWindow; 2 px on sharp edges), and never wider than the
   // white stripe (a third of the quad's shortest side) less 2 px, so that the stripe's far
-  // edge, blurred, stays out of it.
-  double max_row_window_px = 3.5;
+  // edge, blurred, stays out of it. 2: never widened, the default; the commands widen it to
+  // 3.5 on Bayer mosaics read through the luminance filter (CornerRowWindowPx,
+  // camera/bayer_luminance.h, says why not everywhere).
+  double max_row_window_px = 2.0;
   // The same on quads narrower than narrow_stripe_side_px, whose edges are placed along the
   // normal (LocateEdge's narrow_band). Measured on the compare size sweep (seed 2, 256 rays on
   // edge pixels, 128-142 views per size; corner per-axis Z^2 against its sigma, and RMS): at

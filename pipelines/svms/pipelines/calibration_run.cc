@@ -89,6 +89,7 @@ DetectionPass DetectBoards(const std::vector<std::string>& files, const CameraMo
   for (const LayoutEntry& e : o.layout.markers) models.push_back(e.marker);
   DetectorOptions dopt;
   dopt.known_ids_only = false;
+  dopt.refine.max_row_window_px = photometry.CornerRowWindowPx();
   const double corner_sigma = DetectorOptions().pose.corner_sigma_px;
   const Detector detector(dopt, camera, models);
   const size_t n = files.size();

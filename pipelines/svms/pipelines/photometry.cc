@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
 
+#include "svms/camera/bayer_luminance.h"
 #include "svms/imageio/image_io.h"
 
 namespace svms {
@@ -52,6 +53,11 @@ std::optional<PhotometricModel> Photometry::GivenModel() const {
   m.bayer = option_bayer_;
   m.demosaic = option_demosaic_;
   return m;
+}
+
+double Photometry::CornerRowWindowPx() const {
+  PhotometrySource source;
+  return svms::CornerRowWindowPx(Resolve(65535, "", &source));
 }
 
 void Photometry::UseResponse(const Response& response) {

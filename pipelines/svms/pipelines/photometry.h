@@ -43,6 +43,10 @@ class Photometry {
   // The model the options give, when they give a response (after UseResponse too): what a
   // camera's photometric file should record. nullopt otherwise.
   std::optional<PhotometricModel> GivenModel() const;
+  // The corner fit's widest row window for these images (CornerRowWindowPx, bayer_luminance.h):
+  // wider where a Bayer mosaic (from the options or the camera's file) becomes luminance
+  // through the blurring filter.
+  double CornerRowWindowPx() const;
   // The black and white levels the options give (0: not given).
   double black_level() const { return options_.black_level.value_or(0); }
   double white_level() const { return options_.white_level.value_or(0); }

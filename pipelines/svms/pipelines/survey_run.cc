@@ -149,7 +149,9 @@ int CheckOutputs(const SurveyRunOptions& o, const std::vector<std::string>& file
 std::vector<SurveyImage> DetectAll(const SurveyRunOptions& o, const std::vector<std::string>& files,
                                    const CameraModel& camera, const ModelFile& models,
                                    const Photometry& photometry, std::vector<std::string>* errors) {
-  const Detector detector(DetectorOptions{}, camera, models.markers);
+  DetectorOptions options;
+  options.refine.max_row_window_px = photometry.CornerRowWindowPx();
+  const Detector detector(options, camera, models.markers);
   std::vector<SurveyImage> images(files.size());
   errors->assign(files.size(), "");
   std::atomic<size_t> next{0};
