@@ -5,8 +5,11 @@
 // --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
+#include <chrono>
+#include <cmath>
 #include <memory>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "svms/detect/detector.h"
 #include "svms/sim/render.h"
@@ -111,6 +114,65 @@ void BM_DetectNoise(benchmark::State& state) {
   state.counters["quads"] = stats.quads;
 }
 BENCHMARK(BM_DetectNoise)->Arg(0)->Arg(60)->Arg(240)->Arg(480)->Unit(benchmark::kMillisecond);
+
+// BM_Detect's 1024 x 1024 frame with 6,000 random grey quadrilaterals of 4-40 px drawn over
+// it (seeded), a few grey levels of noise on top: thousands of edges, segments and candidate
+// quads, the worst case of a busy photograph.
+cv::Mat Cluttered(const cv::Mat& base) {
+  cv::Mat img = base.clone();
+  cv::RNG rng(7);
+  for (int i = 0; i < 6000; ++i) {
+    const cv::Point2f c(rng.uniform(0.f, 1024.f), rng.uniform(0.f, 1024.f));
+    const float r = rng.uniform(2.f, 20.f), a = rng.uniform(0.f, 6.3f);
+    std::vector<cv::Point> q;
+    for (int k = 0; k < 4; ++k) {
+      const float t = a + k * 1.5708f + rng.uniform(-0.3f, 0.3f), rk = r * rng.uniform(0.7f, 1.3f);
+      q.emplace_back(cvRound(c.x + rk * std::cos(t)), cvRound(c.y + rk * std::sin(t)));
+    }
+    cv::fillConvexPoly(img, q, cv::Scalar(rng.uniform(0, 256)), cv::LINE_AA);
+  }
+  cv::Mat noise(img.size(), CV_16S);
+  rng.fill(noise, cv::RNG::NORMAL, 0, 3);
+  cv::Mat out;
+  img.convertTo(out, CV_16S);
+  out += noise;
+  out.convertTo(img, CV_8U);
+  return img;
+}
+
+// The deadline as a bound (issue 30): the cluttered frame (Cluttered) detected under a budget
+// of B ms (the argument; 0: none). Counters: the budget, the longest frame (ms) and its
+// excess over the budget (ms), the share of frames that ran out of time. Wall time per frame
+// is measured here, not by the library.
+void BM_DetectDeadline(benchmark::State& state) {
+  cv::setNumThreads(1);
+  static const Frame base = MakeFrame(1024, 1024);
+  static const cv::Mat image = Cluttered(base.image);
+  const svms::Detector det(svms::DetectorOptions{}, base.camera, base.models);
+  const double budget_ms = static_cast<double>(state.range(0));
+  svms::DetectionStats stats;
+  std::vector<svms::Detection> out;
+  double longest = 0;
+  int exceeded = 0;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto deadline =
+        budget_ms > 0 ? t0 + std::chrono::microseconds(static_cast<int64_t>(budget_ms * 1000))
+                      : std::chrono::steady_clock::time_point::max();
+    det.Detect(image, &stats, deadline, &out);
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    longest = std::max(longest, ms);
+    exceeded += stats.budget_exceeded;
+  }
+  state.counters["budget_ms"] = budget_ms;
+  state.counters["longest_ms"] = longest;
+  state.counters["longest_over_budget_ms"] = budget_ms > 0 ? longest - budget_ms : 0;
+  state.counters["share_exceeded"] = static_cast<double>(exceeded) / state.iterations();
+  state.counters["markers_found"] = static_cast<double>(out.size());
+}
+BENCHMARK(BM_DetectDeadline)->Arg(0)->Arg(2)->Arg(5)->Arg(10)->Arg(20)->Unit(
+    benchmark::kMillisecond);
 
 }  // namespace
 
