@@ -115,7 +115,9 @@ Status CutCrops(const std::string& path, const std::string& package,
   const std::string stem = SafeName(package.substr(0, package.find('-')) + "_" + photo_name);
   for (const cv::Size& sz : sizes) {
     if (grey8.cols < sz.width || grey8.rows < sz.height) continue;
-    for (int k = 0; k < per_size; ++k) {
+    // A photograph of just the crop's size gives one crop, not copies of it.
+    const int n = grey8.cols == sz.width && grey8.rows == sz.height ? 1 : per_size;
+    for (int k = 0; k < n; ++k) {
       PhotoCrop c;
       c.photo = path;
       c.package = package;

@@ -43,9 +43,10 @@ struct PhotoCrop {
 };
 
 // `per_size` crops of each size in `sizes` from the photograph at `path` (deterministic: the
-// positions come from `seed` and the path), skipping the sizes the photograph is too small
-// for. The photograph is read as a camera stores it (sRGB JPEG), turned into linear light
-// (16 bits, LinearizeImage) and then rounded to 8 bits. An error names the file.
+// positions come from `seed` and the file name), skipping the sizes the photograph is too small
+// for, and giving one crop where the photograph is just the crop's size. The photograph is read as
+// a camera stores it (sRGB JPEG), turned into linear light (16 bits, LinearizeImage) and then
+// rounded to 8 bits. An error names the file.
 Status CutCrops(const std::string& path, const std::string& package,
                 const std::vector<cv::Size>& sizes, int per_size, uint64_t seed,
                 std::vector<PhotoCrop>* out);
