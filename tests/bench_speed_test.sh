@@ -47,8 +47,8 @@ grep -q '^- 0 false positives on every photograph' "$r/report.md" || fail "no fa
 crops=$(awk '/: [0-9]+ crops$/ {n += $(NF - 1)} END {print n + 0}' "$out/stderr.txt")
 [[ $crops -gt 0 ]] || fail "no crops"
 for sys in svms apriltag_d2 apriltag_d1 aruco_subpix aruco3 svms_b5 svms_b10; do
-  n=$(grep -c "^photo_[0-9]*,[^,]*,$sys," "$r/images.csv" || true)
-  m=$(grep -c "^markers_[0-9]*,[^,]*,$sys," "$r/images.csv" || true)
+  n=$(grep -c "^photo_[0-9]*,[^,]*,[^,]*,$sys," "$r/images.csv" || true)
+  m=$(grep -c "^markers_[0-9]*,[^,]*,[^,]*,$sys," "$r/images.csv" || true)
   [[ $n -eq $crops ]] || fail "$sys timed on $n marker-free crops, expected $crops"
   [[ $m -eq $crops ]] || fail "$sys timed on $m crops with markers, expected $crops"
 done
@@ -57,6 +57,9 @@ for sys in svms apriltag_d2 apriltag_d1 aruco_subpix aruco3; do
     fail "report.md has no timing row for $sys on photo_1024"
 done
 grep -q '^| markers_640 | 10 | [0-9]* | ' "$r/report.md" || fail "report.md has no budget row"
+grep -q '^| photo_1024 | [a-z-]* | [0-9]* | [0-9.]* | [0-9.]* | ' "$r/report.md" || fail "report.md has no row by source"
+head -1 "$r/images.csv" | grep -q ',segments_ms,quads_ms,decode_ms,refine_ms,pose_ms,nesting_ms$' ||
+  fail "images.csv has no step times"
 /usr/bin/python3 - "$r/summary.json" <<'PY' || fail "summary.json is not sane"
 import json, sys
 s = json.load(open(sys.argv[1]))

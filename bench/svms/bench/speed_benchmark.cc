@@ -205,6 +205,7 @@ std::vector<FoundMarker> RunOne(const Systems& sys, size_t k, double budget_ms, 
             : sys.svms->Detect(img, &stats);
     rec->ms = Ms(std::chrono::steady_clock::now() - t0);
     rec->budget_exceeded = stats.budget_exceeded;
+    rec->step_ms = stats.ms;
     for (const Detection& d : dets)
       found.push_back(
           FoundMarker{d.id, d.corners, std::nullopt, false, std::nullopt, std::nullopt, 0});
@@ -221,7 +222,7 @@ std::vector<FoundMarker> RunOne(const Systems& sys, size_t k, double budget_ms, 
 // Every system, and svms under each budget, on one image of class `cls` (markers: each system
 // on its own family's image), in an order rotated by `turn`; the records into *run.
 void TimeImage(const Systems& sys, const std::string& cls, const std::string& name,
-               const std::array<const cv::Mat*, 3>& images,
+               const std::string& source, const std::array<const cv::Mat*, 3>& images,
                const std::array<const ViewTruth*, 3>& truths, size_t turn, SpeedRun* run) {
   struct Job {
     size_t k;
@@ -233,7 +234,7 @@ void TimeImage(const Systems& sys, const std::string& cls, const std::string& na
   std::rotate(jobs.begin(), jobs.begin() + turn % jobs.size(), jobs.end());
   for (const Job& j : jobs) {
     const int fam = FamilyOf(sys, j.k);
-    SpeedRecord rec{cls, name, j.budget > 0 ? BudgetSystem(j.budget) : sys.names[j.k]};
+    SpeedRecord rec{cls, name, j.budget > 0 ? BudgetSystem(j.budget) : sys.names[j.k], source};
     const std::vector<FoundMarker> found = RunOne(sys, j.k, j.budget, *images[fam], &rec);
     const ImageOutcome io = EvaluateImage(*truths[fam], found);
     rec.detections = static_cast<int>(found.size());
@@ -327,10 +328,11 @@ int RunBenchmark(const SpeedBenchmarkOptions& o) {
           for (size_t k = 0; k < sys.names.size(); ++k) RunOne(sys, k, 0, c.image, &scratch);
           warm = true;
         }
-        TimeImage(sys, "photo_" + size_name, c.name, {&c.image, &c.image, &c.image},
+        TimeImage(sys, "photo_" + size_name, c.name, c.package, {&c.image, &c.image, &c.image},
                   {&none, &none, &none}, turn++, &run);
         if (r.ok) {
-          TimeImage(sys, "markers_" + size_name, c.name, {&r.image[0], &r.image[1], &r.image[2]},
+          TimeImage(sys, "markers_" + size_name, c.name, c.package,
+                    {&r.image[0], &r.image[1], &r.image[2]},
                     {&r.truth[0], &r.truth[1], &r.truth[2]}, turn++, &run);
           if (o.save_images)
             for (int k = 0; k < 3; ++k)

@@ -47,6 +47,7 @@ struct Stats {
   std::vector<double> ms;
   int images = 0, detections = 0, false_positives = 0, wrong_ids = 0, flagged = 0;
   int eligible = 0, detected = 0;
+  const SpeedRecord* slowest = nullptr;
   double median() const { return Median(ms); }
   double p90() const { return Percentile(ms, 0.90); }
   double p99() const { return Percentile(ms, 0.99); }
@@ -80,6 +81,7 @@ StatsTable Tally(const SpeedRun& run) {
     s.false_positives += r.false_positives;
     s.wrong_ids += r.wrong_ids;
     s.flagged += r.budget_exceeded;
+    if (!s.slowest || r.ms > s.slowest->ms) s.slowest = &r;
   }
   for (const SpeedMarker& m : run.markers) {
     if (!m.eligible) continue;
@@ -108,11 +110,17 @@ std::map<std::string, std::vector<std::pair<int, int>>> BySize(const SpeedRun& r
 void WriteCsvs(const fs::path& dir, const SpeedRun& run) {
   {
     OutputFile f((dir / "images.csv").string());
-    f << "class,image,system,ms,detections,false_positives,wrong_ids,budget_exceeded\n";
-    for (const SpeedRecord& r : run.images)
-      f << r.cls << "," << r.image << "," << r.system << "," << Cell(r.ms, 3) << "," << r.detections
-        << "," << r.false_positives << "," << r.wrong_ids << "," << (r.budget_exceeded ? 1 : 0)
-        << "\n";
+    f << "class,image,source,system,ms,detections,false_positives,wrong_ids,budget_exceeded";
+    for (const char* step : DetectionStats::kStepNames) f << "," << step << "_ms";
+    f << "\n";
+    for (const SpeedRecord& r : run.images) {
+      f << r.cls << "," << r.image << "," << r.source << "," << r.system << "," << Cell(r.ms, 3)
+        << "," << r.detections << "," << r.false_positives << "," << r.wrong_ids << ","
+        << (r.budget_exceeded ? 1 : 0);
+      const bool svms = r.system.rfind("svms", 0) == 0;
+      for (double ms : r.step_ms) f << "," << (svms ? Cell(ms, 3) : std::string("-"));
+      f << "\n";
+    }
   }
   {
     OutputFile f((dir / "markers.csv").string());
@@ -219,6 +227,26 @@ int WriteSpeedReport(const SpeedBenchmarkOptions& o, const SpeedRun& run) {
                         : std::string("-"))
          << " | " << s.false_positives << " | " << s.wrong_ids << " |\n";
     }
+  {
+    // The same by source: the packages' photographs differ (wallpapers: large, often smooth;
+    // opencv-doc: small, busy).
+    StatsTable by_source;
+    for (const SpeedRecord& r : run.images)
+      if (r.system == "svms" || r.system == "apriltag_d2")
+        by_source[r.cls + " | " + r.source][r.system].ms.push_back(r.ms);
+    md << "\nBy source, svms against apriltag_d2 (ms per image):\n\n| class | source | images | "
+          "svms median | apriltag_d2 median | ratio | svms p99 | apriltag_d2 p99 |\n"
+          "|---|---|---|---|---|---|---|---|\n";
+    for (const std::string& cls : SpeedClasses())
+      for (const PhotoSource& src : run.sources) {
+        const std::string key = cls + " | " + src.package;
+        if (!by_source.count(key)) continue;
+        const Stats &a = by_source[key]["svms"], &b = by_source[key]["apriltag_d2"];
+        md << "| " << key << " | " << a.ms.size() << " | " << Cell(a.median(), 2) << " | "
+           << Cell(b.median(), 2) << " | " << Cell(a.median() / b.median(), 2) << " | "
+           << Cell(a.p99(), 2) << " | " << Cell(b.p99(), 2) << " |\n";
+      }
+  }
   md << "\n![](speed_times.png)\n\nMarkers found by size (shortest projected side, px; both "
         "markers classes):\n\n| size px |";
   for (const std::string& sys : run.systems) md << " " << sys << " |";
@@ -235,9 +263,11 @@ int WriteSpeedReport(const SpeedBenchmarkOptions& o, const SpeedRun& run) {
   }
   md << "\nsvms under a per-frame deadline B (`Detector::Detect(image, stats, deadline)`, the "
         "deadline B after the call starts): time per frame and the frames flagged "
-        "budget_exceeded. \"max - 1.25 B\" is the overhead beyond 1.25 B of the slowest frame.\n\n"
+        "budget_exceeded. \"max - 1.25 B\" is the overhead beyond 1.25 B of the slowest frame; "
+        "its steps' times (ms) follow: segments (edge map, chains, lines), quads, decode, refine, "
+        "pose, nesting.\n\n"
         "| class | B ms | frames | median | p99 | max | max - 1.25 B | flagged | markers found "
-        "|\n|---|---|---|---|---|---|---|---|---|\n";
+        "| slowest frame: steps |\n|---|---|---|---|---|---|---|---|---|---|\n";
   for (const std::string& cls : SpeedClasses())
     for (double b : run.budgets_ms) {
       const Stats& s = stat(cls, BudgetSystem(b));
@@ -246,7 +276,9 @@ int WriteSpeedReport(const SpeedBenchmarkOptions& o, const SpeedRun& run) {
          << " | " << Cell(s.p99(), 2) << " | " << Cell(s.max(), 2) << " | "
          << Cell(s.max() - 1.25 * b, 2) << " | " << Cell(100.0 * s.flagged / s.images, 1) << " % | "
          << (s.eligible ? std::to_string(s.detected) + "/" + std::to_string(s.eligible) : "-")
-         << " |\n";
+         << " | " << s.slowest->image << ":";
+      for (double ms : s.slowest->step_ms) md << " " << Cell(ms, 1);
+      md << " |\n";
     }
 
   // Targets (issue 30).

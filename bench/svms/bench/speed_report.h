@@ -1,6 +1,7 @@
 // The speed benchmark's records (speed_benchmark.h) and its report: tables, plot, targets.
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -8,6 +9,7 @@
 
 #include "svms/bench/speed_benchmark.h"
 #include "svms/bench/speed_photos.h"
+#include "svms/detect/detector.h"
 
 namespace svms {
 
@@ -19,9 +21,12 @@ const std::vector<std::string>& SpeedClasses();
 // svms under a deadline of 5 / 10 ms from the start of the call.
 struct SpeedRecord {
   std::string cls, image, system;
-  double ms = 0;  // the Detect call, one core
+  std::string source;  // the photograph's package
+  double ms = 0;       // the Detect call, one core
   int detections = 0, false_positives = 0, wrong_ids = 0;
   bool budget_exceeded = false;  // svms under a deadline: the frame ended flagged
+  // svms: the time of each of its steps (DetectionStats::ms), to tell where a slow frame went.
+  std::array<double, DetectionStats::kSteps> step_ms{};
 };
 
 // One true marker of a markers_* image as one system saw it.
