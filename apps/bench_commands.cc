@@ -10,6 +10,7 @@
 #include "svms/bench/detect_benchmark.h"
 #include "svms/bench/pose_benchmark.h"
 #include "svms/bench/profiles_benchmark.h"
+#include "svms/bench/speed_benchmark.h"
 #include "svms/bench/survey_benchmark.h"
 #include "svms/sim/scene.h"
 
@@ -164,6 +165,36 @@ void AddBenchProfiles(CLI::App& bench, int* exit_code) {
   c->add_option("--profiles", o->profiles, "Profiles to run (default: all)")->delimiter(',');
   c->footer("Example:\n  svms bench profiles --out out/bench/profiles");
   c->callback([o, exit_code] { *exit_code = RunProfilesBenchmark(*o); });
+}
+
+void AddBenchSpeed(CLI::App& bench, int* exit_code) {
+  auto o = std::make_shared<SpeedBenchmarkOptions>();
+  CLI::App* c = bench.add_subcommand(
+      "speed",
+      "Time per image of svms, AprilTag 3 and ArUco on real photographs (crops of the "
+      "wallpapers and samples Debian installs), without and with markers rendered in; svms "
+      "under a per-frame deadline");
+  c->add_option("--out", o->out, "Output directory (report.md, summary.json, CSV, plot)")
+      ->required();
+  c->add_flag("--quick", o->quick,
+              "Two photographs per source, one crop per size (a smoke test, under a minute)");
+  c->add_option("--seed", o->seed, "Seed of the crops, the markers and the noise")
+      ->capture_default_str();
+  c->add_option("--crops", o->crops_per_size, "Crops of each size per photograph")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100));
+  c->add_option("--threads", o->threads, "Rendering threads (detectors always run on one core)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
+  c->add_option("--photo-root", o->photo_root,
+                "Look for the photographs' packages under this directory instead of /");
+  c->add_flag("--save-images", o->save_images,
+              "Also write every image with markers (DIR/images/) and every crop (DIR/backdrops/)");
+  c->footer(
+      "Photographs: plasma-workspace-wallpapers, ukui-wallpapers (scripts/install_bench_photos) "
+      "and opencv-doc; the run uses those present.\nExample:\n  svms bench speed --out "
+      "out/bench/speed --quick");
+  c->callback([o, exit_code] { *exit_code = RunSpeedBenchmark(*o); });
 }
 
 }  // namespace svms::cli

@@ -12,5 +12,6 @@ void AddBenchCompare(CLI::App& bench, int* exit_code);
 void AddBenchSurvey(CLI::App& bench, int* exit_code);
 void AddBenchPose(CLI::App& bench, int* exit_code);
 void AddBenchProfiles(CLI::App& bench, int* exit_code);
+void AddBenchSpeed(CLI::App& bench, int* exit_code);
 
 }  // namespace svms::cli

@@ -18,5 +18,6 @@ int main(int argc, char** argv) {
   svms::cli::AddBenchSurvey(app, &exit_code);
   svms::cli::AddBenchPose(app, &exit_code);
   svms::cli::AddBenchProfiles(app, &exit_code);
+  svms::cli::AddBenchSpeed(app, &exit_code);
   return svms::cli::RunCommandLine(app, argc, argv, &exit_code);
 }
