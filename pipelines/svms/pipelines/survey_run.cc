@@ -19,6 +19,7 @@
 #include "svms/pipelines/gnuplot.h"
 #include "svms/pipelines/image_inputs.h"
 #include "svms/pipelines/item_failure.h"
+#include "svms/pipelines/mrcal_uncertainty.h"
 #include "svms/pipelines/output_checks.h"
 #include "svms/pipelines/progress.h"
 
@@ -225,6 +226,8 @@ int SolveAndWrite(const SurveyRunOptions& o, const std::vector<SurveyImage>& ima
 int RunSurveyFromImages(const SurveyRunOptions& o) {
   CameraModel camera;
   if (Status s = ReadCameraWithSidecar(o.camera, &camera); !s) return BadInput(s.message());
+  if (std::string hint = MissingUncertaintyHint(o.camera); !hint.empty() && !o.quiet)
+    std::cerr << "svms survey: " << hint << "\n";
   Photometry photometry;
   if (Status s = Photometry::Create(o.photometry, o.camera, &photometry); !s)
     return BadInput(s.message());
