@@ -135,9 +135,10 @@ void PrintInfo(const std::string& path, const CameraInfo& info) {
     std::cout << info.sidecar_path << " is not usable: " << info.sidecar_error << "\n";
   }
   std::cout << "  mrcal optimization_inputs: "
-            << (info.has_optimization_inputs
-                    ? "yes (mrcal's tools can compute its projection uncertainty)\n"
-                    : "no\n");
+            << (!info.has_optimization_inputs ? "no\n"
+                : info.sidecar_path.empty()
+                    ? "yes (`svms camera import-uncertainty " + path + "` writes the sidecar)\n"
+                    : std::string("yes (mrcal's tools can compute its projection uncertainty)\n"));
   if (std::string why = c.UnusableReason(); !why.empty()) {
     std::cout << "  cannot measure poses: " << why << "\n";
   }
@@ -198,7 +199,8 @@ int RunImportUncertainty(const CameraCliOptions& o) {
 }  // namespace
 
 void AddCameraCommands(CLI::App& app, int* exit_code) {
-  CLI::App* camera = app.add_subcommand("camera", "Camera model files: OpenCV in and out, show");
+  CLI::App* camera = app.add_subcommand(
+      "camera", "Camera model files: OpenCV in and out, show, mrcal's uncertainty");
   camera->require_subcommand(1);
   auto o = std::make_shared<CameraCliOptions>();
 
@@ -216,44 +218,45 @@ void AddCameraCommands(CLI::App& app, int* exit_code) {
       "Skew, a tilted sensor and cv::fisheye have no mrcal 2.2 model and are refused (exit 2).\n"
       "Examples:\n  svms camera import opencv_cam.yml --out cam.cameramodel\n"
       "  svms camera import ost.yaml --image-size 1280x960 --out cam.cameramodel");
-  import->callback([o, exit_code] { *exit_code = RunImport(*o);
-});
+  import->callback([o, exit_code] { *exit_code = RunImport(*o); });
 
-auto* exp = camera->add_subcommand("export", "An mrcal camera model as an OpenCV camera file");
-exp->add_option("CAM", o->input, "mrcal camera model (LENSMODEL_PINHOLE or _OPENCV4/5/8/12)")
-    ->required();
-exp->add_option("--format", o->format, "output format: opencv")->required();
-exp->add_option("--out", o->out, "the file to write: .yml/.yaml (YAML), .xml, .json")->required();
-exp->footer(
-    "Writes image_width, image_height, camera_matrix and distortion_coefficients with\n"
-    "cv::FileStorage, every number exact (17 digits). Extrinsics and the covariance sidecar\n"
-    "have no place in an OpenCV camera file and are not written.\n"
-    "Example:\n  svms camera export cam.cameramodel --format opencv --out cam.yml");
-exp->callback([o, exit_code] { *exit_code = RunExport(*o); });
+  auto* exp = camera->add_subcommand("export", "An mrcal camera model as an OpenCV camera file");
+  exp->add_option("CAM", o->input, "mrcal camera model (LENSMODEL_PINHOLE or _OPENCV4/5/8/12)")
+      ->required();
+  exp->add_option("--format", o->format, "output format: opencv")->required();
+  exp->add_option("--out", o->out, "the file to write: .yml/.yaml (YAML), .xml, .json")
+      ->required();
+  exp->footer(
+      "Writes image_width, image_height, camera_matrix and distortion_coefficients with\n"
+      "cv::FileStorage, every number exact (17 digits). Extrinsics and the covariance sidecar\n"
+      "have no place in an OpenCV camera file and are not written.\n"
+      "Example:\n  svms camera export cam.cameramodel --format opencv --out cam.yml");
+  exp->callback([o, exit_code] { *exit_code = RunExport(*o); });
 
-auto* show = camera->add_subcommand("show", "What a camera model holds");
-show->add_option("CAM", o->show, "mrcal camera models")->required();
-show->footer(
-    "Prints the lens model, image size, intrinsics, field of view, the distortion and how far\n"
-    "it moves pixels, whether the intrinsics' covariance sidecar (CAM.covariance.json) is\n"
-    "there and matches, and whether the file has mrcal's optimization_inputs.\n"
-    "Example:\n  svms camera show cam.cameramodel");
-show->callback([o, exit_code] { *exit_code = RunShow(*o); });
+  auto* show = camera->add_subcommand("show", "What a camera model holds");
+  show->add_option("CAM", o->show, "mrcal camera models")->required();
+  show->footer(
+      "Prints the lens model, image size, intrinsics, field of view, the distortion and how far\n"
+      "it moves pixels, whether the intrinsics' covariance sidecar (CAM.covariance.json) is\n"
+      "there and matches, and whether the file has mrcal's optimization_inputs.\n"
+      "Example:\n  svms camera show cam.cameramodel");
+  show->callback([o, exit_code] { *exit_code = RunShow(*o); });
 
-auto* unc = camera->add_subcommand(
-    "import-uncertainty", "The covariance sidecar of a camera calibrated by mrcal's tools");
-unc->add_option("CAM", o->mrcal.camera, "mrcal camera model with optimization_inputs")->required();
-unc->add_option("--observed-pixel-uncertainty", o->mrcal.observed_pixel_uncertainty,
-                "corner noise in pixels (default: from the residuals, as mrcal does)")
-    ->check(CLI::PositiveNumber);
-unc->add_option("--python", o->mrcal.python,
-                "the Python with mrcal 2.2 (default /usr/bin/python3)");
-unc->footer(
-    "Runs mrcal's Python once on the model's optimization_inputs and writes CAM.covariance.json\n"
-    "(the intrinsics' covariance, computed as mrcal.projection_uncertainty computes it), which\n"
-    "svms detect, pose, survey and the C API then use. See docs/conventions.md.\n"
-    "Example:\n  svms camera import-uncertainty camera-0.cameramodel");
-unc->callback([o, exit_code] { *exit_code = RunImportUncertainty(*o); });
-}  // namespace svms::cli
+  auto* unc = camera->add_subcommand(
+      "import-uncertainty", "The covariance sidecar of a camera calibrated by mrcal's tools");
+  unc->add_option("CAM", o->mrcal.camera, "mrcal camera model with optimization_inputs")
+      ->required();
+  unc->add_option("--observed-pixel-uncertainty", o->mrcal.observed_pixel_uncertainty,
+                  "corner noise in pixels (default: from the residuals, as mrcal does)")
+      ->check(CLI::PositiveNumber);
+  unc->add_option("--python", o->mrcal.python,
+                  "the Python with mrcal 2.2 (default /usr/bin/python3)");
+  unc->footer(
+      "Runs mrcal's Python once on the model's optimization_inputs and writes CAM.covariance.json\n"
+      "(the intrinsics' covariance, computed as mrcal.projection_uncertainty computes it), which\n"
+      "svms detect, pose, survey and the C API then use. See docs/conventions.md.\n"
+      "Example:\n  svms camera import-uncertainty camera-0.cameramodel");
+  unc->callback([o, exit_code] { *exit_code = RunImportUncertainty(*o); });
+}
 
 }  // namespace svms::cli
