@@ -5,11 +5,14 @@
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <tuple>
 
 #include "commands.h"
+#include "svms/base/format.h"
 #include "svms/camera/camera_covariance.h"
 #include "svms/camera/camera_info.h"
 #include "svms/camera/opencv_camera.h"
+#include "svms/pipelines/mrcal_uncertainty.h"
 #include "svms/pipelines/output_checks.h"
 
 namespace svms::cli {
@@ -18,6 +21,7 @@ namespace {
 struct CameraCliOptions {
   std::string input, out, image_size, format = "opencv";
   std::vector<std::string> show;
+  MrcalUncertaintyOptions mrcal;
 };
 
 // The shortest text that reads back to the same double.
@@ -131,9 +135,10 @@ void PrintInfo(const std::string& path, const CameraInfo& info) {
     std::cout << info.sidecar_path << " is not usable: " << info.sidecar_error << "\n";
   }
   std::cout << "  mrcal optimization_inputs: "
-            << (info.has_optimization_inputs
-                    ? "yes (mrcal's tools can compute its projection uncertainty)\n"
-                    : "no\n");
+            << (!info.has_optimization_inputs ? "no\n"
+                : info.sidecar_path.empty()
+                    ? "yes (`svms camera import-uncertainty " + path + "` writes the sidecar)\n"
+                    : std::string("yes (mrcal's tools can compute its projection uncertainty)\n"));
   if (std::string why = c.UnusableReason(); !why.empty()) {
     std::cout << "  cannot measure poses: " << why << "\n";
   }
@@ -153,10 +158,49 @@ int RunShow(const CameraCliOptions& o) {
   return bad ? kExitBadInput : kExitOk;
 }
 
+// The worst-direction standard deviation (pixels) of a 2x2 covariance, as mrcal's
+// worst_direction_stdev.
+double WorstDirectionSigma(const Eigen::Matrix2d& c) {
+  const double a = c(0, 0), b = c(1, 0), d = c(1, 1);
+  return std::sqrt((a + d) / 2 + std::sqrt((a - d) * (a - d) / 4 + b * b));
+}
+
+int RunImportUncertainty(const CameraCliOptions& o) {
+  MrcalUncertaintyResult r;
+  if (Status s = ImportMrcalUncertainty(o.mrcal, &r); !s) {
+    std::cerr << "svms camera import-uncertainty: " << s.message() << "\n";
+    // r.sidecar is set only when the write itself failed.
+    return r.sidecar.empty() ? kExitBadInput : kExitFailed;
+  }
+  std::cout << r.sidecar << ": intrinsics covariance from mrcal's optimization_inputs (" << r.views
+            << " board views, corner noise " << Significant(r.noise_sigma_px, 3) << " px)\n";
+  // mrcal's projection uncertainty at infinity, from the sidecar: at the centre and the corners.
+  const CameraModel& c = r.camera;
+  const double w = c.width() - 1, h = c.height() - 1;
+  std::cout << "  projection uncertainty at infinity (mrcal's, worst direction):";
+  for (const auto& [name, u, v] : {std::tuple<const char*, double, double>{"centre", w / 2, h / 2},
+                                   {"top-left", 0, 0},
+                                   {"top-right", w, 0},
+                                   {"bottom-left", 0, h},
+                                   {"bottom-right", w, h}}) {
+    Eigen::Vector3d d;
+    Eigen::Matrix2d cov;
+    std::cout << " " << name << " ";
+    if (c.Unproject(Eigen::Vector2d(u, v), &d) &&
+        MeanFramesProjectionCovariance(c, r.mean_frames_factor, d, true, &cov))
+      std::cout << Significant(WorstDirectionSigma(cov), 3) << " px";
+    else
+      std::cout << "n/a";
+  }
+  std::cout << "\n";
+  return kExitOk;
+}
+
 }  // namespace
 
 void AddCameraCommands(CLI::App& app, int* exit_code) {
-  CLI::App* camera = app.add_subcommand("camera", "Camera model files: OpenCV in and out, show");
+  CLI::App* camera = app.add_subcommand(
+      "camera", "Camera model files: OpenCV in and out, show, mrcal's uncertainty");
   camera->require_subcommand(1);
   auto o = std::make_shared<CameraCliOptions>();
 
@@ -197,6 +241,22 @@ void AddCameraCommands(CLI::App& app, int* exit_code) {
       "there and matches, and whether the file has mrcal's optimization_inputs.\n"
       "Example:\n  svms camera show cam.cameramodel");
   show->callback([o, exit_code] { *exit_code = RunShow(*o); });
+
+  auto* unc = camera->add_subcommand(
+      "import-uncertainty", "The covariance sidecar of a camera calibrated by mrcal's tools");
+  unc->add_option("CAM", o->mrcal.camera, "mrcal camera model with optimization_inputs")
+      ->required();
+  unc->add_option("--observed-pixel-uncertainty", o->mrcal.observed_pixel_uncertainty,
+                  "corner noise in pixels (default: from the residuals, as mrcal does)")
+      ->check(CLI::PositiveNumber);
+  unc->add_option("--python", o->mrcal.python,
+                  "the Python with mrcal 2.2 (default /usr/bin/python3)");
+  unc->footer(
+      "Runs mrcal's Python once on the model's optimization_inputs and writes CAM.covariance.json\n"
+      "(the intrinsics' covariance, computed as mrcal.projection_uncertainty computes it), which\n"
+      "svms detect, pose, survey and the C API then use. See docs/conventions.md.\n"
+      "Example:\n  svms camera import-uncertainty camera-0.cameramodel");
+  unc->callback([o, exit_code] { *exit_code = RunImportUncertainty(*o); });
 }
 
 }  // namespace svms::cli

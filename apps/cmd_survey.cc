@@ -25,6 +25,9 @@ void AddSurveyCommands(CLI::App& app, int* exit_code) {
                   "A:B:DISTANCE[:SIGMA]: a measured distance between two named points (metres; "
                   "sigma 1e-4 by default)");
   cmd->add_flag("--refine-intrinsics", o->refine_intrinsics, "Refine the camera's intrinsics too");
+  cmd->add_option("--out-camera", o->out_camera,
+                  "With --refine-intrinsics: write the refined camera (CAM2.cameramodel and its "
+                  "covariance sidecar) that the layout belongs to");
   cmd->add_flag("--drop-disconnected", o->drop_disconnected,
                 "Survey only the reference's group when the view graph is disconnected");
   cmd->add_option("--corner-sigma", o->corner_sigma,

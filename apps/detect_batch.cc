@@ -20,6 +20,7 @@
 #include "svms/pipelines/image_inputs.h"
 #include "svms/pipelines/item_failure.h"
 #include "svms/pipelines/json_text.h"
+#include "svms/pipelines/mrcal_uncertainty.h"
 #include "svms/pipelines/output_checks.h"
 #include "svms/pipelines/overlay.h"
 #include "svms/pipelines/progress.h"
@@ -59,6 +60,8 @@ int Prepare(Batch* b) {
   const DetectOptions& o = b->o;
   if (!o.camera.empty()) {
     if (Status s = ReadCameraWithSidecar(o.camera, &b->camera); !s) return BadInput(s.message());
+    if (std::string hint = MissingUncertaintyHint(o.camera); !hint.empty() && !o.quiet)
+      std::cerr << "svms detect: " << hint << "\n";
   }
   if (Status s = Photometry::Create(o.photometry, o.camera, &b->photometry); !s)
     return BadInput(s.message());

@@ -17,6 +17,7 @@
 #include "svms/pipelines/image_inputs.h"
 #include "svms/pipelines/item_failure.h"
 #include "svms/pipelines/json_text.h"
+#include "svms/pipelines/mrcal_uncertainty.h"
 #include "svms/pipelines/output_checks.h"
 #include "svms/pipelines/overlay.h"
 #include "svms/pipelines/video_frames.h"
@@ -75,6 +76,8 @@ int Prepare(Stream* s) {
                             ") goes into the pose covariance\n"
                       : "no " + CovarianceSidecarPath(o.camera) +
                             ": the pose covariance leaves out the calibration's error\n");
+    if (std::string hint = MissingUncertaintyHint(o.camera); !hint.empty())
+      std::cerr << "svms pose: " << hint << "\n";
   }
   return kExitOk;
 }

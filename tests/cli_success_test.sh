@@ -5,7 +5,10 @@
 #    (plus 0.05 mm) of the truth in the reference marker's frame, and its report's pictures;
 #  - calibration from the quick calibration benchmark's 12 board views: mrcal's own Python
 #    reads the model, whose focal lengths are within 0.1 % and centre within 1 px of the truth,
-#    and the covariance sidecar is written beside it.
+#    and the covariance sidecar is written beside it;
+#  - survey --refine-intrinsics --out-camera CAM2: CAM2 and its sidecar load, its intrinsics are
+#    the report's, its covariance is positive definite, the report and the layout name CAM2;
+#    --out-camera without --refine-intrinsics, or onto --camera, refused in one line (exit 2).
 # usage: cli_success_test.sh SVMS MOCKUP_DIR CALIBRATION_BOARD_DIR
 set -euo pipefail
 svms=${1:?svms}; mock=${2:?mockup dir}; board=${3:?board images dir}
@@ -48,6 +51,61 @@ for mid, e in est.items():
 if n < 6 or bad:
     sys.exit(f"{n} markers compared, beyond 5 sigma: {bad}")
 PY
+
+# --refine-intrinsics --out-camera: the refined camera is written with its sidecar, the report
+# and the layout name it. An OPENCV4 start (the truth's first eight numbers): 8 views cannot
+# determine OPENCV8's rational terms.
+"$py" - "$mock/true.cameramodel" "$tmp/cam4.cameramodel" <<'PY'
+import sys, mrcal
+m = mrcal.cameramodel(sys.argv[1])
+mrcal.cameramodel(intrinsics=("LENSMODEL_OPENCV4", m.intrinsics()[1][:8]),
+                  imagersize=m.imagersize()).write(sys.argv[2])
+PY
+cp "$tmp/cam4.cameramodel" "$tmp/cam4.orig"
+"$svms" survey "$mock" --camera "$tmp/cam4.cameramodel" --markers "$mock/markers.json" \
+  --reference 10 --refine-intrinsics --out-camera "$tmp/cam2.cameramodel" \
+  --out "$tmp/layout2.json" --report "$tmp/survey_report2" --quiet \
+  || fail "svms survey --refine-intrinsics --out-camera exited $?"
+[ -s "$tmp/cam2.cameramodel.covariance.json" ] || fail "--out-camera: no covariance sidecar"
+"$svms" camera show "$tmp/cam2.cameramodel" | grep -q "used by svms pose" \
+  || fail "--out-camera: the camera and its sidecar do not load"
+"$py" - "$tmp/cam2.cameramodel" "$tmp/survey_report2/report.md" "$tmp/layout2.json" <<'PY' \
+  || fail "--out-camera: camera, sidecar, report"
+import json, re, sys
+import numpy as np, mrcal
+cam, report, layout = sys.argv[1:4]
+lensmodel, intr = mrcal.cameramodel(cam).intrinsics()
+line = [l for l in open(report) if "belongs to the camera" in l]
+if len(line) != 1 or f"`{cam}`" not in line[0]:
+    sys.exit("the report does not say the layout belongs to " + cam)
+reported = [float(v) for v in re.findall(r"([-0-9.e+]+) \(", line[0].split("(sigma):")[1])]
+print("refined:", np.round(intr, 6))
+if len(reported) != len(intr) or np.max(np.abs(np.array(reported) - intr) / np.maximum(1, np.abs(intr))) > 1e-12:
+    sys.exit(f"the camera's intrinsics {intr} are not the survey's {reported}")
+side = json.load(open(cam + ".covariance.json"))
+L = np.array(side["covariance_factor"])
+ev = np.linalg.eigvalsh(L @ L.T)
+print("covariance eigenvalues", ev.min(), "...", ev.max())
+if side["lensmodel"] != lensmodel or np.any(ev <= 0):
+    sys.exit("the sidecar's covariance is not positive definite for " + lensmodel)
+if cam not in json.load(open(layout))["name"]:
+    sys.exit("the layout's name does not name " + cam)
+PY
+cmp -s "$tmp/cam4.cameramodel" "$tmp/cam4.orig" || fail "--out-camera: the input camera changed"
+set +e
+err=$("$svms" survey "$mock" --camera "$tmp/cam4.cameramodel" --markers "$mock/markers.json" \
+  --reference 10 --out-camera "$tmp/cam3.cameramodel" --out "$tmp/layout3.json" --quiet 2>&1)
+rc=$?
+[ $rc -eq 2 ] && [ "$(printf '%s\n' "$err" | wc -l)" -eq 1 ] && [[ $err == *--refine-intrinsics* ]] \
+  || fail "--out-camera without --refine-intrinsics: exit $rc, '$err'"
+err=$("$svms" survey "$mock" --camera "$tmp/cam4.cameramodel" --markers "$mock/markers.json" \
+  --reference 10 --refine-intrinsics --out-camera "$tmp/cam4.cameramodel" \
+  --out "$tmp/layout3.json" --quiet 2>&1)
+rc=$?
+set -e
+[ $rc -eq 2 ] && [ "$(printf '%s\n' "$err" | wc -l)" -eq 1 ] || fail "--out-camera = --camera: exit $rc, '$err'"
+cmp -s "$tmp/cam4.cameramodel" "$tmp/cam4.orig" || fail "--out-camera = --camera: the input changed"
+[ ! -e "$tmp/layout3.json" ] || fail "a refused survey wrote its layout"
 
 "$svms" dataset calibration --quick --no-render --out "$tmp/cal" --quiet > /dev/null
 "$svms" calibrate "$board"/*.png --board "$tmp/cal/board_layout.json" --out "$tmp/cam.cameramodel" \

@@ -13,7 +13,8 @@ _OPENCV_MODELS = {4: "LENSMODEL_OPENCV4", 5: "LENSMODEL_OPENCV5", 8: "LENSMODEL_
 def from_mrcal(model):
     """A Camera from an mrcal.cameramodel (its lens model, intrinsics, image size and
     extrinsics, rt_cam_ref). The uncertainty mrcal keeps in 'optimization_inputs' is not
-    carried over (set intrinsics_covariance_factor for that)."""
+    carried over (set intrinsics_covariance_factor for that, or run `svms camera
+    import-uncertainty` on the file and read it with its sidecar)."""
     lensmodel, intrinsics = model.intrinsics()
     width, height = (int(x) for x in model.imagersize())
     camera = Camera(lensmodel, np.asarray(intrinsics, dtype=float).tolist(), (width, height))

@@ -2,6 +2,7 @@
 
 #include <ceres/ceres.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
@@ -719,6 +720,17 @@ Status Solver::ComputeCovariance() {
       e.post_height_sigma = std::sqrt(std::max(0.0, factor * var) + unscaled_var);
     }
   }
+  if (config_.refine_intrinsics) {
+    // The refined intrinsics' covariance, scaled as the layout's; positive definite after the
+    // rank check, so its Cholesky factor exists.
+    const int n = static_cast<int>(intrinsics_.size());
+    const Eigen::MatrixXd block =
+        factor * reduced.covariance.block(reduced.offset.at(intrinsics_.data()),
+                                          reduced.offset.at(intrinsics_.data()), n, n);
+    const Eigen::LLT<Eigen::MatrixXd> llt(0.5 * (block + block.transpose()));
+    if (llt.info() != Eigen::Success || !R_.camera.set_intrinsics_covariance_factor(llt.matrixL()))
+      return Fail("the refined intrinsics' covariance is not positive definite");
+  }
   S_.covariance_ok = true;
   S_.calibration_in_covariance = reduced.calibration.size() > 0;
   S_.corner_repeat_in_covariance = reduced.repeat.size() > 0;
@@ -1004,6 +1016,7 @@ void Solver::FillResult() {
   R_.cam_from_object.clear();
   for (const Block6& b : cam_from_object_) R_.cam_from_object.push_back(FromBlock(b));
   R_.camera = work_camera_;
+  S_.intrinsics_refined = config_.refine_intrinsics;
   if (config_.refine_intrinsics) {
     CameraModel c;
     if (CameraModel::Create(work_camera_.lensmodel(), intrinsics_, work_camera_.width(),

@@ -50,7 +50,11 @@ struct SurveyResult {
   std::vector<std::string> image_names;
   std::vector<bool> image_used;
   std::vector<Pose> cam_from_object;
-  CameraModel camera;  // with refined intrinsics when asked
+  // The camera the layout belongs to: the input camera, or with refine_intrinsics the one with
+  // the refined intrinsics and, once the covariance is computed, their covariance
+  // (intrinsics_covariance_factor: the intrinsics' block of this survey's covariance, scaled by
+  // the a-posteriori variance factor as the layout's; the input calibration is not a prior).
+  CameraModel camera;
   SurveySummary summary;
 };
 

@@ -131,6 +131,11 @@ std::string SurveySummary::LayoutName() const {
          (calibration_in_covariance ? ", plus the camera calibration's uncertainty" : "") +
          (corner_repeat_in_covariance
               ? ", plus the repeated corner error of the markers seen with grey levels"
+              : "") +
+         (intrinsics_refined
+              ? "; intrinsics refined: it belongs to the camera " +
+                    (refined_camera.empty() ? std::string("the survey refined (not written)")
+                                            : refined_camera)
               : "");
 }
 

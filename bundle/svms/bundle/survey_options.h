@@ -197,6 +197,12 @@ struct SurveySummary {
   bool covariance_scaled = false;
   bool calibration_in_covariance = false;    // the camera calibration's uncertainty was added
   bool corner_repeat_in_covariance = false;  // corner_repeat_px_grey's term was added
+  // The intrinsics were refined (SurveyConfig::refine_intrinsics): the layout belongs to the
+  // refined camera (SurveyResult::camera), not to the input one. refined_camera names the file
+  // it was written to, for the report and the layout's name (set by the caller; "" = not
+  // written).
+  bool intrinsics_refined = false;
+  std::string refined_camera;
 
   std::vector<ResidualStats> per_image, per_marker;
   std::vector<RejectedPoint> rejected;

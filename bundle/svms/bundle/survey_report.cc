@@ -158,6 +158,24 @@ std::string ReportMarkdown(const SurveyResult& r, const std::vector<MarkerSigmas
                "(SurveyOptions::corner_repeat_px_grey over each detection's contrast)"
              : "")
      << ". Points rejected as outliers: " << S.rejected.size() << ".\n\n";
+  if (S.intrinsics_refined && S.success) {
+    md << "The camera's intrinsics were refined with the layout: **the layout belongs to the "
+          "camera "
+       << (S.refined_camera.empty()
+               ? "the survey refined**, which was not written (`--out-camera` writes it); with the "
+                 "input camera it is not consistent"
+               : "`" + S.refined_camera +
+                     "`** (written with its covariance sidecar), not to the input camera")
+       << ". Its " << r.camera.lensmodel() << " intrinsics (sigma):";
+    const std::vector<double>& in = r.camera.intrinsics();
+    const Eigen::MatrixXd& L = r.camera.intrinsics_covariance_factor();
+    for (size_t k = 0; k < in.size(); ++k) {
+      md << (k ? ", " : " ") << Significant(in[k], 17);
+      if (L.rows() == static_cast<Eigen::Index>(in.size()))
+        md << " (" << Significant(L.row(static_cast<Eigen::Index>(k)).norm(), 3) << ")";
+    }
+    md << ".\n\n";
+  }
   md << "| marker | x (m) | y (m) | z (m) | position sigma (mm) | orientation sigma (deg) | post "
         "height (mm) | its sigma (mm) | RMS (px) |\n|---|---|---|---|---|---|---|---|---|\n";
   for (size_t i = 0; i < r.layout.markers.size(); ++i) {

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <random>
 
 #include "svms/base/random_draws.h"
@@ -362,6 +363,44 @@ TEST(Survey, CalibrationUncertaintyIsPropagated) {
   EXPECT_GT(nees_with / count, 4.0);
   EXPECT_LT(nees_with / count, 8.0);
   EXPECT_GT(nees_without / count, 12.0);  // the calibration's error dominates here
+}
+
+// Refined intrinsics come with their covariance (the intrinsics' block of the survey's,
+// scaled): positive definite, and the refined intrinsics' error against the truth inside it
+// (one draw: below the chi-square(N) 99.9 % quantile, N = 8: 26.1).
+TEST(Survey, RefinedIntrinsicsCarryTheirCovariance) {
+  TestObject m = MakeTestObject(60);
+  // OPENCV4 (the datasets' camera without its rational terms, which 60 views of 8 markers
+  // do not determine).
+  const std::vector<double> in8(m.camera.intrinsics().begin(), m.camera.intrinsics().begin() + 8);
+  ASSERT_TRUE(
+      CameraModel::Create("LENSMODEL_OPENCV4", in8, m.camera.width(), m.camera.height(), &m.camera)
+          .ok());
+  std::vector<double> start = m.camera.intrinsics();
+  start[0] += 3, start[1] -= 2, start[2] += 1.5, start[3] -= 1;
+  CameraModel off;
+  ASSERT_TRUE(
+      CameraModel::Create(m.camera.lensmodel(), start, m.camera.width(), m.camera.height(), &off)
+          .ok());
+  const std::vector<SurveyImage> images =
+      SynthesiseImages(m.truth, m.camera, m.cam_from_object, SyntheticOptions{}, 31);
+  SurveyConfig config = ReferenceConfig(100);
+  config.refine_intrinsics = true;
+  SurveyResult r;
+  const Status s = RunSurvey(images, m.models, off, SurveyOptions{}, config, &r);
+  ASSERT_TRUE(s) << s.message();
+  EXPECT_TRUE(r.summary.intrinsics_refined);
+  EXPECT_FALSE(r.summary.calibration_in_covariance);
+  const int n = static_cast<int>(m.camera.intrinsics().size());
+  const Eigen::MatrixXd& L = r.camera.intrinsics_covariance_factor();
+  ASSERT_EQ(L.rows(), n);
+  const Eigen::MatrixXd C = L * L.transpose();
+  EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(C).eigenvalues().minCoeff(), 0);
+  Eigen::VectorXd err(n);
+  for (int k = 0; k < n; ++k) err[k] = r.camera.intrinsics()[k] - m.camera.intrinsics()[k];
+  const double nees = err.dot(C.ldlt().solve(err));
+  EXPECT_LT(nees, 26.1) << "intrinsics error " << err.transpose();
+  EXPECT_LT(std::abs(err[0]), 4 * L.row(0).norm()) << "fx started 3 px off";
 }
 
 // The term's Jacobian against finite differences: only marker 103's detections have grey

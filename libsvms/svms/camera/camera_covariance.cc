@@ -18,6 +18,37 @@ namespace {
 
 constexpr const char* kType = "svms.intrinsics_covariance";
 
+// The rows of a square matrix field (n rows of n finite numbers) into *m (resized).
+void ReadSquareRows(const json& j, const char* key, Eigen::Index n, Eigen::MatrixXd* m) {
+  using namespace json_fields;
+  const json& rows = Required(j, "", key);
+  const std::string shape = std::to_string(n) + " rows of " + std::to_string(n) + " numbers";
+  if (!rows.is_array() || static_cast<Eigen::Index>(rows.size()) != n) Fail(key, shape, rows);
+  m->resize(n, n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const json& row = rows[i];
+    const std::string field = std::string(key) + "[" + std::to_string(i) + "]";
+    if (!row.is_array() || static_cast<Eigen::Index>(row.size()) != n)
+      Fail(field, "an array of " + std::to_string(n) + " numbers", row);
+    for (Eigen::Index k = 0; k < n; ++k) {
+      if (!row[k].is_number() || !std::isfinite(row[k].get<double>()))
+        Fail(field + "[" + std::to_string(k) + "]", "a finite number", row[k]);
+      (*m)(i, k) = row[k].get<double>();
+    }
+  }
+}
+
+// A matrix as one row per line, indented as the sidecar's fields.
+std::string RowsText(const Eigen::MatrixXd& m) {
+  std::string text = "[\n";
+  for (Eigen::Index i = 0; i < m.rows(); ++i) {
+    json row = json::array();
+    for (Eigen::Index k = 0; k < m.cols(); ++k) row.push_back(m(i, k) + 0.0);  // no -0
+    text += "    " + row.dump() + (i + 1 < m.rows() ? ",\n" : "\n");
+  }
+  return text + "  ]";
+}
+
 }  // namespace
 
 std::string CovarianceSidecarPath(const std::string& cameramodel_path) {
@@ -48,9 +79,16 @@ Eigen::MatrixXd CompactFactor(const Eigen::MatrixXd& rows_of_factor) {
 }
 
 Status CovarianceSidecarText(const std::string& path, const CameraModel& camera,
-                             double noise_sigma_px, int views, std::string* out) {
+                             double noise_sigma_px, int views, std::string* out,
+                             const Eigen::MatrixXd& mean_frames_factor) {
   const Eigen::MatrixXd& L = camera.intrinsics_covariance_factor();
   if (L.size() == 0) return Status::Error(path + ": the camera has no intrinsics covariance");
+  const Eigen::Index nm = L.rows() + 6;
+  if (mean_frames_factor.size() > 0 &&
+      (mean_frames_factor.rows() != nm || mean_frames_factor.cols() != nm ||
+       !mean_frames_factor.allFinite()))
+    return Status::Error(path + ": mean_frames_factor: expected " + std::to_string(nm) + " x " +
+                         std::to_string(nm) + " finite numbers");
   json sigma = json::array();
   for (Eigen::Index i = 0; i < L.rows(); ++i) sigma.push_back(L.row(i).norm());
   const json head = {{"type", kType},
@@ -66,21 +104,22 @@ Status CovarianceSidecarText(const std::string& path, const CameraModel& camera,
   for (const char* key :
        {"type", "lensmodel", "imagersize", "intrinsics", "sigma", "noise_sigma_px", "views"})
     text += "  \"" + std::string(key) + "\": " + head[key].dump() + ",\n";
-  text += "  \"covariance_factor\": [\n";
-  for (Eigen::Index i = 0; i < L.rows(); ++i) {
-    json row = json::array();
-    for (Eigen::Index k = 0; k < L.cols(); ++k) row.push_back(L(i, k));
-    text += "    " + row.dump() + (i + 1 < L.rows() ? ",\n" : "\n");
-  }
-  text += "  ]\n}\n";
+  text += "  \"covariance_factor\": " + RowsText(L);
+  if (mean_frames_factor.size() > 0)
+    text += ",\n  \"mean_frames_factor\": " + RowsText(mean_frames_factor);
+  text += "\n}\n";
   *out = std::move(text);
   return Status::Ok();
 }
 
 Status WriteCovarianceSidecar(const std::string& path, const CameraModel& camera,
-                              double noise_sigma_px, int views) {
+                              double noise_sigma_px, int views,
+                              const Eigen::MatrixXd& mean_frames_factor) {
   std::string text;
-  if (Status s = CovarianceSidecarText(path, camera, noise_sigma_px, views, &text); !s) return s;
+  if (Status s =
+          CovarianceSidecarText(path, camera, noise_sigma_px, views, &text, mean_frames_factor);
+      !s)
+    return s;
   return WriteFileAtomically(path, text);
 }
 
@@ -126,7 +165,7 @@ Status ReadCovarianceSidecar(const std::string& path, CameraModel* camera) {
     if (!j.is_object()) Fail("(top level)", "an object of type \"" + std::string(kType) + "\"", j);
     CheckKeys(j, "",
               {"type", "lensmodel", "imagersize", "intrinsics", "sigma", "noise_sigma_px", "views",
-               "covariance_factor"});
+               "covariance_factor", "mean_frames_factor"});
     if (String(j, "", "type") != kType) Fail("type", std::string("\"") + kType + "\"", j["type"]);
     const std::string lensmodel = String(j, "", "lensmodel");
     if (lensmodel != camera->lensmodel()) {
@@ -154,20 +193,10 @@ Status ReadCovarianceSidecar(const std::string& path, CameraModel* camera) {
     }
     NumberIn(j, "", "noise_sigma_px", 0, 1e3);
     if (Integer(j, "", "views") < 1) Fail("views", "a positive integer", j["views"]);
-    const json& rows = Required(j, "", "covariance_factor");
-    const std::string shape = std::to_string(n) + " rows of " + std::to_string(n) + " numbers";
-    if (!rows.is_array() || static_cast<Eigen::Index>(rows.size()) != n)
-      Fail("covariance_factor", shape, rows);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const json& row = rows[i];
-      const std::string field = "covariance_factor[" + std::to_string(i) + "]";
-      if (!row.is_array() || static_cast<Eigen::Index>(row.size()) != n)
-        Fail(field, "an array of " + std::to_string(n) + " numbers", row);
-      for (Eigen::Index k = 0; k < n; ++k) {
-        if (!row[k].is_number() || !std::isfinite(row[k].get<double>()))
-          Fail(field + "[" + std::to_string(k) + "]", "a finite number", row[k]);
-        L(i, k) = row[k].get<double>();
-      }
+    ReadSquareRows(j, "covariance_factor", n, &L);
+    if (j.contains("mean_frames_factor")) {
+      Eigen::MatrixXd m;
+      ReadSquareRows(j, "mean_frames_factor", n + 6, &m);
     }
   } catch (const FieldError& e) {
     return Status::Error(path + ": " + e.message);
@@ -190,6 +219,50 @@ Status ReadCovarianceSidecar(const std::string& path, CameraModel* camera) {
   if (Status s = camera->set_intrinsics_covariance_factor(L); !s)
     return Status::Error(path + ": " + s.message());
   return Status::Ok();
+}
+
+Status ReadMeanFramesFactor(const std::string& path, const CameraModel& camera,
+                            Eigen::MatrixXd* factor) {
+  CameraModel checked = camera;
+  if (Status s = ReadCovarianceSidecar(path, &checked); !s) return s;
+  std::string text, error;
+  json j;
+  if (Status s = ReadTextFile(path, &text); !s) return s;
+  if (!json_fields::ParseText(text, path, &j, &error)) return Status::Error(error);
+  Eigen::MatrixXd m;
+  if (j.contains("mean_frames_factor")) {
+    try {
+      ReadSquareRows(j, "mean_frames_factor",
+                     static_cast<Eigen::Index>(camera.intrinsics().size()) + 6, &m);
+    } catch (const FieldError& e) {
+      return Status::Error(path + ": " + e.message);
+    }
+  }
+  *factor = std::move(m);
+  return Status::Ok();
+}
+
+bool MeanFramesProjectionCovariance(const CameraModel& camera,
+                                    const Eigen::MatrixXd& mean_frames_factor,
+                                    const Eigen::Vector3d& p_cam, bool at_infinity,
+                                    Eigen::Matrix2d* covariance) {
+  const Eigen::Index n = static_cast<Eigen::Index>(camera.intrinsics().size());
+  if (mean_frames_factor.rows() != n + 6 || mean_frames_factor.cols() != n + 6) return false;
+  Eigen::Vector2d q;
+  Eigen::Matrix<double, 2, 3> dq_dp;
+  Eigen::Matrix<double, 2, Eigen::Dynamic> dq_di;
+  if (!camera.Project(p_cam, &q, &dq_dp, &dq_di)) return false;
+  Eigen::Matrix3d minus_skew;  // -[p]x: d(psi x p)/d psi
+  minus_skew << 0, p_cam.z(), -p_cam.y(), -p_cam.z(), 0, p_cam.x(), p_cam.y(), -p_cam.x(), 0;
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(2, n + 6);
+  G.leftCols(n) = dq_di;
+  G.middleCols(n, 3) = dq_dp * minus_skew;
+  if (!at_infinity) G.rightCols(3) = dq_dp;
+  const Eigen::MatrixXd GM = G * mean_frames_factor;
+  const Eigen::Matrix2d c = GM * GM.transpose();
+  if (!c.allFinite()) return false;
+  *covariance = c;
+  return true;
 }
 
 }  // namespace svms

@@ -157,6 +157,59 @@ TEST_F(Sidecar, ALensModelWithoutGradientsIsRefused) {
   EXPECT_EQ(cahvore.intrinsics_covariance_factor().size(), 0);
 }
 
+TEST_F(Sidecar, MeanFramesFactorRoundTripsAndIsChecked) {
+  Eigen::MatrixXd none;
+  ASSERT_TRUE(ReadMeanFramesFactor(path_, camera_, &none).ok());
+  EXPECT_EQ(none.size(), 0) << "svms calibrate's sidecar has none";
+  const Eigen::MatrixXd M = Factor(14);
+  ASSERT_TRUE(WriteCovarianceSidecar(path_, camera_, 0.05, 30, M).ok());
+  CameraModel c = Camera();
+  ASSERT_TRUE(ReadCovarianceSidecar(path_, &c).ok());
+  Eigen::MatrixXd back;
+  ASSERT_TRUE(ReadMeanFramesFactor(path_, camera_, &back).ok());
+  EXPECT_EQ(back, M);
+  EXPECT_FALSE(WriteCovarianceSidecar(path_, camera_, 0.05, 30, Factor(13)).ok());
+  std::string text;
+  ASSERT_TRUE(ReadTextFile(path_, &text).ok());
+  nlohmann::json j = nlohmann::json::parse(text);
+  j["mean_frames_factor"].erase(13);
+  ASSERT_TRUE(WriteTextFile(path_, j.dump()).ok());
+  EXPECT_NE(ReadMeanFramesFactor(path_, camera_, &back).message().find("mean_frames_factor"),
+            std::string::npos);
+  EXPECT_FALSE(ReadCovarianceSidecar(path_, &c).ok());
+}
+
+// Cov(q) = G M M^T G^T with G = [dq/dintrinsics, dq/dp (-[p]x), dq/dp], checked against the
+// pieces: the intrinsics alone, a rotation alone (also at infinity) and a translation alone
+// (left out at infinity).
+TEST(CameraCovariance, MeanFramesProjectionCovariance) {
+  const CameraModel c = Camera();
+  const Eigen::Vector3d p(0.2, -0.1, 1.5);
+  Eigen::Vector2d q;
+  Eigen::Matrix<double, 2, 3> dq_dp;
+  Eigen::Matrix<double, 2, Eigen::Dynamic> dq_di;
+  ASSERT_TRUE(c.Project(p, &q, &dq_dp, &dq_di));
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(14, 14);
+  Eigen::Matrix2d cov;
+  M(0, 0) = 2;  // fx only
+  ASSERT_TRUE(MeanFramesProjectionCovariance(c, M, p, false, &cov));
+  EXPECT_TRUE(cov.isApprox(4 * dq_di.col(0) * dq_di.col(0).transpose(), 1e-12));
+  M.setZero();
+  M(10, 10) = 1e-3;  // psi_z: p moves by psi_z (-p.y, p.x, 0)
+  ASSERT_TRUE(MeanFramesProjectionCovariance(c, M, p, false, &cov));
+  const Eigen::Vector2d dq = dq_dp * Eigen::Vector3d(-p.y(), p.x(), 0) * 1e-3;
+  EXPECT_TRUE(cov.isApprox(dq * dq.transpose(), 1e-9));
+  ASSERT_TRUE(MeanFramesProjectionCovariance(c, M, 7 * p, true, &cov));
+  EXPECT_TRUE(cov.isApprox(dq * dq.transpose(), 1e-9)) << "at infinity the direction counts";
+  M.setZero();
+  M(11, 11) = 1e-3;  // kappa_x
+  ASSERT_TRUE(MeanFramesProjectionCovariance(c, M, p, false, &cov));
+  EXPECT_TRUE(cov.isApprox(1e-6 * dq_dp.col(0) * dq_dp.col(0).transpose(), 1e-9));
+  ASSERT_TRUE(MeanFramesProjectionCovariance(c, M, p, true, &cov));
+  EXPECT_EQ(cov.norm(), 0);
+  EXPECT_FALSE(MeanFramesProjectionCovariance(c, Factor(8), p, false, &cov));
+}
+
 TEST(CameraCovariance, FactorShapeAndValuesAreChecked) {
   CameraModel c = Camera();
   EXPECT_FALSE(c.set_intrinsics_covariance_factor(Eigen::MatrixXd::Identity(4, 4)).ok());

@@ -19,6 +19,7 @@
 #include "svms/pipelines/gnuplot.h"
 #include "svms/pipelines/image_inputs.h"
 #include "svms/pipelines/item_failure.h"
+#include "svms/pipelines/mrcal_uncertainty.h"
 #include "svms/pipelines/output_checks.h"
 #include "svms/pipelines/progress.h"
 
@@ -139,6 +140,18 @@ int CheckOutputs(const SurveyRunOptions& o, const std::vector<std::string>& file
   inputs.push_back(CovarianceSidecarPath(o.camera));
   inputs.push_back(o.markers);
   if (Status s = CheckNotAnInput("--out", o.out, inputs); !s) return BadInput(s.message());
+  if (!o.out_camera.empty()) {
+    for (const std::string& path : {o.out_camera, CovarianceSidecarPath(o.out_camera)})
+      if (Status s = CheckNotAnInput("--out-camera", path, inputs); !s)
+        return BadInput(s.message());
+    // The layout and the camera are written as one group: three distinct files.
+    std::error_code ec;
+    const fs::path out = fs::weakly_canonical(o.out, ec);
+    for (const std::string& path : {o.out_camera, CovarianceSidecarPath(o.out_camera)})
+      if (fs::weakly_canonical(path, ec) == out || path == o.out)
+        return BadInput("--out-camera " + o.out_camera + ": writes " + path +
+                        ", which is --out; expected another file name");
+  }
   if (!o.report.empty())
     if (Status s = PrepareOutputDirectory("--report", o.report); !s) return BadInput(s.message());
   return kExitOk;
@@ -195,6 +208,7 @@ int SolveAndWrite(const SurveyRunOptions& o, const std::vector<SurveyImage>& ima
   if (!o.quiet) std::cerr << "svms survey: solving\n";
   SurveyResult result;
   const Status s = RunSurvey(images, models.markers, camera, options, config, &result);
+  result.summary.refined_camera = o.out_camera;
   if (!o.quiet || !s) std::cerr << result.summary.BriefReport();
   bool report_failed = false;
   if (!o.report.empty()) {
@@ -214,19 +228,43 @@ int SolveAndWrite(const SurveyRunOptions& o, const std::vector<SurveyImage>& ima
     std::cerr << "svms survey: the layout was not written\n";
     return kExitFailed;
   }
-  if (Status w = WriteTextFile(o.out, LayoutToJson(result.layout)); !w) {
+  // The layout, and with --out-camera the refined camera and its sidecar, as one group: a
+  // layout never replaces an earlier one without the camera it belongs to.
+  AtomicFileSet files;
+  if (!o.out_camera.empty()) {
+    const double noise_sigma_px = result.summary.rms_px / std::sqrt(2.0);  // per coordinate
+    if (Status w = AddCameraWithSidecar(o.out_camera, result.camera, noise_sigma_px,
+                                        result.summary.images_used, &files);
+        !w) {
+      std::cerr << "svms survey: --out-camera: " << w.message() << "\n";
+      return kExitFailed;
+    }
+  }
+  files.Add(o.out, LayoutToJson(result.layout)).ok();  // an error is Commit's
+  if (Status w = files.Commit(); !w) {
     std::cerr << "svms survey: " << w.message() << "\n";
     return kExitFailed;
   }
-  if (!o.quiet) std::cerr << "svms survey: wrote " << o.out << "\n";
+  if (!o.quiet) {
+    std::cerr << "svms survey: wrote " << o.out << "\n";
+    if (!o.out_camera.empty())
+      std::cerr << "svms survey: wrote " << o.out_camera << " and "
+                << CovarianceSidecarPath(o.out_camera)
+                << " (the refined camera the layout belongs to)\n";
+  }
   return kExitOk;
 }
 
 }  // namespace
 
 int RunSurveyFromImages(const SurveyRunOptions& o) {
+  if (!o.out_camera.empty() && !o.refine_intrinsics)
+    return BadInput("--out-camera " + o.out_camera +
+                    ": only with --refine-intrinsics (without it the camera is the input one)");
   CameraModel camera;
   if (Status s = ReadCameraWithSidecar(o.camera, &camera); !s) return BadInput(s.message());
+  if (std::string hint = MissingUncertaintyHint(o.camera); !hint.empty() && !o.quiet)
+    std::cerr << "svms survey: " << hint << "\n";
   Photometry photometry;
   if (Status s = Photometry::Create(o.photometry, o.camera, &photometry); !s)
     return BadInput(s.message());

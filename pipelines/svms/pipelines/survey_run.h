@@ -21,6 +21,9 @@ struct SurveyRunOptions {
   std::string out;                  // the layout JSON to write
   std::string report;               // "" = no report directory
   std::optional<int> reference;     // the marker whose frame is the object frame
+  // With refine_intrinsics: the refined camera to write (.cameramodel and its covariance
+  // sidecar, committed with the layout); "" = not written. Refused without refine_intrinsics.
+  std::string out_camera;
   // "A:B:DISTANCE[:SIGMA]" and "NAME=X,Y,Z[,SIGMA]" in metres (NAME: ID, ID.tl/.tr/.br/.bl or
   // ID.tip); three control points instead of a reference fix the object frame.
   std::vector<std::string> scale_bars, control_points;

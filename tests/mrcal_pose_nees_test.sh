@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# A camera calibrated by mrcal's own tool (`mrcal-calibrate-cameras`, run by the quick calibration
+# benchmark on its chessboard views) in `svms bench pose` on the quick approach, after
+# `svms camera import-uncertainty`: the mean NEES with the imported covariance is that of the
+# true camera (within a factor 1.5 either way: one calibration, so one draw of its error over
+# 12 frames), and far above it without the calibration's term (so the sidecar is what does it).
+# usage: mrcal_pose_nees_test.sh SVMS MRCAL_CAMERA
+set -uo pipefail
+svms=${1:?svms}; mrcal_cam=${2:?camera-0.cameramodel of mrcal-calibrate-cameras}
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+"$svms" dataset approach --quick --threads 2 --out "$tmp/approach" > /dev/null 2>&1 ||
+  fail "rendering the quick approach"
+cp "$mrcal_cam" "$tmp/mrcal.cameramodel"
+"$svms" camera import-uncertainty "$tmp/mrcal.cameramodel" || fail "import-uncertainty exited $?"
+run() {  # NAME CAMERA [options]: the benchmark exits 3 when its NEES band is missed
+  local name=$1; shift
+  "$svms" bench pose --quick --data "$tmp/approach" --layout "$tmp/approach/true_layout.json" \
+    "$@" --out "$tmp/$name" > "$tmp/$name.log" 2>&1
+  local rc=$?
+  [ $rc -eq 0 ] || [ $rc -eq 3 ] || fail "bench pose ($name) exited $rc: $(tail -3 "$tmp/$name.log")"
+}
+run truth
+run mrcal --camera "$tmp/mrcal.cameramodel"
+run without --camera "$tmp/mrcal.cameramodel" --no-calibration-covariance
+/usr/bin/python3 - "$tmp" <<'PY' || fail "NEES"
+import json, sys
+d = sys.argv[1]
+nees = {k: json.load(open(f"{d}/{k}/summary.json"))["nees_mean"] for k in ("truth", "mrcal", "without")}
+print("mean NEES: true camera %.2f, mrcal's with its imported covariance %.2f, without it %.1f"
+      % (nees["truth"], nees["mrcal"], nees["without"]))
+assert nees["truth"] / 1.5 < nees["mrcal"] < 1.5 * nees["truth"], nees
+assert nees["without"] > 10 * nees["mrcal"], nees
+PY
+echo "mrcal_pose_nees: ok"
