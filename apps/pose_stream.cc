@@ -52,12 +52,13 @@ int Prepare(Stream* s) {
     return BadInput(
         "give IMAGES or --stdin (a path, and optionally a timestamp in seconds, per line), not "
         "both and not neither");
+  if (Status st = Photometry::Create(o.photometry, o.camera, &s->photometry); !st)
+    return BadInput(st.message());
   PoseEstimatorOptions options;
   options.fusion.corner_sigma_px = o.corner_sigma_px;
   options.budget_ms = o.budget_ms;
+  options.detector.refine.max_row_window_px = s->photometry.CornerRowWindowPx();
   if (Status st = PoseEstimator::CreateFromFiles(o.camera, o.layout, options, &s->est); !st)
-    return BadInput(st.message());
-  if (Status st = Photometry::Create(o.photometry, o.camera, &s->photometry); !st)
     return BadInput(st.message());
   if (!o.from_stdin) s->files = ExpandImageInputs(o.inputs);
   if (!o.overlay.empty()) {

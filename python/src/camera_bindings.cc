@@ -174,9 +174,14 @@ void BindCamera(py::module_& m) {
       .def(
           "write",
           [](const CameraModel& c, const std::filesystem::path& path) {
-            RaiseIfError(c.Write(path.string()));
+            // With the covariance sidecar when the camera has one, and without an earlier
+            // sidecar left beside it (it would belong to another calibration).
+            RaiseIfError(WriteCameraWithSidecar(path.string(), c, 0, 0));
           },
-          py::arg("path"), "Writes an mrcal .cameramodel (atomically; exact round trip)")
+          py::arg("path"),
+          "Writes an mrcal .cameramodel (atomically; exact round trip) and, when the camera "
+          "carries its intrinsics' covariance, its PATH.covariance.json sidecar; an earlier "
+          "sidecar of another calibration is removed")
       .def(
           "to_text",
           [](const CameraModel& c) {

@@ -1,8 +1,10 @@
 #include "svms/fusion/pose_estimator.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <memory>
 
+#include "svms/camera/bayer_luminance.h"
 #include "svms/camera/camera_covariance.h"
 #include "svms/marker/model_io.h"
 
@@ -16,6 +18,15 @@ std::vector<MarkerModel> Models(const Layout& layout) {
   for (const LayoutEntry& e : layout.markers) models.push_back(e.marker);
   return models;
 }
+// The detector's options for frames read through `photometric`: a Bayer mosaic turned into
+// luminance gets the corner fit's wider row window (CornerRowWindowPx), as `svms detect` does.
+DetectorOptions ForFrames(const PoseEstimatorOptions& o) {
+  DetectorOptions d = o.detector;
+  if (o.photometric)
+    d.refine.max_row_window_px =
+        std::max(d.refine.max_row_window_px, CornerRowWindowPx(*o.photometric));
+  return d;
+}
 }  // namespace
 
 PoseEstimator::PoseEstimator(const CameraModel& camera, const Layout& layout,
@@ -23,7 +34,7 @@ PoseEstimator::PoseEstimator(const CameraModel& camera, const Layout& layout,
     : camera_(camera),
       layout_(layout),
       options_(options),
-      detector_(options.detector, camera, Models(layout)),
+      detector_(ForFrames(options), camera, Models(layout)),
       linearizer_(options.photometric.value_or(PhotometricModel())) {}
 
 Status PoseEstimator::Create(const CameraModel& camera, const Layout& layout,

@@ -1,6 +1,7 @@
 #include "svms/camera/bayer_luminance.h"
 
 #include <algorithm>
+#include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
@@ -49,13 +50,20 @@ cv::Matx<float, 5, 5> BayerLuminanceKernel() {
 std::array<double, 3> EstimateBayerGains(const cv::Mat& mosaic, BayerPattern pattern,
                                          double saturation) {
   CV_Assert(mosaic.type() == CV_16UC1);
+  if (pattern == BayerPattern::kNone) return {1, 1, 1};
   const std::array<int, 4> colour = CellColours(pattern);
-  std::vector<double> red_over_green, blue_over_green;
+  // At most about 16,000 cells, evenly strided (a median needs no more), into buffers kept per
+  // thread: a frame of the same size allocates nothing.
+  thread_local std::vector<double> red_over_green, blue_over_green;
+  red_over_green.clear();
+  blue_over_green.clear();
+  const double cells = 0.25 * mosaic.rows * mosaic.cols;
+  const int stride = std::max(1, static_cast<int>(std::sqrt(cells / 16000.0)));
   const double low = 0.05 * saturation, high = 0.98 * saturation;
-  for (int y = 0; y + 1 < mosaic.rows; y += 2) {
+  for (int y = 0; y + 1 < mosaic.rows; y += 2 * stride) {
     const uint16_t* r0 = mosaic.ptr<uint16_t>(y);
     const uint16_t* r1 = mosaic.ptr<uint16_t>(y + 1);
-    for (int x = 0; x + 1 < mosaic.cols; x += 2) {
+    for (int x = 0; x + 1 < mosaic.cols; x += 2 * stride) {
       const double v[4] = {double(r0[x]), double(r0[x + 1]), double(r1[x]), double(r1[x + 1])};
       double g[2], r = 0, b = 0;
       int ng = 0;

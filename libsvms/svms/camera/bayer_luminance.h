@@ -32,9 +32,10 @@ struct PhotometricModel;
 
 // Gains that scale each colour of the mosaic to green's sensitivity: {red, green, blue}, the
 // green one 1. Estimated from `mosaic` (CV_16UC1, linear, 0 = black, `saturation` = white) as
-// 1 / median(R / G) and 1 / median(B / G) over the 2 x 2 cells whose green pixels are above 5 %
-// of `saturation` and agree within 5 %, and whose pixels are all below 98 %; {1, 1, 1} where
-// fewer than 64 cells qualify (a dark or saturated frame: nothing to balance by).
+// 1 / median(R / G) and 1 / median(B / G) over the 2 x 2 cells (at most about 16,000, evenly
+// strided) whose green pixels are above 5 % of `saturation` and agree within 5 %, and whose
+// pixels are all below 98 %; {1, 1, 1} where fewer than 64 cells qualify (a dark or saturated
+// frame: nothing to balance by) or for BayerPattern::kNone.
 std::array<double, 3> EstimateBayerGains(const cv::Mat& mosaic, BayerPattern pattern,
                                          double saturation = 65535);
 
@@ -52,12 +53,9 @@ cv::Matx<float, 5, 5> BayerLuminanceKernel();
 // The widest window (half-width across an edge, pixels) the corner fit should use along the
 // pixel rows on images read through `model` (CornerRefineOptions::max_row_window_px): 3.5 for
 // a mosaic turned into luminance here, whose filter blurs every edge about as much as a
-// Gaussian of 0.7 px, so that the window's levels are read on the edge's plateaus (on the
-// range set through raw12_bayer the single-marker NEES mean goes from 16.1 at 2 px to 6.0);
-// 2 otherwise. Not widened on every image: on sharp linear renders a window widened by each
-// edge's own measured spread moved shadowed, low-contrast sides (the survey's mockup: marker
-// positions 0.37 mm RMS against under 0.2), and on JPEGs its corners' sigmas shrank more than
-// their errors (neighbouring edge points err together over a JPEG block).
+// Gaussian of 0.7 px, so that the window's levels are read on the edge's plateaus; 2
+// otherwise. Why not on every image, and the figures: docs/detector.md (Bayer mosaics, and the
+// known limitations).
 double CornerRowWindowPx(const PhotometricModel& model);
 
 }  // namespace svms

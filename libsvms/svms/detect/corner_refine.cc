@@ -49,6 +49,10 @@ class Sampler {
   const double max_u_, max_v_;
 };
 
+// The widest window AreaAlongPixelRow takes (half-width across the edge, pixels): what its
+// buffer holds at 45 degrees.
+constexpr double kMaxRowWindowPx = 4.0;
+
 // The edge through `centre` (pixels; within a few tenths of a pixel of the edge) across which
 // the intensity rises along `outward`, from the pixels' own values along the pixel row (or
 // column) through it: the one of the two axes nearer `outward`, the centre first moved along
@@ -85,7 +89,7 @@ bool AreaAlongPixelRow(const Sampler& sample, const Eigen::Vector2d& centre,
   const int lo = static_cast<int>(std::floor(frac - reach)) - 1;
   const int hi = static_cast<int>(std::ceil(frac + reach)) + 1;
   std::array<double, 20> pix{};
-  static_assert(2 * 4.0 * 1.4143 + 5 <= 20, "W = 4 at 45 degrees fits");
+  static_assert(2 * kMaxRowWindowPx * 1.4143 + 5 <= 20, "the widest window at 45 degrees fits");
   if (hi - lo + 1 > static_cast<int>(pix.size())) return false;
   for (int k = lo; k <= hi; ++k) pix[k - lo] = along_x ? sample(k0 + k, row) : sample(row, k0 + k);
   // The integral of the linear interpolant between pixel centres over [a, b] (any order).
@@ -121,18 +125,12 @@ constexpr double kNarrowBandDrop = 0.02;
 // `max_window`. Why: the window's levels are read in its outer 0.5 px, from the linear
 // interpolant between pixels; where a blurred edge has not reached its plateaus there, the two
 // levels fall short by different amounts at each pixel phase and the edge moves. Noise-free
-// straight edges at 0-45 degrees behind a Gaussian blur of sigma 0.5 / 0.7 / 1.0 / 1.4 px came
-// out 0.012 / 0.025 / 0.033 / 0.040 px RMS off at +-2 px (worst 0.11), within 0.01 px at
-// +-3.5 (corner_refine_test: LocateEdge.ABlurredEdgeIsFoundWithAWiderWindow). The spread (the
-// standard deviation of the profile's rising steps about their mean) is 0.36-0.58 px on sharp
-// edges (pixels only, by angle), 0.67 / 0.80 / 0.92 / 1.02 at those blurs (truncated by the
-// +-2 px it is measured over); sharp edges keep 2 px, whose noise is least. On the simulator's
-// range set through a Bayer mosaic (bayer_luminance.h, whose filter blurs about as much as 0.7
-// px) the single-marker NEES mean goes from 16.1 to 6.0, behind 0.7 px of optical blur (srgb8
-// profile) from 8.0 to 4.9. What it costs: on JPEGs of the angle set, whose block artefacts
-// make neighbouring edge points err together over several points (beyond the lag-1
-// correlation CornerSigmas models), the corners come out closer to the truth but their sigmas
-// shrink more: the share of NEES below 12.59 falls from 0.95 to 0.79 (docs/detector.md).
+// straight edges at 0-45 degrees behind a Gaussian blur of sigma 0.5 to 1.0 px are found
+// within 0.01 px at +-3.5 px, and up to 0.11 px off at +-2 (corner_refine_test:
+// LocateEdge.ABlurredEdgeIsFoundWithAWiderWindow). The spread (the standard deviation of the
+// profile's rising steps about their mean) is 0.36-0.58 px on sharp edges (pixels only, by
+// angle) and 0.67 / 0.80 / 0.92 at those blurs (truncated by the +-2 px it is measured over);
+// sharp edges keep 2 px, whose noise is least. At most kMaxRowWindowPx.
 double RowWindow(const std::array<double, 17>& prof, double h, double max_window) {
   double sw = 0, sx = 0, sxx = 0;
   const int n = static_cast<int>(prof.size()) - 1;
@@ -144,7 +142,8 @@ double RowWindow(const std::array<double, 17>& prof, double h, double max_window
   }
   if (!(sw > 0)) return 2.0;
   const double spread = std::sqrt(std::max(0.0, sxx / sw - (sx / sw) * (sx / sw)));
-  return std::clamp(2.0 + 6.0 * (spread - 0.55), 2.0, std::max(2.0, max_window));
+  return std::clamp(2.0 + 6.0 * (spread - 0.55), 2.0,
+                    std::clamp(max_window, 2.0, kMaxRowWindowPx));
 }
 
 // The edge crossing `p` where the intensity rises along `outward` (unit, pixels), searched

@@ -121,7 +121,8 @@ bool PrepareImages(const cv::Mat& input, DetectScratch* sc, StepImages* im) {
 // 1-3. Edges, chains, segments into sc->segments. A 16-bit image's noise is estimated from the
 // image at its full depth (noise_model.h: black backgrounds clipped at 0 and saturated glints
 // left out) and the edges are searched on a scale where it is the same everywhere. False when
-// `deadline` passed before every edge chain was processed (sc->segments then holds a part).
+// `deadline` passed before every edge chain was processed (sc->segments then holds a part, or
+// nothing).
 bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, DetectScratch* sc,
                       DetectionStats* stats, Clock::time_point deadline) {
   const cv::Mat* edge_image = &im.gray;

@@ -89,9 +89,9 @@ std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& op
 // The same into *segments (replaced). Its buffers, and this thread's scratch (kept between
 // calls, per thread), are reused: with *segments, gradient_x and gradient_y kept by the caller,
 // a call on an image no larger than earlier ones allocates nothing once they have grown.
-// `deadline`: checked after the edge map and then every 64 edge chains and between the merging
-// passes; once it has passed, the segments found so far are returned (unmerged where the merge
-// had not run) and the result is false. True when every chain was processed. The edge map
+// `deadline`: checked after the edge map, every 32 rows of edge linking, every 64 edge chains
+// and between the merging passes; once it has passed the result is false, with the segments
+// found so far (none when linking was interrupted; unmerged where the merge had not run). True when every chain was processed. The edge map
 // itself (gradients, Canny, about 2-3 ms at 1024 x 1024 on one core) is not interrupted.
 bool FindSegments(const cv::Mat& gray8, const SegmentOptions& options, cv::Mat* gradient_x,
                   cv::Mat* gradient_y, std::vector<Segment>* segments,

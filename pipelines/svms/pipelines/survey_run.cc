@@ -145,12 +145,15 @@ int CheckOutputs(const SurveyRunOptions& o, const std::vector<std::string>& file
       if (Status s = CheckNotAnInput("--out-camera", path, inputs); !s)
         return BadInput(s.message());
     // The layout and the camera are written as one group: three distinct files.
-    std::error_code ec;
-    const fs::path out = fs::weakly_canonical(o.out, ec);
-    for (const std::string& path : {o.out_camera, CovarianceSidecarPath(o.out_camera)})
-      if (fs::weakly_canonical(path, ec) == out || path == o.out)
+    std::error_code out_ec;
+    const fs::path out = fs::weakly_canonical(o.out, out_ec);
+    for (const std::string& path : {o.out_camera, CovarianceSidecarPath(o.out_camera)}) {
+      std::error_code ec;
+      const fs::path p = fs::weakly_canonical(path, ec);
+      if ((!ec && !out_ec && p == out) || path == o.out)
         return BadInput("--out-camera " + o.out_camera + ": writes " + path +
                         ", which is --out; expected another file name");
+    }
   }
   if (!o.report.empty())
     if (Status s = PrepareOutputDirectory("--report", o.report); !s) return BadInput(s.message());
