@@ -135,7 +135,9 @@ def check_model(name, model, d):
         ratio = ours / ref
         worst = max(worst, np.max(np.abs(ratio - 1)))
         where = "infinity" if dist is None else f"{dist} m"
-        check(np.all(np.abs(ratio - 1) < 0.10),
+        # The same computation as mrcal's: agreement to rounding, far inside the 10 % the issue
+        # asks, so that a wrong frame average or count cannot hide in it.
+        check(np.all(np.abs(ratio - 1) < 1e-4),
               f"{name}: sidecar vs mrcal.projection_uncertainty at {where}, 5x5 grid: "
               f"mrcal {ref.min():.3f}-{ref.max():.3f} px, ratio {ratio.min():.6f}-{ratio.max():.6f}")
         # The intrinsics alone (the pose's term) at the same points: larger, not mrcal's number.
