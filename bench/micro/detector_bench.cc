@@ -140,7 +140,7 @@ cv::Mat Cluttered(const cv::Mat& base) {
   return img;
 }
 
-// The deadline as a bound (issue 30): the cluttered frame (Cluttered) detected under a budget
+// The deadline as a bound: the cluttered frame (Cluttered) detected under a budget
 // of B ms (the argument; 0: none). Counters: the budget, the longest frame (ms) and its
 // excess over the budget (ms), the share of frames that ran out of time. Wall time per frame
 // is measured here, not by the library.
@@ -171,8 +171,13 @@ void BM_DetectDeadline(benchmark::State& state) {
   state.counters["share_exceeded"] = static_cast<double>(exceeded) / state.iterations();
   state.counters["markers_found"] = static_cast<double>(out.size());
 }
-BENCHMARK(BM_DetectDeadline)->Arg(0)->Arg(2)->Arg(5)->Arg(10)->Arg(20)->Unit(
-    benchmark::kMillisecond);
+BENCHMARK(BM_DetectDeadline)
+    ->Arg(0)
+    ->Arg(2)
+    ->Arg(5)
+    ->Arg(10)
+    ->Arg(20)
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -281,7 +281,7 @@ int WriteSpeedReport(const SpeedBenchmarkOptions& o, const SpeedRun& run) {
       md << " |\n";
     }
 
-  // Targets (issue 30).
+  // Targets, with their verdicts.
   BenchTargets targets;
   const std::string why_quick = "--quick: too few images to time";
   for (const std::string& kind : {std::string("photo"), std::string("markers")}) {
@@ -352,7 +352,7 @@ int WriteSpeedReport(const SpeedBenchmarkOptions& o, const SpeedRun& run) {
     targets.Add("0 false positives on every photograph (all 32,768 IDs allowed)", fp == 0,
                 std::to_string(fp) + " in " + std::to_string(images) + " images: " + measured);
   }
-  md << "\nTargets (issue 30):\n\n" << targets.Markdown();
+  md << "\nTargets:\n\n" << targets.Markdown();
 
   json summary;
   summary["command"] = "svms bench speed";

@@ -38,11 +38,11 @@ double Median(std::vector<double>* v) {
 
 cv::Matx<float, 5, 5> BayerLuminanceKernel() {
   // Alleysson et al. 2005, eq. (16): zero response at (pi, pi), (pi, 0) and (0, pi).
-  const float k[25] = {-2, 3,  -6, 3, -2,  //
-                       3,  4,  2,  4, 3,   //
-                       -6, 2,  48, 2, -6,  //
-                       3,  4,  2,  4, 3,   //
-                       -2, 3,  -6, 3, -2};
+  const float k[25] = {-2, 3, -6, 3, -2,  //
+                       3,  4, 2,  4, 3,   //
+                       -6, 2, 48, 2, -6,  //
+                       3,  4, 2,  4, 3,   //
+                       -2, 3, -6, 3, -2};
   cv::Matx<float, 5, 5> m(k);
   return m * (1.0f / 64.0f);
 }
@@ -86,11 +86,11 @@ std::array<double, 3> EstimateBayerGains(const cv::Mat& mosaic, BayerPattern pat
 
 double CornerRowWindowPx(const PhotometricModel& model) {
   return model.bayer != BayerPattern::kNone && model.demosaic == BayerMethod::kLuminance ? 3.5
-                                                                                          : 2.0;
+                                                                                         : 2.0;
 }
 
-void BayerLuminance(const cv::Mat& mosaic, BayerPattern pattern,
-                    const std::array<double, 3>& gains, cv::Mat* out) {
+void BayerLuminance(const cv::Mat& mosaic, BayerPattern pattern, const std::array<double, 3>& gains,
+                    cv::Mat* out) {
   CV_Assert(mosaic.type() == CV_16UC1 && out->data != mosaic.data);
   const std::array<int, 4> colour = CellColours(pattern);
   thread_local cv::Mat balanced, filtered;

@@ -44,8 +44,8 @@ std::array<double, 3> EstimateBayerGains(const cv::Mat& mosaic, BayerPattern pat
 // the mosaic scaled by `gains` per colour, filtered by the frequency-selection kernel (its sum
 // 1, its response 0 at the chrominance carriers), borders reflected without repeating the edge
 // pixel (which keeps each pixel's colour). `out` may not be `mosaic`.
-void BayerLuminance(const cv::Mat& mosaic, BayerPattern pattern,
-                    const std::array<double, 3>& gains, cv::Mat* out);
+void BayerLuminance(const cv::Mat& mosaic, BayerPattern pattern, const std::array<double, 3>& gains,
+                    cv::Mat* out);
 
 // The 5 x 5 frequency-selection kernel, sum 1.
 cv::Matx<float, 5, 5> BayerLuminanceKernel();

@@ -12,8 +12,8 @@
 namespace svms {
 namespace {
 
-constexpr BayerPattern kPatterns[] = {BayerPattern::kRggb, BayerPattern::kBggr,
-                                      BayerPattern::kGrbg, BayerPattern::kGbrg};
+constexpr BayerPattern kPatterns[] = {BayerPattern::kRggb, BayerPattern::kBggr, BayerPattern::kGrbg,
+                                      BayerPattern::kGbrg};
 
 // The colour (0 r, 1 g, 2 b) of pixel (x, y) under `p`, written out independently of the code.
 int ColourAt(BayerPattern p, int x, int y) {
@@ -138,8 +138,7 @@ TEST(BayerLuminance, LeavesASharpGreyEdgeWhereItIsAndOpenCvMovesIt) {
       ASSERT_TRUE(LinearizeImage(mosaic, m, &cv_lum).ok());
       const double l0 = cv_lum.at<uint16_t>(10, 2), l1 = cv_lum.at<uint16_t>(10, 45);
       for (int row = 10; row < 12; ++row)
-        worst_opencv =
-            std::max(worst_opencv, std::abs(EdgeFromArea(cv_lum, row, l0, l1) - edge));
+        worst_opencv = std::max(worst_opencv, std::abs(EdgeFromArea(cv_lum, row, l0, l1) - edge));
     }
   }
   EXPECT_LT(worst, 0.001);
@@ -158,9 +157,8 @@ TEST(LinearizeImage, BayerMosaicOfAGreySceneBecomesTheScene) {
   cv::Mat raw(40, 40, CV_16UC1);
   for (int y = 0; y < 40; ++y)
     for (int x = 0; x < 40; ++x)
-      raw.at<uint16_t>(y, x) =
-          std::lround(256 + (4095 - 256) * qe[ColourAt(BayerPattern::kGrbg, x, y)] *
-                                grey.at<double>(y, x));
+      raw.at<uint16_t>(y, x) = std::lround(
+          256 + (4095 - 256) * qe[ColourAt(BayerPattern::kGrbg, x, y)] * grey.at<double>(y, x));
   PhotometricModel m;
   m.bayer = BayerPattern::kGrbg;
   m.black_level = 256;
@@ -169,8 +167,7 @@ TEST(LinearizeImage, BayerMosaicOfAGreySceneBecomesTheScene) {
   ASSERT_TRUE(LinearizeImage(raw, m, &out).ok());
   for (int y = 2; y < 38; ++y)
     for (int x = 2; x < 38; ++x)
-      ASSERT_NEAR(out.at<uint16_t>(y, x) / 65535.0, grey.at<double>(y, x), 0.005)
-          << x << "," << y;
+      ASSERT_NEAR(out.at<uint16_t>(y, x) / 65535.0, grey.at<double>(y, x), 0.005) << x << "," << y;
 }
 
 }  // namespace

@@ -8,8 +8,8 @@
 #include <sstream>
 
 #include "svms/base/file_io.h"
-#include "svms/camera/bayer_luminance.h"
 #include "svms/base/json_fields.h"
+#include "svms/camera/bayer_luminance.h"
 
 namespace svms {
 
@@ -331,8 +331,9 @@ Status ParsePhotometricJson(const std::string& text, const std::string& source,
   if (!ParseText(text, source, &j, &error)) return Status::Error(error);
   PhotometricModel m;
   try {
-    CheckKeys(j, "", {"type", "response", "response_table", "black_level", "white_level", "bayer",
-                      "demosaic"});
+    CheckKeys(
+        j, "",
+        {"type", "response", "response_table", "black_level", "white_level", "bayer", "demosaic"});
     if (String(j, "", "type") != "svms.photometric")
       Fail("type", "\"svms.photometric\"", j["type"]);
     if (j.contains("response") == j.contains("response_table"))

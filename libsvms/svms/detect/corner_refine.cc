@@ -142,8 +142,7 @@ double RowWindow(const std::array<double, 17>& prof, double h, double max_window
   }
   if (!(sw > 0)) return 2.0;
   const double spread = std::sqrt(std::max(0.0, sxx / sw - (sx / sw) * (sx / sw)));
-  return std::clamp(2.0 + 6.0 * (spread - 0.55), 2.0,
-                    std::clamp(max_window, 2.0, kMaxRowWindowPx));
+  return std::clamp(2.0 + 6.0 * (spread - 0.55), 2.0, std::clamp(max_window, 2.0, kMaxRowWindowPx));
 }
 
 // The edge crossing `p` where the intensity rises along `outward` (unit, pixels), searched

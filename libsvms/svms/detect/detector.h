@@ -126,11 +126,11 @@ class Detector {
   // float, saturated to 8 bits); 1, 3 or 4 channels, none for other counts.
   std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats = nullptr) const;
   // The same under a deadline: every step checks it (edge linking every 32 rows, the edge
-  // chains every 64, the quad search every 256 segments, the decoding every 8 quads, corners, tip and pose every marker); once
-  // it has passed, stats->budget_exceeded is set and only the markers that went through every
-  // step before it are returned: none when it passed in steps 1-4 (edges, segments, quads).
-  // Not interrupted: the 16-bit noise estimate and the edge map (gradients and hysteresis),
-  // whose cost the image size sets.
+  // chains every 64, the quad search every 256 segments, the decoding every 8 quads, corners, tip
+  // and pose every marker); once it has passed, stats->budget_exceeded is set and only the markers
+  // that went through every step before it are returned: none when it passed in steps 1-4 (edges,
+  // segments, quads). Not interrupted: the 16-bit noise estimate and the edge map (gradients and
+  // hysteresis), whose cost the image size sets.
   std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats,
                                 std::chrono::steady_clock::time_point deadline) const;
   // The same into *detections (replaced), whose capacity is reused: with one vector kept by

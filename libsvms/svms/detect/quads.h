@@ -37,10 +37,10 @@ std::vector<Quad> FindQuads(const std::vector<Segment>& segments, const QuadOpti
 // The same into *quads (replaced); with *quads kept by the caller, and this thread's scratch
 // kept between calls, no allocation once they have grown. `deadline`: checked every 256
 // segments; once it has passed, the quads found so far are returned and the result is false.
-bool FindQuads(const std::vector<Segment>& segments, const QuadOptions& options, int width,
-               int height, std::vector<Quad>* quads,
-               std::chrono::steady_clock::time_point deadline =
-                   std::chrono::steady_clock::time_point::max());
+bool FindQuads(
+    const std::vector<Segment>& segments, const QuadOptions& options, int width, int height,
+    std::vector<Quad>* quads,
+    std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max());
 
 // Intersection of two lines (nx, ny, c); false if they are parallel.
 bool Intersect(const Eigen::Vector3d& l1, const Eigen::Vector3d& l2, Eigen::Vector2d* p);

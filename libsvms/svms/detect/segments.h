@@ -91,11 +91,12 @@ std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& op
 // a call on an image no larger than earlier ones allocates nothing once they have grown.
 // `deadline`: checked after the edge map, every 32 rows of edge linking, every 64 edge chains
 // and between the merging passes; once it has passed the result is false, with the segments
-// found so far (none when linking was interrupted; unmerged where the merge had not run). True when every chain was processed. The edge map
-// itself (gradients, Canny, about 2-3 ms at 1024 x 1024 on one core) is not interrupted.
-bool FindSegments(const cv::Mat& gray8, const SegmentOptions& options, cv::Mat* gradient_x,
-                  cv::Mat* gradient_y, std::vector<Segment>* segments,
-                  std::chrono::steady_clock::time_point deadline =
-                      std::chrono::steady_clock::time_point::max());
+// found so far (none when linking was interrupted; unmerged where the merge had not run). True when
+// every chain was processed. The edge map itself (gradients, Canny, about 2-3 ms at 1024 x 1024 on
+// one core) is not interrupted.
+bool FindSegments(
+    const cv::Mat& gray8, const SegmentOptions& options, cv::Mat* gradient_x, cv::Mat* gradient_y,
+    std::vector<Segment>* segments,
+    std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max());
 
 }  // namespace svms

@@ -14,8 +14,8 @@
 namespace svms {
 
 // The photometry options every command that reads images takes (--response, --black-level,
-// --white-level, --bayer, --demosaic). Each given option overrides that part of the model that would
-// apply otherwise (photometric.h: the camera's photometric file, the file's own declaration,
+// --white-level, --bayer, --demosaic). Each given option overrides that part of the model that
+// would apply otherwise (photometric.h: the camera's photometric file, the file's own declaration,
 // the default by depth).
 struct PhotometryOptions {
   std::string response;  // Response::Parse text, or "estimate" (svms calibrate); "" = not given
@@ -58,8 +58,8 @@ class Photometry {
 
   // Loads an image file (at most `max_pixels`, checked from its header) and linearises it
   // (LoadStoredImage, LinearizeImage). *json gets {"response", "black_level", "white_level",
-  // "bayer", "demosaic", "source"}; *stored_grey (optional) the image as stored, one channel (colour turned
-  // to grey on the stored values).
+  // "bayer", "demosaic", "source"}; *stored_grey (optional) the image as stored, one channel
+  // (colour turned to grey on the stored values).
   Status Load(const std::string& path, int64_t max_pixels, cv::Mat* linear, nlohmann::json* json,
               cv::Mat* stored_grey = nullptr) const;
   // Linearises a decoded frame (a video's: 8-bit BGR, which declares sRGB).
