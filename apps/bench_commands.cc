@@ -132,8 +132,9 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
                   "Scale covariances by the frame's variance factor with this prior (0: off)")
       ->capture_default_str();
   cmd->add_option("--corner-fit-scale", o->corner_fit_scale,
-                  "Corner sigma = this times the detector's line-fit sigma")
-      ->capture_default_str();
+                  "Corner sigma = this times the detector's line-fit sigma (default: kCornerCovarianceScale with "
+                  "correlated corners, kCornerFitScale with --independent-corners; marker_pose.h)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--corner-sigma-systematic", o->corner_sigma_systematic_px,
                   "Added in quadrature to the scaled line-fit sigma (px)")
       ->check(CLI::NonNegativeNumber)
@@ -144,6 +145,12 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
   cmd->add_flag("--no-calibration-covariance", o->no_calibration_covariance,
                 "Leave the camera's calibration uncertainty (CAMERA.covariance.json) out of the "
                 "pose covariance");
+  cmd->add_flag("--independent-corners", o->independent_corners,
+                "Treat a marker's corners as independent (leave the line fits' correlation out)");
+  cmd->add_option("--min-tip-sigma", o->min_tip_sigma_px,
+                  "No post-tip sigma below this (px; the detector's own sigma above it)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   cmd->add_flag("--size-model", o->size_model,
                 "Corner sigma from the marker's size only (--corner-sigma, exponent)");
   cmd->add_option("--threads", o->threads, "Threads for rendering and the survey")

@@ -28,6 +28,9 @@ nlohmann::json DetectionJson(const Detection& d) {
   if (d.corner_sigma[0] > 0)
     j["corner_sigma"] = {d.corner_sigma[0], d.corner_sigma[1], d.corner_sigma[2],
                          d.corner_sigma[3]};
+  if (d.corner_covariance(0, 0) > 0)
+    j["corner_covariance"] = std::vector<double>(
+        d.corner_covariance.data(), d.corner_covariance.data() + d.corner_covariance.size());
   if (d.penumbra_sides[0] || d.penumbra_sides[1] || d.penumbra_sides[2] || d.penumbra_sides[3]) {
     nlohmann::json sides = nlohmann::json::array();
     for (int k = 0; k < 4; ++k)

@@ -120,6 +120,11 @@ void BindDetector(py::module_& m) {
           "each corner's standard deviation from its line fits, per axis (pixels; 0: unknown), "
           "shape (4,)")
       .def_property_readonly(
+          "corner_covariance",
+          [](const Detection& d) -> Eigen::Matrix<double, 8, 8> { return d.corner_covariance; },
+          "the corners' joint covariance from the same line fits, 8 x 8 pixels^2 over "
+          "(x0, y0, ..., x3, y3); corners on one side correlate across it (zero: unknown)")
+      .def_property_readonly(
           "tip",
           [](const Detection& d) -> std::optional<Eigen::Vector2d> {
             if (!d.tip) return std::nullopt;

@@ -48,6 +48,10 @@ class DetectorTest(unittest.TestCase):
                 self.assertEqual(d.bit_errors, t["bit_errors"])
                 if "corner_sigma" in t:
                     np.testing.assert_array_equal(d.corner_sigma, t["corner_sigma"])
+                    # Symmetric, so the JSON's row-major order is the matrix's either way.
+                    np.testing.assert_array_equal(d.corner_covariance.ravel(), t["corner_covariance"])
+                    np.testing.assert_allclose(np.diag(d.corner_covariance).reshape(4, 2).mean(axis=1),
+                                               np.square(d.corner_sigma), rtol=1e-9)
                 self.assertEqual(d.tip is None, t["tip"] is None)
                 if d.tip is not None:
                     np.testing.assert_array_equal(d.tip, t["tip"])

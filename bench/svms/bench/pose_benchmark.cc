@@ -78,10 +78,12 @@ PoseEstimatorOptions EstimatorOptions(const PoseBenchmarkOptions& o) {
   options.fusion.corner_sigma_px = o.corner_sigma_px;
   options.fusion.corner_sigma_exponent = o.corner_sigma_exponent;
   options.fusion.variance_prior_dof = o.variance_prior_dof;
-  options.fusion.corner_fit_scale = o.corner_fit_scale;
+  options.fusion.corner_fit_scale = EffectiveCornerFitScale(o);
   options.fusion.min_corner_sigma_px = o.min_corner_sigma_px;
   options.fusion.corner_sigma_systematic_px = o.corner_sigma_systematic_px;
   options.fusion.corner_sigma_from_fit = !o.size_model;
+  options.fusion.corner_covariance_from_fit = !o.independent_corners;
+  options.fusion.min_tip_sigma_px = o.min_tip_sigma_px;
   options.fusion.use_calibration_covariance = !o.no_calibration_covariance;
   return options;
 }

@@ -110,6 +110,8 @@ void WriteSummary(const PoseBenchmarkOptions& o, const PoseFindings& f, const Fi
       {"corner_sigma_px", o.corner_sigma_px},
       {"min_corner_sigma_px", o.min_corner_sigma_px},
       {"corner_sigma_systematic_px", o.corner_sigma_systematic_px},
+      {"corner_correlation", !o.size_model && !o.independent_corners},
+      {"min_tip_sigma_px", o.min_tip_sigma_px},
       {"calibration_in_covariance", f.calibration_in_covariance},
       {"nees_mean", g.nees_mean},
       {"nees_bounds", {6 - g.half, 6 + g.half}},
@@ -210,11 +212,15 @@ std::string Markdown(const PoseBenchmarkOptions& o, const PoseFindings& f, const
                           : o.layout + "`")
      << "; corner sigma: "
      << (o.size_model ? ""
-                      : "the detector's line-fit sigma times " + Fixed(o.corner_fit_scale, 2) +
+                      : "the detector's line-fit sigma times " + Fixed(EffectiveCornerFitScale(o), 2) +
                             " plus " + Fixed(o.corner_sigma_systematic_px, 3) +
-                            " px in quadrature (where refined), else ")
+                            " px in quadrature (where refined; " +
+                            (o.independent_corners ? "the corners independent"
+                                                   : "the corners correlated as the line fits say") +
+                            "), else ")
      << o.corner_sigma_px << " px at 30 px scaled by (30 / shortest side)^"
      << o.corner_sigma_exponent << ", at least " << o.min_corner_sigma_px
+     << " px; tip sigma the detector's, at least " << o.min_tip_sigma_px
      << " px; variance prior dof " << o.variance_prior_dof
      << "; truth is the renderer's cam_from_module times module_from_object, the layout's "
         "object frame placed through marker 10 (the survey's reference). Pose on one core "

@@ -156,6 +156,25 @@ bool Whitening(const CameraModel& camera, Block* b, const Eigen::Matrix3d& R,
   MatRR C = MatRR::Zero(2 * n, 2 * n);
   for (int i = 0; i < n; ++i)
     C.block<2, 2>(2 * i, 2 * i).diagonal().setConstant(b->points[i].sigma * b->points[i].sigma);
+  const MarkerObservation& m = *b->obs;
+  if (o.corner_sigma_from_fit && o.corner_covariance_from_fit &&
+      m.corner_covariance.diagonal().minCoeff() > 0) {
+    // The line fits' joint covariance, scaled; each corner's own block shifted so that its
+    // mean variance stays the point's sigma^2 (systematic term and floor on top of the fit).
+    const double s2 = o.corner_fit_scale * o.corner_fit_scale;
+    for (int i = 0; i < n; ++i) {
+      const int a = b->points[i].index;
+      if (a > 3) continue;
+      for (int j = 0; j < n; ++j) {
+        const int c = b->points[j].index;
+        if (c > 3) continue;
+        C.block<2, 2>(2 * i, 2 * j) = s2 * m.corner_covariance.block<2, 2>(2 * a, 2 * c);
+      }
+      const double own = 0.5 * C.block<2, 2>(2 * i, 2 * i).trace();
+      C.block<2, 2>(2 * i, 2 * i).diagonal().array() +=
+          std::max(0.0, b->points[i].sigma * b->points[i].sigma - own);
+    }
+  }
   if (o.use_layout_covariance) {
     Eigen::Matrix<double, 7, 7> S = Eigen::Matrix<double, 7, 7>::Zero();
     if (b->obs->layout_covariance) S.topLeftCorner<6, 6>() = *b->obs->layout_covariance;
@@ -547,6 +566,7 @@ void ObservationsFromDetections(const std::vector<Detection>& detections, const 
       o.post_height_sigma = entry.post_height_sigma;
       o.corners = d->corners;
       o.corner_sigma = d->corner_sigma;
+      o.corner_covariance = d->corner_covariance;
       // The shortest side: a marker seen obliquely has fewer edge pixels along it, and its
       // corners are worse than its mean size says.
       o.side_px = std::numeric_limits<double>::infinity();

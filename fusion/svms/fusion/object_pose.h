@@ -56,15 +56,21 @@ struct ObjectPoseOptions {
   double min_corner_sigma_px = 0.002;
   // When the detector measured a corner's sigma from its line fits (Detection::corner_sigma),
   // use corner_fit_scale times that instead of the size model (at least min_corner_sigma_px).
-  // Calibrated on the simulator's mockup survey images (kCornerFitScale, marker_pose.h).
+  // kCornerCovarianceScale with corner_covariance_from_fit (the default); with independent
+  // corners kCornerFitScale is the calibrated value (both: marker_pose.h).
   bool corner_sigma_from_fit = true;
-  double corner_fit_scale = kCornerFitScale;
+  double corner_fit_scale = kCornerCovarianceScale;
   // Added in quadrature to corner_fit_scale x the line-fit sigma: the part of a corner's error
   // that more edge points do not average away. Pixels, each axis. 0: with the edge profile
   // taken along the pixel rows (CornerRefineOptions::edges_along_rows) that part is gone on the
   // simulator, and 0.004 (with a 0.01 px floor) makes large markers' corners conservative
   // (per-axis Z^2 0.37 at 60 px on the compare size sweep).
   double corner_sigma_systematic_px = 0;
+  // With corner_sigma_from_fit: the corners of a marker are correlated as the detector's line
+  // fits say (Detection::corner_covariance: two corners on one side err in opposite directions
+  // across it), scaled by corner_fit_scale^2; each corner's own block keeps the variance
+  // above (systematic term and floor included). false: independent corners.
+  bool corner_covariance_from_fit = true;
   double min_tip_sigma_px = 0.3;      // floor on the detector's own tip sigma
   bool use_tips = true;               // post tips as observations
   bool use_layout_covariance = true;  // add the layout's uncertainty to the noise model
@@ -99,6 +105,8 @@ struct MarkerObservation {
   std::array<Eigen::Vector2d, 4> corners;           // pixels, TL, TR, BR, BL
   double side_px = 30;                   // shortest side of the square in the image, pixels
   std::array<double, 4> corner_sigma{};  // from the detector's line fits, px (0: unknown)
+  // Their joint covariance from the same fits (Detection::corner_covariance; zero: unknown).
+  Eigen::Matrix<double, 8, 8> corner_covariance = Eigen::Matrix<double, 8, 8>::Zero();
   std::optional<TipObservation> tip;
   std::optional<Pose> cam_from_marker;  // the detector's single-marker pose (a start)
   bool pose_ambiguous = false;          // the detector could not tell its two planar poses apart

@@ -491,9 +491,11 @@ bool EdgesUnderPenumbra(const Sampler& sample, const CornerRefineOptions& o, dou
 // Each corner's sigma (out->corner_sigma) from the four sides' line fits (out->side_points,
 // ->side_rms; the lines in the fitting plane), their points spread over a fraction
 // 1 - 2 end_margin of each side, and the lag-1 sums of their residuals.
+// *perp: each side's perpendicular sigma at its ends (pixels), for CornerCovariance.
 void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, double end_margin,
                   double lag1_products, double lag1_squares, int lag1_pairs,
-                  const CornerRefineOptions& o, RefinedCorners* out_io) {
+                  const CornerRefineOptions& o, RefinedCorners* out_io,
+                  std::array<double, 4>* perp_out) {
   RefinedCorners& out = *out_io;
   // Neighbouring edge points (1.5 px apart) err together where the image was smoothed: by
   // the optics' blur, a JPEG's blocks, a demosaicing filter. Their scatter then says less
@@ -529,6 +531,47 @@ void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, double end_margin
         std::max(0.2, std::abs(lines[j].x() * lines[k].y() - lines[j].y() * lines[k].x()));
     out.corner_sigma[k] = std::sqrt(0.5 * (perp[j] * perp[j] + perp[k] * perp[k])) / sin_angle;
   }
+  *perp_out = perp;
+}
+
+// The corners' joint covariance (RefinedCorners::corner_covariance) from each side's
+// perpendicular sigma at its ends, `perp` (pixels), the edge points spread over the middle
+// fraction f = 1 - 2 end_margin of each side. A side's line moves across itself by
+// a + s b at the signed distance s from its middle (offset a, slope b independent for points
+// centred on the middle): at its two ends, var(a) + (L/2)^2 var(b) each and
+// var(a) - (L/2)^2 var(b) between them, with (L/2)^2 var(b) = 3 var(a) / f^2 for evenly spread
+// points. A corner moves by N^-1 (d_prev, d_next), N the two sides' unit normals as rows,
+// d their lines' moves across themselves at that corner; the same 0.2 floor on |det N| as
+// corner_sigma's.
+Eigen::Matrix<double, 8, 8> CornerCovariance(const std::array<Eigen::Vector2d, 4>& corners,
+                                             const std::array<double, 4>& perp,
+                                             double end_margin) {
+  const double f = 1 - 2 * end_margin;
+  const double end_correlation = (1 - 3 / (f * f)) / (1 + 3 / (f * f));
+  // Moves across the sides: side k's at its start (corner k) is 2k, at its end 2k + 1.
+  Eigen::Matrix<double, 8, 8> moves = Eigen::Matrix<double, 8, 8>::Zero();
+  std::array<Eigen::Vector2d, 4> normal;
+  for (int k = 0; k < 4; ++k) {
+    const double v = perp[k] * perp[k];
+    moves(2 * k, 2 * k) = moves(2 * k + 1, 2 * k + 1) = v;
+    moves(2 * k, 2 * k + 1) = moves(2 * k + 1, 2 * k) = end_correlation * v;
+    const Eigen::Vector2d u = (corners[(k + 1) % 4] - corners[k]).normalized();
+    normal[k] = Eigen::Vector2d(u.y(), -u.x());
+  }
+  Eigen::Matrix<double, 8, 8> A = Eigen::Matrix<double, 8, 8>::Zero();
+  for (int k = 0; k < 4; ++k) {
+    const int j = (k + 3) % 4;  // the side ending at corner k
+    Eigen::Matrix2d N;
+    N.row(0) = normal[j].transpose();
+    N.row(1) = normal[k].transpose();
+    const double det = std::abs(N.determinant());
+    if (!(det > 0)) return Eigen::Matrix<double, 8, 8>::Zero();
+    const Eigen::Matrix2d N_inv = N.inverse() * std::min(1.0, det / 0.2);
+    A.block<2, 1>(2 * k, 2 * j + 1) = N_inv.col(0);
+    A.block<2, 1>(2 * k, 2 * k) = N_inv.col(1);
+  }
+  const Eigen::Matrix<double, 8, 8> C = A * moves * A.transpose();
+  return 0.5 * (C + C.transpose());  // exactly symmetric, whichever order it is read in
 }
 
 }  // namespace
@@ -618,7 +661,8 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       lag1_products += fit.lag1_products, lag1_squares += fit.lag1_squares;
       lag1_pairs += fit.lag1_pairs;
     }
-    CornerSigmas(lines, end_margin, lag1_products, lag1_squares, lag1_pairs, o, &out);
+    std::array<double, 4> perp;
+    CornerSigmas(lines, end_margin, lag1_products, lag1_squares, lag1_pairs, o, &out, &perp);
     for (int k = 0; k < 4; ++k) {
       const Eigen::Vector3d h = lines[(k + 3) % 4].cross(lines[k]);
       if (std::abs(h.z()) < 1e-15) return out;
@@ -626,6 +670,7 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       if (!plane.ToPixel(h.head<2>() / h.z(), &px)) return out;
       out.corners[k] = px;
     }
+    out.corner_covariance = CornerCovariance(out.corners, perp, end_margin);
   }
   out.ok = true;
   return out;

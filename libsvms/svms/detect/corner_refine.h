@@ -105,6 +105,14 @@ struct RefinedCorners {
   // (1 - rho) in variance for the points' correlation rho along the side, `correlation`),
   // evaluated at the corner, then the intersection at the lines' angle.
   std::array<double, 4> corner_sigma{};
+  // The four corners' joint covariance (pixels^2; rows and columns x0, y0, x1, y1, ..., in the
+  // order of `corners`) from the same line fits. Two corners on one side share that side's
+  // line: its offset moves both across the side together, its slope moves them in opposite
+  // directions, and with the edge points spread over the middle fraction f of the side the
+  // slope wins, so their components across the side correlate by (1 - 3 / f^2) / (1 + 3 / f^2)
+  // (-0.65 at f = 0.8). Each corner's 2 x 2 block has corner_sigma^2 as its mean diagonal.
+  // Zero where the corners were not refined.
+  Eigen::Matrix<double, 8, 8> corner_covariance = Eigen::Matrix<double, 8, 8>::Zero();
   // The lag-1 correlation of the edge points' residuals along the sides (pooled over the four;
   // 0 where it does not stand out of its noise), by which corner_sigma was widened: see
   // RefineCorners.

@@ -213,6 +213,7 @@ void PoseMarker(const StepImages& im, const CameraModel& camera, const MarkerMod
                          d->white * im.level, o.pose, &again, r.corner_sigma)) {
     d->corners = r.corners;
     d->corner_sigma = r.corner_sigma;
+    d->corner_covariance = r.corner_covariance;
     d->penumbra_sides = r.penumbra_sides;
     SetPose(again, d);
   }
@@ -372,6 +373,7 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
       if (r.ok) {
         d.corners = r.corners;
         d.corner_sigma = r.corner_sigma;
+        d.corner_covariance = r.corner_covariance;
         d.penumbra_sides = r.penumbra_sides;
       }
     }

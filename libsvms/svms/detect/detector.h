@@ -43,6 +43,9 @@ struct Detection {
   int bit_errors = 0;  // corrected bits
   std::array<Eigen::Vector2d, 4> corners;  // TL, TR, BR, BL as printed; pixels
   std::array<double, 4> corner_sigma{};  // each corner's sigma from its line fits (px); 0: unknown
+  // The corners' joint covariance from the same fits (RefinedCorners::corner_covariance:
+  // pixels^2, x0, y0, ..., x3, y3; corners on one side correlate across it). Zero: unknown.
+  Eigen::Matrix<double, 8, 8> corner_covariance = Eigen::Matrix<double, 8, 8>::Zero();
   // Sides (k: from corner k to corner k + 1) whose edge was taken from under a shadow's
   // penumbra (RefinedCorners::penumbra_sides).
   std::array<bool, 4> penumbra_sides{};

@@ -42,6 +42,15 @@ struct TipObservation {
 // sigma times 1.00 gives per-axis corner Z^2 1.07-1.12 at 8-60 px. The approach is the test
 // (docs/flight-interface.md).
 inline constexpr double kCornerFitScale = 0.95;
+// The same factor where a marker's corners are taken with their joint covariance from the line
+// fits (RefinedCorners::corner_covariance; the fused pose, object_pose.h). Not fitted to a pose
+// test: the square root of the corners' per-axis Z^2 against corner_sigma over 150 synthetic
+// 36 px squares with white noise (exact area-sampled edges, no renderer;
+// corner_refine_test.cc, TheCornersJointCovarianceCarriesTheSidesSlopes checks it within 0.04):
+// 1.175, so 1.08. The approach's own fits then give chi2 / dof 1.03 (docs/benchmarks.md).
+// kCornerFitScale is lower because treating the corners as independent overstates what
+// four corners say about a pose: it was fitted to the pose's NEES with that model.
+inline constexpr double kCornerCovarianceScale = 1.08;
 
 struct MarkerPoseOptions {
   // Standard deviation of a refined corner, each axis, pixels: corner_fit_scale x the sigma
