@@ -2,8 +2,8 @@
 // the approach's scene (the "module", a box with 8 markers, IDs 10-18) with a second object, a
 // flat "fixture" plate with three markers (IDs 30-32, 0.12 m, with posts), standing in front of
 // the camera of one view, beside the module: in view 6 (the module at 4.5 m, in the middle of
-// the frame) the plate is 3.6 m away in the lower left, its markers about 35 px wide, turned
-// 25 degrees toward the sun so that it is lit.
+// the frame) the plate is 3.6 m away in the lower left, its markers about 37 px wide, facing the
+// camera but turned 25 degrees about the camera's y axis (the sun lights it in that view).
 #pragma once
 
 #include <Eigen/Geometry>
