@@ -11,7 +11,9 @@ namespace svms::cli {
 void AddPoseCommands(CLI::App& app, int* exit_code) {
   auto o = std::make_shared<PoseOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "pose", "The object's pose in each frame from every visible marker of a surveyed layout");
+      "pose",
+      "The object's pose in each frame from every visible marker of a surveyed layout (several "
+      "layouts: each object's pose from one detection)");
   cmd->add_option("IMAGES", o->inputs, "Image files, directories or globs (in this order)");
   cmd->add_flag("--stdin", o->from_stdin,
                 "Read frames from stdin: a path per line, optionally followed by a timestamp "
