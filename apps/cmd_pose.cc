@@ -11,13 +11,22 @@ namespace svms::cli {
 void AddPoseCommands(CLI::App& app, int* exit_code) {
   auto o = std::make_shared<PoseOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "pose", "The object's pose in each frame from every visible marker of a surveyed layout");
+      "pose",
+      "The object's pose in each frame from every visible marker of a surveyed layout (several "
+      "layouts: each object's pose from one detection)");
   cmd->add_option("IMAGES", o->inputs, "Image files, directories or globs (in this order)");
   cmd->add_flag("--stdin", o->from_stdin,
                 "Read frames from stdin: a path per line, optionally followed by a timestamp "
                 "(seconds)");
   cmd->add_option("--camera", o->camera, "mrcal .cameramodel")->required();
-  cmd->add_option("--layout", o->layout, "Surveyed layout (svms survey --out)")->required();
+  cmd->add_option("--layout", o->layouts,
+                  "Surveyed layout (svms survey --out); repeat for several objects in one "
+                  "detection pass (an ID in two layouts is refused)")
+      ->required()
+      ->allow_extra_args(false);
+  cmd->add_flag("--unknown-ids", o->unknown_ids,
+                "Detect markers of every ID, not only the layouts', and list those of no layout "
+                "in unassigned_markers");
   cmd->add_option("--corner-sigma", o->corner_sigma_px,
                   "Pixel noise of a detected corner, each axis (see docs/flight-interface.md)")
       ->check(CLI::PositiveNumber)
@@ -47,10 +56,16 @@ void AddPoseCommands(CLI::App& app, int* exit_code) {
       "is written with U+FFFD for its bad bytes and its exact bytes in image_hex.\n"
       "exit code 1 at the end. A video file gives every frame, timestamp from the container.\n"
       "photometry: how the frame was turned into linear light (docs/conventions.md).\n"
+      "With several --layout: one line per object per frame, in the order of the layouts, each\n"
+      "with object (the layout's name, else its file's stem), layout (the file) and\n"
+      "unassigned_markers (IDs detected that belong to no layout; only the layouts' IDs are\n"
+      "detected unless --unknown-ids). One --layout: the line above (unassigned_markers with\n"
+      "--unknown-ids).\n"
       "See docs/flight-interface.md.\n"
       "Examples:\n"
       "  svms pose out/approach --camera cam.cameramodel --layout layout.json\n"
-      "  ls frames/*.png | svms pose --stdin --camera cam.cameramodel --layout layout.json");
+      "  ls frames/*.png | svms pose --stdin --camera cam.cameramodel --layout layout.json\n"
+      "  svms pose frames/ --camera cam.cameramodel --layout target.json --layout fixture.json");
   cmd->callback([o, exit_code] { *exit_code = RunPose(*o); });
 }
 

@@ -57,8 +57,8 @@ nlohmann::json DetectionJson(const Detection& d) {
   return j;
 }
 
-nlohmann::json FrameJson(const FrameResult& r) {
-  const ObjectPose& p = r.pose;
+nlohmann::json FrameJson(const FrameResult& r, size_t object) {
+  const ObjectPose& p = r.object(object);
   nlohmann::json j;
   j["timestamp"] = r.timestamp;
   j["valid"] = p.valid;

@@ -15,7 +15,8 @@ namespace svms::cli {
 // calibration_in_covariance; pose_error and nested_in where they apply.
 nlohmann::json DetectionJson(const Detection& d);
 
-// One frame of `svms pose` as its JSON line.
-nlohmann::json FrameJson(const FrameResult& frame);
+// One frame of `svms pose` as its JSON line: the pose of the estimator's layout `object`
+// (FrameResult::object), with the frame's timing and flags.
+nlohmann::json FrameJson(const FrameResult& frame, size_t object = 0);
 
 }  // namespace svms::cli

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -25,6 +26,11 @@
 namespace svms::cli {
 namespace {
 
+// What a line calls the object of a layout: the layout's own `name`, else its file's stem.
+std::string ObjectName(const Layout& layout, const std::string& path) {
+  return layout.name.empty() ? std::filesystem::path(path).stem().string() : layout.name;
+}
+
 int BadInput(const std::string& m) {
   std::cerr << "svms pose: " << m << "\n";
   return kExitBadInput;
@@ -42,6 +48,7 @@ struct Stream {
   bool unopenable_video = false;            // bad input: exit 2 at the end
   std::string first_error, stdout_error;
   FrameResult r;
+  std::vector<std::string> object_names;  // per layout: its `name`, else its file's stem
 };
 
 // Everything checked before any work: the inputs, the estimator (camera and layout), the
@@ -58,8 +65,15 @@ int Prepare(Stream* s) {
   options.fusion.corner_sigma_px = o.corner_sigma_px;
   options.budget_ms = o.budget_ms;
   options.detector.refine.max_row_window_px = s->photometry.CornerRowWindowPx();
-  if (Status st = PoseEstimator::CreateFromFiles(o.camera, o.layout, options, &s->est); !st)
+  options.detector.known_ids_only = !o.unknown_ids;
+  if (o.layouts.empty()) return BadInput("--layout: expected a layout file");
+  if (Status st = o.layouts.size() == 1
+                      ? PoseEstimator::CreateFromFiles(o.camera, o.layouts[0], options, &s->est)
+                      : PoseEstimator::CreateFromFiles(o.camera, o.layouts, options, &s->est);
+      !st)
     return BadInput(st.message());
+  for (size_t i = 0; i < o.layouts.size(); ++i)
+    s->object_names.push_back(ObjectName(s->est->layouts()[i], o.layouts[i]));
   if (!o.from_stdin) s->files = ExpandImageInputs(o.inputs);
   if (!o.overlay.empty()) {
     if (Status st = PrepareOutputDirectory("--overlay", o.overlay); !st)
@@ -88,7 +102,9 @@ int Prepare(Stream* s) {
 void Frame(Stream& s, const std::string& path, double timestamp, std::string error,
            const cv::Mat* video_frame = nullptr, int frame_index = -1) {
   const CameraModel& camera = s.est->camera();
-  nlohmann::json j, photometric;
+  const size_t objects = s.o.layouts.size();
+  std::vector<nlohmann::json> lines(objects);  // one per object
+  nlohmann::json photometric;
   cv::Mat img;
   if (!error.empty()) {
   } else if (Status st = video_frame
@@ -105,8 +121,13 @@ void Frame(Stream& s, const std::string& path, double timestamp, std::string err
   if (error.empty()) {
     try {
       s.est->EstimateLinear(img, timestamp, &s.r);
-      j = FrameJson(s.r);
-      s.valid += s.r.pose.valid;
+      for (size_t i = 0; i < objects; ++i) {
+        lines[i] = FrameJson(s.r, i);
+        if (s.o.unknown_ids || objects > 1) lines[i]["unassigned_markers"] = s.r.unassigned_ids;
+      }
+      bool any_valid = false;
+      for (size_t i = 0; i < objects; ++i) any_valid |= s.r.object(i).valid;
+      s.valid += any_valid;
       if (!s.o.overlay.empty()) {
         const std::string out = OverlayPath(s.o.overlay, path, frame_index);
         if (SameFile(out, path)) {
@@ -118,22 +139,34 @@ void Frame(Stream& s, const std::string& path, double timestamp, std::string err
         }
       }
     } catch (...) {
-      j = nlohmann::json::object();
+      for (nlohmann::json& j : lines) j = nlohmann::json::object();
       error = ItemFailure(path, std::current_exception());
     }
   }
-  SetPath(j, "image", path);
-  if (frame_index >= 0) j["frame"] = frame_index;
-  if (!photometric.is_null()) j["photometry"] = photometric;
+  std::string text;
+  for (size_t i = 0; i < objects; ++i) {
+    nlohmann::json& j = lines[i];
+    SetPath(j, "image", path);
+    if (objects > 1) {
+      j["object"] = s.object_names[i];
+      SetPath(j, "layout", s.o.layouts[i]);
+    }
+    if (frame_index >= 0) j["frame"] = frame_index;
+    if (!photometric.is_null()) j["photometry"] = photometric;
+    if (!error.empty()) {
+      j["timestamp"] = timestamp;
+      if (!j.contains("valid")) j["valid"] = false;
+      j["error"] = error;
+    }
+    text += DumpJson(j) + "\n";
+  }
   if (!error.empty()) {
-    j["timestamp"] = timestamp;
-    if (!j.contains("valid")) j["valid"] = false;
-    j["error"] = error;
     std::cerr << "svms pose: " << error << "\n";
     if (s.first_error.empty()) s.first_error = error;
     ++s.failed;
   }
-  WriteStdout(DumpJson(j) + "\n", true, &s.stdout_error);
+  // The frame's lines in one write: a reader of the pipe sees all its objects at once.
+  WriteStdout(text, true, &s.stdout_error);
   ++s.index;
   if (!s.o.quiet && s.index % 50 == 0)
     std::cerr << "svms pose: " << s.index << " frames, " << s.valid << " with a pose\n";

@@ -11,9 +11,14 @@
 namespace svms::cli {
 
 struct PoseOptions {
-  std::vector<std::string> inputs;      // image files, directories, globs or videos
-  std::string camera, layout, overlay;  // overlay: an output directory ("" = none)
-  bool from_stdin = false;              // frames from stdin: "PATH [TIMESTAMP]" per line
+  std::vector<std::string> inputs;  // image files, directories, globs or videos
+  std::string camera, overlay;      // overlay: an output directory ("" = none)
+  // One layout per object; with several, each frame gives one line per object (in this order).
+  std::vector<std::string> layouts;
+  // Detect every ID, not only the layouts' ones, and list the markers of no layout in each line
+  // (unassigned_markers).
+  bool unknown_ids = false;
+  bool from_stdin = false;  // frames from stdin: "PATH [TIMESTAMP]" per line
   bool quiet = false;
   double corner_sigma_px = ObjectPoseOptions{}.corner_sigma_px;
   double budget_ms = 0;  // per frame; 0 = none

@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 #include <string>
 #include <unordered_set>
+#include <vector>
 
 #include "svms/fusion/pose_estimator.h"
 #include "svms/svms.h"
@@ -56,8 +57,9 @@ void PoseOut(const svms::Pose& pose, double* rvec, double* tvec, double* quatern
   quaternion[3] = q.z();
 }
 
-void Fill(const svms::FrameResult& r, svms_pose* out) {
-  const svms::ObjectPose& p = r.pose;
+// Layout `object`'s pose of frame r.
+void Fill(const svms::FrameResult& r, size_t object, svms_pose* out) {
+  const svms::ObjectPose& p = r.object(object);
   *out = svms_pose{};
   out->timestamp = r.timestamp;
   out->valid = p.valid ? 1 : 0;
@@ -87,60 +89,90 @@ void Fill(const svms::FrameResult& r, svms_pose* out) {
   }
 }
 
-svms_status Process(svms_estimator* e, const void* pixels, int width, int height, ptrdiff_t stride,
-                    int bytes_per_pixel, double timestamp, svms_pose* out) {
-  if (!e || !pixels || !out)
-    return Fail(SVMS_ERR_NULL_ARGUMENT, std::string("svms_process_frame: ") +
-                                            (!e        ? "estimator"
-                                             : !pixels ? "pixels"
-                                                       : "out") +
+void FillInfo(const svms::FrameResult& r, svms_frame_info* info) {
+  *info = svms_frame_info{};
+  info->timestamp = r.timestamp;
+  info->latency_ms = r.latency_ms;
+  info->detect_ms = r.detect_ms;
+  info->fuse_ms = r.fuse_ms;
+  info->flags = r.budget_exceeded ? SVMS_FLAG_BUDGET_EXCEEDED : 0u;
+  info->n_unassigned = static_cast<int>(r.unassigned_ids.size());
+  const size_t n = std::min<size_t>(r.unassigned_ids.size(), SVMS_MAX_REPORTED_MARKERS);
+  for (size_t i = 0; i < n; ++i) info->unassigned_ids[i] = r.unassigned_ids[i];
+}
+
+// One frame into poses[0, n_poses). `all_objects`: svms_process_frame_multi, which needs
+// n_poses to be the number of layouts and writes every object; else svms_process_frame, which
+// writes the first layout's object into poses[0] (n_poses 1). `fn` names the call in errors
+// (a std::string is built only on an error: a frame makes no heap allocation).
+svms_status Process(const char* fn, svms_estimator* e, const void* pixels, int width, int height,
+                    ptrdiff_t stride, int bytes_per_pixel, double timestamp, svms_pose* poses,
+                    int n_poses, bool all_objects, svms_frame_info* info) {
+  if (!e || !pixels || !poses)
+    return Fail(SVMS_ERR_NULL_ARGUMENT, std::string(fn) + ": " +
+                                            (!e            ? "estimator"
+                                             : !pixels     ? "pixels"
+                                             : all_objects ? "poses"
+                                                           : "out") +
                                             " is NULL");
-  *out = svms_pose{};
-  out->timestamp = timestamp;
+  for (int i = 0; i < n_poses; ++i) {
+    poses[i] = svms_pose{};
+    poses[i].timestamp = timestamp;
+  }
+  if (info) {
+    *info = svms_frame_info{};
+    info->timestamp = timestamp;
+  }
   // The handle is checked and claimed under the registry's lock, the lock svms_destroy takes
   // to check and claim it too: a destroy can never free it between this check and its use.
   {
     std::lock_guard<std::mutex> lock(registry_mutex);
     if (!Live().count(e) || e->magic != svms_estimator::kMagic || !e->impl)
-      return Fail(SVMS_ERR_BAD_HANDLE,
-                  "svms_process_frame: the estimator is not one from svms_create, or was "
-                  "destroyed");
+      return Fail(
+          SVMS_ERR_BAD_HANDLE,
+          std::string(fn) + ": the estimator is not one from svms_create, or was destroyed");
     bool expected = false;
     if (!e->busy.compare_exchange_strong(expected, true))
-      return Fail(SVMS_ERR_BUSY, "svms_process_frame: the estimator is in use by another thread");
+      return Fail(SVMS_ERR_BUSY, std::string(fn) + ": the estimator is in use by another thread");
   }
   // From here on this call holds the handle: every return releases it.
   struct Release {
     svms_estimator* e;
     ~Release() { e->busy.store(false); }
   } release{e};
+  const int layouts = static_cast<int>(e->impl->layouts().size());
+  if (all_objects && n_poses != layouts)
+    return Fail(SVMS_ERR_INVALID_ARGUMENT,
+                std::string(fn) + ": n_poses is " + std::to_string(n_poses) +
+                    ", expected the estimator's number of layouts, " + std::to_string(layouts));
   const svms::CameraModel& cam = e->impl->camera();
   if (width != cam.width() || height != cam.height())
     return Fail(SVMS_ERR_INVALID_ARGUMENT,
-                "svms_process_frame: frame is " + std::to_string(width) + "x" +
+                std::string(fn) + ": frame is " + std::to_string(width) + "x" +
                     std::to_string(height) + " pixels, the camera model " +
                     std::to_string(cam.width()) + "x" + std::to_string(cam.height()));
   if (stride < static_cast<ptrdiff_t>(width) * bytes_per_pixel || stride % bytes_per_pixel != 0)
     return Fail(SVMS_ERR_INVALID_ARGUMENT,
-                "svms_process_frame: stride " + std::to_string(stride) +
+                std::string(fn) + ": stride " + std::to_string(stride) +
                     " bytes, expected at least " +
                     std::to_string(static_cast<long long>(width) * bytes_per_pixel) +
                     " and a multiple of " + std::to_string(bytes_per_pixel));
   if (!std::isfinite(timestamp))
-    return Fail(SVMS_ERR_INVALID_ARGUMENT, "svms_process_frame: timestamp is not finite");
+    return Fail(SVMS_ERR_INVALID_ARGUMENT, std::string(fn) + ": timestamp is not finite");
   svms_status status = SVMS_OK;
   try {
     // Zero-copy view of the caller's pixels.
     const cv::Mat image(height, width, bytes_per_pixel == 1 ? CV_8UC1 : CV_16UC1,
                         const_cast<void*>(pixels), static_cast<size_t>(stride));
     e->impl->Estimate(image, timestamp, e->scratch);
-    Fill(*e->scratch, out);
+    for (int i = 0; i < n_poses; ++i) Fill(*e->scratch, static_cast<size_t>(i), &poses[i]);
+    if (info) FillInfo(*e->scratch, info);
   } catch (const std::bad_alloc&) {
-    status = Fail(SVMS_ERR_INTERNAL, "svms_process_frame: out of memory");
+    status = Fail(SVMS_ERR_INTERNAL, std::string(fn) + ": out of memory");
   } catch (const std::exception& ex) {
-    status = Fail(SVMS_ERR_INTERNAL, std::string("svms_process_frame: ") + ex.what());
+    status = Fail(SVMS_ERR_INTERNAL, std::string(fn) + ": " + ex.what());
   } catch (...) {
-    status = Fail(SVMS_ERR_INTERNAL, "svms_process_frame: unknown failure");
+    status = Fail(SVMS_ERR_INTERNAL, std::string(fn) + ": unknown failure");
   }
   return status;
 }
@@ -155,30 +187,37 @@ void svms_options_default(svms_options* options) {
   options->budget_ms = 0;
 }
 
-svms_status svms_create(const char* camera_path, const char* layout_path,
-                        const svms_options* options, svms_estimator** out) {
-  if (!out) return Fail(SVMS_ERR_NULL_ARGUMENT, "svms_create: out is NULL");
-  *out = nullptr;
-  if (!camera_path || !layout_path)
-    return Fail(
-        SVMS_ERR_NULL_ARGUMENT,
-        std::string("svms_create: ") + (!camera_path ? "camera_path" : "layout_path") + " is NULL");
+namespace {
+// svms_create and svms_create_multi: `layout_paths` holds n_layouts non-NULL paths.
+svms_status Create(const char* fn, const char* camera_path, const char* const* layout_paths,
+                   int n_layouts, const svms_options* options, uint32_t create_flags,
+                   svms_estimator** out) {
   try {
+    const std::string name = fn;
     svms_options o;
     svms_options_default(&o);
     if (options) o = *options;
     svms::PoseEstimatorOptions po;
     po.fusion.corner_sigma_px = o.corner_sigma_px;
     po.budget_ms = o.budget_ms;
+    po.detector.known_ids_only = !(create_flags & SVMS_CREATE_UNKNOWN_IDS);
     if (!(o.corner_sigma_px > 0) || !std::isfinite(o.corner_sigma_px) || !(o.budget_ms >= 0) ||
         !std::isfinite(o.budget_ms))
       return Fail(SVMS_ERR_INVALID_ARGUMENT,
-                  "svms_create: options: expected corner_sigma_px > 0 and budget_ms >= 0, got " +
+                  name + ": options: expected corner_sigma_px > 0 and budget_ms >= 0, got " +
                       std::to_string(o.corner_sigma_px) + " and " + std::to_string(o.budget_ms));
+    if (create_flags & ~SVMS_CREATE_UNKNOWN_IDS)
+      return Fail(SVMS_ERR_INVALID_ARGUMENT,
+                  name + ": create_flags: unknown bits " +
+                      std::to_string(create_flags & ~SVMS_CREATE_UNKNOWN_IDS));
     std::unique_ptr<svms::PoseEstimator> impl;
-    if (svms::Status s = svms::PoseEstimator::CreateFromFiles(camera_path, layout_path, po, &impl);
+    const std::vector<std::string> paths(layout_paths, layout_paths + n_layouts);
+    if (svms::Status s =
+            paths.size() == 1
+                ? svms::PoseEstimator::CreateFromFiles(camera_path, paths[0], po, &impl)
+                : svms::PoseEstimator::CreateFromFiles(camera_path, paths, po, &impl);
         !s)
-      return Fail(SVMS_ERR_FILE, "svms_create: " + s.message());
+      return Fail(SVMS_ERR_FILE, name + ": " + s.message());
     auto e = std::make_unique<svms_estimator>();
     e->impl = std::move(impl);
     e->scratch = new svms::FrameResult;
@@ -189,22 +228,85 @@ svms_status svms_create(const char* camera_path, const char* layout_path,
     *out = e.release();
     return SVMS_OK;
   } catch (const std::bad_alloc&) {
-    return Fail(SVMS_ERR_INTERNAL, "svms_create: out of memory");
+    return Fail(SVMS_ERR_INTERNAL, std::string(fn) + ": out of memory");
   } catch (const std::exception& ex) {
-    return Fail(SVMS_ERR_INTERNAL, std::string("svms_create: ") + ex.what());
+    return Fail(SVMS_ERR_INTERNAL, std::string(fn) + ": " + ex.what());
   } catch (...) {
-    return Fail(SVMS_ERR_INTERNAL, "svms_create: unknown failure");
+    return Fail(SVMS_ERR_INTERNAL, std::string(fn) + ": unknown failure");
   }
+}
+}  // namespace
+
+svms_status svms_create(const char* camera_path, const char* layout_path,
+                        const svms_options* options, svms_estimator** out) {
+  if (!out) return Fail(SVMS_ERR_NULL_ARGUMENT, "svms_create: out is NULL");
+  *out = nullptr;
+  if (!camera_path || !layout_path)
+    return Fail(
+        SVMS_ERR_NULL_ARGUMENT,
+        std::string("svms_create: ") + (!camera_path ? "camera_path" : "layout_path") + " is NULL");
+  return Create("svms_create", camera_path, &layout_path, 1, options, 0, out);
+}
+
+svms_status svms_create_multi(const char* camera_path, const char* const* layout_paths,
+                              int n_layouts, const svms_options* options, uint32_t create_flags,
+                              svms_estimator** out) {
+  if (!out) return Fail(SVMS_ERR_NULL_ARGUMENT, "svms_create_multi: out is NULL");
+  *out = nullptr;
+  if (!camera_path || !layout_paths)
+    return Fail(SVMS_ERR_NULL_ARGUMENT, std::string("svms_create_multi: ") +
+                                            (!camera_path ? "camera_path" : "layout_paths") +
+                                            " is NULL");
+  if (n_layouts < 1)
+    return Fail(SVMS_ERR_INVALID_ARGUMENT, "svms_create_multi: n_layouts is " +
+                                               std::to_string(n_layouts) + ", expected at least 1");
+  for (int i = 0; i < n_layouts; ++i)
+    if (!layout_paths[i])
+      return Fail(SVMS_ERR_NULL_ARGUMENT,
+                  "svms_create_multi: layout_paths[" + std::to_string(i) + "] is NULL");
+  return Create("svms_create_multi", camera_path, layout_paths, n_layouts, options, create_flags,
+                out);
+}
+
+svms_status svms_layout_count(const svms_estimator* e, int* n_layouts) {
+  if (!e || !n_layouts)
+    return Fail(SVMS_ERR_NULL_ARGUMENT,
+                std::string("svms_layout_count: ") + (!e ? "estimator" : "n_layouts") + " is NULL");
+  *n_layouts = 0;
+  std::lock_guard<std::mutex> lock(registry_mutex);
+  if (!Live().count(e) || e->magic != svms_estimator::kMagic || !e->impl)
+    return Fail(SVMS_ERR_BAD_HANDLE,
+                "svms_layout_count: the estimator is not one from svms_create, or was destroyed");
+  *n_layouts = static_cast<int>(e->impl->layouts().size());
+  return SVMS_OK;
 }
 
 svms_status svms_process_frame(svms_estimator* e, const uint8_t* pixels, int width, int height,
                                ptrdiff_t stride, double timestamp, svms_pose* out) {
-  return Process(e, pixels, width, height, stride, 1, timestamp, out);
+  return Process("svms_process_frame", e, pixels, width, height, stride, 1, timestamp, out, 1,
+                 false, nullptr);
 }
 
 svms_status svms_process_frame_u16(svms_estimator* e, const uint16_t* pixels, int width, int height,
                                    ptrdiff_t stride, double timestamp, svms_pose* out) {
-  return Process(e, pixels, width, height, stride, 2, timestamp, out);
+  return Process("svms_process_frame_u16", e, pixels, width, height, stride, 2, timestamp, out, 1,
+                 false, nullptr);
+}
+
+svms_status svms_process_frame_multi(svms_estimator* e, const uint8_t* pixels, int width,
+                                     int height, ptrdiff_t stride, double timestamp,
+                                     svms_pose* poses, int n_poses, svms_frame_info* info) {
+  if (n_poses < 0) n_poses = 0;  // nothing to write; the count is refused below
+  return Process("svms_process_frame_multi", e, pixels, width, height, stride, 1, timestamp, poses,
+                 n_poses, true, info);
+}
+
+svms_status svms_process_frame_multi_u16(svms_estimator* e, const uint16_t* pixels, int width,
+                                         int height, ptrdiff_t stride, double timestamp,
+                                         svms_pose* poses, int n_poses, svms_frame_info* info) {
+  if (n_poses < 0) n_poses = 0;
+  return Process("svms_process_frame_multi_u16", e, pixels, width, height, stride, 2, timestamp,
+                 poses, n_poses, true, info);
 }
 
 svms_status svms_destroy(svms_estimator* e) {

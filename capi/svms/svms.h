@@ -15,6 +15,10 @@
  * two calls on the same estimator at the same time get SVMS_ERR_BUSY for the second.
  * A destroyed estimator stays detectable: any call through it returns SVMS_ERR_BAD_HANDLE
  * (its 32-byte shell is kept for the life of the process for that purpose).
+ *
+ * Several objects in one camera (a docking target and a reference fixture): svms_create_multi
+ * takes one layout per object, and svms_process_frame_multi detects the frame once and gives
+ * one svms_pose per layout, each what a single-layout estimator of that object would give.
  */
 #ifndef SVMS_SVMS_H_
 #define SVMS_SVMS_H_
@@ -85,6 +89,26 @@ typedef struct svms_pose {
   double alternative_weight;
 } svms_pose;
 
+/* What one frame of svms_process_frame_multi gives besides the objects' poses. */
+typedef struct svms_frame_info {
+  double timestamp;  /* as given */
+  double latency_ms; /* the detection and every layout's fusion, wall clock */
+  double detect_ms;  /* the frame's one detection pass (shared by every layout) */
+  double fuse_ms;    /* every layout's fusion together */
+  uint32_t flags;    /* SVMS_FLAG_BUDGET_EXCEEDED, for the frame */
+  int n_unassigned;  /* detections of no layout (all of them, even beyond the array below);
+                        only with SVMS_CREATE_UNKNOWN_IDS, else the detector reports the
+                        layouts' IDs only and this is 0 */
+  int unassigned_ids[SVMS_MAX_REPORTED_MARKERS]; /* their IDs, the first SVMS_MAX_REPORTED_MARKERS
+                                                  */
+} svms_frame_info;
+
+/* Flags of svms_create_multi. */
+/* Detect markers of every ID, not only the layouts' ones, so that svms_frame_info lists those
+ * of no layout. Off, the detector ignores other IDs, which keeps a random quadrilateral from
+ * decoding as a marker nobody asked for. */
+#define SVMS_CREATE_UNKNOWN_IDS 1u
+
 typedef struct svms_estimator svms_estimator;
 
 /* Defaults for svms_options. */
@@ -95,6 +119,17 @@ void svms_options_default(svms_options* options);
 svms_status svms_create(const char* camera_path, const char* layout_path,
                         const svms_options* options, svms_estimator** out);
 
+/* An estimator of several objects from one camera, one layout each: `layout_paths` holds
+ * `n_layouts` (>= 1) paths. A marker ID (outer or inner) may be in one layout only: an ID in two
+ * layouts is SVMS_ERR_FILE, and svms_last_error() names both files and the ID. `create_flags`:
+ * 0 or SVMS_CREATE_UNKNOWN_IDS. With one layout and no flag it is svms_create. */
+svms_status svms_create_multi(const char* camera_path, const char* const* layout_paths,
+                              int n_layouts, const svms_options* options, uint32_t create_flags,
+                              svms_estimator** out);
+
+/* The number of layouts (objects) of an estimator: 1 for svms_create's. */
+svms_status svms_layout_count(const svms_estimator* estimator, int* n_layouts);
+
 /* One frame of 8-bit grey pixels, `width` x `height`, rows `stride` bytes apart (stride >=
  * width). The size must be the camera model's. No copy is made of the pixels. *out is always
  * written (valid = 0 when there is no pose). */
@@ -104,6 +139,19 @@ svms_status svms_process_frame(svms_estimator* estimator, const uint8_t* pixels,
 /* The same for 16-bit grey pixels (stride in bytes, >= 2 * width). */
 svms_status svms_process_frame_u16(svms_estimator* estimator, const uint16_t* pixels, int width,
                                    int height, ptrdiff_t stride, double timestamp, svms_pose* out);
+
+/* svms_process_frame and svms_process_frame_u16 of an estimator of several layouts give the
+ * first layout's object. These give every object from the frame's one detection: poses[i] is
+ * the object of layout i (svms_create_multi's order); `n_poses` must be the number of layouts
+ * (svms_layout_count), else SVMS_ERR_INVALID_ARGUMENT. Each pose's flags carry the frame's
+ * SVMS_FLAG_BUDGET_EXCEEDED, its latency_ms the whole frame's. `info` may be NULL. The poses
+ * (and info) are always written, as by svms_process_frame. */
+svms_status svms_process_frame_multi(svms_estimator* estimator, const uint8_t* pixels, int width,
+                                     int height, ptrdiff_t stride, double timestamp,
+                                     svms_pose* poses, int n_poses, svms_frame_info* info);
+svms_status svms_process_frame_multi_u16(svms_estimator* estimator, const uint16_t* pixels,
+                                         int width, int height, ptrdiff_t stride, double timestamp,
+                                         svms_pose* poses, int n_poses, svms_frame_info* info);
 
 /* Destroys an estimator; NULL is accepted (SVMS_OK). */
 svms_status svms_destroy(svms_estimator* estimator);

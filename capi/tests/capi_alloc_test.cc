@@ -4,7 +4,7 @@
 //
 // What it checks (the C API's promise: no allocation at all after the first frames): after
 // warm-up on a fixture frame, 8-bit and 16-bit, every svms_process_frame makes no heap
-// allocation at all.
+// allocation at all; nor does svms_process_frame_multi with two layouts on the two-object frame.
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
@@ -104,6 +104,43 @@ int main(int argc, char** argv) {
     unfreed.push_back(allocations.load() - frees.load());
   }
   svms_destroy(e);
+
+  // Two objects, one detection: svms_process_frame_multi.
+  std::ifstream(dir + "/pair.raw", std::ios::binary)
+      .read(reinterpret_cast<char*>(frame.data()), frame.size());
+  for (size_t i = 0; i < frame.size(); ++i) frame16[i] = static_cast<uint16_t>(frame[i] * 16);
+  const std::string module = dir + "/true_layout.json", fixture = dir + "/fixture_layout.json";
+  const char* layouts[2] = {module.c_str(), fixture.c_str()};
+  if (svms_create_multi((dir + "/cal.cameramodel").c_str(), layouts, 2, nullptr, 0, &e) !=
+      SVMS_OK) {
+    std::fprintf(stderr, "svms_create_multi: %s\n", svms_last_error());
+    return 1;
+  }
+  svms_pose poses[2];
+  svms_frame_info info;
+  auto process_multi = [&](int i) {
+    return i % 2 == 0
+               ? svms_process_frame_multi(e, frame.data(), 1024, 1024, 1024, i, poses, 2, &info)
+               : svms_process_frame_multi_u16(e, frame16.data(), 1024, 1024, 2048, i, poses, 2,
+                                              &info);
+  };
+  for (int i = 0; i < 6; ++i) process_multi(i);
+  for (int i = 0; i < 20; ++i) {
+    allocations = 0;
+    frees = 0;
+    counting = true;
+    const svms_status s = process_multi(i);
+    counting = false;
+    if (s != SVMS_OK || !poses[0].valid || !poses[1].valid) {
+      std::fprintf(stderr, "two objects, frame %d: %s %s\n", i, svms_status_string(s),
+                   svms_last_error());
+      return 1;
+    }
+    per_frame.push_back(allocations.load());
+    unfreed.push_back(allocations.load() - frees.load());
+  }
+  svms_destroy(e);
+
   long lo = per_frame[0], hi = per_frame[0], leaked = 0;
   for (size_t i = 0; i < per_frame.size(); ++i) {
     lo = std::min(lo, per_frame[i]);
@@ -111,8 +148,8 @@ int main(int argc, char** argv) {
     leaked += unfreed[i];
   }
   std::printf(
-      "svms_capi_alloc_test: %ld-%ld heap allocations per frame after warm-up (8- and 16-bit), "
-      "%ld not freed over 20 frames\n",
+      "svms_capi_alloc_test: %ld-%ld heap allocations per frame after warm-up (8- and 16-bit, one "
+      "layout and two), %ld not freed over 40 frames\n",
       lo, hi, leaked);
   int failed = 0;
   if (leaked != 0) std::fprintf(stderr, "FAIL: %ld allocations not freed\n", leaked), failed = 1;

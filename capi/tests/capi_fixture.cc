@@ -2,7 +2,11 @@
 // quick approach dataset, the same camera as cal.cameramodel with a covariance sidecar (the
 // intrinsics' sigma 0.5 px for the core, 1e-4 for the distortion), and two rendered frames as raw
 // 8-bit pixels (frame_N.raw, width x height bytes, row-major) with their true cam_from_object
-// (frame_N.txt: rvec and tvec).
+// (frame_N.txt: rvec and tvec). For the tests of several objects per frame: the approach's view 6
+// with a second object beside the module (svms_testing/two_objects.h), as raw pixels (pair.raw)
+// and as a PGM (pair.pgm, linear values), the second object's layout (fixture_layout.json), a
+// layout repeating the module's ID 13 (clash_layout.json), and both true poses (pair.txt: the
+// module's rvec and tvec, then the fixture's).
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -12,6 +16,7 @@
 #include "svms/marker/model_io.h"
 #include "svms/sim/render.h"
 #include "svms/sim/truth.h"
+#include "svms_testing/two_objects.h"
 
 int main(int argc, char** argv) {
   if (argc != 2) {
@@ -100,6 +105,33 @@ int main(int argc, char** argv) {
     f.precision(17);
     f << lone_image.cols << " " << lone_image.rows << " " << pose.rvec.transpose() << " "
       << pose.tvec.transpose() << "\n";
+  }
+  // Two objects in one frame.
+  svms::Layout clash = svms_testing::FixtureLayout();
+  clash.name = "clash";
+  clash.markers[1].marker = svms::MarkerModel::Standard(13, 0.12, 0.02);
+  if (!svms::WriteTextFile(dir + "/fixture_layout.json",
+                           svms::LayoutToJson(svms_testing::FixtureLayout()))
+           .ok() ||
+      !svms::WriteTextFile(dir + "/clash_layout.json", svms::LayoutToJson(clash)).ok() ||
+      !svms::Renderer::Create(svms_testing::WithFixture(scene), &r).ok())
+    return 1;
+  const int pv = svms_testing::kTwoObjectsView;
+  const cv::Mat pair = r->Expose(r->RenderRadiance(pv), pv);
+  if (pair.type() != CV_8UC1 || !pair.isContinuous()) return 1;
+  std::ofstream(dir + "/pair.raw", std::ios::binary)
+      .write(reinterpret_cast<const char*>(pair.data), pair.total());
+  {
+    std::ofstream pgm(dir + "/pair.pgm", std::ios::binary);
+    pgm << "P5\n" << pair.cols << " " << pair.rows << "\n255\n";
+    pgm.write(reinterpret_cast<const char*>(pair.data), pair.total());
+  }
+  {
+    std::ofstream f(dir + "/pair.txt");
+    f.precision(17);
+    for (const char* object : {"module", "fixture"})
+      for (const auto& [name, pose] : svms::ComputeTruth(*r, pv).cam_from_object)
+        if (name == object) f << pose.rvec.transpose() << " " << pose.tvec.transpose() << "\n";
   }
   std::cout << "svms_capi_fixture: wrote " << dir << "\n";
   return 0;

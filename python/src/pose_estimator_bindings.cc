@@ -24,7 +24,8 @@ struct PyPoseEstimator {
   std::unique_ptr<std::mutex> mutex = std::make_unique<std::mutex>();
 
   FrameResult Estimate(const py::array& image, double timestamp) const {
-    if (!std::isfinite(timestamp)) throw py::value_error("t: expected a finite time stamp (seconds)");
+    if (!std::isfinite(timestamp))
+      throw py::value_error("t: expected a finite time stamp (seconds)");
     const cv::Mat mat = MatFromArray(image);
     const CameraModel& cam = estimator->camera();
     if (mat.cols != cam.width() || mat.rows != cam.height())
@@ -48,6 +49,16 @@ Layout LayoutFrom(const py::object& layout) {
   }
   throw py::type_error("layout: expected a Layout or a path to a layout JSON file, got " +
                        py::str(py::type::of(layout)).cast<std::string>());
+}
+
+// One layout, or a list (or tuple) of them: one object each.
+std::vector<Layout> LayoutsFrom(const py::object& layouts) {
+  if (!py::isinstance<py::list>(layouts) && !py::isinstance<py::tuple>(layouts))
+    return {LayoutFrom(layouts)};
+  std::vector<Layout> out;
+  for (const py::handle& l : layouts)
+    out.push_back(LayoutFrom(py::reinterpret_borrow<py::object>(l)));
+  return out;
 }
 
 }  // namespace
@@ -105,12 +116,27 @@ void BindPoseEstimator(py::module_& m) {
 
   py::class_<FrameResult>(m, "FrameResult", "What PoseEstimator.estimate gives for one frame")
       .def_readonly("timestamp", &FrameResult::timestamp, "seconds, as given")
-      .def_readonly("pose", &FrameResult::pose, "ObjectPose")
+      .def_readonly("pose", &FrameResult::pose, "ObjectPose of the first (or only) layout")
+      .def_property_readonly(
+          "poses",
+          [](const FrameResult& r) {
+            std::vector<ObjectPose> poses;
+            for (size_t i = 0; i < r.num_objects(); ++i) poses.push_back(r.object(i));
+            return poses;
+          },
+          "list of ObjectPose, one per layout in the estimator's order (poses[0] is pose)")
       .def_readonly("detections", &FrameResult::detections,
-                    "every marker found (of the layout or not), list of Detection")
+                    "every marker found (of a layout or not), list of Detection")
+      .def_readonly("unassigned_ids", &FrameResult::unassigned_ids,
+                    "IDs of the detections of no layout, one per detection (empty unless the "
+                    "detector reports every ID: options.detector.known_ids_only = False)")
       .def_readonly("budget_exceeded", &FrameResult::budget_exceeded)
-      .def_readonly("latency_ms", &FrameResult::latency_ms, "detection + fusion, wall clock")
-      .def_readonly("detect_ms", &FrameResult::detect_ms);
+      .def_readonly("latency_ms", &FrameResult::latency_ms,
+                    "detection + every layout's fusion, wall clock")
+      .def_readonly("detect_ms", &FrameResult::detect_ms, "the frame's one detection pass")
+      .def_readonly("fuse_ms", &FrameResult::fuse_ms, "every layout's fusion together")
+      .def_readonly("detection_passes", &FrameResult::detection_passes,
+                    "times the detector ran for this frame: 1, whatever the number of layouts");
 
   py::class_<PyPoseEstimator>(
       m, "PoseEstimator",
@@ -118,11 +144,14 @@ void BindPoseEstimator(py::module_& m) {
       "PoseEstimator(camera, layout, options=None, response=None)\n"
       "  camera: a Camera or a .cameramodel path (its covariance sidecar is read: the pose "
       "covariance then includes the calibration's error)\n"
-      "  layout: a Layout or a layout JSON path (svms survey's output)\n"
+      "  layout: a Layout or a layout JSON path (svms survey's output), or a list of them: one "
+      "object each, all from one detection per frame (FrameResult.poses); a marker ID in two "
+      "layouts raises ValueError naming both\n"
       "  options: PoseEstimatorOptions\n"
       "  response: None when the frames are linear in light; 'srgb', 'gamma:2.2' otherwise.\n"
       "PoseEstimator.from_files(camera_path, layout_path): as `svms pose` and the C API do, "
-      "with the camera's photometric file when there is one.")
+      "with the camera's photometric file when there is one; layout_path may be a list of "
+      "paths.")
       .def(py::init([](const py::object& camera, const py::object& layout,
                        const std::optional<PoseEstimatorOptions>& options,
                        const std::optional<std::string>& response) {
@@ -132,21 +161,29 @@ void BindPoseEstimator(py::module_& m) {
              PoseEstimatorOptions o = options.value_or(PoseEstimatorOptions());
              if (response) o.photometric = PhotometricFrom(response);
              auto e = std::make_unique<PyPoseEstimator>();
-             RaiseIfError(PoseEstimator::Create(cam, LayoutFrom(layout), o, &e->estimator));
+             RaiseIfError(PoseEstimator::Create(cam, LayoutsFrom(layout), o, &e->estimator));
              return e;
            }),
            py::arg("camera"), py::arg("layout"), py::arg("options") = py::none(),
            py::arg("response") = py::none())
       .def_static(
           "from_files",
-          [](const std::filesystem::path& camera, const std::filesystem::path& layout,
+          [](const std::filesystem::path& camera, const py::object& layout,
              const std::optional<PoseEstimatorOptions>& options) {
             RaiseIfMissing(camera.string(), "an mrcal .cameramodel file");
-            RaiseIfMissing(layout.string(), "a layout JSON file");
+            const bool several =
+                py::isinstance<py::list>(layout) || py::isinstance<py::tuple>(layout);
+            std::vector<std::string> paths;
+            for (const py::handle& l :
+                 several ? py::iterable(layout) : py::iterable(py::make_tuple(layout)))
+              paths.push_back(l.cast<std::filesystem::path>().string());
+            for (const std::string& p : paths) RaiseIfMissing(p, "a layout JSON file");
             auto e = std::make_unique<PyPoseEstimator>();
-            RaiseIfError(PoseEstimator::CreateFromFiles(camera.string(), layout.string(),
-                                                        options.value_or(PoseEstimatorOptions()),
-                                                        &e->estimator));
+            const PoseEstimatorOptions o = options.value_or(PoseEstimatorOptions());
+            RaiseIfError(
+                several
+                    ? PoseEstimator::CreateFromFiles(camera.string(), paths, o, &e->estimator)
+                    : PoseEstimator::CreateFromFiles(camera.string(), paths[0], o, &e->estimator));
             return e;
           },
           py::arg("camera_path"), py::arg("layout_path"), py::arg("options") = py::none())
@@ -155,8 +192,12 @@ void BindPoseEstimator(py::module_& m) {
            "stamp (seconds, passed through). Returns a FrameResult (.pose: ObjectPose).")
       .def_property_readonly("camera",
                              [](const PyPoseEstimator& e) { return e.estimator->camera(); })
-      .def_property_readonly("layout",
-                             [](const PyPoseEstimator& e) { return e.estimator->layout(); });
+      .def_property_readonly(
+          "layout", [](const PyPoseEstimator& e) { return e.estimator->layout(); },
+          "the first (or only) layout")
+      .def_property_readonly(
+          "layouts", [](const PyPoseEstimator& e) { return e.estimator->layouts(); },
+          "every layout, in the order of FrameResult.poses");
 }
 
 }  // namespace svms::python

@@ -1,5 +1,6 @@
 """svms.PoseEstimator on the C API's fixture frame (approach view 11, 2.25 m): the truth, and
-the same numbers as `svms pose` on the same pixels."""
+the same numbers as `svms pose` on the same pixels; and on its two-object frame (the module and
+a fixture plate, approach view 6) with two layouts: one detection, each object's own pose."""
 import json
 import os
 import subprocess
@@ -103,6 +104,65 @@ class PoseEstimatorTest(unittest.TestCase):
         p = e.estimate(empty_frame).pose
         self.assertFalse(p.valid)
         self.assertTrue(p.message)
+
+
+class SeveralObjectsTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.fixture = need("SVMS_CAPI_FIXTURE")
+        cls.camera_path = os.path.join(cls.fixture, "true.cameramodel")
+        cls.module_path = os.path.join(cls.fixture, "true_layout.json")
+        cls.fixture_path = os.path.join(cls.fixture, "fixture_layout.json")
+        cls.camera = svms.Camera(cls.camera_path)
+        raw = np.fromfile(os.path.join(cls.fixture, "pair.raw"), np.uint8)
+        cls.frame = raw.reshape(cls.camera.height, cls.camera.width)
+        with open(os.path.join(cls.fixture, "pair.txt")) as f:
+            rows = [[float(x) for x in line.split()] for line in f.read().splitlines()]
+        cls.truths = [svms.Pose(r[:3], r[3:]) for r in rows]
+
+    def test_two_layouts_one_detection_each_its_own_pose(self):
+        layouts = [svms.read_layout(self.module_path), svms.read_layout(self.fixture_path)]
+        e = svms.PoseEstimator(self.camera, layouts)
+        self.assertEqual([l.name for l in e.layouts], ["mockup (true)", "fixture"])
+        r = e.estimate(self.frame, 0.5)
+        self.assertEqual(r.detection_passes, 1)
+        self.assertEqual(len(r.poses), 2)
+        self.assertEqual(r.unassigned_ids, [])
+        self.assertGreaterEqual(r.latency_ms, r.detect_ms + r.fuse_ms - 1e-6)
+        for i, (pose, truth, layout) in enumerate(zip(r.poses, self.truths, layouts)):
+            self.assertTrue(pose.valid, pose.message)
+            self.assertLess(np.linalg.norm(pose.cam_from_object.tvec - truth.tvec), 1e-3)
+            alone = svms.PoseEstimator(self.camera, layout).estimate(self.frame, 0.5).pose
+            # Bit for bit the pose of an estimator of this object alone.
+            np.testing.assert_array_equal(pose.cam_from_object.rvec, alone.cam_from_object.rvec)
+            np.testing.assert_array_equal(pose.cam_from_object.tvec, alone.cam_from_object.tvec)
+            np.testing.assert_array_equal(pose.covariance, alone.covariance)
+            self.assertEqual(pose.ids_used, alone.ids_used)
+        np.testing.assert_array_equal(r.pose.cam_from_object.tvec, r.poses[0].cam_from_object.tvec)
+        self.assertTrue(set(r.poses[1].ids_used) <= {30, 31, 32})
+        # From files, as svms pose and the C API read them: the same numbers.
+        f = svms.PoseEstimator.from_files(self.camera_path, [self.module_path, self.fixture_path])
+        rf = f.estimate(self.frame, 0.5)
+        for a, b in zip(rf.poses, r.poses):
+            np.testing.assert_array_equal(a.cam_from_object.tvec, b.cam_from_object.tvec)
+
+    def test_unassigned_markers_and_bad_layouts(self):
+        options = svms.PoseEstimatorOptions()
+        options.detector.known_ids_only = False
+        r = svms.PoseEstimator(self.camera, self.module_path, options).estimate(self.frame)
+        self.assertEqual(sorted(r.unassigned_ids), [30, 31, 32])
+        clash = os.path.join(self.fixture, "clash_layout.json")
+        with self.assertRaises(ValueError) as c:
+            svms.PoseEstimator.from_files(self.camera_path, [self.module_path, clash])
+        self.assertIn(clash + ": marker ID 13 is also in " + self.module_path, str(c.exception))
+        with self.assertRaises(ValueError) as c:
+            svms.PoseEstimator(self.camera, [self.module_path, clash])
+        self.assertIn("marker ID 13 is also in layouts[0] 'mockup (true)'", str(c.exception))
+        with self.assertRaises(FileNotFoundError) as c:
+            svms.PoseEstimator.from_files(self.camera_path, [self.module_path, "/nonexistent.json"])
+        self.assertIn("/nonexistent.json", str(c.exception))
+        with self.assertRaises(ValueError):
+            svms.PoseEstimator(self.camera, [])
 
 
 if __name__ == "__main__":

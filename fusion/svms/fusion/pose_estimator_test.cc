@@ -13,6 +13,8 @@
 #include "svms/sim/render.h"
 #include "svms/sim/truth.h"
 #include "svms_testing/flat_marker_views.h"
+#include "svms_testing/scratch_dir.h"
+#include "svms_testing/two_objects.h"
 
 namespace svms {
 namespace {
@@ -268,6 +270,144 @@ TEST(PoseEstimator, BadInputsAreRejectedWithTheirNames) {
   est->Estimate(cv::Mat(1, 1, CV_8UC1, cv::Scalar(0)), 0, &r);
   EXPECT_FALSE(r.pose.valid);
   EXPECT_NE(r.pose.message.find("no marker"), std::string::npos);
+}
+
+// The approach's view 6 with the fixture beside the module (svms_testing/two_objects.h), and the
+// two objects' true poses.
+struct TwoObjects {
+  Scene scene;
+  cv::Mat image;
+  Pose module_truth, fixture_truth;
+  TwoObjects() {
+    scene = svms_testing::WithFixture(Shared().dataset.scenes[0].second);
+    std::unique_ptr<Renderer> r;
+    EXPECT_TRUE(Renderer::Create(scene, &r).ok());
+    const int v = svms_testing::kTwoObjectsView;
+    image = r->Expose(r->RenderRadiance(v), v);
+    for (const auto& [name, pose] : ComputeTruth(*r, v).cam_from_object)
+      (name == "module" ? module_truth : fixture_truth) = pose;
+  }
+};
+const TwoObjects& SharedTwoObjects() {
+  static const TwoObjects* t = new TwoObjects;
+  return *t;
+}
+
+void ExpectSamePose(const ObjectPose& a, const ObjectPose& b, const std::string& what) {
+  ASSERT_EQ(a.valid, b.valid) << what;
+  EXPECT_EQ(a.cam_from_object.rvec, b.cam_from_object.rvec) << what;
+  EXPECT_EQ(a.cam_from_object.tvec, b.cam_from_object.tvec) << what;
+  EXPECT_EQ(a.covariance, b.covariance) << what;
+  EXPECT_EQ(a.ids_used, b.ids_used) << what;
+  EXPECT_EQ(a.ids_rejected, b.ids_rejected) << what;
+  EXPECT_EQ(a.chi2, b.chi2) << what;
+  EXPECT_EQ(a.markers_seen, b.markers_seen) << what;
+  EXPECT_EQ(a.message, b.message) << what;
+}
+
+// One frame with two objects, one layout each: one detection pass gives both poses, each near
+// its own truth and bit for bit what a single-layout estimator of that object gives.
+TEST(PoseEstimator, TwoLayoutsShareOneDetectionAndEachEqualsItsOwnEstimator) {
+  const Approach& a = Shared();
+  const TwoObjects& t = SharedTwoObjects();
+  const Layout fixture = svms_testing::FixtureLayout();
+  std::unique_ptr<PoseEstimator> both, module_only, fixture_only;
+  ASSERT_TRUE(PoseEstimator::Create(a.camera(), {a.layout, fixture}, {}, &both).ok());
+  ASSERT_TRUE(PoseEstimator::Create(a.camera(), a.layout, {}, &module_only).ok());
+  ASSERT_TRUE(PoseEstimator::Create(a.camera(), fixture, {}, &fixture_only).ok());
+  ASSERT_EQ(both->layouts().size(), 2u);
+  FrameResult r, rm, rf;
+  both->Estimate(t.image, 0.6, &r);
+  module_only->Estimate(t.image, 0.6, &rm);
+  fixture_only->Estimate(t.image, 0.6, &rf);
+  ASSERT_EQ(r.num_objects(), 2u);
+  EXPECT_EQ(r.detection_passes, 1);
+  EXPECT_EQ(r.timestamp, 0.6);
+  // Each object near its truth (within 6 of its sigmas, and a few millimetres at 3.6-4.5 m).
+  const Pose truths[2] = {t.module_truth, t.fixture_truth};
+  for (size_t i = 0; i < 2; ++i) {
+    const ObjectPose& p = r.object(i);
+    ASSERT_TRUE(p.valid) << "object " << i << ": " << p.message;
+    EXPECT_GE(p.markers_used, 2) << "object " << i;
+    const Eigen::Matrix<double, 6, 1> e = PoseError(truths[i], p.cam_from_object);
+    for (int k = 0; k < 6; ++k)
+      EXPECT_LT(std::abs(e[k]), 6 * std::sqrt(p.covariance(k, k)) + 1e-5)
+          << "object " << i << " component " << k;
+    EXPECT_LT(1e3 * e.tail<3>().norm(), 5) << "object " << i;
+    std::printf("object %zu: %d markers, error %.3f mm %.4f deg\n", i, p.markers_used,
+                1e3 * e.tail<3>().norm(), e.head<3>().norm() * 180 / M_PI);
+  }
+  // The fixture's markers are not the module's (and the other way round).
+  for (int id : r.pose.ids_used) EXPECT_TRUE(a.layout.Find(id)) << id;
+  for (int id : r.object(1).ids_used) EXPECT_TRUE(fixture.Find(id)) << id;
+  // Bit for bit the single-layout estimators' poses.
+  ExpectSamePose(r.object(0), rm.pose, "module");
+  ExpectSamePose(r.object(1), rf.pose, "fixture");
+  // The detector reports only the layouts' IDs by default, so nothing is unassigned; with
+  // known_ids_only off, the module's estimator reports the fixture's three markers as
+  // unassigned, and the two-layout estimator none.
+  EXPECT_TRUE(r.unassigned_ids.empty());
+  EXPECT_TRUE(rm.unassigned_ids.empty());
+  std::vector<int> fixture_seen;
+  for (const Detection& d : r.detections)
+    if (fixture.Find(d.id)) fixture_seen.push_back(d.id);
+  EXPECT_EQ(fixture_seen.size(), 3u);
+  PoseEstimatorOptions all_ids;
+  all_ids.detector.known_ids_only = false;
+  ASSERT_TRUE(PoseEstimator::Create(a.camera(), a.layout, all_ids, &module_only).ok());
+  ASSERT_TRUE(PoseEstimator::Create(a.camera(), {a.layout, fixture}, all_ids, &both).ok());
+  FrameResult r_all;
+  module_only->Estimate(t.image, 0.6, &rm);
+  both->Estimate(t.image, 0.6, &r_all);
+  EXPECT_EQ(rm.unassigned_ids, fixture_seen);
+  EXPECT_TRUE(r_all.unassigned_ids.empty());
+  ExpectSamePose(r_all.pose, rm.pose, "module, every ID");
+  // Latency: one detection and two fusions.
+  EXPECT_GE(r.latency_ms, r.detect_ms + r.fuse_ms - 1e-6);
+  std::printf("two layouts: detect %.2f ms, fuse %.3f ms; module alone: detect %.2f, fuse %.3f\n",
+              r.detect_ms, r.fuse_ms, rm.detect_ms, rm.fuse_ms);
+}
+
+TEST(PoseEstimator, AnIdInTwoLayoutsIsRefusedNamingBoth) {
+  const Approach& a = Shared();
+  Layout other = svms_testing::FixtureLayout();
+  other.markers[1].marker = MarkerModel::Standard(13, 0.12, 0.02);  // the module's ID 13
+  std::unique_ptr<PoseEstimator> est;
+  Status s = PoseEstimator::Create(a.camera(), {a.layout, other}, {}, &est);
+  ASSERT_FALSE(s.ok());
+  EXPECT_FALSE(est);
+  EXPECT_NE(s.message().find("layouts[1] 'fixture': marker ID 13 is also in layouts[0] '" +
+                             a.layout.name + "'"),
+            std::string::npos)
+      << s.message();
+  // An inner marker's ID counts too (11 is the inner marker of the module's dual 10).
+  other = svms_testing::FixtureLayout();
+  other.markers[0].marker = MarkerModel::Standard(11, 0.12, 0.02);
+  s = PoseEstimator::Create(a.camera(), {a.layout, other}, {}, &est);
+  EXPECT_NE(s.message().find("marker ID 11 is also in"), std::string::npos) << s.message();
+  EXPECT_FALSE(PoseEstimator::Create(a.camera(), std::vector<Layout>{}, {}, &est).ok());
+  EXPECT_FALSE(PoseEstimator::Create(a.camera(), {a.layout, Layout{}}, {}, &est).ok());
+
+  // From files: the error names both files and the ID; a missing file is named.
+  svms_testing::ScratchDir scratch("svms_pose_estimator_test");
+  const std::string dir = scratch.path().string();
+  const std::string cam = dir + "/cam.cameramodel", la = dir + "/module.json",
+                    lb = dir + "/other.json";
+  ASSERT_TRUE(a.camera().Write(cam).ok());
+  ASSERT_TRUE(WriteTextFile(la, LayoutToJson(a.layout)).ok());
+  other = svms_testing::FixtureLayout();
+  other.markers[2].marker = MarkerModel::Standard(16, 0.12, 0.02);
+  ASSERT_TRUE(WriteTextFile(lb, LayoutToJson(other)).ok());
+  s = PoseEstimator::CreateFromFiles(cam, std::vector<std::string>{la, lb}, {}, &est);
+  EXPECT_EQ(s.message(), lb + ": marker ID 16 is also in " + la +
+                             "; expected each marker ID in one layout only (a detection must "
+                             "belong to one object)");
+  s = PoseEstimator::CreateFromFiles(cam, std::vector<std::string>{la, dir + "/nope.json"}, {},
+                                     &est);
+  EXPECT_NE(s.message().find(dir + "/nope.json"), std::string::npos) << s.message();
+  ASSERT_TRUE(WriteTextFile(lb, LayoutToJson(svms_testing::FixtureLayout())).ok());
+  ASSERT_TRUE(PoseEstimator::CreateFromFiles(cam, std::vector<std::string>{la, lb}, {}, &est).ok());
+  EXPECT_EQ(est->layouts()[1].name, "fixture");
 }
 
 }  // namespace
