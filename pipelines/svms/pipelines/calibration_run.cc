@@ -285,11 +285,11 @@ int WriteOutputs(const CalibrateRunOptions& o, const Photometry& photometry,
         out->has_optimization_inputs = written.ok();
       } else {
         out->optimization_inputs_note = s.message();
-        if (!o.quiet)
-          std::cerr << kProg << "note: " << o.out
-                    << " is written without mrcal's optimization_inputs (" << s.message()
-                    << "); mrcal's uncertainty tools cannot read it, "
-                    << CovarianceSidecarPath(o.out) << " has the covariance\n";
+        // Said even with --quiet: the model lacks what mrcal's tools need.
+        std::cerr << kProg << "note: " << o.out
+                  << " is written without mrcal's optimization_inputs (" << s.message()
+                  << "); mrcal's uncertainty tools cannot read it, " << CovarianceSidecarPath(o.out)
+                  << " has the covariance\n";
       }
     }
     // A response given or estimated is stored with the camera (photometric.h), so that
