@@ -6,6 +6,7 @@
 #include "svms/base/file_io.h"
 #include "svms/calib/board_grid.h"
 #include "svms/camera/camera.h"
+#include "svms/pipelines/json_text.h"
 #include "svms/pipelines/run_program.h"
 
 namespace svms {
@@ -157,7 +158,9 @@ Status MrcalOptimizationInputsText(const CalibrationResult& r,
     return Status::Error("cannot create a temporary file for mrcal's model");
   RunProgramOptions ro;
   ro.stderr_path = tmp.err;
-  ro.stdin_text = j.dump();
+  // mrcal keeps the image paths only to show them: a path that is not UTF-8 goes with U+FFFD
+  // for its invalid bytes.
+  ro.stdin_text = DumpJson(j);
   const int rc = RunProgram({o.python, "-c", kScript, tmp.out}, ro);
   std::string err;
   ReadTextFile(tmp.err, &err).ok();
