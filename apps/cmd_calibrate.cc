@@ -18,8 +18,8 @@ namespace {
 
 struct CalibrateCliOptions {
   std::vector<std::string> inputs;
-  std::string board, lensmodel = "LENSMODEL_OPENCV8", out, report;
-  bool warp = false, quiet = false, no_redetect = false;
+  std::string board, lensmodel = "LENSMODEL_OPENCV8", out, report, python = "/usr/bin/python3";
+  bool warp = false, quiet = false, no_redetect = false, no_mrcal_inputs = false;
   double range = 0, max_rms = 2.0;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   PhotometryOptions photometry;
@@ -52,6 +52,8 @@ int RunCalibrate(const CalibrateCliOptions& c) {
   o.quiet = c.quiet;
   o.redetect = !c.no_redetect;
   o.photometry = c.photometry;
+  o.python = c.python;
+  o.mrcal_inputs = !c.no_mrcal_inputs;
   CalibrateRunOutcome out;
   const int rc = RunCalibration(o, &out);
   if (rc == kExitBadInput || out.result.camera.empty() || out.result.num_inliers == 0) return rc;
@@ -61,7 +63,8 @@ int RunCalibrate(const CalibrateCliOptions& c) {
                 r.camera.Summary().c_str(), r.views.size(), r.num_inliers, r.num_outliers, r.rms_px,
                 r.worst_px);
     if (!c.out.empty())
-      std::printf("wrote %s and its intrinsics' covariance %s\n", c.out.c_str(),
+      std::printf("wrote %s%s and its intrinsics' covariance %s\n", c.out.c_str(),
+                  out.has_optimization_inputs ? " (with mrcal's optimization_inputs)" : "",
                   CovarianceSidecarPath(c.out).c_str());
     if (out.response.profiles > 0)
       std::printf("response: gamma %.3f +- %.3f from %d edge profiles (%s)\n", out.response.gamma,
@@ -118,6 +121,12 @@ void AddCalibrateCommands(CLI::App& app, int* exit_code) {
           "The images' response curve: linear, srgb, gamma:G, table:FILE, or estimate (from "
           "the symmetry of the markers' edges; docs/detector.md). Given or estimated, it is "
           "stored with the camera as OUT.photometric.json");
+  cmd->add_option("--python", c->python,
+                  "The Python (with numpy and mrcal 2.2) that writes the calibration into the "
+                  "model as mrcal's optimization_inputs, for mrcal's own tools")
+      ->capture_default_str();
+  cmd->add_flag("--no-optimization-inputs", c->no_mrcal_inputs,
+                "Write the model without mrcal's optimization_inputs (no Python is run)");
   cmd->add_flag("--quiet", c->quiet, "No progress on stderr");
   cmd->add_flag("--no-redetect", c->no_redetect,
                 "One pass only: do not re-detect the corners with the first pass's lens model");

@@ -538,6 +538,7 @@ Status Calibrate(const std::vector<ViewObservations>& all_views, const Calibrati
 
   // The solve, with outlier rejection.
   const double ref_sigma = views[0]->points[0].sigma_px;
+  result->reference_sigma_px = ref_sigma;
   std::vector<std::vector<bool>> outlier(views.size());
   for (size_t v = 0; v < views.size(); ++v) outlier[v].assign(views[v]->points.size(), false);
   const ceres::Solver::Summary final_summary = SolveInStages(p, ref_sigma, &s, &outlier, result);

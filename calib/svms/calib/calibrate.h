@@ -91,6 +91,9 @@ struct CalibrationResult {
   // residual coordinates over their degrees of freedom (2 per inlier less the state's
   // dimension), pixels (mrcal's observed_pixel_uncertainty).
   double noise_sigma_px = 0;
+  // The sigma whose residuals have weight 1 (the first used point's sigma_px): every residual
+  // is weighted by reference_sigma_px / its point's sigma_px, pixels.
+  double reference_sigma_px = 0;
   std::string report;  // the final Ceres solve's one-line report
 };
 

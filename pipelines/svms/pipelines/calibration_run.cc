@@ -17,6 +17,7 @@
 #include "svms/pipelines/calibration_report.h"
 #include "svms/pipelines/exit_codes.h"
 #include "svms/pipelines/item_failure.h"
+#include "svms/pipelines/mrcal_optimization_inputs.h"
 #include "svms/pipelines/output_checks.h"
 #include "svms/pipelines/progress.h"
 
@@ -268,6 +269,29 @@ int WriteOutputs(const CalibrateRunOptions& o, const Photometry& photometry,
   if (!o.out.empty()) {
     written = AddCameraWithSidecar(o.out, out->result.camera, out->result.noise_sigma_px,
                                    static_cast<int>(out->result.views.size()), &files);
+    // The model again, with mrcal's optimization_inputs (replacing the plain text just added):
+    // the same camera, which mrcal's uncertainty and residual tools can also evaluate.
+    if (written && o.mrcal_inputs) {
+      std::string plain, with_inputs;
+      MrcalInputsOptions mo;
+      mo.python = o.python;
+      mo.board_warp = o.calib.board_warp;
+      Status s = out->result.camera.ToText(o.out, &plain);
+      if (s)
+        s = MrcalOptimizationInputsText(out->result, out->views, out->image_of_view, plain, mo,
+                                        &with_inputs);
+      if (s) {
+        written = files.Add(o.out, with_inputs);
+        out->has_optimization_inputs = written.ok();
+      } else {
+        out->optimization_inputs_note = s.message();
+        // Said even with --quiet: the model lacks what mrcal's tools need.
+        std::cerr << kProg << "note: " << o.out
+                  << " is written without mrcal's optimization_inputs (" << s.message()
+                  << "); mrcal's uncertainty tools cannot read it, " << CovarianceSidecarPath(o.out)
+                  << " has the covariance\n";
+      }
+    }
     // A response given or estimated is stored with the camera (photometric.h), so that
     // detect, pose and survey read its images the same way.
     if (const std::optional<PhotometricModel> m = photometry.GivenModel(); written && m) {

@@ -26,6 +26,10 @@ struct CalibrateRunOptions {
   // the curved image of a marker's side does not bias them) and calibrate again.
   bool redetect = true;
   PhotometryOptions photometry;  // how the images become linear light (photometry.h)
+  // Also store the calibration in the model as mrcal's optimization_inputs, written by this
+  // Python (mrcal_optimization_inputs.h); when it cannot be, the model is written without them.
+  bool mrcal_inputs = true;
+  std::string python = "/usr/bin/python3";
 };
 
 struct CalibrateRunOutcome {
@@ -38,6 +42,9 @@ struct CalibrateRunOutcome {
   double uncertainty_range = 0;            // the range used, metres
   double uncertainty_rms = 0, uncertainty_max = 0;  // sqrt(trace) over the image grid, px
   double coverage = 0;                              // fraction of 16x16 image cells with an inlier
+  // Whether the model carries mrcal's optimization_inputs, and if not, why (one line).
+  bool has_optimization_inputs = false;
+  std::string optimization_inputs_note;
   CalibrationResult pass1;  // with redetect: the first pass (corners fitted in pixels)
   std::vector<ViewObservations> pass1_views;  // and what it saw
 };

@@ -1,10 +1,7 @@
 #include "svms/pipelines/mrcal_uncertainty.h"
 
-#include <unistd.h>
-
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
@@ -107,33 +104,6 @@ json.dump({"lensmodel": lensmodel, "intrinsics": [float(v) for v in intrinsics],
            "joint_factor": [[float(v) for v in row] for row in L]}, open(out, "w"))
 )PY";
 
-// A new empty file in the temporary directory ($TMPDIR or /tmp); "" when none can be made.
-std::string MakeTempFile(const char* what) {
-  const char* dir = std::getenv("TMPDIR");
-  std::string path = std::string(dir && *dir ? dir : "/tmp") + "/svms-" + what + "-XXXXXX";
-  const int fd = mkstemp(path.data());
-  if (fd < 0) return "";
-  close(fd);
-  return path;
-}
-
-// The last non-empty line of a text.
-std::string LastLine(const std::string& text) {
-  const size_t end = text.find_last_not_of(" \n\r\t");
-  if (end == std::string::npos) return "";
-  const size_t newline = text.rfind('\n', end);
-  const size_t begin = newline == std::string::npos ? 0 : newline + 1;
-  return text.substr(begin, end - begin + 1);
-}
-
-struct TempFiles {
-  std::string out = MakeTempFile("mrcal-out"), err = MakeTempFile("mrcal-err");
-  ~TempFiles() {
-    if (!out.empty()) std::remove(out.c_str());
-    if (!err.empty()) std::remove(err.c_str());
-  }
-};
-
 }  // namespace
 
 Status ImportMrcalUncertainty(const MrcalUncertaintyOptions& o, MrcalUncertaintyResult* result) {
@@ -149,7 +119,7 @@ Status ImportMrcalUncertainty(const MrcalUncertaintyOptions& o, MrcalUncertainty
                          "without them there is no uncertainty to import");
   if (!(o.observed_pixel_uncertainty >= 0) || !std::isfinite(o.observed_pixel_uncertainty))
     return Status::Error("observed pixel uncertainty: expected a positive number of pixels");
-  TempFiles tmp;
+  ProgramOutputFiles tmp("mrcal-out", "mrcal-err");
   if (tmp.out.empty() || tmp.err.empty())
     return Status::Error(path + ": cannot create a temporary file for mrcal's result");
   RunProgramOptions ro;

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 
@@ -64,6 +65,35 @@ int RunProgram(const std::vector<std::string>& argv, const RunProgramOptions& o)
   if (WIFEXITED(status)) return WEXITSTATUS(status);
   if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
   return 127;
+}
+
+namespace {
+
+std::string MakeTempFile(const char* what) {
+  const char* dir = std::getenv("TMPDIR");
+  std::string path = std::string(dir && *dir ? dir : "/tmp") + "/svms-" + what + "-XXXXXX";
+  const int fd = mkstemp(path.data());
+  if (fd < 0) return "";
+  close(fd);
+  return path;
+}
+
+}  // namespace
+
+ProgramOutputFiles::ProgramOutputFiles(const char* out_name, const char* err_name)
+    : out(MakeTempFile(out_name)), err(MakeTempFile(err_name)) {}
+
+ProgramOutputFiles::~ProgramOutputFiles() {
+  if (!out.empty()) std::remove(out.c_str());
+  if (!err.empty()) std::remove(err.c_str());
+}
+
+std::string LastLine(const std::string& text) {
+  const size_t end = text.find_last_not_of(" \n\r\t");
+  if (end == std::string::npos) return "";
+  const size_t newline = text.rfind('\n', end);
+  const size_t begin = newline == std::string::npos ? 0 : newline + 1;
+  return text.substr(begin, end - begin + 1);
 }
 
 }  // namespace svms

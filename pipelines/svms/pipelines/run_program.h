@@ -21,4 +21,18 @@ struct RunProgramOptions {
 // its standard input is an error of the write, not the death of the caller.
 int RunProgram(const std::vector<std::string>& argv, const RunProgramOptions& options = {});
 
+// Two new empty files in the temporary directory ($TMPDIR or /tmp) for a program's result and
+// its standard error, removed when this goes out of scope; a path is "" when it could not be
+// made.
+struct ProgramOutputFiles {
+  ProgramOutputFiles(const char* out_name, const char* err_name);
+  ~ProgramOutputFiles();
+  ProgramOutputFiles(const ProgramOutputFiles&) = delete;
+  ProgramOutputFiles& operator=(const ProgramOutputFiles&) = delete;
+  std::string out, err;
+};
+
+// The last non-empty line of a text (a program's one-line diagnosis), without its newline.
+std::string LastLine(const std::string& text);
+
 }  // namespace svms
