@@ -1,6 +1,5 @@
 // svms camera: OpenCV camera files in and out of mrcal .cameramodel files, and what a camera
 // model holds (svms/camera/opencv_camera.h, svms/camera/camera_info.h).
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -23,13 +22,6 @@ struct CameraCliOptions {
   std::vector<std::string> show;
   MrcalUncertaintyOptions mrcal;
 };
-
-// The shortest text that reads back to the same double.
-std::string Exact(double v) {
-  char buf[64];
-  const std::to_chars_result r = std::to_chars(buf, buf + sizeof(buf), v);
-  return std::string(buf, r.ptr);
-}
 
 std::string Fixed1(double v) {
   if (!std::isfinite(v)) return "n/a";
@@ -106,8 +98,8 @@ void PrintInfo(const std::string& path, const CameraInfo& info) {
   std::cout << path << ": " << c.lensmodel() << ", " << c.width() << "x" << c.height()
             << " pixels\n";
   if (in.size() >= 4 && info.distortion_count >= 0) {
-    std::cout << "  fx " << Exact(in[0]) << "  fy " << Exact(in[1]) << "  cx " << Exact(in[2])
-              << "  cy " << Exact(in[3]) << " (pixels)\n";
+    std::cout << "  fx " << RoundTrip(in[0]) << "  fy " << RoundTrip(in[1]) << "  cx " << RoundTrip(in[2])
+              << "  cy " << RoundTrip(in[3]) << " (pixels)\n";
   }
   std::cout << "  field of view: " << Fixed1(info.fov_x_deg) << " x " << Fixed1(info.fov_y_deg)
             << " degrees (edge to edge, through the image centre)\n";
@@ -117,7 +109,7 @@ void PrintInfo(const std::string& path, const CameraInfo& info) {
   } else {
     if (!info.distortion.empty()) {
       for (const auto& [name, value] : info.distortion) {
-        std::cout << name << " " << Exact(value) << (&value == &info.distortion.back().second ? "; " : ", ");
+        std::cout << name << " " << RoundTrip(value) << (&value == &info.distortion.back().second ? "; " : ", ");
       }
     } else {
       std::cout << info.distortion_count << " parameters; ";

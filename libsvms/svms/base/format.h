@@ -2,6 +2,7 @@
 // table or message writes goes through one of these, so that a table's columns read alike.
 #pragma once
 
+#include <charconv>
 #include <sstream>
 #include <string>
 
@@ -34,6 +35,15 @@ inline std::string Scientific(double v, int digits) {
   s.precision(digits);
   s << v;
   return s.str();
+}
+
+// The shortest decimal text that reads back (strtod, Python's float) to exactly `v`
+// ("0.1", "1e-07", "nan"): std::to_chars. For numbers written into files other programs read
+// as data (camera models, OpenCV YAML), where print precision must not change a value.
+inline std::string RoundTrip(double v) {
+  char buf[64];
+  const std::to_chars_result r = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, r.ptr);
 }
 
 }  // namespace svms

@@ -3,7 +3,6 @@
 #include <cassert>
 #include <cctype>
 #include <cerrno>
-#include <charconv>
 #include <climits>
 #include <cmath>
 #include <cstdio>
@@ -17,6 +16,7 @@
 #include <utility>
 
 #include "svms/base/file_io.h"
+#include "svms/base/format.h"
 #include "svms/camera/opencv_camera.h"
 
 // mrcal 2.2's header has no extern "C" guard of its own.
@@ -32,13 +32,6 @@ namespace fs = std::filesystem;
 constexpr const char* kExpectedFile =
     "expected an mrcal .cameramodel: a Python-literal dict with 'lensmodel', 'intrinsics', "
     "'extrinsics' and 'imagersize'";
-
-// The shortest decimal form that reads back to the same double ("0.1", "1e-07", "nan").
-std::string FormatDouble(double v) {
-  char buf[64];
-  const std::to_chars_result r = std::to_chars(buf, buf + sizeof(buf), v);
-  return std::string(buf, r.ptr);
-}
 
 std::string SupportedLensModels() {
   std::string list;
@@ -108,7 +101,7 @@ std::string CheckLensModel(const std::string& name, mrcal_lensmodel_t* out) {
 std::string CheckFinite(const std::string& field, int index, double v) {
   if (std::isfinite(v)) return "";
   return field + "[" + std::to_string(index) + "]: expected a finite number, got " +
-         FormatDouble(v);
+         RoundTrip(v);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -374,7 +367,7 @@ std::string FormatList(const double* v, std::size_t n) {
   std::string s = "[";
   for (std::size_t i = 0; i < n; ++i) {
     s += (i > 0 && i % 8 == 0) ? "\n                  " : " ";
-    s += FormatDouble(v[i]) + ",";
+    s += RoundTrip(v[i]) + ",";
   }
   return s + "]";
 }
@@ -405,7 +398,7 @@ Status CameraModel::Create(const std::string& lensmodel, const std::vector<doubl
       if (!(intrinsics[i] > 0)) {
         return Status::Error("intrinsics[" + std::to_string(i) + "]: expected a positive focal " +
                              "length " + (i == 0 ? "fx" : "fy") + " (pixels), got " +
-                             FormatDouble(intrinsics[i]));
+                             RoundTrip(intrinsics[i]));
       }
     }
   }
@@ -543,7 +536,7 @@ std::string CameraModel::UnusableReason() const {
         char range[64];
         std::snprintf(range, sizeof range, "expected %g to %g", kMinFocalPx, kMaxFocalPx);
         return "intrinsics[" + std::to_string(i) + "]: " + (i == 0 ? "fx " : "fy ") +
-               FormatDouble(f) + " pixels is not a focal length a lens has; " + range;
+               RoundTrip(f) + " pixels is not a focal length a lens has; " + range;
       }
     }
   }

@@ -2,22 +2,15 @@
 
 #include <algorithm>
 #include <cctype>
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <opencv2/core.hpp>
 
 #include "svms/base/file_io.h"
+#include "svms/base/format.h"
 
 namespace svms {
 namespace {
-
-// The shortest decimal form that reads back to the same double.
-std::string Num(double v) {
-  char buf[64];
-  const std::to_chars_result r = std::to_chars(buf, buf + sizeof(buf), v);
-  return std::string(buf, r.ptr);
-}
 
 std::string Lower(std::string s) {
   for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -121,7 +114,7 @@ std::string ReadNumbers(const cv::FileNode& n, Numbers* out) {
     if (!n["cols"].empty() && !ReadNumber(n["cols"], &cols)) return "cols: expected a number";
     if (rows < 0 || cols < 0 || rows * cols != static_cast<double>(r.v.size())) {
       return "expected rows x cols = " + std::to_string(r.v.size()) + " data values, got " +
-             Num(rows) + " x " + Num(cols);
+             RoundTrip(rows) + " x " + RoundTrip(cols);
     }
     r.rows = static_cast<int>(rows);
     r.cols = static_cast<int>(cols);
@@ -151,7 +144,7 @@ cv::FileNode FindField(const cv::FileStorage& fs, std::initializer_list<const ch
 // An image dimension: a whole number of pixels, positive. Returns "" or what is wrong.
 std::string ToPixels(double x, int* out) {
   if (!(x >= 1 && x <= 1e9) || x != std::floor(x)) {
-    return "expected a positive whole number of pixels, got " + Num(x);
+    return "expected a positive whole number of pixels, got " + RoundTrip(x);
   }
   *out = static_cast<int>(x);
   return "";
@@ -314,16 +307,16 @@ Status CameraFromOpenCv(const OpenCvCamera& c, CameraModel* out) {
   if (K[1][0] != 0 || K[2][0] != 0 || K[2][1] != 0 || K[2][2] != 1) {
     return Status::Error(
         "camera_matrix: expected [fx 0 cx; 0 fy cy; 0 0 1], got a last row or lower triangle "
-        "of [" + Num(K[2][0]) + " " + Num(K[2][1]) + " " + Num(K[2][2]) + "], K[1][0] " +
-        Num(K[1][0]));
+        "of [" + RoundTrip(K[2][0]) + " " + RoundTrip(K[2][1]) + " " + RoundTrip(K[2][2]) + "], K[1][0] " +
+        RoundTrip(K[1][0]));
   }
   if (K[0][1] != 0) {
-    return Status::Error("camera_matrix: skew K[0][1] = " + Num(K[0][1]) +
+    return Status::Error("camera_matrix: skew K[0][1] = " + RoundTrip(K[0][1]) +
                          "; mrcal's lens models have no skew, expected 0");
   }
   if (!(K[0][0] > 0) || !(K[1][1] > 0)) {
     return Status::Error("camera_matrix: expected positive focal lengths fx, fy (pixels), got " +
-                         Num(K[0][0]) + ", " + Num(K[1][1]));
+                         RoundTrip(K[0][0]) + ", " + RoundTrip(K[1][1]));
   }
   if (c.fisheye) {
     return Status::Error(
@@ -345,8 +338,8 @@ Status CameraFromOpenCv(const OpenCvCamera& c, CameraModel* out) {
   const size_t n = dist.size();
   if (n == 14) {
     if (dist[12] != 0 || dist[13] != 0) {
-      return Status::Error("distortion_coefficients: a tilted sensor (tx = " + Num(dist[12]) +
-                           ", ty = " + Num(dist[13]) +
+      return Status::Error("distortion_coefficients: a tilted sensor (tx = " + RoundTrip(dist[12]) +
+                           ", ty = " + RoundTrip(dist[13]) +
                            ") has no lens model in mrcal 2.2; expected tx = ty = 0");
     }
     dist.resize(12);
