@@ -145,6 +145,10 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
   cmd->add_flag("--no-calibration-covariance", o->no_calibration_covariance,
                 "Leave the camera's calibration uncertainty (CAMERA.covariance.json) out of the "
                 "pose covariance");
+  cmd->add_option("--profile", o->profile,
+                  "Sensor profile the approach and mockup are rendered through when rendered "
+                  "here (linear, srgb8, jpeg_srgb, raw12, raw12_bayer); a given --data is read "
+                  "as its truth.json's photometry says");
   cmd->add_flag("--independent-corners", o->independent_corners,
                 "Treat a marker's corners as independent (leave the line fits' correlation out)");
   cmd->add_option("--min-tip-sigma", o->min_tip_sigma_px,

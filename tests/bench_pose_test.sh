@@ -43,5 +43,30 @@ expect 3 "warning: the given camera's frame is not aligned" "$svms" bench pose -
 grep -q "^| the given camera's frame against the true camera's | not measured: .*true.cameramodel" \
   "$out/bp3/report.md" && pass || fail "report.md: no 'not measured' row"
 grep -q '"frame_alignment": null' "$out/bp3/summary.json" && pass || fail "summary.json: frame_alignment not null"
+# A JPEG profile: the frames are turned into linear light by the photometry truth.json says they
+# were stored with (sRGB), and that is what makes the covariance hold; the same frames taken as
+# linear put the corners inside the squares and the NEES far above it.
+"$svms" dataset approach --quick --profile jpeg_srgb --threads 2 --out "$out/jpeg" > /dev/null 2>&1 ||
+  { echo "FAIL: rendering the quick approach through jpeg_srgb" >&2; exit 1; }
+"$svms" bench pose --quick --data "$out/jpeg" --layout "$out/jpeg/true_layout.json" \
+  --out "$out/bpj" > /dev/null 2>&1
+cp -r "$out/jpeg" "$out/jpeg_as_stored"
+/usr/bin/python3 - "$out/jpeg_as_stored/truth.json" <<'PY'
+import json, sys
+t = json.load(open(sys.argv[1]))
+del t["photometry"]
+json.dump(t, open(sys.argv[1], "w"))
+PY
+"$svms" bench pose --quick --data "$out/jpeg_as_stored" \
+  --layout "$out/jpeg_as_stored/true_layout.json" --out "$out/bpjs" > /dev/null 2>&1
+/usr/bin/python3 - "$out/bpj/summary.json" "$out/bpjs/summary.json" <<'PY' && pass || fail "jpeg_srgb photometry"
+import json, sys
+lin, stored = (json.load(open(p)) for p in sys.argv[1:3])
+assert lin["photometry"]["response"] == "srgb", lin["photometry"]
+assert stored["photometry"] is None, stored["photometry"]
+assert lin["valid"] == 12, lin["valid"]
+assert lin["nees_mean"] < 30, lin["nees_mean"]
+assert stored["nees_mean"] > 5 * lin["nees_mean"], (stored["nees_mean"], lin["nees_mean"])
+PY
 echo "bench_pose_test: $passes passed, $fails failed"
 [ "$fails" -eq 0 ]

@@ -6,13 +6,17 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "svms/base/format.h"
 #include "svms/bench/pose_benchmark_report.h"
 #include "svms/bench/truth_poses.h"
+#include "svms/camera/bayer_luminance.h"
+#include "svms/camera/photometric.h"
 #include "svms/fusion/pose_estimator.h"
 #include "svms/marker/model_io.h"
 #include "svms/pipelines/dataset_run.h"
@@ -38,6 +42,7 @@ int RenderDataset(const PoseBenchmarkOptions& o, const std::string& name, const 
   std::cerr << "svms bench pose: rendering " << name << " into " << dir << "\n";
   DatasetRunOptions d;
   d.name = name, d.out = dir, d.threads = o.threads, d.quick = o.quick, d.quiet = true;
+  d.profile = o.profile;
   return RunDataset(d);
 }
 
@@ -145,6 +150,57 @@ int AlignGivenCamera(const PoseBenchmarkOptions& o, const std::string& D, const 
   return kExitOk;
 }
 
+// Each view's image file as the renderer stored it (truth.json: "views"[i]["image"], by view
+// name) into *images, in the order of `truth`, and the photometry it was stored with
+// ("photometry") into *photometric: left unset where the files are linear, full-range and
+// not a mosaic, which the estimator takes as they are (as a machine-vision camera's frames).
+int ReadStoredImages(const std::string& D, const std::vector<std::pair<std::string, Pose>>& truth,
+                     std::vector<cv::Mat>* images, std::optional<PhotometricModel>* photometric) {
+  const std::string truth_path = D + "/truth.json";
+  nlohmann::json doc;
+  try {
+    std::ifstream in(truth_path);
+    doc = nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    std::cerr << "svms bench pose: " << truth_path << ": not JSON: " << e.what() << "\n";
+    return kExitBadInput;
+  }
+  std::map<std::string, std::string> file_of;
+  for (const auto& v : doc.value("views", nlohmann::json::array()))
+    if (v.contains("image") && v["image"].is_string()) {
+      const std::string file = v["image"];
+      file_of[fs::path(file).stem().string()] = file;
+    }
+  photometric->reset();
+  if (doc.contains("photometry") && doc["photometry"].is_object()) {
+    const nlohmann::json& ph = doc["photometry"];
+    nlohmann::json model = {{"type", "svms.photometric"},
+                            {"response", ph.value("response", "linear")},
+                            {"black_level", ph.value("black_level", 0.0)},
+                            {"white_level", ph.value("white_level", 255.0)}};
+    if (!ph.value("bayer", "").empty()) model["bayer"] = ph["bayer"];
+    PhotometricModel m;
+    if (Status s = ParsePhotometricJson(model.dump(), truth_path + ": photometry", &m); !s) {
+      std::cerr << "svms bench pose: " << s.message() << "\n";
+      return kExitBadInput;
+    }
+    const double full = ph.value("bits", 8) > 8 ? 65535.0 : 255.0;
+    if (m.response.kind() != Response::Kind::kLinear || m.black_level != 0 ||
+        m.white_level != full || m.bayer != BayerPattern::kNone)
+      *photometric = m;
+  }
+  for (const auto& [name, pose] : truth) {
+    const auto it = file_of.find(name);
+    const std::string path = D + "/" + (it == file_of.end() ? name + ".png" : it->second);
+    images->push_back(cv::imread(path, cv::IMREAD_UNCHANGED));
+    if (images->back().empty()) {
+      std::cerr << "svms bench pose: " << path << ": cannot read\n";
+      return kExitBadInput;
+    }
+  }
+  return kExitOk;
+}
+
 // Every frame once, in order, on this thread: fused pose, truth, best single marker.
 void EstimateFrames(const std::vector<cv::Mat>& images,
                     const std::vector<std::pair<std::string, Pose>>& truth,
@@ -236,7 +292,17 @@ int RunBenchmark(const PoseBenchmarkOptions& o) {
   }
   std::string D, layout_path;
   if (const int rc = PrepareData(o, &D, &layout_path); rc != kExitOk) return rc;
-  const PoseEstimatorOptions options = EstimatorOptions(o);
+  PoseEstimatorOptions options = EstimatorOptions(o);
+  std::vector<std::pair<std::string, Pose>> truth_names;
+  if (Status s = ReadTruthPoses(D + "/truth.json", "module", &truth_names); !s) {
+    std::cerr << "svms bench pose: " << s.message() << "\n";
+    return kExitBadInput;
+  }
+  std::vector<cv::Mat> images;
+  if (const int rc = ReadStoredImages(D, truth_names, &images, &options.photometric); rc != kExitOk)
+    return rc;
+  if (options.photometric)
+    options.detector.refine.max_row_window_px = CornerRowWindowPx(*options.photometric);
   std::unique_ptr<PoseEstimator> est;
   const std::string camera_path = o.camera.empty() ? D + "/true.cameramodel" : o.camera;
   if (Status s = PoseEstimator::CreateFromFiles(camera_path, layout_path, options, &est); !s) {
@@ -250,20 +316,12 @@ int RunBenchmark(const PoseBenchmarkOptions& o) {
   if (const int rc = AlignGivenCamera(o, D, *est, &f, &given_from_true); rc != kExitOk) return rc;
   // One core: no OpenCV thread pool behind the timed calls either (the survey above is done).
   cv::setNumThreads(1);
-  std::vector<cv::Mat> images;
-  for (const auto& [name, pose] : truth) {
-    const std::string path = D + "/" + name + ".png";
-    images.push_back(cv::imread(path, cv::IMREAD_GRAYSCALE));
-    if (images.back().empty()) {
-      std::cerr << "svms bench pose: " << path << ": cannot read\n";
-      return kExitBadInput;
-    }
-  }
   EstimateFrames(images, truth, options, given_from_true, est.get(), &f);
   LongRun(o, images, est.get(), &f);
   f.calibration_in_covariance =
       !o.no_calibration_covariance && est->camera().intrinsics_covariance_factor().size() > 0;
   f.lensmodel = est->camera().lensmodel();
+  if (options.photometric) f.photometry = PhotometricToJson(*options.photometric);
   return WritePoseBenchmarkReport(o, f);
 }
 

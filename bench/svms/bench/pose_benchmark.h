@@ -18,6 +18,9 @@ struct PoseBenchmarkOptions {
   std::string layout;  // a surveyed layout to use instead of surveying
   std::string camera;  // the camera for the survey and the pose ("" = the dataset's true one)
   bool quick = false;  // the quick approach and mockup, 2 passes
+  // A sensor profile (scene.h) the approach and mockup are rendered through when rendered
+  // here; "" = linear 8-bit PNG. A given --data is read as its truth.json's photometry says.
+  std::string profile;
   int repeat = 20;     // passes over the approach for the long run (500 x 20 = 10,000 frames)
   int threads = 2;     // rendering and the survey only; the pose runs on one thread
   // The fusion's corner noise model (object_pose.h).

@@ -106,6 +106,7 @@ void WriteFrameFiles(const PoseBenchmarkOptions& o, const PoseFindings& f) {
 void WriteSummary(const PoseBenchmarkOptions& o, const PoseFindings& f, const Figures& g) {
   nlohmann::json summary = {
       {"frames", f.rows.size()},
+      {"photometry", f.photometry.empty() ? nlohmann::json() : nlohmann::json::parse(f.photometry)},
       {"valid", g.valid},
       {"corner_sigma_px", o.corner_sigma_px},
       {"min_corner_sigma_px", o.min_corner_sigma_px},
@@ -207,7 +208,11 @@ std::string Markdown(const PoseBenchmarkOptions& o, const PoseFindings& f, const
      << " frames, 12 m -> 1.3 m, rendered with a 1024x1024 OPENCV8 camera; poses with "
      << (o.camera.empty() ? std::string("that true model") : "the given model `" + o.camera + "`")
      << (f.calibration_in_covariance ? ", its calibration's uncertainty in the covariance" : "")
-     << "); layout: `"
+     << "); frames "
+     << (f.photometry.empty() ? std::string("linear, taken as stored")
+                              : "turned into linear light by the photometry they were stored "
+                                "with, `" + nlohmann::json::parse(f.photometry).dump() + "`")
+     << "; layout: `"
      << (o.layout.empty() ? "svms survey` of the rendered `mockup` dataset (reference marker 10)"
                           : o.layout + "`")
      << "; corner sigma: "

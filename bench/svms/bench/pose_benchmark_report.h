@@ -46,6 +46,8 @@ struct PoseFindings {
   std::string not_aligned;
   bool calibration_in_covariance = false;  // the camera's calibration uncertainty was used
   std::string lensmodel;                   // of the camera the poses were computed with
+  // How the frames were turned into linear light (PhotometricToJson), "" = taken as stored.
+  std::string photometry;
 };
 
 // Writes frames.csv, soak.csv, latency.csv, summary.json, the plots and report.md (also on
