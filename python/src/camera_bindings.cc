@@ -12,6 +12,7 @@
 #include "bindings.h"
 #include "svms/camera/camera.h"
 #include "svms/camera/camera_covariance.h"
+#include "svms/camera/opencv_camera.h"
 
 namespace svms::python {
 namespace {
@@ -129,6 +130,21 @@ void BindCamera(py::module_& m) {
                   "Reads an mrcal .cameramodel; with `sidecar`, also PATH.covariance.json (the "
                   "intrinsics' uncertainty) when it exists. OSError for a missing file, "
                   "ValueError (naming the file and field) for a bad one.")
+      .def_static(
+          "_from_opencv",
+          [](const Eigen::Matrix3d& K, const std::vector<double>& dist, std::pair<int, int> size) {
+            OpenCvCamera c;
+            for (int i = 0; i < 3; ++i)
+              for (int j = 0; j < 3; ++j) c.K[i][j] = K(i, j);
+            c.dist = dist;
+            c.width = size.first, c.height = size.second;
+            CameraModel camera;
+            RaiseIfError(CameraFromOpenCv(c, &camera));
+            return camera;
+          },
+          py::arg("K"), py::arg("dist"), py::arg("imagersize"),
+          "CameraFromOpenCv (camera/opencv_camera.h), which `svms camera import` uses too: see "
+          "Camera.from_opencv.")
       .def_static(
           "pinhole",
           [](double f, int width, int height) {

@@ -4,12 +4,6 @@ import numpy as np
 
 from ._svms import Camera, Pose
 
-# OpenCV's distortion vector (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1, s2, s3, s4]]]) is mrcal's
-# LENSMODEL_OPENCVn parameters in the same order, after fx, fy, cx, cy.
-_OPENCV_MODELS = {4: "LENSMODEL_OPENCV4", 5: "LENSMODEL_OPENCV5", 8: "LENSMODEL_OPENCV8",
-                  12: "LENSMODEL_OPENCV12"}
-
-
 def from_mrcal(model):
     """A Camera from an mrcal.cameramodel (its lens model, intrinsics, image size and
     extrinsics, rt_cam_ref). The uncertainty mrcal keeps in 'optimization_inputs' is not
@@ -36,26 +30,14 @@ def from_opencv(K, dist, imagersize):
     8 or 12 of them, OpenCV's order; 14 when the last two, the tilt, are zero) and imagersize
     (width, height) in pixels. The lens model is mrcal's LENSMODEL_PINHOLE (no coefficients, or
     all zero) or LENSMODEL_OPENCV4/5/8/12, the same projection as cv2.projectPoints. OpenCV and
-    mrcal both put pixel (0, 0) at the centre of the top-left pixel."""
+    mrcal both put pixel (0, 0) at the centre of the top-left pixel. The mapping and its checks
+    are those of `svms camera import` (ValueError naming the field)."""
     K = np.asarray(K, dtype=float)
     if K.shape != (3, 3):
         raise ValueError(f"K: expected a 3 x 3 camera matrix, got shape {K.shape}")
-    if not np.all(np.isfinite(K)) or K[0, 1] != 0 or np.any(K[2] != [0, 0, 1]) or K[1, 0] != 0:
-        raise ValueError("K: expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (finite, no skew: "
-                         f"mrcal's models have none), got {K.tolist()}")
     d = np.zeros(0) if dist is None else np.asarray(dist, dtype=float).ravel()
-    if d.size == 14:
-        if np.any(d[12:] != 0):
-            raise ValueError("dist: the tilted-sensor terms (tauX, tauY = dist[12:14]) have no "
-                             f"mrcal model; expected them zero, got {d[12:].tolist()}")
-        d = d[:12]
     try:
         width, height = (int(x) for x in imagersize)
     except (TypeError, ValueError):
         raise ValueError(f"imagersize: expected (width, height) in pixels, got {imagersize!r}")
-    core = [K[0, 0], K[1, 1], K[0, 2], K[1, 2]]
-    if d.size == 0 or not np.any(d):
-        return Camera("LENSMODEL_PINHOLE", core, (width, height))
-    if d.size not in _OPENCV_MODELS:
-        raise ValueError(f"dist: expected 0, 4, 5, 8, 12 or 14 coefficients (OpenCV's order), got {d.size}")
-    return Camera(_OPENCV_MODELS[d.size], core + d.tolist(), (width, height))
+    return Camera._from_opencv(K, d.tolist(), (width, height))
