@@ -77,11 +77,15 @@ int RunExport(const CameraCliOptions& o) {
     std::cerr << s.message() << "\n";
     return kExitBadInput;
   }
+  // A lens model OpenCV lacks is bad input; past that check, an error is a failed write.
+  OpenCvCamera as_opencv;
+  if (Status s = OpenCvFromCamera(cam, &as_opencv); !s) {
+    std::cerr << o.input << ": " << s.message() << "\n";
+    return kExitBadInput;
+  }
   if (Status s = WriteOpenCvCameraFile(o.out, cam); !s) {
-    // A lens model OpenCV lacks is bad input; anything else a failed write.
-    const bool unsupported = s.message().find("no OpenCV equivalent") != std::string::npos;
     std::cerr << s.message() << "\n";
-    return unsupported ? kExitBadInput : kExitFailed;
+    return kExitFailed;
   }
   std::cout << o.out << ": OpenCV camera (" << cam.Summary() << ")\n";
   if (!cam.cam_from_ref().rvec.isZero(0) || !cam.cam_from_ref().tvec.isZero(0)) {
