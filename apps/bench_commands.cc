@@ -134,7 +134,8 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
   cmd->add_option("--corner-fit-scale", o->corner_fit_scale,
                   "Corner sigma = this times the detector's line-fit sigma (default: kCornerCovarianceScale with "
                   "correlated corners, kCornerFitScale with --independent-corners; marker_pose.h)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   cmd->add_option("--corner-sigma-systematic", o->corner_sigma_systematic_px,
                   "Added in quadrature to the scaled line-fit sigma (px)")
       ->check(CLI::NonNegativeNumber)

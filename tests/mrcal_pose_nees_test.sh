@@ -2,10 +2,12 @@
 # A camera calibrated by mrcal's own tool (`mrcal-calibrate-cameras`, run by the quick calibration
 # benchmark on its chessboard views) in `svms bench pose` on the quick approach, after
 # `svms camera import-uncertainty`: the mean NEES with the imported covariance is that of the
-# true camera within a factor 2 either way (one calibration, so one draw of its error shared by
-# 12 frames: with the corners' joint covariance in the fusion 5.21 on the true camera and 3.02
-# with mrcal's, with independent corners 4.35 and 4.04), and far above it without the
-# calibration's term (so the sidecar is what does it).
+# true camera within a factor 2 either way, and far above it without the calibration's term (so
+# the sidecar is what does it). One calibration is one draw of its error, shared by the 12
+# frames: what it adds to the NEES is that draw seen through d pose / d intrinsics, which
+# depends on how the fit weighs the corners. With their joint covariance 5.23 on the true
+# camera and 3.00 with mrcal's; with independent corners 4.35 and 4.04; over the 500-frame
+# approach 3.70 and 5.05 with mrcal's.
 # usage: mrcal_pose_nees_test.sh SVMS MRCAL_CAMERA
 set -uo pipefail
 svms=${1:?svms}; mrcal_cam=${2:?camera-0.cameramodel of mrcal-calibrate-cameras}

@@ -83,7 +83,7 @@ PoseEstimatorOptions EstimatorOptions(const PoseBenchmarkOptions& o) {
   options.fusion.corner_sigma_px = o.corner_sigma_px;
   options.fusion.corner_sigma_exponent = o.corner_sigma_exponent;
   options.fusion.variance_prior_dof = o.variance_prior_dof;
-  options.fusion.corner_fit_scale = EffectiveCornerFitScale(o);
+  options.fusion.corner_fit_scale = o.corner_fit_scale;
   options.fusion.min_corner_sigma_px = o.min_corner_sigma_px;
   options.fusion.corner_sigma_systematic_px = o.corner_sigma_systematic_px;
   options.fusion.corner_sigma_from_fit = !o.size_model;

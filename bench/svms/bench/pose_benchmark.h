@@ -27,7 +27,7 @@ struct PoseBenchmarkOptions {
   double corner_sigma_px = ObjectPoseOptions{}.corner_sigma_px;
   double corner_sigma_exponent = ObjectPoseOptions{}.corner_sigma_exponent;
   double variance_prior_dof = ObjectPoseOptions{}.variance_prior_dof;
-  double corner_fit_scale = 0;  // 0: the model's own (EffectiveCornerFitScale)
+  double corner_fit_scale = 0;  // 0: the model's own (CornerFitScale, object_pose.h)
   double min_corner_sigma_px = ObjectPoseOptions{}.min_corner_sigma_px;
   double corner_sigma_systematic_px = ObjectPoseOptions{}.corner_sigma_systematic_px;
   bool size_model = false;                 // corner sigma from the marker's size only
@@ -35,13 +35,6 @@ struct PoseBenchmarkOptions {
   double min_tip_sigma_px = ObjectPoseOptions{}.min_tip_sigma_px;
   bool no_calibration_covariance = false;  // leave the calibration's uncertainty out
 };
-
-// corner_fit_scale where given, else kCornerCovarianceScale for correlated corners and
-// kCornerFitScale for independent ones (marker_pose.h).
-inline double EffectiveCornerFitScale(const PoseBenchmarkOptions& o) {
-  if (o.corner_fit_scale > 0) return o.corner_fit_scale;
-  return o.independent_corners ? kCornerFitScale : kCornerCovarianceScale;
-}
 
 // Runs the benchmark. Returns an exit code (exit_codes.h): 3 when a target was missed, 2 for
 // unusable inputs (a camera for another image size, a missing reference marker), 1 when a

@@ -17,6 +17,13 @@
 namespace svms {
 namespace {
 
+// The scale of the line-fit sigmas the benchmark's fusion used (CornerFitScale).
+double FitScale(const PoseBenchmarkOptions& o) {
+  ObjectPoseOptions fusion;
+  fusion.corner_fit_scale = o.corner_fit_scale;
+  return CornerFitScale(fusion, !o.independent_corners);
+}
+
 namespace fs = std::filesystem;
 
 // The figures of the report, from the frames and the long run.
@@ -217,7 +224,7 @@ std::string Markdown(const PoseBenchmarkOptions& o, const PoseFindings& f, const
                           : o.layout + "`")
      << "; corner sigma: "
      << (o.size_model ? ""
-                      : "the detector's line-fit sigma times " + Fixed(EffectiveCornerFitScale(o), 2) +
+                      : "the detector's line-fit sigma times " + Fixed(FitScale(o), 2) +
                             " plus " + Fixed(o.corner_sigma_systematic_px, 3) +
                             " px in quadrature (where refined; " +
                             (o.independent_corners ? "the corners independent"

@@ -66,6 +66,12 @@ struct Block {
   std::array<bool, 5> dropped{};  // points left out as outliers (corners 0-3, tip 4)
 };
 
+// Whether the marker's corners are whitened with their joint covariance from the line fits.
+bool CorrelatedCorners(const ObjectPoseOptions& o, const MarkerObservation& m) {
+  return o.corner_sigma_from_fit && o.corner_covariance_from_fit &&
+         m.corner_covariance.diagonal().minCoeff() > 0;
+}
+
 // The marker's points at the current pose (the concave well's visible bottom depends on it).
 void UpdatePoints(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
                   const ObjectPoseOptions& o) {
@@ -73,12 +79,13 @@ void UpdatePoints(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
   b->points.clear();
   const auto corners = m.model.Corners();
   const double size_sigma = CornerSigma(o, m.side_px);
+  const double fit_scale = CornerFitScale(o, CorrelatedCorners(o, m));
   for (int k = 0; k < 4; ++k) {
     if (b->dropped[k]) continue;
     const double sigma =
         o.corner_sigma_from_fit && m.corner_sigma[k] > 0
-            ? std::max(o.min_corner_sigma_px, std::hypot(o.corner_fit_scale * m.corner_sigma[k],
-                                                         o.corner_sigma_systematic_px))
+            ? std::max(o.min_corner_sigma_px,
+                       std::hypot(fit_scale * m.corner_sigma[k], o.corner_sigma_systematic_px))
             : size_sigma;
     b->points.push_back({corners[k], m.corners[k], sigma, Eigen::Vector3d::Zero(), k});
   }
@@ -157,11 +164,10 @@ bool Whitening(const CameraModel& camera, Block* b, const Eigen::Matrix3d& R,
   for (int i = 0; i < n; ++i)
     C.block<2, 2>(2 * i, 2 * i).diagonal().setConstant(b->points[i].sigma * b->points[i].sigma);
   const MarkerObservation& m = *b->obs;
-  if (o.corner_sigma_from_fit && o.corner_covariance_from_fit &&
-      m.corner_covariance.diagonal().minCoeff() > 0) {
+  if (CorrelatedCorners(o, m)) {
     // The line fits' joint covariance, scaled; each corner's own block shifted so that its
     // mean variance stays the point's sigma^2 (systematic term and floor on top of the fit).
-    const double s2 = o.corner_fit_scale * o.corner_fit_scale;
+    const double scale = CornerFitScale(o, true), s2 = scale * scale;
     for (int i = 0; i < n; ++i) {
       const int a = b->points[i].index;
       if (a > 3) continue;
@@ -520,6 +526,11 @@ void DescribeResult(const ObjectPoseOptions& o, const FitInformation& info,
 }
 
 }  // namespace
+
+double CornerFitScale(const ObjectPoseOptions& o, bool correlated) {
+  if (o.corner_fit_scale > 0) return o.corner_fit_scale;
+  return correlated ? kCornerCovarianceScale : kCornerFitScale;
+}
 
 double CornerSigma(const ObjectPoseOptions& o, double side_px) {
   const double side = std::max(1.0, side_px);

@@ -56,10 +56,11 @@ struct ObjectPoseOptions {
   double min_corner_sigma_px = 0.002;
   // When the detector measured a corner's sigma from its line fits (Detection::corner_sigma),
   // use corner_fit_scale times that instead of the size model (at least min_corner_sigma_px).
-  // kCornerCovarianceScale with corner_covariance_from_fit (the default); with independent
-  // corners kCornerFitScale is the calibrated value (both: marker_pose.h).
+  // 0: the model's own (CornerFitScale), per marker: kCornerCovarianceScale where its corners
+  // are taken with their joint covariance, kCornerFitScale where they are taken as independent
+  // (marker_pose.h).
   bool corner_sigma_from_fit = true;
-  double corner_fit_scale = kCornerCovarianceScale;
+  double corner_fit_scale = 0;
   // Added in quadrature to corner_fit_scale x the line-fit sigma: the part of a corner's error
   // that more edge points do not average away. Pixels, each axis. 0: with the edge profile
   // taken along the pixel rows (CornerRefineOptions::edges_along_rows) that part is gone on the
@@ -152,6 +153,10 @@ std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Dete
 // The same into *observations (replaced; its capacity is reused, no allocation once grown).
 void ObservationsFromDetections(const std::vector<Detection>& detections, const Layout& layout,
                                 std::vector<MarkerObservation>* observations);
+
+// The scale of the line-fit sigmas (ObjectPoseOptions::corner_fit_scale) for a marker whose
+// corners are taken with their joint covariance (`correlated`) or as independent.
+double CornerFitScale(const ObjectPoseOptions& options, bool correlated);
 
 // The corner sigma the size model gives a marker of `side_px` pixels.
 double CornerSigma(const ObjectPoseOptions& options, double side_px);

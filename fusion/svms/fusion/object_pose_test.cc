@@ -113,6 +113,83 @@ TEST(ObjectPose, MonteCarloNeesMatchesChiSquareSix) {
   EXPECT_NEAR(sum / trials, 6.0, 0.31);
 }
 
+// Corners that err together as the line fits say (two on a side in opposite directions across
+// it): drawn from each marker's 8 x 8 corner covariance, the fused pose's NEES is chi-square(6)
+// when the fusion whitens with that covariance, and not when it takes the corners as
+// independent with the same per-corner sigmas. With a diagonal covariance both models agree.
+TEST(ObjectPose, CorrelatedCornerNoiseIsWhitenedByTheCornersJointCovariance) {
+  const Rig rig;
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> g(0, 1);
+  const double sigma = 0.15, rho = -0.68;  // across a side, between its two ends
+  // One marker's corner covariance: each side's line moves across itself at its two ends with
+  // variance v and correlation rho; a corner moves as the two lines through it (sides at right
+  // angles in this approximation, each corner's variance sigma^2 per axis).
+  auto covariance_of = [&](const MarkerObservation& m) {
+    Eigen::Matrix<double, 8, 8> moves = Eigen::Matrix<double, 8, 8>::Zero(), A = moves;
+    std::array<Eigen::Vector2d, 4> n;
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector2d u = (m.corners[(k + 1) % 4] - m.corners[k]).normalized();
+      n[k] = Eigen::Vector2d(u.y(), -u.x());
+      moves.block<2, 2>(2 * k, 2 * k) << 1, rho, rho, 1;
+    }
+    for (int k = 0; k < 4; ++k) {
+      const int j = (k + 3) % 4;
+      Eigen::Matrix2d N;
+      N << n[j].transpose(), n[k].transpose();
+      const Eigen::Matrix2d N_inv = N.inverse();
+      A.block<2, 1>(2 * k, 2 * j + 1) = N_inv.col(0);
+      A.block<2, 1>(2 * k, 2 * k) = N_inv.col(1);
+    }
+    Eigen::Matrix<double, 8, 8> C = A * moves * A.transpose();
+    for (int k = 0; k < 4; ++k) {  // each corner's mean variance sigma^2
+      const double s = sigma / std::sqrt(0.5 * C.block<2, 2>(2 * k, 2 * k).trace());
+      C.middleRows<2>(2 * k) *= s;
+      C.middleCols<2>(2 * k) *= s;
+    }
+    return Eigen::Matrix<double, 8, 8>(0.5 * (C + C.transpose()));
+  };
+  ObjectPoseOptions joint;
+  joint.corner_fit_scale = 1;
+  joint.use_tips = false;
+  ObjectPoseOptions independent = joint;
+  independent.corner_covariance_from_fit = false;
+  const int trials = 1000;
+  double nees_joint = 0, nees_independent = 0;
+  for (int i = 0; i < trials; ++i) {
+    std::vector<MarkerObservation> obs = rig.ObserveAll();
+    for (auto& m : obs) {
+      m.corner_covariance = covariance_of(m);
+      m.corner_sigma.fill(sigma);
+      Eigen::Matrix<double, 8, 1> z;
+      for (int r = 0; r < 8; ++r) z[r] = g(rng);
+      const Eigen::Matrix<double, 8, 1> e = m.corner_covariance.llt().matrixL() * z;
+      for (int k = 0; k < 4; ++k) m.corners[k] += e.segment<2>(2 * k);
+    }
+    const ObjectPose pj = SolveObjectPose(rig.camera, obs, joint);
+    const ObjectPose pi = SolveObjectPose(rig.camera, obs, independent);
+    ASSERT_TRUE(pj.valid && pi.valid);
+    nees_joint += Nees(rig.cam_from_object, pj.cam_from_object, pj.covariance);
+    nees_independent += Nees(rig.cam_from_object, pi.cam_from_object, pi.covariance);
+  }
+  // Mean of 1000 chi-square(6) draws: 6 +- 0.077 (1 sigma); allow 4 sigma.
+  EXPECT_NEAR(nees_joint / trials, 6.0, 0.31);
+  EXPECT_GT(std::abs(nees_independent / trials - 6.0), 1.0) << nees_independent / trials;
+
+  // A diagonal joint covariance is the independent model: the same pose and covariance.
+  std::vector<MarkerObservation> obs = rig.ObserveAll();
+  for (auto& m : obs) {
+    AddNoise(&rng, sigma, 0, &m);
+    m.corner_sigma.fill(sigma);
+    m.corner_covariance = Eigen::Matrix<double, 8, 8>::Identity() * sigma * sigma;
+  }
+  const ObjectPose a = SolveObjectPose(rig.camera, obs, joint);
+  const ObjectPose b = SolveObjectPose(rig.camera, obs, independent);
+  ASSERT_TRUE(a.valid && b.valid);
+  EXPECT_LT(PoseError(a.cam_from_object, b.cam_from_object).norm(), 1e-12);
+  EXPECT_LT((a.covariance - b.covariance).norm(), 1e-12 * a.covariance.norm());
+}
+
 // A layout that is itself uncertain: the markers really sit off their surveyed poses by draws
 // from the layout covariance. Including it keeps NEES at 6; leaving it out is optimistic.
 TEST(ObjectPose, LayoutUncertaintyIsPropagated) {

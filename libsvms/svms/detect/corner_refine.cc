@@ -542,9 +542,13 @@ void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, double end_margin
 // var(a) - (L/2)^2 var(b) between them, with (L/2)^2 var(b) = 3 var(a) / f^2 for evenly spread
 // points. A corner moves by N^-1 (d_prev, d_next), N the two sides' unit normals as rows,
 // d their lines' moves across themselves at that corner; the same 0.2 floor on |det N| as
-// corner_sigma's.
+// corner_sigma's. The sides' angles are taken between the refined corners in pixels, while
+// corner_sigma takes them between the lines in the fitting plane (undistorted through a lens
+// model): each corner's rows and columns are then scaled so that its block's mean variance is
+// corner_sigma^2 exactly (a congruence: the correlations, and positive definiteness, stay).
 Eigen::Matrix<double, 8, 8> CornerCovariance(const std::array<Eigen::Vector2d, 4>& corners,
                                              const std::array<double, 4>& perp,
+                                             const std::array<double, 4>& corner_sigma,
                                              double end_margin) {
   const double f = 1 - 2 * end_margin;
   const double end_correlation = (1 - 3 / (f * f)) / (1 + 3 / (f * f));
@@ -570,7 +574,14 @@ Eigen::Matrix<double, 8, 8> CornerCovariance(const std::array<Eigen::Vector2d, 4
     A.block<2, 1>(2 * k, 2 * j + 1) = N_inv.col(0);
     A.block<2, 1>(2 * k, 2 * k) = N_inv.col(1);
   }
-  const Eigen::Matrix<double, 8, 8> C = A * moves * A.transpose();
+  Eigen::Matrix<double, 8, 8> C = A * moves * A.transpose();
+  Eigen::Matrix<double, 8, 1> scale;
+  for (int k = 0; k < 4; ++k) {
+    const double own = 0.5 * C.block<2, 2>(2 * k, 2 * k).trace();
+    if (!(own > 0)) return Eigen::Matrix<double, 8, 8>::Zero();
+    scale.segment<2>(2 * k).setConstant(corner_sigma[k] / std::sqrt(own));
+  }
+  C = scale.asDiagonal() * C * scale.asDiagonal();
   return 0.5 * (C + C.transpose());  // exactly symmetric, whichever order it is read in
 }
 
@@ -670,7 +681,7 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       if (!plane.ToPixel(h.head<2>() / h.z(), &px)) return out;
       out.corners[k] = px;
     }
-    out.corner_covariance = CornerCovariance(out.corners, perp, end_margin);
+    out.corner_covariance = CornerCovariance(out.corners, perp, out.corner_sigma, end_margin);
   }
   out.ok = true;
   return out;
