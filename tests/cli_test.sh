@@ -14,7 +14,7 @@ expect_err_lines() {
   [ "$lines" -eq "$n" ] && pass || fail "$* -> $lines stderr lines, expected $n"
 }
 
-expect 0 "svms 0.2.0" "$svms" --version
+expect 0 "svms 0.3.0" "$svms" --version
 expect 0 "codec" "$svms" --help
 for sub in "codec stats" "codec encode" "codec decode" "codec read" "model check" "generate marker" "generate sheet"; do
   # shellcheck disable=SC2086

@@ -101,6 +101,7 @@ typedef struct svms_frame_info {
                         layouts' IDs only and this is 0 */
   int unassigned_ids[SVMS_MAX_REPORTED_MARKERS]; /* their IDs, the first SVMS_MAX_REPORTED_MARKERS
                                                   */
+  double reserved[8]; /* zero; room for fields a later minor version adds without a new layout */
 } svms_frame_info;
 
 /* Flags of svms_create_multi. */

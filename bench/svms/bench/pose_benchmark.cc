@@ -21,6 +21,7 @@
 #include "svms/marker/model_io.h"
 #include "svms/pipelines/dataset_run.h"
 #include "svms/pipelines/exit_codes.h"
+#include "svms/pipelines/photometry.h"
 #include "svms/pipelines/report_file.h"
 #include "svms/pipelines/survey_run.h"
 
@@ -37,6 +38,9 @@ double RssMiB() {
   return resident * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
 }
 
+Status ReadStoredPhotometry(const std::string& truth_path, std::optional<PhotometricModel>* model,
+                            PhotometryOptions* options);
+
 // `svms dataset NAME --out DIR`, in-process, with this run's threads and --quick.
 int RenderDataset(const PoseBenchmarkOptions& o, const std::string& name, const std::string& dir) {
   std::cerr << "svms bench pose: rendering " << name << " into " << dir << "\n";
@@ -51,6 +55,9 @@ int RenderDataset(const PoseBenchmarkOptions& o, const std::string& name, const 
 int PrepareData(const PoseBenchmarkOptions& o, std::string* approach, std::string* layout_path) {
   const std::string D = o.data.empty() ? (fs::path(o.out) / "approach").string() : o.data;
   *approach = D;
+  if (!o.profile.empty() && fs::exists(fs::path(D) / "truth.json"))
+    std::cerr << "svms bench pose: note: " << D << " exists and is used as it was rendered; "
+              << "--profile " << o.profile << " applies only to datasets rendered here\n";
   if (!fs::exists(fs::path(D) / "truth.json") && RenderDataset(o, "approach", D) != 0) {
     std::cerr << "svms bench pose: rendering the approach failed\n";
     return kExitFailed;
@@ -69,6 +76,14 @@ int PrepareData(const PoseBenchmarkOptions& o, std::string* approach, std::strin
   survey.camera = survey_camera, survey.markers = M + "/markers.json";
   survey.reference = 10, survey.out = *layout_path, survey.quiet = true;
   survey.threads = o.threads;
+  // The mockup's frames read as they were stored (the default rule, on linear PNGs, agrees).
+  std::optional<PhotometricModel> stored;
+  PhotometryOptions stored_options;
+  if (Status s = ReadStoredPhotometry(M + "/truth.json", &stored, &stored_options); !s) {
+    std::cerr << "svms bench pose: " << s.message() << "\n";
+    return kExitBadInput;
+  }
+  if (stored) survey.photometry = stored_options;
   std::cerr << "svms bench pose: surveying " << M << " into " << *layout_path << "\n";
   if (RunSurveyFromImages(survey) != kExitOk) {
     std::cerr << "svms bench pose: the survey failed\n";
@@ -150,44 +165,62 @@ int AlignGivenCamera(const PoseBenchmarkOptions& o, const std::string& D, const 
   return kExitOk;
 }
 
-// Each view's image file as the renderer stored it (truth.json: "views"[i]["image"], by view
-// name) into *images, in the order of `truth`, and the photometry it was stored with
-// ("photometry") into *photometric: left unset where the files are linear, full-range and
-// not a mosaic, which the estimator takes as they are (as a machine-vision camera's frames).
-int ReadStoredImages(const std::string& D, const std::vector<std::pair<std::string, Pose>>& truth,
-                     std::vector<cv::Mat>* images, std::optional<PhotometricModel>* photometric) {
-  const std::string truth_path = D + "/truth.json";
+// The photometry a rendered dataset's images were stored with (truth.json's "photometry":
+// response, black and white level, Bayer pattern) as the options a command takes, for the
+// survey, and as the model the estimator linearises with: left unset where the files are
+// linear, full-range and not a mosaic, which the estimator takes as they are (as a
+// machine-vision camera's frames). A dataset without the block gives neither.
+Status ReadStoredPhotometry(const std::string& truth_path,
+                            std::optional<PhotometricModel>* model,
+                            PhotometryOptions* options) {
+  model->reset();
+  *options = PhotometryOptions{};
   nlohmann::json doc;
   try {
     std::ifstream in(truth_path);
     doc = nlohmann::json::parse(in);
-  } catch (const std::exception& e) {
-    std::cerr << "svms bench pose: " << truth_path << ": not JSON: " << e.what() << "\n";
-    return kExitBadInput;
-  }
-  std::map<std::string, std::string> file_of;
-  for (const auto& v : doc.value("views", nlohmann::json::array()))
-    if (v.contains("image") && v["image"].is_string()) {
-      const std::string file = v["image"];
-      file_of[fs::path(file).stem().string()] = file;
-    }
-  photometric->reset();
-  if (doc.contains("photometry") && doc["photometry"].is_object()) {
-    const nlohmann::json& ph = doc["photometry"];
-    nlohmann::json model = {{"type", "svms.photometric"},
-                            {"response", ph.value("response", "linear")},
-                            {"black_level", ph.value("black_level", 0.0)},
-                            {"white_level", ph.value("white_level", 255.0)}};
-    if (!ph.value("bayer", "").empty()) model["bayer"] = ph["bayer"];
-    PhotometricModel m;
-    if (Status s = ParsePhotometricJson(model.dump(), truth_path + ": photometry", &m); !s) {
-      std::cerr << "svms bench pose: " << s.message() << "\n";
-      return kExitBadInput;
-    }
+    if (!doc.contains("photometry")) return Status::Ok();
+    const nlohmann::json& ph = doc.at("photometry");
+    options->response = ph.value("response", std::string("linear"));
+    options->bayer = ph.value("bayer", std::string());
+    options->black_level = ph.value("black_level", 0.0);
+    options->white_level = ph.value("white_level", 255.0);
     const double full = ph.value("bits", 8) > 8 ? 65535.0 : 255.0;
+    nlohmann::json text = {{"type", "svms.photometric"},
+                           {"response", options->response},
+                           {"black_level", *options->black_level},
+                           {"white_level", *options->white_level}};
+    if (!options->bayer.empty()) text["bayer"] = options->bayer;
+    PhotometricModel m;
+    if (Status s = ParsePhotometricJson(text.dump(), truth_path + ": photometry", &m); !s)
+      return s;
     if (m.response.kind() != Response::Kind::kLinear || m.black_level != 0 ||
         m.white_level != full || m.bayer != BayerPattern::kNone)
-      *photometric = m;
+      *model = m;
+  } catch (const std::exception& e) {
+    return Status::Error(truth_path + ": photometry: expected the renderer's block (response, " +
+                         "black_level, white_level, bits, bayer): " + e.what());
+  }
+  return Status::Ok();
+}
+
+// Each view's image file as the renderer stored it (truth.json: "views"[i]["image"], by view
+// name) into *images, in the order of `truth`.
+int ReadStoredImages(const std::string& D, const std::vector<std::pair<std::string, Pose>>& truth,
+                     std::vector<cv::Mat>* images) {
+  const std::string truth_path = D + "/truth.json";
+  std::map<std::string, std::string> file_of;
+  try {
+    std::ifstream in(truth_path);
+    const nlohmann::json doc = nlohmann::json::parse(in);
+    for (const auto& v : doc.value("views", nlohmann::json::array()))
+      if (v.contains("image") && v["image"].is_string()) {
+        const std::string file = v["image"];
+        file_of[fs::path(file).stem().string()] = file;
+      }
+  } catch (const std::exception& e) {
+    std::cerr << "svms bench pose: " << truth_path << ": views: " << e.what() << "\n";
+    return kExitBadInput;
   }
   for (const auto& [name, pose] : truth) {
     const auto it = file_of.find(name);
@@ -299,8 +332,12 @@ int RunBenchmark(const PoseBenchmarkOptions& o) {
     return kExitBadInput;
   }
   std::vector<cv::Mat> images;
-  if (const int rc = ReadStoredImages(D, truth_names, &images, &options.photometric); rc != kExitOk)
-    return rc;
+  PhotometryOptions unused;
+  if (Status s = ReadStoredPhotometry(D + "/truth.json", &options.photometric, &unused); !s) {
+    std::cerr << "svms bench pose: " << s.message() << "\n";
+    return kExitBadInput;
+  }
+  if (const int rc = ReadStoredImages(D, truth_names, &images); rc != kExitOk) return rc;
   if (options.photometric)
     options.detector.refine.max_row_window_px = CornerRowWindowPx(*options.photometric);
   std::unique_ptr<PoseEstimator> est;
