@@ -53,7 +53,7 @@ for j, name, path, t, s in zip(lines, ["mockup (true)", "fixture"], [module_path
     # The same pose as the single-layout run, to the last bit.
     for key in ("cam_from_object", "covariance", "markers", "chi2", "rms", "markers_seen"):
         assert j[key] == s[key], (name, key, j[key], s[key])
-    # A single layout's line is today's: no object, layout or unassigned_markers.
+    # A single layout's line has no object, layout or unassigned_markers field.
     assert not {"object", "layout", "unassigned_markers"} & set(s), sorted(s)
     assert set(j) - set(s) == {"object", "layout", "unassigned_markers"}, sorted(set(j) - set(s))
 # One detection for both objects: the frame's timing is on both lines.

@@ -1,8 +1,8 @@
 // mrcal's calibration object is a regular grid: W x H points at one spacing in x and y, in the
 // z = 0 plane, and a board observation is a W x H array of pixels with a weight per point
 // (weight <= 0: not seen, or an outlier). An SVMS board (board.h) is not a chessboard: its
-// points are the corners of markers, 2 * size apart inside a marker row's run and pitch apart
-// between markers. They still lie on a regular grid when size and pitch are whole multiples of
+// points are the corners of markers, `size` apart across a marker and `pitch` apart from one
+// marker to the next. They still lie on a regular grid when size and pitch are whole multiples of
 // one spacing (the default board: size 0.06 m, gap 0.015 m, so pitch 0.135 m; spacing 0.015 m,
 // 50 x 41 nodes of which 120 are corners). This finds that grid, so that a calibration on such
 // a board can be handed to mrcal's tools; the nodes that are no corner are written as unseen.

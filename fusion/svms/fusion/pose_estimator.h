@@ -8,7 +8,8 @@
 // with the markers of every layout, and each layout's detections are fused on their own into
 // that object's pose (SolveObjectPose, the same call for one layout or several): the objects'
 // poses are exactly what one single-layout estimator per object would give, for the price of
-// one detection. A marker ID belongs to one layout at most: the same ID in two layouts would
+// one detection (without a time budget: under one, the frame's single detection pass spends
+// it on the markers of every layout). A marker ID belongs to one layout at most: the same ID in two layouts would
 // make its detection a point of two objects, so creation refuses it and names both layouts.
 // Detections of no layout are reported by ID (FrameResult::unassigned_ids).
 //
