@@ -133,7 +133,7 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
       ->capture_default_str();
   cmd->add_option("--corner-fit-scale", o->corner_fit_scale,
                   "Corner sigma = this times the detector's line-fit sigma (default: kCornerCovarianceScale with "
-                  "correlated corners, kCornerFitScale with --independent-corners; marker_pose.h)")
+                  "--correlated-corners, else kCornerFitScale; marker_pose.h)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd->add_option("--corner-sigma-systematic", o->corner_sigma_systematic_px,
@@ -150,8 +150,9 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
                   "Sensor profile the approach and mockup are rendered through when rendered "
                   "here (linear, srgb8, jpeg_srgb, raw12, raw12_bayer); a given --data is read "
                   "as its truth.json's photometry says");
-  cmd->add_flag("--independent-corners", o->independent_corners,
-                "Treat a marker's corners as independent (leave the line fits' correlation out)");
+  cmd->add_flag("--correlated-corners", o->correlated_corners,
+                "Whiten each marker's corners with their joint covariance from the line fits "
+                "(ObjectPoseOptions::corner_covariance_from_fit; off by default)");
   cmd->add_option("--min-tip-sigma", o->min_tip_sigma_px,
                   "No post-tip sigma below this (px; the detector's own sigma above it)")
       ->check(CLI::NonNegativeNumber)

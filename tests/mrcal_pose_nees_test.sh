@@ -2,12 +2,11 @@
 # A camera calibrated by mrcal's own tool (`mrcal-calibrate-cameras`, run by the quick calibration
 # benchmark on its chessboard views) in `svms bench pose` on the quick approach, after
 # `svms camera import-uncertainty`: the mean NEES with the imported covariance is that of the
-# true camera within a factor 2 either way, and far above it without the calibration's term (so
-# the sidecar is what does it). One calibration is one draw of its error, shared by the 12
-# frames: what it adds to the NEES is that draw seen through d pose / d intrinsics, which
-# depends on how the fit weighs the corners. With their joint covariance 5.23 on the true
-# camera and 3.00 with mrcal's; with independent corners 4.35 and 4.04; over the 500-frame
-# approach 3.70 and 5.05 with mrcal's.
+# true camera (within a factor 1.5 either way: one calibration, so one draw of its error over
+# 12 frames; 4.35 and 4.04), and far above it without the calibration's term (so the sidecar is
+# what does it). What one calibration's error adds to the NEES is that draw seen through
+# d pose / d intrinsics, which depends on how the fit weighs the corners: with the corners'
+# joint covariance (bench pose --correlated-corners) 5.23 and 3.00.
 # usage: mrcal_pose_nees_test.sh SVMS MRCAL_CAMERA
 set -uo pipefail
 svms=${1:?svms}; mrcal_cam=${2:?camera-0.cameramodel of mrcal-calibrate-cameras}
@@ -34,7 +33,7 @@ d = sys.argv[1]
 nees = {k: json.load(open(f"{d}/{k}/summary.json"))["nees_mean"] for k in ("truth", "mrcal", "without")}
 print("mean NEES: true camera %.2f, mrcal's with its imported covariance %.2f, without it %.1f"
       % (nees["truth"], nees["mrcal"], nees["without"]))
-assert nees["truth"] / 2 < nees["mrcal"] < 2 * nees["truth"], nees
+assert nees["truth"] / 1.5 < nees["mrcal"] < 1.5 * nees["truth"], nees
 assert nees["without"] > 10 * nees["mrcal"], nees
 PY
 echo "mrcal_pose_nees: ok"

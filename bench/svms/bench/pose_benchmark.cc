@@ -102,7 +102,7 @@ PoseEstimatorOptions EstimatorOptions(const PoseBenchmarkOptions& o) {
   options.fusion.min_corner_sigma_px = o.min_corner_sigma_px;
   options.fusion.corner_sigma_systematic_px = o.corner_sigma_systematic_px;
   options.fusion.corner_sigma_from_fit = !o.size_model;
-  options.fusion.corner_covariance_from_fit = !o.independent_corners;
+  options.fusion.corner_covariance_from_fit = o.correlated_corners;
   options.fusion.min_tip_sigma_px = o.min_tip_sigma_px;
   options.fusion.use_calibration_covariance = !o.no_calibration_covariance;
   return options;

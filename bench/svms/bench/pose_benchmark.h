@@ -31,7 +31,7 @@ struct PoseBenchmarkOptions {
   double min_corner_sigma_px = ObjectPoseOptions{}.min_corner_sigma_px;
   double corner_sigma_systematic_px = ObjectPoseOptions{}.corner_sigma_systematic_px;
   bool size_model = false;                 // corner sigma from the marker's size only
-  bool independent_corners = false;        // leave the line fits' corner correlation out
+  bool correlated_corners = false;         // whiten with the line fits' corner covariance
   double min_tip_sigma_px = ObjectPoseOptions{}.min_tip_sigma_px;
   bool no_calibration_covariance = false;  // leave the calibration's uncertainty out
 };

@@ -21,7 +21,7 @@ namespace {
 double FitScale(const PoseBenchmarkOptions& o) {
   ObjectPoseOptions fusion;
   fusion.corner_fit_scale = o.corner_fit_scale;
-  return CornerFitScale(fusion, !o.independent_corners);
+  return CornerFitScale(fusion, o.correlated_corners);
 }
 
 namespace fs = std::filesystem;
@@ -118,7 +118,7 @@ void WriteSummary(const PoseBenchmarkOptions& o, const PoseFindings& f, const Fi
       {"corner_sigma_px", o.corner_sigma_px},
       {"min_corner_sigma_px", o.min_corner_sigma_px},
       {"corner_sigma_systematic_px", o.corner_sigma_systematic_px},
-      {"corner_correlation", !o.size_model && !o.independent_corners},
+      {"corner_correlation", !o.size_model && o.correlated_corners},
       {"min_tip_sigma_px", o.min_tip_sigma_px},
       {"calibration_in_covariance", f.calibration_in_covariance},
       {"nees_mean", g.nees_mean},
@@ -227,7 +227,7 @@ std::string Markdown(const PoseBenchmarkOptions& o, const PoseFindings& f, const
                       : "the detector's line-fit sigma times " + Fixed(FitScale(o), 2) +
                             " plus " + Fixed(o.corner_sigma_systematic_px, 3) +
                             " px in quadrature (where refined; " +
-                            (o.independent_corners ? "the corners independent"
+                            (!o.correlated_corners ? "the corners independent"
                                                    : "the corners correlated as the line fits say") +
                             "), else ")
      << o.corner_sigma_px << " px at 30 px scaled by (30 / shortest side)^"

@@ -150,6 +150,7 @@ TEST(ObjectPose, CorrelatedCornerNoiseIsWhitenedByTheCornersJointCovariance) {
     return Eigen::Matrix<double, 8, 8>(0.5 * (C + C.transpose()));
   };
   ObjectPoseOptions joint;
+  joint.corner_covariance_from_fit = true;
   joint.corner_fit_scale = 1;
   joint.use_tips = false;
   ObjectPoseOptions independent = joint;

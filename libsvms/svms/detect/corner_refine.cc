@@ -681,7 +681,13 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       if (!plane.ToPixel(h.head<2>() / h.z(), &px)) return out;
       out.corners[k] = px;
     }
-    out.corner_covariance = CornerCovariance(out.corners, perp, out.corner_sigma, end_margin);
+    // The joint covariance assumes edge points that err independently along a side. Where
+    // they err together (out.correlation > 0: a JPEG's blocks, blur, a demosaic) a side's
+    // line moves more as a whole than the model says, and its corners' correlation across it
+    // is not known: they are left as independent (zero covariance).
+    out.corner_covariance = out.correlation > 0
+                                ? Eigen::Matrix<double, 8, 8>::Zero()
+                                : CornerCovariance(out.corners, perp, out.corner_sigma, end_margin);
   }
   out.ok = true;
   return out;
