@@ -1,0 +1,143 @@
+#include "svms/fusion/rig_pose_estimator.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include "svms/base/statistics.h"
+#include "svms/datasets/datasets.h"
+#include "svms/marker/model_io.h"
+#include "svms/sim/render.h"
+#include "svms/sim/truth.h"
+
+namespace svms {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+
+// The approach's view 6 (the module at 4.5 m) seen by a two-camera rig whose frame is that
+// view's camera frame: a narrow camera (20 degrees across) 0.25 m to the left and a wide one
+// (60 degrees) 0.25 m to the right, 640 x 480 pinholes, each turned toward the module. Each
+// camera's image is the simulator's render of the approach scene through that camera, with the
+// true pose; rig_from_module is the truth.
+struct TwoCameraApproach {
+  Layout layout;
+  CameraRig rig;
+  std::vector<cv::Mat> images;
+  Pose rig_from_module;
+  TwoCameraApproach() {
+    Dataset dataset;
+    EXPECT_TRUE(MakeDataset("approach", DatasetOptions{1, true}, &dataset).ok());
+    for (const auto& [name, text] : dataset.files)
+      if (name == "true_layout.json") {
+        ModelFile f;
+        EXPECT_TRUE(ParseModelJson(text, name, &f).ok());
+        layout = f.layout;
+      }
+    const Scene& approach = dataset.scenes[0].second;
+    const View& view = approach.views.at(6);
+    const Pose rig_from_world = view.cam_from_world;
+    // The module's origin in the rig frame, from the scene itself.
+    for (const SceneObject& o : approach.objects)
+      if (o.name == "module") rig_from_module = rig_from_world * o.world_from_object;
+    const double fov_deg[2] = {20, 60};
+    const char* names[2] = {"narrow", "wide"};
+    for (int c = 0; c < 2; ++c) {
+      RigCamera camera;
+      camera.name = names[c];
+      camera.camera = CameraModel::Pinhole(320 / std::tan(fov_deg[c] / 2 * M_PI / 180), 640, 480);
+      const Vec3 eye(c == 0 ? -0.25 : 0.25, 0, 0);
+      camera.rig_from_cam = LookAt(eye, rig_from_module.tvec, Vec3(0, -1, 0)).Inverse();
+      Scene scene = approach;
+      scene.camera = camera.camera;
+      View v = view;
+      v.cam_from_world = camera.rig_from_cam.Inverse() * rig_from_world;
+      scene.views = {v};
+      std::unique_ptr<Renderer> renderer;
+      EXPECT_TRUE(Renderer::Create(scene, &renderer).ok());
+      images.push_back(renderer->Expose(renderer->RenderRadiance(0), 0));
+      // The truth the renderer reports agrees with the rig's.
+      for (const auto& [name, pose] : ComputeTruth(*renderer, 0).cam_from_object)
+        if (name == "module")
+          EXPECT_LT(PoseError(rig_from_module, camera.rig_from_cam * pose).norm(), 1e-9);
+      rig.cameras.push_back(camera);
+    }
+  }
+};
+
+// The covariance of a camera's cam_from_object turned into rig axes (rig_from_object =
+// rig_from_cam cam_from_object: both the rotation and the translation rotate by R_rig_cam).
+PoseCovariance InRigAxes(const Pose& rig_from_cam, const PoseCovariance& c) {
+  Eigen::Matrix<double, 6, 6> R = Eigen::Matrix<double, 6, 6>::Zero();
+  R.topLeftCorner<3, 3>() = R.bottomRightCorner<3, 3>() = rig_from_cam.Rotation();
+  return R * c * R.transpose();
+}
+
+TEST(RigPoseEstimator, RenderedTwoCameraRigIsAtLeastAsGoodAsItsBetterCamera) {
+  const auto start = std::chrono::steady_clock::now();
+  const TwoCameraApproach a;
+  std::unique_ptr<RigPoseEstimator> est;
+  ASSERT_TRUE(RigPoseEstimator::Create(a.rig, {a.layout}, {}, &est).ok());
+  RigFrameResult r;
+  est->Estimate(a.images, 1.5, &r);
+  ASSERT_TRUE(r.pose.valid) << r.pose.message;
+  EXPECT_EQ(r.timestamp, 1.5);
+  ASSERT_EQ(r.cameras.size(), 2u);
+  const double chi2_999 = ChiSquareQuantile(0.999, 6);
+  const double nees = Nees(a.rig_from_module, r.pose.cam_from_object, r.pose.covariance);
+  const Eigen::Matrix<double, 6, 1> e = PoseError(a.rig_from_module, r.pose.cam_from_object);
+  std::printf(
+      "rig: %d markers (%d narrow), error %.3f mrad %.3f mm, sigma %.3f mrad %.3f mm, "
+      "NEES %.2f\n",
+      r.pose.markers_used,
+      static_cast<int>(std::count(r.pose.cameras_used.begin(), r.pose.cameras_used.end(), 0)),
+      e.head<3>().norm() * 1e3, e.tail<3>().norm() * 1e3,
+      std::sqrt(r.pose.covariance.topLeftCorner<3, 3>().trace()) * 1e3,
+      std::sqrt(r.pose.covariance.bottomRightCorner<3, 3>().trace()) * 1e3, nees);
+  EXPECT_LT(nees, chi2_999);
+  // Both cameras contributed markers.
+  for (int c = 0; c < 2; ++c)
+    EXPECT_GT(std::count(r.pose.cameras_used.begin(), r.pose.cameras_used.end(), c), 0) << c;
+  // Each camera alone, in rig axes: consistent with the truth too, and no better than the rig
+  // (its covariance, and on this deterministic render its actual error).
+  double better_rotation = 1e9, better_translation = 1e9;
+  for (int c = 0; c < 2; ++c) {
+    const ObjectPose& alone = r.cameras[c].pose;
+    ASSERT_TRUE(alone.valid) << alone.message;
+    const Pose rig_from_object = a.rig.cameras[c].rig_from_cam * alone.cam_from_object;
+    const PoseCovariance cov = InRigAxes(a.rig.cameras[c].rig_from_cam, alone.covariance);
+    const Eigen::Matrix<double, 6, 1> ec = PoseError(a.rig_from_module, rig_from_object);
+    std::printf(
+        "%s alone: %d markers, error %.3f mrad %.3f mm, sigma %.3f mrad %.3f mm, "
+        "NEES %.2f\n",
+        a.rig.cameras[c].name.c_str(), alone.markers_used, ec.head<3>().norm() * 1e3,
+        ec.tail<3>().norm() * 1e3, std::sqrt(cov.topLeftCorner<3, 3>().trace()) * 1e3,
+        std::sqrt(cov.bottomRightCorner<3, 3>().trace()) * 1e3,
+        Nees(a.rig_from_module, rig_from_object, cov));
+    EXPECT_LE((r.pose.covariance.topLeftCorner<3, 3>().trace()),
+              (cov.topLeftCorner<3, 3>().trace() * 1.0001));
+    EXPECT_LE((r.pose.covariance.bottomRightCorner<3, 3>().trace()),
+              (cov.bottomRightCorner<3, 3>().trace() * 1.0001));
+    EXPECT_LT(Nees(a.rig_from_module, rig_from_object, cov), chi2_999);
+    better_rotation = std::min(better_rotation, ec.head<3>().norm());
+    better_translation = std::min(better_translation, ec.tail<3>().norm());
+  }
+  EXPECT_LE(e.head<3>().norm(), better_rotation);
+  EXPECT_LE(e.tail<3>().norm(), better_translation);
+  // A wrong number of frames is refused with a reason, not a crash.
+  est->Estimate({a.images[0]}, 2, &r);
+  EXPECT_FALSE(r.pose.valid);
+  EXPECT_NE(r.pose.message.find("one per camera"), std::string::npos) << r.pose.message;
+  // One camera without a frame: the other still gives the pose.
+  est->Estimate({cv::Mat(), a.images[1]}, 3, &r);
+  EXPECT_TRUE(r.pose.valid) << r.pose.message;
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_LT(seconds, 20);
+}
+
+}  // namespace
+}  // namespace svms
