@@ -61,9 +61,11 @@ struct TwoCameraApproach {
       EXPECT_TRUE(Renderer::Create(scene, &renderer).ok());
       images.push_back(renderer->Expose(renderer->RenderRadiance(0), 0));
       // The truth the renderer reports agrees with the rig's.
-      for (const auto& [name, pose] : ComputeTruth(*renderer, 0).cam_from_object)
-        if (name == "module")
+      for (const auto& [name, pose] : ComputeTruth(*renderer, 0).cam_from_object) {
+        if (name == "module") {
           EXPECT_LT(PoseError(rig_from_module, camera.rig_from_cam * pose).norm(), 1e-9);
+        }
+      }
       rig.cameras.push_back(camera);
     }
   }
