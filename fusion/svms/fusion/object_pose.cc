@@ -95,7 +95,13 @@ struct Block {
   Eigen::Vector3d t_om = Eigen::Vector3d::Zero();
   MatRR L_inv;  // inverse Cholesky factor of the marker's residual covariance
   std::array<double, kMaxPoints> total_sigma{};  // per point: pixel and layout noise, RMS per axis
-  double weight = 1;                             // robust weight of the iteration
+  // A rig camera with an extrinsics covariance: the rejection tests' factor and sigmas, which
+  // also count how far the camera's rig_from_cam error moves the marker's pixels (the fit's
+  // whitening cannot: that error is shared by all of the camera's markers).
+  bool reject_with_extrinsics = false;
+  MatRR L_inv_reject;
+  std::array<double, kMaxPoints> reject_sigma{};
+  double weight = 1;  // robust weight of the iteration
   bool active = true;
   std::array<bool, 5> dropped{};  // points left out as outliers (corners 0-3, tip 4)
 };
@@ -246,6 +252,17 @@ bool Whitening(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
   Eigen::LLT<MatRR> llt(C);
   if (llt.info() != Eigen::Success) return false;
   b->L_inv = llt.matrixL().solve(MatRR::Identity(2 * n, 2 * n));
+  b->reject_with_extrinsics = o.use_extrinsics_covariance && b->view->extrinsics_covariance;
+  if (b->reject_with_extrinsics) {
+    MatR6 JE;
+    if (!Evaluate(*b, R, t, &r, &J, nullptr, &JE)) return false;
+    C += JE * *b->view->extrinsics_covariance * JE.transpose();
+    for (int i = 0; i < n; ++i)
+      b->reject_sigma[i] = std::sqrt(0.5 * C.block<2, 2>(2 * i, 2 * i).trace());
+    Eigen::LLT<MatRR> llt_reject(C);
+    if (llt_reject.info() != Eigen::Success) return false;
+    b->L_inv_reject = llt_reject.matrixL().solve(MatRR::Identity(2 * n, 2 * n));
+  }
   return true;
 }
 
@@ -348,7 +365,11 @@ void FitPose(const ObjectPoseOptions& o, std::vector<Block>* blocks, Eigen::Matr
       }
       const VecR wr = b.L_inv * r;
       const MatR6 wJ = b.L_inv * J;
-      const double norm = std::sqrt(wr.squaredNorm() / static_cast<double>(r.size()));
+      // The robust weight's norm, for a rig camera with an extrinsics covariance with that
+      // error's spread counted (it is not the marker's fault).
+      const double norm =
+          std::sqrt((b.reject_with_extrinsics ? (b.L_inv_reject * r).eval() : wr).squaredNorm() /
+                    static_cast<double>(r.size()));
       b.weight = 1.0 / (1.0 + (norm / o.robust_k) * (norm / o.robust_k));  // Cauchy
       H += b.weight * wJ.transpose() * wJ;
       g += b.weight * wJ.transpose() * wr;
@@ -362,7 +383,8 @@ void FitPose(const ObjectPoseOptions& o, std::vector<Block>* blocks, Eigen::Matr
 }
 
 // Chi-square of a block at (R, t) over its quantile (> 1: inconsistent), and its worst point
-// (*worst_point: 0-3 a corner, 4 the tip, -1 none) in sigmas of pixel and layout noise.
+// (*worst_point: 0-3 a corner, 4 the tip, -1 none) in sigmas of pixel and layout noise (and, for
+// a rig camera with an extrinsics covariance, of the pixel shift that error gives).
 double Excess(const ObjectPoseOptions& o, const Block& b, const Eigen::Matrix3d& R,
               const Eigen::Vector3d& t, int* worst_point, double* worst_norm) {
   VecR r;
@@ -371,13 +393,14 @@ double Excess(const ObjectPoseOptions& o, const Block& b, const Eigen::Matrix3d&
   *worst_norm = 0;
   if (!Evaluate(b, R, t, &r, &J, nullptr)) return std::numeric_limits<double>::infinity();
   for (size_t k = 0; k < b.points.size(); ++k) {
-    const double n = r.segment<2>(2 * k).norm() / b.total_sigma[k];
+    const double n = r.segment<2>(2 * k).norm() /
+                     (b.reject_with_extrinsics ? b.reject_sigma[k] : b.total_sigma[k]);
     if (n > *worst_norm) {
       *worst_norm = n;
       *worst_point = b.points[k].index;
     }
   }
-  return (b.L_inv * r).squaredNorm() /
+  return ((b.reject_with_extrinsics ? b.L_inv_reject : b.L_inv) * r).squaredNorm() /
          ChiSquareQuantile(o.reject_quantile, 2 * static_cast<int>(b.points.size()));
 }
 

@@ -192,10 +192,11 @@ struct RigCameraView {
 // whitening, robust weight and rejection are those of SolveObjectPose; each camera's
 // calibration covariance enters as its own independent error, and so does each camera's
 // rig_from_cam covariance (options.use_extrinsics_covariance): d pose / d rig_from_cam to
-// first order, S Sigma_c S^T added after the variance factor. A marker seen by two cameras is
-// two observations (its pixel noise in the two images is independent; the layout's error the
-// two share is then counted twice as independent, slightly optimistic for that marker). An
-// observation naming no camera of the rig gives an invalid pose with a message.
+// first order, S Sigma_c S^T added after the variance factor. The robust weight and the
+// rejection tests of such a camera's markers count that error's pixel spread too. A marker seen by
+// two cameras is two observations (its pixel noise in the two images is independent; the layout's
+// error the two share is then counted twice as independent, slightly optimistic for that marker).
+// An observation naming no camera of the rig gives an invalid pose with a message.
 ObjectPose SolveRigObjectPose(const std::vector<RigCameraView>& cameras,
                               const std::vector<MarkerObservation>& obs,
                               const ObjectPoseOptions& options);
