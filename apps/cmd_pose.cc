@@ -1,15 +1,18 @@
 // svms pose: the fused object pose of every frame, streamed as JSON Lines (pose_stream.h does
 // the work).
+#include <iostream>
 #include <memory>
 
 #include "commands.h"
 #include "photometry_options.h"
 #include "pose_stream.h"
+#include "rig_pose_stream.h"
 
 namespace svms::cli {
 
 void AddPoseCommands(CLI::App& app, int* exit_code) {
   auto o = std::make_shared<PoseOptions>();
+  auto rig = std::make_shared<RigPoseOptions>();
   CLI::App* cmd = app.add_subcommand(
       "pose",
       "The object's pose in each frame from every visible marker of a surveyed layout (several "
@@ -18,7 +21,16 @@ void AddPoseCommands(CLI::App& app, int* exit_code) {
   cmd->add_flag("--stdin", o->from_stdin,
                 "Read frames from stdin: a path per line, optionally followed by a timestamp "
                 "(seconds)");
-  cmd->add_option("--camera", o->camera, "mrcal .cameramodel")->required();
+  CLI::Option* camera = cmd->add_option("--camera", o->camera, "mrcal .cameramodel");
+  CLI::Option* rig_option = cmd->add_option(
+      "--rig", rig->rig,
+      "Camera rig (*.rig, docs/conventions.md): fuse every camera's markers into one "
+      "rig_from_object per time stamp; frames from --frames-list");
+  camera->excludes(rig_option);
+  cmd->add_option("--frames-list", rig->frames_list,
+                  "With --rig: one line per time stamp, '[TIMESTAMP] IMAGE_CAM0 IMAGE_CAM1 ...' "
+                  "in the rig's camera order ('-': no frame; paths relative to the list)")
+      ->needs(rig_option);
   cmd->add_option("--layout", o->layouts,
                   "Surveyed layout (svms survey --out); repeat for several objects in one "
                   "detection pass (an ID in two layouts is refused)")
@@ -65,8 +77,35 @@ void AddPoseCommands(CLI::App& app, int* exit_code) {
       "Examples:\n"
       "  svms pose out/approach --camera cam.cameramodel --layout layout.json\n"
       "  ls frames/*.png | svms pose --stdin --camera cam.cameramodel --layout layout.json\n"
-      "  svms pose frames/ --camera cam.cameramodel --layout target.json --layout fixture.json");
-  cmd->callback([o, exit_code] { *exit_code = RunPose(*o); });
+      "  svms pose frames/ --camera cam.cameramodel --layout target.json --layout fixture.json\n"
+      "  svms pose --rig port.rig --layout layout.json --frames-list frames.txt\n"
+      "With --rig: one line per time stamp (per object), rig_from_object and its covariance\n"
+      "(rotation about the RIG axes), cameras [{name, markers, markers_rejected, markers_seen,\n"
+      "valid_alone, detect_ms}], flags {poorly_conditioned, calibration_in_covariance,\n"
+      "extrinsics_in_covariance}, line, images (docs/flight-interface.md).");
+  cmd->callback([o, rig, exit_code] {
+    if (!rig->rig.empty()) {
+      if (!o->inputs.empty() || o->from_stdin) {
+        std::cerr
+            << "svms pose: --rig: give the frames with --frames-list, not IMAGES or --stdin\n";
+        *exit_code = kExitBadInput;
+        return;
+      }
+      rig->layouts = o->layouts;
+      rig->corner_sigma_px = o->corner_sigma_px;
+      rig->budget_ms = o->budget_ms;
+      rig->max_megapixels = o->max_megapixels;
+      rig->quiet = o->quiet;
+      *exit_code = RunRigPose(*rig);
+      return;
+    }
+    if (o->camera.empty()) {
+      std::cerr << "svms pose: --camera: expected an mrcal .cameramodel (or --rig RIG.rig)\n";
+      *exit_code = kExitBadInput;
+      return;
+    }
+    *exit_code = RunPose(*o);
+  });
 }
 
 }  // namespace svms::cli

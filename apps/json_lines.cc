@@ -94,4 +94,49 @@ nlohmann::json FrameJson(const FrameResult& r, size_t object) {
   return j;
 }
 
+nlohmann::json RigFrameJson(const RigFrameResult& r, const CameraRig& rig, size_t object) {
+  const ObjectPose& p = r.object(object);
+  nlohmann::json j;
+  j["timestamp"] = r.timestamp;
+  j["valid"] = p.valid;
+  if (p.valid) {
+    j["rig_from_object"] = PoseWithQuaternionJson(p.cam_from_object);
+    std::vector<double> cov(36);
+    for (int a = 0; a < 6; ++a)
+      for (int b = 0; b < 6; ++b) cov[a * 6 + b] = p.covariance(a, b);
+    j["covariance"] = cov;
+  } else {
+    j["rig_from_object"] = nullptr;
+    j["covariance"] = nullptr;
+    j["message"] = p.message;
+  }
+  nlohmann::json cameras = nlohmann::json::array();
+  for (size_t c = 0; c < rig.cameras.size(); ++c) {
+    std::vector<int> used, rejected;
+    for (size_t k = 0; k < p.ids_used.size(); ++k)
+      if (p.cameras_used[k] == static_cast<int>(c)) used.push_back(p.ids_used[k]);
+    for (size_t k = 0; k < p.ids_rejected.size(); ++k)
+      if (p.cameras_rejected[k] == static_cast<int>(c)) rejected.push_back(p.ids_rejected[k]);
+    const FrameResult& f = r.cameras.at(c);
+    cameras.push_back({{"name", rig.cameras[c].name},
+                       {"markers", used},
+                       {"markers_rejected", rejected},
+                       {"markers_seen", f.object(object).markers_seen},
+                       {"valid_alone", f.object(object).valid},
+                       {"detect_ms", f.detect_ms}});
+  }
+  j["cameras"] = cameras;
+  j["points_rejected"] = p.points_rejected;
+  j["markers_seen"] = p.markers_seen;
+  j["points"] = p.points_used;
+  j["rms"] = p.rms_px;
+  j["chi2"] = p.chi2;
+  j["dof"] = p.dof;
+  j["flags"] = {{"poorly_conditioned", p.poorly_conditioned},
+                {"calibration_in_covariance", p.calibration_in_covariance},
+                {"extrinsics_in_covariance", p.extrinsics_in_covariance}};
+  j["latency_ms"] = r.latency_ms;
+  return j;
+}
+
 }  // namespace svms::cli

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "svms/fusion/pose_estimator.h"
+#include "svms/fusion/rig_pose_estimator.h"
 #include "svms/svms.h"
 
 struct svms_estimator {
@@ -25,9 +26,22 @@ struct svms_estimator {
   std::atomic<bool> busy{false};
 };
 
+struct svms_rig_estimator {
+  static constexpr uint64_t kMagic = 0x53564d5352494731ull;  // "SVMSRIG1"
+  uint64_t magic = kMagic;
+  std::unique_ptr<svms::RigPoseEstimator> impl;
+  svms::RigFrameResult* scratch = nullptr;  // reused every frame
+  std::vector<cv::Mat>* frames = nullptr;   // reused every frame: views of the caller's pixels
+  std::atomic<bool> busy{false};
+};
+
 namespace {
 
 std::mutex registry_mutex;
+std::unordered_set<const svms_rig_estimator*>& LiveRigs() {
+  static auto* live = new std::unordered_set<const svms_rig_estimator*>;
+  return *live;
+}
 std::unordered_set<const svms_estimator*>& Live() {
   static auto* live = new std::unordered_set<const svms_estimator*>;
   return *live;
@@ -57,11 +71,11 @@ void PoseOut(const svms::Pose& pose, double* rvec, double* tvec, double* quatern
   quaternion[3] = q.z();
 }
 
-// Layout `object`'s pose of frame r.
-void Fill(const svms::FrameResult& r, size_t object, svms_pose* out) {
-  const svms::ObjectPose& p = r.object(object);
+// A fused pose into *out, with the frame's time stamp, latency and budget flag.
+void FillPose(const svms::ObjectPose& p, double timestamp, double latency_ms, bool budget_exceeded,
+              svms_pose* out) {
   *out = svms_pose{};
-  out->timestamp = r.timestamp;
+  out->timestamp = timestamp;
   out->valid = p.valid ? 1 : 0;
   out->markers_seen = p.markers_seen;
   out->markers_used = p.markers_used;
@@ -73,10 +87,11 @@ void Fill(const svms::FrameResult& r, size_t object, svms_pose* out) {
   out->dof = p.dof;
   out->flags = (p.ambiguous ? SVMS_FLAG_AMBIGUOUS : 0u) |
                (p.poorly_conditioned ? SVMS_FLAG_POORLY_CONDITIONED : 0u) |
-               (r.budget_exceeded ? SVMS_FLAG_BUDGET_EXCEEDED : 0u) |
+               (budget_exceeded ? SVMS_FLAG_BUDGET_EXCEEDED : 0u) |
                (p.ids_rejected.empty() ? 0u : SVMS_FLAG_MARKER_REJECTED) |
-               (p.calibration_in_covariance ? SVMS_FLAG_CALIBRATION_IN_COVARIANCE : 0u);
-  out->latency_ms = r.latency_ms;
+               (p.calibration_in_covariance ? SVMS_FLAG_CALIBRATION_IN_COVARIANCE : 0u) |
+               (p.extrinsics_in_covariance ? SVMS_FLAG_EXTRINSICS_IN_COVARIANCE : 0u);
+  out->latency_ms = latency_ms;
   if (!p.valid) return;
   PoseOut(p.cam_from_object, out->rvec, out->tvec, out->quaternion);
   for (int a = 0; a < 6; ++a)
@@ -87,6 +102,11 @@ void Fill(const svms::FrameResult& r, size_t object, svms_pose* out) {
             out->alternative_quaternion);
     out->alternative_weight = p.alternative_weight;
   }
+}
+
+// Layout `object`'s pose of frame r.
+void Fill(const svms::FrameResult& r, size_t object, svms_pose* out) {
+  FillPose(r.object(object), r.timestamp, r.latency_ms, r.budget_exceeded, out);
 }
 
 void FillInfo(const svms::FrameResult& r, svms_frame_info* info) {
@@ -326,6 +346,149 @@ svms_status svms_destroy(svms_estimator* e) {
   e->impl.reset();
   delete e->scratch;
   e->scratch = nullptr;
+  e->magic = 0;
+  return SVMS_OK;
+}
+
+svms_status svms_create_rig(const char* rig_path, const char* layout_path,
+                            const svms_options* options, svms_rig_estimator** out) {
+  if (!out) return Fail(SVMS_ERR_NULL_ARGUMENT, "svms_create_rig: out is NULL");
+  *out = nullptr;
+  if (!rig_path || !layout_path)
+    return Fail(SVMS_ERR_NULL_ARGUMENT, std::string("svms_create_rig: ") +
+                                            (!rig_path ? "rig_path" : "layout_path") + " is NULL");
+  try {
+    svms_options o;
+    svms_options_default(&o);
+    if (options) o = *options;
+    if (!(o.corner_sigma_px > 0) || !std::isfinite(o.corner_sigma_px) || !(o.budget_ms >= 0) ||
+        !std::isfinite(o.budget_ms))
+      return Fail(SVMS_ERR_INVALID_ARGUMENT,
+                  "svms_create_rig: options: expected corner_sigma_px > 0 and budget_ms >= 0, "
+                  "got " +
+                      std::to_string(o.corner_sigma_px) + " and " + std::to_string(o.budget_ms));
+    svms::PoseEstimatorOptions po;
+    po.fusion.corner_sigma_px = o.corner_sigma_px;
+    po.budget_ms = o.budget_ms;
+    std::unique_ptr<svms::RigPoseEstimator> impl;
+    if (svms::Status s =
+            svms::RigPoseEstimator::CreateFromFiles(rig_path, {layout_path}, po, &impl);
+        !s)
+      return Fail(SVMS_ERR_FILE, "svms_create_rig: " + s.message());
+    auto e = std::make_unique<svms_rig_estimator>();
+    e->impl = std::move(impl);
+    e->scratch = new svms::RigFrameResult;
+    e->frames = new std::vector<cv::Mat>(e->impl->num_cameras());
+    {
+      std::lock_guard<std::mutex> lock(registry_mutex);
+      LiveRigs().insert(e.get());
+    }
+    *out = e.release();
+    return SVMS_OK;
+  } catch (const std::bad_alloc&) {
+    return Fail(SVMS_ERR_INTERNAL, "svms_create_rig: out of memory");
+  } catch (const std::exception& ex) {
+    return Fail(SVMS_ERR_INTERNAL, std::string("svms_create_rig: ") + ex.what());
+  } catch (...) {
+    return Fail(SVMS_ERR_INTERNAL, "svms_create_rig: unknown failure");
+  }
+}
+
+svms_status svms_rig_camera_count(const svms_rig_estimator* e, int* n_cameras) {
+  if (!e || !n_cameras)
+    return Fail(SVMS_ERR_NULL_ARGUMENT, std::string("svms_rig_camera_count: ") +
+                                            (!e ? "estimator" : "n_cameras") + " is NULL");
+  *n_cameras = 0;
+  std::lock_guard<std::mutex> lock(registry_mutex);
+  if (!LiveRigs().count(e) || e->magic != svms_rig_estimator::kMagic || !e->impl)
+    return Fail(SVMS_ERR_BAD_HANDLE,
+                "svms_rig_camera_count: the estimator is not one from svms_create_rig, or was "
+                "destroyed");
+  *n_cameras = static_cast<int>(e->impl->num_cameras());
+  return SVMS_OK;
+}
+
+svms_status svms_process_rig_frame(svms_rig_estimator* e, const svms_rig_frame* frames,
+                                   int n_frames, double timestamp, svms_pose* out) {
+  const std::string fn = "svms_process_rig_frame";
+  if (!e || !frames || !out)
+    return Fail(SVMS_ERR_NULL_ARGUMENT, fn + ": " +
+                                            (!e        ? "estimator"
+                                             : !frames ? "frames"
+                                                       : "out") +
+                                            " is NULL");
+  *out = svms_pose{};
+  out->timestamp = timestamp;
+  {
+    std::lock_guard<std::mutex> lock(registry_mutex);
+    if (!LiveRigs().count(e) || e->magic != svms_rig_estimator::kMagic || !e->impl)
+      return Fail(SVMS_ERR_BAD_HANDLE,
+                  fn + ": the estimator is not one from svms_create_rig, or was destroyed");
+    bool expected = false;
+    if (!e->busy.compare_exchange_strong(expected, true))
+      return Fail(SVMS_ERR_BUSY, fn + ": the estimator is in use by another thread");
+  }
+  struct Release {
+    svms_rig_estimator* e;
+    ~Release() { e->busy.store(false); }
+  } release{e};
+  const int cameras = static_cast<int>(e->impl->num_cameras());
+  if (n_frames != cameras)
+    return Fail(SVMS_ERR_INVALID_ARGUMENT, fn + ": n_frames is " + std::to_string(n_frames) +
+                                               ", expected the rig's number of cameras, " +
+                                               std::to_string(cameras));
+  if (!std::isfinite(timestamp))
+    return Fail(SVMS_ERR_INVALID_ARGUMENT, fn + ": timestamp is not finite");
+  for (int c = 0; c < cameras; ++c) {
+    const svms_rig_frame& f = frames[c];
+    (*e->frames)[c] = cv::Mat();
+    if (!f.pixels) continue;
+    const svms::CameraModel& cam = e->impl->camera(static_cast<size_t>(c)).camera();
+    if (f.width != cam.width() || f.height != cam.height())
+      return Fail(SVMS_ERR_INVALID_ARGUMENT,
+                  fn + ": frames[" + std::to_string(c) + "] is " + std::to_string(f.width) + "x" +
+                      std::to_string(f.height) + " pixels, camera '" +
+                      e->impl->rig().cameras[c].name + "' " + std::to_string(cam.width()) + "x" +
+                      std::to_string(cam.height()));
+    if (f.stride < static_cast<ptrdiff_t>(f.width))
+      return Fail(SVMS_ERR_INVALID_ARGUMENT,
+                  fn + ": frames[" + std::to_string(c) + "].stride is below its width");
+    (*e->frames)[c] = cv::Mat(f.height, f.width, CV_8UC1, const_cast<uint8_t*>(f.pixels),
+                              static_cast<size_t>(f.stride));
+  }
+  try {
+    e->impl->Estimate(*e->frames, timestamp, e->scratch);
+    bool budget_exceeded = false;
+    for (const svms::FrameResult& r : e->scratch->cameras) budget_exceeded |= r.budget_exceeded;
+    FillPose(e->scratch->pose, timestamp, e->scratch->latency_ms, budget_exceeded, out);
+  } catch (const std::bad_alloc&) {
+    return Fail(SVMS_ERR_INTERNAL, fn + ": out of memory");
+  } catch (const std::exception& ex) {
+    return Fail(SVMS_ERR_INTERNAL, fn + ": " + ex.what());
+  } catch (...) {
+    return Fail(SVMS_ERR_INTERNAL, fn + ": unknown failure");
+  }
+  return SVMS_OK;
+}
+
+svms_status svms_destroy_rig(svms_rig_estimator* e) {
+  if (!e) return SVMS_OK;
+  {
+    std::lock_guard<std::mutex> lock(registry_mutex);
+    if (!LiveRigs().count(e))
+      return Fail(SVMS_ERR_BAD_HANDLE,
+                  "svms_destroy_rig: the estimator is not one from svms_create_rig, or was "
+                  "destroyed");
+    bool expected = false;
+    if (!e->busy.compare_exchange_strong(expected, true))
+      return Fail(SVMS_ERR_BUSY, "svms_destroy_rig: the estimator is in use by another thread");
+    LiveRigs().erase(e);
+  }
+  e->impl.reset();
+  delete e->scratch;
+  e->scratch = nullptr;
+  delete e->frames;
+  e->frames = nullptr;
   e->magic = 0;
   return SVMS_OK;
 }

@@ -19,6 +19,10 @@
  * Several objects in one camera (a docking target and a reference fixture): svms_create_multi
  * takes one layout per object, and svms_process_frame_multi detects the frame once and gives
  * one svms_pose per layout, each what a single-layout estimator of that object would give.
+ *
+ * Several cameras on one vehicle (a camera rig, docs/conventions.md "Camera rigs"):
+ * svms_create_rig reads a rig file, and svms_process_rig_frame takes one frame per camera taken
+ * at one time stamp and gives one svms_pose whose pose is rig_from_object.
  */
 #ifndef SVMS_SVMS_H_
 #define SVMS_SVMS_H_
@@ -49,6 +53,9 @@ typedef enum svms_status {
 /* The covariance includes the camera calibration's uncertainty (CAMERA.covariance.json, written
  * by svms calibrate, was next to the camera model). */
 #define SVMS_FLAG_CALIBRATION_IN_COVARIANCE 16u
+/* A rig's pose: the covariance includes the cameras' rig_from_cam uncertainty (the rig file
+ * gave a covariance for some camera). */
+#define SVMS_FLAG_EXTRINSICS_IN_COVARIANCE 32u
 
 #define SVMS_MAX_REPORTED_MARKERS 32
 
@@ -153,6 +160,40 @@ svms_status svms_process_frame_multi(svms_estimator* estimator, const uint8_t* p
 svms_status svms_process_frame_multi_u16(svms_estimator* estimator, const uint16_t* pixels,
                                          int width, int height, ptrdiff_t stride, double timestamp,
                                          svms_pose* poses, int n_poses, svms_frame_info* info);
+
+/* A camera rig's estimator (svms_create_rig). */
+typedef struct svms_rig_estimator svms_rig_estimator;
+
+/* One camera's frame of a rig: 8-bit grey pixels, `width` x `height`, rows `stride` bytes apart,
+ * the size of that camera's model. pixels NULL: that camera has no frame this time. */
+typedef struct svms_rig_frame {
+  const uint8_t* pixels;
+  int width;
+  int height;
+  ptrdiff_t stride;
+} svms_rig_frame;
+
+/* Creates a rig's estimator from a rig file (*.rig: its cameras' models, their rig_from_cam
+ * and its covariance) and a surveyed layout. `options` may be NULL. On failure *out is NULL and
+ * svms_last_error() names the file and field. */
+svms_status svms_create_rig(const char* rig_path, const char* layout_path,
+                            const svms_options* options, svms_rig_estimator** out);
+
+/* The number of cameras of a rig's estimator (the rig file's order). */
+svms_status svms_rig_camera_count(const svms_rig_estimator* estimator, int* n_cameras);
+
+/* The frames of every camera at one time stamp: frames[c] is camera c's, n_frames must be the
+ * number of cameras (else SVMS_ERR_INVALID_ARGUMENT). *out is always written: its rvec, tvec
+ * and quaternion are rig_from_object (p_rig = R p_object + t), its covariance [rotation,
+ * translation] with the rotation about the RIG axes; marker_ids lists the markers used by any
+ * camera (a marker seen by two cameras twice); latency_ms covers every camera. Flags as for
+ * one camera, plus SVMS_FLAG_EXTRINSICS_IN_COVARIANCE. One estimator per thread, as above. */
+svms_status svms_process_rig_frame(svms_rig_estimator* estimator, const svms_rig_frame* frames,
+                                   int n_frames, double timestamp, svms_pose* out);
+
+/* Destroys a rig's estimator; NULL is accepted (SVMS_OK). Like svms_destroy, a destroyed one
+ * stays detectable (SVMS_ERR_BAD_HANDLE). */
+svms_status svms_destroy_rig(svms_rig_estimator* estimator);
 
 /* Destroys an estimator; NULL is accepted (SVMS_OK). */
 svms_status svms_destroy(svms_estimator* estimator);

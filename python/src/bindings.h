@@ -13,14 +13,15 @@ namespace svms::python {
 
 namespace py = pybind11;
 
-void BindGeometry(py::module_& m);       // Pose
-void BindCamera(py::module_& m);         // Camera
-void BindMarkers(py::module_& m);        // MarkerModel, Layout, model files
-void BindDetector(py::module_& m);       // Detector, Detection, DetectorOptions
-void BindPoseEstimator(py::module_& m);  // PoseEstimator, ObjectPose, FrameResult
-void BindArtwork(py::module_& m);        // marker artwork as arrays
-void BindSurvey(py::module_& m);         // survey, SurveyResult
-void BindCalibration(py::module_& m);    // calibrate, CalibrationResult
+void BindGeometry(py::module_& m);          // Pose
+void BindCamera(py::module_& m);            // Camera
+void BindMarkers(py::module_& m);           // MarkerModel, Layout, model files
+void BindDetector(py::module_& m);          // Detector, Detection, DetectorOptions
+void BindPoseEstimator(py::module_& m);     // PoseEstimator, ObjectPose, FrameResult
+void BindRigPoseEstimator(py::module_& m);  // RigPoseEstimator, RigFrameResult
+void BindArtwork(py::module_& m);           // marker artwork as arrays
+void BindSurvey(py::module_& m);            // survey, SurveyResult
+void BindCalibration(py::module_& m);       // calibrate, CalibrationResult
 
 // Raises ValueError with the status' one-line message unless it is OK.
 inline void RaiseIfError(const Status& s) {

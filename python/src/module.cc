@@ -13,6 +13,7 @@ PYBIND11_MODULE(_svms, m) {
   sp::BindMarkers(m);
   sp::BindDetector(m);
   sp::BindPoseEstimator(m);
+  sp::BindRigPoseEstimator(m);
   sp::BindArtwork(m);
   sp::BindSurvey(m);
   sp::BindCalibration(m);

@@ -23,6 +23,8 @@ from ._svms import (  # noqa: F401
     PoseEstimator,
     PoseEstimatorOptions,
     PostModel,
+    RigFrameResult,
+    RigPoseEstimator,
     SurveyResult,
     SurveySummary,
     artwork_pixel_from_plane,

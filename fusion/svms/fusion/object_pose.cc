@@ -54,14 +54,54 @@ struct Points {
   const Point& operator[](size_t i) const { return p[i]; }
 };
 
+// One camera as the solver sees it: its lens model and where it sits in the rig. The unknown is
+// rig_from_object; a camera's points map into it by cam_from_rig. `identity` (the one-camera
+// solve, and a rig camera at the rig's origin) skips the extra transform, so that the
+// one-camera solve is exactly what it was without rigs.
+struct View {
+  const CameraModel* camera = nullptr;
+  int index = 0;  // in the rig
+  bool identity = true;
+  Eigen::Matrix3d R_cr = Eigen::Matrix3d::Identity();  // cam_from_rig
+  Eigen::Vector3d t_cr = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d R_rc = Eigen::Matrix3d::Identity();  // rig_from_cam
+  Eigen::Vector3d t_rc = Eigen::Vector3d::Zero();
+  Pose rig_from_cam;
+  const PoseCovariance* extrinsics_covariance = nullptr;  // rig_from_cam, rig axes
+};
+
+// A pose of the view's camera (cam_from_x) as rig_from_x.
+Pose ToRig(const View& v, const Pose& cam_from_x) {
+  return v.identity ? cam_from_x : v.rig_from_cam * cam_from_x;
+}
+
+// cam_from_object of a view from rig_from_object (R, t).
+void ToCamera(const View& v, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+              Eigen::Matrix3d* R_c, Eigen::Vector3d* t_c) {
+  if (v.identity) {
+    *R_c = R;
+    *t_c = t;
+  } else {
+    *R_c = v.R_cr * R;
+    *t_c = v.R_cr * t + v.t_cr;
+  }
+}
+
 struct Block {
   const MarkerObservation* obs = nullptr;
+  const View* view = nullptr;
   Points points;
   Eigen::Matrix3d R_om = Eigen::Matrix3d::Identity();  // object_from_marker rotation
   Eigen::Vector3d t_om = Eigen::Vector3d::Zero();
   MatRR L_inv;  // inverse Cholesky factor of the marker's residual covariance
   std::array<double, kMaxPoints> total_sigma{};  // per point: pixel and layout noise, RMS per axis
-  double weight = 1;                             // robust weight of the iteration
+  // A rig camera with an extrinsics covariance: the rejection tests' factor and sigmas, which
+  // also count how far the camera's rig_from_cam error moves the marker's pixels (the fit's
+  // whitening cannot: that error is shared by all of the camera's markers).
+  bool reject_with_extrinsics = false;
+  MatRR L_inv_reject;
+  std::array<double, kMaxPoints> reject_sigma{};
+  double weight = 1;  // robust weight of the iteration
   bool active = true;
   std::array<bool, 5> dropped{};  // points left out as outliers (corners 0-3, tip 4)
 };
@@ -91,8 +131,11 @@ void UpdatePoints(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
   }
   if (o.use_tips && m.tip && m.model.post && !b->dropped[4]) {
     // Camera centre in the marker frame: marker_from_cam = (cam_from_object object_from_marker)^-1.
-    const Eigen::Matrix3d R_cm = R * b->R_om;
-    const Eigen::Vector3d t_cm = R * b->t_om + t;
+    Eigen::Matrix3d R_co;
+    Eigen::Vector3d t_co;
+    ToCamera(*b->view, R, t, &R_co, &t_co);
+    const Eigen::Matrix3d R_cm = R_co * b->R_om;
+    const Eigen::Vector3d t_cm = R_co * b->t_om + t_co;
     const Eigen::Vector3d cam_in_marker = -R_cm.transpose() * t_cm;
     double fraction = 0;
     const Eigen::Vector3d tip = VisibleTipPoint(m.model, cam_in_marker, &fraction);
@@ -106,22 +149,40 @@ void UpdatePoints(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
 }
 
 // Residuals (pixels) and Jacobians d residual / d [rotation, translation] of the object pose
-// (left perturbation, camera axes) for one marker; also d pixel / d layout (the marker's
-// object_from_marker, left perturbation in object axes, then the post height: 7 columns).
-bool Evaluate(const CameraModel& camera, const Block& b, const Eigen::Matrix3d& R,
-              const Eigen::Vector3d& t, VecR* r, MatR6* J, MatR7* J_layout) {
+// rig_from_object (R, t) (left perturbation, rig axes; the camera's axes in the one-camera
+// solve) for one marker; also d pixel / d layout (the marker's object_from_marker, left
+// perturbation in object axes, then the post height: 7 columns) and, when J_extrinsics is
+// given, d pixel / d rig_from_cam (left perturbation, rig axes, [rotation, translation]).
+bool Evaluate(const Block& b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t, VecR* r, MatR6* J,
+              MatR7* J_layout, MatR6* J_extrinsics = nullptr) {
+  const View& v = *b.view;
+  const CameraModel& camera = *v.camera;
   const int n = static_cast<int>(b.points.size());
   r->resize(2 * n);
   J->resize(2 * n, 6);
   if (J_layout) J_layout->resize(2 * n, 7);
+  if (J_extrinsics) J_extrinsics->resize(2 * n, 6);
   for (int i = 0; i < n; ++i) {
     const Point& p = b.points[i];
     const Eigen::Vector3d in_object_rotated = b.R_om * p.in_marker;
     const Eigen::Vector3d p_obj = in_object_rotated + b.t_om;
-    const Eigen::Vector3d p_cam = R * p_obj + t;
+    const Eigen::Vector3d p_rig = R * p_obj + t;
     Eigen::Vector2d q;
-    Eigen::Matrix<double, 2, 3> dq_dp;
-    if (!camera.Project(p_cam, &q, &dq_dp)) return false;
+    Eigen::Matrix<double, 2, 3> dq_dp;  // d pixel / d point in the rig frame
+    if (v.identity) {
+      if (!camera.Project(p_rig, &q, &dq_dp)) return false;
+      if (J_extrinsics) J_extrinsics->middleRows<2>(2 * i).setZero();
+    } else {
+      Eigen::Matrix<double, 2, 3> dq_dcam;
+      if (!camera.Project(v.R_cr * p_rig + v.t_cr, &q, &dq_dcam)) return false;
+      dq_dp = dq_dcam * v.R_cr;
+      if (J_extrinsics) {
+        // p_cam = R_rc^T exp(-[e_rot]) (p_rig - t_rc - e_trans) to first order in the error e of
+        // rig_from_cam: d p_cam / d e = R_rc^T [ [p_rig - t_rc]x, -I ].
+        J_extrinsics->block<2, 3>(2 * i, 0) = dq_dp * Skew(p_rig - v.t_rc);
+        J_extrinsics->block<2, 3>(2 * i, 3) = -dq_dp;
+      }
+    }
     r->segment<2>(2 * i) = q - p.px;
     J->block<2, 3>(2 * i, 0) = -dq_dp * Skew(R * p_obj);
     J->block<2, 3>(2 * i, 3) = dq_dp;
@@ -137,9 +198,13 @@ bool Evaluate(const CameraModel& camera, const Block& b, const Eigen::Matrix3d& 
 // d pixel / d intrinsics of one marker's points at the current pose, mrcal's analytic
 // gradients: the first 2n rows of *J (resized to kMaxRows x N, so that its allocation is kept
 // from one marker and frame to the next), in point order.
-bool IntrinsicsJacobian(const CameraModel& camera, const Block& b, const Eigen::Matrix3d& R,
-                        const Eigen::Vector3d& t, Eigen::MatrixXd* J) {
+bool IntrinsicsJacobian(const Block& b, const Eigen::Matrix3d& R_rig, const Eigen::Vector3d& t_rig,
+                        Eigen::MatrixXd* J) {
   thread_local Eigen::Matrix<double, 2, Eigen::Dynamic> dq_dintrinsics;
+  const CameraModel& camera = *b.view->camera;
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+  ToCamera(*b.view, R_rig, t_rig, &R, &t);
   const int n = static_cast<int>(b.points.size());
   const Eigen::Index N = static_cast<Eigen::Index>(camera.intrinsics().size());
   J->resize(kMaxRows, N);
@@ -153,12 +218,12 @@ bool IntrinsicsJacobian(const CameraModel& camera, const Block& b, const Eigen::
 }
 
 // The whitening factor of one marker at the current pose: R_m = diag(sigma^2) + J_L S J_L^T.
-bool Whitening(const CameraModel& camera, Block* b, const Eigen::Matrix3d& R,
-               const Eigen::Vector3d& t, const ObjectPoseOptions& o) {
+bool Whitening(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+               const ObjectPoseOptions& o) {
   VecR r;
   MatR6 J;
   MatR7 JL;
-  if (!Evaluate(camera, *b, R, t, &r, &J, &JL)) return false;
+  if (!Evaluate(*b, R, t, &r, &J, &JL)) return false;
   const int n = static_cast<int>(b->points.size());
   MatRR C = MatRR::Zero(2 * n, 2 * n);
   for (int i = 0; i < n; ++i)
@@ -193,15 +258,32 @@ bool Whitening(const CameraModel& camera, Block* b, const Eigen::Matrix3d& R,
   Eigen::LLT<MatRR> llt(C);
   if (llt.info() != Eigen::Success) return false;
   b->L_inv = llt.matrixL().solve(MatRR::Identity(2 * n, 2 * n));
+  b->reject_with_extrinsics = o.use_extrinsics_covariance && b->view->extrinsics_covariance;
+  if (b->reject_with_extrinsics) {
+    MatR6 JE;
+    if (!Evaluate(*b, R, t, &r, &J, nullptr, &JE)) return false;
+    C += JE * *b->view->extrinsics_covariance * JE.transpose();
+    for (int i = 0; i < n; ++i)
+      b->reject_sigma[i] = std::sqrt(0.5 * C.block<2, 2>(2 * i, 2 * i).trace());
+    Eigen::LLT<MatRR> llt_reject(C);
+    if (llt_reject.info() != Eigen::Success) return false;
+    b->L_inv_reject = llt_reject.matrixL().solve(MatRR::Identity(2 * n, 2 * n));
+  }
   return true;
 }
 
 // A fresh result in *out that keeps the capacity of *out's vectors and message.
 void ResetResult(ObjectPose* out) {
   std::vector<int> ids_used = std::move(out->ids_used), ids_rejected = std::move(out->ids_rejected);
+  std::vector<int> cameras_used = std::move(out->cameras_used),
+                   cameras_rejected = std::move(out->cameras_rejected);
   std::string message = std::move(out->message);
   *out = ObjectPose{};
   ObjectPose& result = *out;
+  result.cameras_used = std::move(cameras_used);
+  result.cameras_used.clear();
+  result.cameras_rejected = std::move(cameras_rejected);
+  result.cameras_rejected.clear();
   result.ids_used = std::move(ids_used);
   result.ids_used.clear();
   result.ids_rejected = std::move(ids_rejected);
@@ -216,22 +298,24 @@ void ResetResult(ObjectPose* out) {
 // alone: the detector chose it on more than these points (the stripe's edges, each point's
 // own sigma), and on a flat marker the robust cost below may prefer the wrong one. False if no
 // marker has a single-marker pose.
-bool StartPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
-               const ObjectPoseOptions& o, std::vector<Block>* blocks, Eigen::Matrix3d* R,
+bool StartPose(const ObjectPoseOptions& o, std::vector<Block>* blocks, Eigen::Matrix3d* R,
                Eigen::Vector3d* t) {
   double best = std::numeric_limits<double>::infinity();
-  for (const MarkerObservation& m : obs) {
+  for (size_t k = 0; k < blocks->size(); ++k) {
+    const MarkerObservation& m = *(*blocks)[k].obs;
+    const View& view = *(*blocks)[k].view;
     for (const std::optional<Pose>* cam_from_marker :
          {&m.cam_from_marker, &m.alternative_cam_from_marker}) {
-      if (!*cam_from_marker || (obs.size() == 1 && cam_from_marker != &m.cam_from_marker)) continue;
-      const Pose candidate = **cam_from_marker * m.object_from_marker.Inverse();
+      if (!*cam_from_marker || (blocks->size() == 1 && cam_from_marker != &m.cam_from_marker))
+        continue;
+      const Pose candidate = ToRig(view, **cam_from_marker * m.object_from_marker.Inverse());
       const Eigen::Matrix3d Rc = candidate.Rotation();
       double cost = 0;
       for (Block& b : *blocks) {
         UpdatePoints(&b, Rc, candidate.tvec, o);
         VecR r;
         MatR6 J;
-        if (!Evaluate(camera, b, Rc, candidate.tvec, &r, &J, nullptr)) {
+        if (!Evaluate(b, Rc, candidate.tvec, &r, &J, nullptr)) {
           cost += 1e6;
           continue;
         }
@@ -256,14 +340,14 @@ bool StartPose(const CameraModel& camera, const std::vector<MarkerObservation>& 
 // the pose) and weighted by Cauchy's robust weight; a block that cannot be evaluated is left
 // out for good. Stops when PoseGaussNewtonStep says converged, after o.max_iterations, or
 // when no block is left.
-void FitPose(const CameraModel& camera, const ObjectPoseOptions& o, std::vector<Block>* blocks,
-             Eigen::Matrix3d* R_io, Eigen::Vector3d* t_io) {
+void FitPose(const ObjectPoseOptions& o, std::vector<Block>* blocks, Eigen::Matrix3d* R_io,
+             Eigen::Vector3d* t_io) {
   Eigen::Matrix3d& R = *R_io;
   Eigen::Vector3d& t = *t_io;
   for (Block& b : *blocks) {
     if (!b.active) continue;
     UpdatePoints(&b, R, t, o);
-    if (!Whitening(camera, &b, R, t, o)) b.active = false;
+    if (!Whitening(&b, R, t, o)) b.active = false;
   }
   bool converged = false;
   for (int iter = 0; iter < o.max_iterations && !converged; ++iter) {
@@ -274,20 +358,24 @@ void FitPose(const CameraModel& camera, const ObjectPoseOptions& o, std::vector<
       if (!b.active) continue;
       if (iter > 0 && iter % 3 == 0) {  // the well's visible bottom and R_m follow the pose
         UpdatePoints(&b, R, t, o);
-        if (!Whitening(camera, &b, R, t, o)) {
+        if (!Whitening(&b, R, t, o)) {
           b.active = false;
           continue;
         }
       }
       VecR r;
       MatR6 J;
-      if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) {
+      if (!Evaluate(b, R, t, &r, &J, nullptr)) {
         b.active = false;
         continue;
       }
       const VecR wr = b.L_inv * r;
       const MatR6 wJ = b.L_inv * J;
-      const double norm = std::sqrt(wr.squaredNorm() / static_cast<double>(r.size()));
+      // The robust weight's norm, for a rig camera with an extrinsics covariance with that
+      // error's spread counted (it is not the marker's fault).
+      const double norm =
+          std::sqrt((b.reject_with_extrinsics ? (b.L_inv_reject * r).eval() : wr).squaredNorm() /
+                    static_cast<double>(r.size()));
       b.weight = 1.0 / (1.0 + (norm / o.robust_k) * (norm / o.robust_k));  // Cauchy
       H += b.weight * wJ.transpose() * wJ;
       g += b.weight * wJ.transpose() * wr;
@@ -301,23 +389,24 @@ void FitPose(const CameraModel& camera, const ObjectPoseOptions& o, std::vector<
 }
 
 // Chi-square of a block at (R, t) over its quantile (> 1: inconsistent), and its worst point
-// (*worst_point: 0-3 a corner, 4 the tip, -1 none) in sigmas of pixel and layout noise.
-double Excess(const CameraModel& camera, const ObjectPoseOptions& o, const Block& b,
-              const Eigen::Matrix3d& R, const Eigen::Vector3d& t, int* worst_point,
-              double* worst_norm) {
+// (*worst_point: 0-3 a corner, 4 the tip, -1 none) in sigmas of pixel and layout noise (and, for
+// a rig camera with an extrinsics covariance, of the pixel shift that error gives).
+double Excess(const ObjectPoseOptions& o, const Block& b, const Eigen::Matrix3d& R,
+              const Eigen::Vector3d& t, int* worst_point, double* worst_norm) {
   VecR r;
   MatR6 J;
   *worst_point = -1;
   *worst_norm = 0;
-  if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) return std::numeric_limits<double>::infinity();
+  if (!Evaluate(b, R, t, &r, &J, nullptr)) return std::numeric_limits<double>::infinity();
   for (size_t k = 0; k < b.points.size(); ++k) {
-    const double n = r.segment<2>(2 * k).norm() / b.total_sigma[k];
+    const double n = r.segment<2>(2 * k).norm() /
+                     (b.reject_with_extrinsics ? b.reject_sigma[k] : b.total_sigma[k]);
     if (n > *worst_norm) {
       *worst_norm = n;
       *worst_point = b.points[k].index;
     }
   }
-  return (b.L_inv * r).squaredNorm() /
+  return ((b.reject_with_extrinsics ? b.L_inv_reject : b.L_inv) * r).squaredNorm() /
          ChiSquareQuantile(o.reject_quantile, 2 * static_cast<int>(b.points.size()));
 }
 
@@ -328,13 +417,13 @@ double Excess(const CameraModel& camera, const ObjectPoseOptions& o, const Block
 // grazing angle), before it pulls the fit and makes good points elsewhere look bad. Then
 // single points beyond point_reject_sigma (pixel and layout noise) go, as long as their marker
 // keeps 3. Counts what went in *result; `trial` is a work buffer.
-void RejectOutliers(const CameraModel& camera, const ObjectPoseOptions& o,
-                    std::vector<Block>* blocks_io, std::vector<Block>* trial_io, Eigen::Matrix3d* R,
-                    Eigen::Vector3d* t, ObjectPose* result) {
+void RejectOutliers(const ObjectPoseOptions& o, std::vector<Block>* blocks_io,
+                    std::vector<Block>* trial_io, Eigen::Matrix3d* R, Eigen::Vector3d* t,
+                    ObjectPose* result) {
   std::vector<Block>& blocks = *blocks_io;
   std::vector<Block>& trial = *trial_io;
   for (;;) {
-    FitPose(camera, o, &blocks, R, t);
+    FitPose(o, &blocks, R, t);
     int worst_marker = -1, worst_block = -1, worst_point = -1, active = 0;
     double worst_excess = 1, worst_norm = o.point_reject_sigma;
     for (size_t i = 0; i < blocks.size(); ++i) {
@@ -342,7 +431,7 @@ void RejectOutliers(const CameraModel& camera, const ObjectPoseOptions& o,
       ++active;
       int point;
       double norm;
-      const double e = Excess(camera, o, blocks[i], *R, *t, &point, &norm);
+      const double e = Excess(o, blocks[i], *R, *t, &point, &norm);
       if (e > worst_excess) {
         worst_excess = e;
         worst_marker = static_cast<int>(i);
@@ -357,17 +446,16 @@ void RejectOutliers(const CameraModel& camera, const ObjectPoseOptions& o,
       Block& b = blocks[worst_marker];
       int point;
       double norm;
-      Excess(camera, o, b, *R, *t, &point, &norm);
+      Excess(o, b, *R, *t, &point, &norm);
       if (b.points.size() > 3 && point >= 0) {
         trial = blocks;
         trial[worst_marker].dropped[point] = true;
         Eigen::Matrix3d R2 = *R;
         Eigen::Vector3d t2 = *t;
-        FitPose(camera, o, &trial, &R2, &t2);
+        FitPose(o, &trial, &R2, &t2);
         int p2;
         double n2;
-        if (trial[worst_marker].active &&
-            Excess(camera, o, trial[worst_marker], R2, t2, &p2, &n2) <= 1) {
+        if (trial[worst_marker].active && Excess(o, trial[worst_marker], R2, t2, &p2, &n2) <= 1) {
           b.dropped[point] = true;
           ++result->points_rejected;
           continue;
@@ -376,6 +464,7 @@ void RejectOutliers(const CameraModel& camera, const ObjectPoseOptions& o,
       if (active > 1) {
         b.active = false;
         result->ids_rejected.push_back(b.obs->id);
+        result->cameras_rejected.push_back(b.view->index);
         continue;
       }
     }
@@ -391,49 +480,70 @@ void RejectOutliers(const CameraModel& camera, const ObjectPoseOptions& o,
 // What the markers kept say at the final pose (step 4).
 struct FitInformation {
   Mat6 H = Mat6::Zero();  // their unweighted information, sum of (whitened J)^T (whitened J)
-  bool with_calibration = false;  // G below is filled
+  bool with_calibration = false;  // some G below is filled
+  bool with_extrinsics = false;   // some G_extrinsics below is filled
   double ss = 0, chi2 = 0;        // sums of squared residuals, pixels and whitened
   int points = 0;
   bool ambiguous_single = false;            // the last marker's pose was ambiguous
   const MarkerObservation* last = nullptr;  // the last marker used
+  const View* last_view = nullptr;          // and its camera
 };
 
 // Step 4's sums over the active blocks at (R, t) into *info (and result->ids_used), with the
-// calibration's coupling G = sum over markers of (whitened d r / d pose)^T (whitened d r /
-// d intrinsics), 6 x N, when the covariance is to include it. False (result->message says
-// why) if the camera gives no intrinsics gradients.
-bool AccumulateInformation(const CameraModel& camera, const ObjectPoseOptions& o,
+// calibration's coupling per camera c, G[c] = sum over c's markers of (whitened d r / d pose)^T
+// (whitened d r / d intrinsics of c), 6 x N_c, when the covariance is to include it, and the
+// extrinsics' coupling G_extrinsics[c] likewise with d r / d rig_from_cam of c (6 x 6; zero
+// for a camera without extrinsics covariance). False (result->message says why) if a camera
+// gives no intrinsics gradients.
+bool AccumulateInformation(const std::vector<View>& views, const ObjectPoseOptions& o,
                            std::vector<Block>* blocks, const Eigen::Matrix3d& R,
-                           const Eigen::Vector3d& t, FitInformation* info, Eigen::MatrixXd* G,
+                           const Eigen::Vector3d& t, FitInformation* info,
+                           std::vector<Eigen::MatrixXd>* G, std::vector<Mat6>* G_extrinsics,
                            ObjectPose* result) {
-  const Eigen::MatrixXd& intrinsics_factor = camera.intrinsics_covariance_factor();
-  info->with_calibration = o.use_calibration_covariance && intrinsics_factor.size() > 0;
+  if (G->size() < views.size()) G->resize(views.size());
+  G_extrinsics->assign(views.size(), Mat6::Zero());
+  for (size_t c = 0; c < views.size(); ++c) {
+    const Eigen::MatrixXd& intrinsics_factor = views[c].camera->intrinsics_covariance_factor();
+    if (o.use_calibration_covariance && intrinsics_factor.size() > 0) {
+      info->with_calibration = true;
+      (*G)[c].setZero(6, intrinsics_factor.rows());
+    } else {
+      (*G)[c].resize(0, 0);
+    }
+    if (o.use_extrinsics_covariance && views[c].extrinsics_covariance) info->with_extrinsics = true;
+  }
   thread_local Eigen::MatrixXd J_intrinsics;
-  if (info->with_calibration) G->setZero(6, intrinsics_factor.rows());
   for (Block& b : *blocks) {
     if (!b.active) continue;
+    const size_t c = static_cast<size_t>(b.view - views.data());
     UpdatePoints(&b, R, t, o);
-    if (!Whitening(camera, &b, R, t, o)) continue;
+    if (!Whitening(&b, R, t, o)) continue;
     VecR r;
-    MatR6 J;
-    if (!Evaluate(camera, b, R, t, &r, &J, nullptr)) continue;
+    MatR6 J, J_extrinsics;
+    const bool extrinsics = o.use_extrinsics_covariance && b.view->extrinsics_covariance;
+    if (!Evaluate(b, R, t, &r, &J, nullptr, extrinsics ? &J_extrinsics : nullptr)) continue;
     const MatR6 wJ = b.L_inv * J;
-    if (info->with_calibration) {
-      if (!IntrinsicsJacobian(camera, b, R, t, &J_intrinsics)) {
-        result->message = "the camera gives no intrinsics gradients (CAHVORE)";
-        return false;
-      }
+    if ((*G)[c].size() > 0 || extrinsics) {
       const Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxRows> wJt_W =
           wJ.transpose() * b.L_inv;
-      G->noalias() += wJt_W * J_intrinsics.topRows(J.rows());
+      if ((*G)[c].size() > 0) {
+        if (!IntrinsicsJacobian(b, R, t, &J_intrinsics)) {
+          result->message = "the camera gives no intrinsics gradients (CAHVORE)";
+          return false;
+        }
+        (*G)[c].noalias() += wJt_W * J_intrinsics.topRows(J.rows());
+      }
+      if (extrinsics) (*G_extrinsics)[c].noalias() += wJt_W * J_extrinsics;
     }
     info->H += wJ.transpose() * wJ;
     info->ss += r.squaredNorm();
     info->chi2 += (b.L_inv * r).squaredNorm();
     info->points += static_cast<int>(b.points.size());
     result->ids_used.push_back(b.obs->id);
+    result->cameras_used.push_back(b.view->index);
     info->ambiguous_single = b.obs->pose_ambiguous;
     info->last = b.obs;
+    info->last_view = b.view;
   }
   return true;
 }
@@ -442,8 +552,9 @@ bool AccumulateInformation(const CameraModel& camera, const ObjectPoseOptions& o
 // the inverse information, scaled by the variance factor, plus the calibration's share and,
 // for a single marker, the detector's widening for its mirror solution. False (with
 // result->message) when no marker is left or the pose is not determined.
-bool FusedCovariance(const CameraModel& camera, const ObjectPoseOptions& o,
-                     const FitInformation& info, const Eigen::MatrixXd& G, const Eigen::Matrix3d& R,
+bool FusedCovariance(const std::vector<View>& views, const ObjectPoseOptions& o,
+                     const FitInformation& info, const std::vector<Eigen::MatrixXd>& G,
+                     const std::vector<Mat6>& G_extrinsics, const Eigen::Matrix3d& R,
                      const Eigen::Vector3d& t, ObjectPose* out) {
   ObjectPose& result = *out;
   const int points = info.points;
@@ -473,11 +584,26 @@ bool FusedCovariance(const CameraModel& camera, const ObjectPoseOptions& o,
     // S = -H^-1 G (the implicit function theorem at J^T W r = 0); its covariance S L L^T S^T
     // is added after the variance factor (it is not the frame's noise). The same error is in
     // every frame, so it is a bias along a sequence, not noise that averages away.
+    // Each camera's calibration is its own, independent error.
     thread_local Eigen::MatrixXd HG, SL;
-    HG.noalias() = H_inv * G;
-    SL.noalias() = HG * camera.intrinsics_covariance_factor();
-    result.covariance.noalias() += SL * SL.transpose();
+    for (size_t c = 0; c < views.size(); ++c) {
+      if (G[c].size() == 0) continue;
+      HG.noalias() = H_inv * G[c];
+      SL.noalias() = HG * views[c].camera->intrinsics_covariance_factor();
+      result.covariance.noalias() += SL * SL.transpose();
+    }
     result.calibration_in_covariance = true;
+  }
+  if (info.with_extrinsics) {
+    // The same for each camera's rig_from_cam: its error e (covariance Sigma_c, rig axes) moves
+    // the optimum by d pose = -H^-1 G_extrinsics[c] e; (H^-1 G_c) Sigma_c (H^-1 G_c)^T is added.
+    // Fixed in every frame like the calibration's: a bias along a sequence.
+    for (size_t c = 0; c < views.size(); ++c) {
+      if (!views[c].extrinsics_covariance) continue;
+      const Mat6 S = H_inv * G_extrinsics[c];
+      result.covariance.noalias() += S * *views[c].extrinsics_covariance * S.transpose();
+    }
+    result.extrinsics_in_covariance = true;
   }
   const MarkerObservation* last = info.last;
   if (result.markers_used == 1 && !last->ambiguity_covariance.isZero()) {
@@ -485,9 +611,16 @@ bool FusedCovariance(const CameraModel& camera, const ObjectPoseOptions& o,
     // widening, about the marker's origin, moved to the object's: with a left perturbation
     // in camera axes, d t_object = d t_marker - [a]x d theta, a = object origin - marker
     // origin (camera axes).
+    // In a rig, the widening (camera axes) is first turned into rig axes.
     const Eigen::Vector3d a = t - (R * last->object_from_marker.tvec + t);
     Mat6 J = Mat6::Identity();
     J.bottomLeftCorner<3, 3>() << 0, a.z(), -a.y(), -a.z(), 0, a.x(), a.y(), -a.x(), 0;
+    if (!info.last_view->identity) {
+      Mat6 rotate = Mat6::Zero();
+      rotate.topLeftCorner<3, 3>() = info.last_view->R_rc;
+      rotate.bottomRightCorner<3, 3>() = info.last_view->R_rc;
+      J = (J * rotate).eval();
+    }
     result.covariance += J * last->ambiguity_covariance * J.transpose();
   }
   return true;
@@ -510,8 +643,8 @@ void DescribeResult(const ObjectPoseOptions& o, const FitInformation& info,
     // one is the alternative instead.
     const Pose marker_from_object = last->object_from_marker.Inverse();
     const Pose cam_from_marker = result.cam_from_object * last->object_from_marker;
-    const Pose& kept = *last->cam_from_marker;
-    const Pose& other = *last->alternative_cam_from_marker;
+    const Pose kept = ToRig(*info.last_view, *last->cam_from_marker);
+    const Pose other = ToRig(*info.last_view, *last->alternative_cam_from_marker);
     const bool swapped = AngleBetween(cam_from_marker, other) < AngleBetween(cam_from_marker, kept);
     result.alternative_cam_from_object = (swapped ? kept : other) * marker_from_object;
     result.alternative_weight = swapped ? 1 - last->alternative_weight : last->alternative_weight;
@@ -611,8 +744,12 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
   return result;
 }
 
-void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
-                     const ObjectPoseOptions& o, ObjectPose* out) {
+namespace {
+// The one solve behind SolveObjectPose and SolveRigObjectPose: observation i is seen by
+// views[camera_of(i)].
+template <typename CameraOf>
+void Solve(const std::vector<View>& views, const std::vector<MarkerObservation>& obs,
+           CameraOf camera_of, const ObjectPoseOptions& o, ObjectPose* out) {
   ResetResult(out);
   ObjectPose& result = *out;
   result.markers_seen = static_cast<int>(obs.size());
@@ -625,6 +762,7 @@ void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservat
   for (Block& b : blocks) b = Block{};
   for (size_t i = 0; i < obs.size(); ++i) {
     blocks[i].obs = &obs[i];
+    blocks[i].view = &views[camera_of(i)];
     blocks[i].R_om = obs[i].object_from_marker.Rotation();
     blocks[i].t_om = obs[i].object_from_marker.tvec;
   }
@@ -632,19 +770,72 @@ void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservat
   // 1. Start: the best single-marker candidate.
   Eigen::Matrix3d R;
   Eigen::Vector3d t;
-  if (!StartPose(camera, obs, o, &blocks, &R, &t)) {
+  if (!StartPose(o, &blocks, &R, &t)) {
     result.message = "no detected marker has a single-marker pose to start from";
     return;
   }
   // 2-3. Gauss-Newton, and rejection of outlying markers and points, each followed by a new
   // fit.
-  RejectOutliers(camera, o, &blocks, &trial, &R, &t, &result);
+  RejectOutliers(o, &blocks, &trial, &R, &t, &result);
   // 4. The result: covariance from the unweighted information of the markers kept.
-  thread_local Eigen::MatrixXd G;
+  thread_local std::vector<Eigen::MatrixXd> G;
+  thread_local std::vector<Mat6> G_extrinsics;
   FitInformation info;
-  if (!AccumulateInformation(camera, o, &blocks, R, t, &info, &G, &result)) return;
-  if (!FusedCovariance(camera, o, info, G, R, t, &result)) return;
+  if (!AccumulateInformation(views, o, &blocks, R, t, &info, &G, &G_extrinsics, &result)) return;
+  if (!FusedCovariance(views, o, info, G, G_extrinsics, R, t, &result)) return;
   DescribeResult(o, info, R, t, &result);
+}
+}  // namespace
+
+void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
+                     const ObjectPoseOptions& o, ObjectPose* out) {
+  thread_local std::vector<View> views(1);
+  views[0] = View{};
+  views[0].camera = &camera;
+  Solve(
+      views, obs, [](size_t) { return 0; }, o, out);
+}
+
+ObjectPose SolveRigObjectPose(const std::vector<RigCameraView>& cameras,
+                              const std::vector<MarkerObservation>& obs,
+                              const ObjectPoseOptions& options) {
+  ObjectPose result;
+  SolveRigObjectPose(cameras, obs, options, &result);
+  return result;
+}
+
+void SolveRigObjectPose(const std::vector<RigCameraView>& cameras,
+                        const std::vector<MarkerObservation>& obs, const ObjectPoseOptions& o,
+                        ObjectPose* out) {
+  thread_local std::vector<View> views;
+  views.resize(cameras.size());
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    View& v = views[c];
+    v = View{};
+    v.camera = cameras[c].camera;
+    v.index = static_cast<int>(c);
+    v.identity = false;
+    v.rig_from_cam = cameras[c].rig_from_cam;
+    v.R_rc = v.rig_from_cam.Rotation();
+    v.t_rc = v.rig_from_cam.tvec;
+    v.R_cr = v.R_rc.transpose();
+    v.t_cr = -(v.R_cr * v.t_rc);
+    v.extrinsics_covariance =
+        cameras[c].rig_from_cam_covariance ? &*cameras[c].rig_from_cam_covariance : nullptr;
+  }
+  for (size_t i = 0; i < obs.size(); ++i) {
+    if (obs[i].camera < 0 || obs[i].camera >= static_cast<int>(cameras.size()) ||
+        !cameras[obs[i].camera].camera) {
+      ResetResult(out);
+      out->markers_seen = static_cast<int>(obs.size());
+      out->message = "observation " + std::to_string(i) + " names camera " +
+                     std::to_string(obs[i].camera) + "; expected one of the rig's " +
+                     std::to_string(cameras.size()) + " cameras";
+      return;
+    }
+  }
+  Solve(
+      views, obs, [&](size_t i) { return static_cast<size_t>(obs[i].camera); }, o, out);
 }
 
 Eigen::Matrix<double, 6, 1> PoseError(const Pose& truth, const Pose& estimate) {

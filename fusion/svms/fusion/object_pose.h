@@ -83,6 +83,9 @@ struct ObjectPoseOptions {
   // Add the camera calibration's uncertainty to the pose covariance, when the camera carries
   // one (CameraModel::intrinsics_covariance_factor, camera_covariance.h).
   bool use_calibration_covariance = true;
+  // In a rig (SolveRigObjectPose): add each camera's rig_from_cam uncertainty, when it has one,
+  // the same way (a fixed error per camera, propagated to first order).
+  bool use_extrinsics_covariance = true;
   // Robust weight of a marker per iteration: 1 / (1 + (n / robust_k)^2), n its whitened RMS
   // residual per coordinate (Cauchy: a wrong marker's pull fades instead of staying).
   double robust_k = 3;
@@ -104,6 +107,7 @@ struct ObjectPoseOptions {
 // One marker's observations: which layout entry, the detection's corners and tip.
 struct MarkerObservation {
   int id = -1;
+  int camera = 0;  // which camera of a rig saw it (SolveRigObjectPose); ignored by SolveObjectPose
   Pose object_from_marker;  // from the layout
   MarkerModel model;        // the detected marker's model (inner model for an inner marker)
   std::optional<PoseCovariance> layout_covariance;  // object axes (layout.h)
@@ -135,6 +139,9 @@ struct ObjectPose {
   int points_used = 0;      // corners and tips of the markers used
   int points_rejected = 0;  // single corners or tips left out as outliers
   std::vector<int> ids_used, ids_rejected;
+  // The camera of each entry of ids_used and ids_rejected (always 0 for one camera): in a rig,
+  // one marker seen by two cameras is two observations.
+  std::vector<int> cameras_used, cameras_rejected;
   double rms_px = 0;           // RMS pixel residual (per coordinate) of the points used
   double chi2 = 0;             // whitened residual sum of squares of the points used
   int dof = 0;                 // 2 * points_used - 6
@@ -147,6 +154,8 @@ struct ObjectPose {
   double alternative_weight = 0;
   // The covariance includes the camera calibration's uncertainty (the camera carried one).
   bool calibration_in_covariance = false;
+  // A rig's: the covariance includes the cameras' rig_from_cam uncertainty (some had one).
+  bool extrinsics_in_covariance = false;
   bool poorly_conditioned = false;  // sigmas above ObjectPoseOptions' limits
   std::string message;              // why not valid
 };
@@ -175,6 +184,35 @@ ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerOb
 // heap allocation.
 void SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
                      const ObjectPoseOptions& options, ObjectPose* pose);
+
+// One camera of a rig, as SolveRigObjectPose sees it: its lens model (not owned, outlives the
+// call), where it sits on the rig, and optionally that pose's uncertainty, 6x6 [rotation,
+// translation], rotation a small angle about the RIG axes (radians), translation in metres:
+// rig_from_cam_true = exp([d_rot]) R, t + d_trans.
+struct RigCameraView {
+  const CameraModel* camera = nullptr;
+  Pose rig_from_cam;
+  std::optional<PoseCovariance> rig_from_cam_covariance;
+};
+
+// The same solve over the markers seen by several cameras at one time stamp, rigidly mounted on
+// a rig: observation i is seen by cameras[obs[i].camera]. The unknown is rig_from_object, and
+// the result's `cam_from_object` holds it (the rig frame takes the camera's place: its
+// covariance is [rotation, translation], rotation about the RIG axes). Every marker's block,
+// whitening, robust weight and rejection are those of SolveObjectPose; each camera's
+// calibration covariance enters as its own independent error, and so does each camera's
+// rig_from_cam covariance (options.use_extrinsics_covariance): d pose / d rig_from_cam to
+// first order, S Sigma_c S^T added after the variance factor. The robust weight and the
+// rejection tests of such a camera's markers count that error's pixel spread too. A marker seen by
+// two cameras is two observations (its pixel noise in the two images is independent; the layout's
+// error the two share is then counted twice as independent, slightly optimistic for that marker).
+// An observation naming no camera of the rig gives an invalid pose with a message.
+ObjectPose SolveRigObjectPose(const std::vector<RigCameraView>& cameras,
+                              const std::vector<MarkerObservation>& obs,
+                              const ObjectPoseOptions& options);
+void SolveRigObjectPose(const std::vector<RigCameraView>& cameras,
+                        const std::vector<MarkerObservation>& obs, const ObjectPoseOptions& options,
+                        ObjectPose* pose);
 
 // The error of `estimate` against `truth` in the covariance's coordinates:
 // [log(R_truth R_est^T), t_truth - t_est] (radians about camera axes, metres).

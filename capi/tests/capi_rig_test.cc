@@ -1,0 +1,111 @@
+// The C API's camera rig (svms_create_rig, svms_process_rig_frame, svms_destroy_rig) on the
+// renders of svms_testing/two_camera_rig.h: bit for bit the RigPoseEstimator's pose, the
+// frames' count and sizes checked, a camera without a frame allowed, bad rig files refused
+// with the file and field, a destroyed handle detected.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "svms/fusion/rig_pose_estimator.h"
+#include "svms/svms.h"
+#include "svms_testing/scratch_dir.h"
+#include "svms_testing/two_camera_rig.h"
+
+namespace {
+
+// The rig's files in `dir`: narrow.cameramodel, wide.cameramodel, port.rig (the narrow camera
+// with an extrinsics covariance), layout.json.
+void WriteRigFiles(const svms_testing::TwoCameraApproach& a, const std::string& dir) {
+  std::ofstream rig(dir + "/port.rig");
+  rig.precision(17);
+  rig << R"({"type": "svms.rig", "name": "test", "cameras": [)";
+  for (size_t c = 0; c < a.rig.cameras.size(); ++c) {
+    const svms::RigCamera& cam = a.rig.cameras[c];
+    ASSERT_TRUE(cam.camera.Write(dir + "/" + cam.name + ".cameramodel").ok());
+    const svms::Pose& p = cam.rig_from_cam;
+    rig << (c ? "," : "") << R"({"name": ")" << cam.name << R"(", "cameramodel": ")" << cam.name
+        << R"(.cameramodel", "rig_from_cam": {"rvec": [)" << p.rvec.x() << "," << p.rvec.y() << ","
+        << p.rvec.z() << R"(], "tvec": [)" << p.tvec.x() << "," << p.tvec.y() << "," << p.tvec.z()
+        << "]}";
+    if (c == 0)
+      rig << R"(, "covariance": [[1e-8,0,0,0,0,0],[0,1e-8,0,0,0,0],[0,0,1e-8,0,0,0],)"
+          << R"([0,0,0,1e-8,0,0],[0,0,0,0,1e-8,0],[0,0,0,0,0,1e-8]])";
+    rig << "}";
+  }
+  rig << "]}";
+  rig.close();
+  std::ofstream(dir + "/layout.json") << svms::LayoutToJson(a.layout);
+}
+
+TEST(CapiRig, ProcessRigFrameIsTheRigPoseEstimators) {
+  const svms_testing::TwoCameraApproach a;
+  const svms_testing::ScratchDir scratch("svms_capi_rig_test");
+  const std::string dir = scratch.path().string();
+  WriteRigFiles(a, dir);
+  svms_rig_estimator* est = nullptr;
+  ASSERT_EQ(
+      svms_create_rig((dir + "/port.rig").c_str(), (dir + "/layout.json").c_str(), nullptr, &est),
+      SVMS_OK)
+      << svms_last_error();
+  int n = 0;
+  ASSERT_EQ(svms_rig_camera_count(est, &n), SVMS_OK);
+  ASSERT_EQ(n, 2);
+  svms_rig_frame frames[2];
+  for (int c = 0; c < 2; ++c) {
+    ASSERT_EQ(a.images[c].type(), CV_8UC1);
+    frames[c] = {a.images[c].data, a.images[c].cols, a.images[c].rows,
+                 static_cast<ptrdiff_t>(a.images[c].step)};
+  }
+  svms_pose pose;
+  ASSERT_EQ(svms_process_rig_frame(est, frames, 2, 4.5, &pose), SVMS_OK) << svms_last_error();
+  ASSERT_EQ(pose.valid, 1);
+  EXPECT_EQ(pose.timestamp, 4.5);
+  EXPECT_TRUE(pose.flags & SVMS_FLAG_EXTRINSICS_IN_COVARIANCE);
+
+  std::unique_ptr<svms::RigPoseEstimator> cpp;
+  ASSERT_TRUE(
+      svms::RigPoseEstimator::CreateFromFiles(dir + "/port.rig", {dir + "/layout.json"}, {}, &cpp)
+          .ok());
+  svms::RigFrameResult r;
+  cpp->Estimate(a.images, 4.5, &r);
+  ASSERT_TRUE(r.pose.valid);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(pose.rvec[i], r.pose.cam_from_object.rvec[i]);
+    EXPECT_EQ(pose.tvec[i], r.pose.cam_from_object.tvec[i]);
+  }
+  for (int i = 0; i < 36; ++i) EXPECT_EQ(pose.covariance[i], r.pose.covariance(i / 6, i % 6));
+  EXPECT_EQ(pose.markers_used, r.pose.markers_used);
+  EXPECT_LT(svms::Nees(a.rig_from_module, r.pose.cam_from_object, r.pose.covariance), 22.46);
+
+  // The wide camera alone (no narrow frame).
+  svms_rig_frame wide_only[2] = {{nullptr, 0, 0, 0}, frames[1]};
+  ASSERT_EQ(svms_process_rig_frame(est, wide_only, 2, 5, &pose), SVMS_OK);
+  EXPECT_EQ(pose.valid, 1);
+  // Wrong count and size.
+  EXPECT_EQ(svms_process_rig_frame(est, frames, 1, 5, &pose), SVMS_ERR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(svms_last_error()).find("n_frames is 1"), std::string::npos);
+  svms_rig_frame small[2] = {frames[0], frames[1]};
+  small[1].width = 320;
+  EXPECT_EQ(svms_process_rig_frame(est, small, 2, 5, &pose), SVMS_ERR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(svms_last_error()).find("frames[1]"), std::string::npos);
+  EXPECT_EQ(svms_process_rig_frame(est, nullptr, 2, 5, &pose), SVMS_ERR_NULL_ARGUMENT);
+
+  ASSERT_EQ(svms_destroy_rig(est), SVMS_OK);
+  EXPECT_EQ(svms_process_rig_frame(est, frames, 2, 5, &pose), SVMS_ERR_BAD_HANDLE);
+  EXPECT_EQ(svms_destroy_rig(est), SVMS_ERR_BAD_HANDLE);
+
+  // A bad rig file: SVMS_ERR_FILE naming the file and the field.
+  std::ofstream(dir + "/bad.rig") << R"({"type": "svms.rig", "cameras": [{"name": "a",
+      "cameramodel": "nowhere.cameramodel", "rig_from_cam": {"rvec": [0,0,0], "tvec": [0,0,0]}}]})";
+  svms_rig_estimator* bad = nullptr;
+  EXPECT_EQ(
+      svms_create_rig((dir + "/bad.rig").c_str(), (dir + "/layout.json").c_str(), nullptr, &bad),
+      SVMS_ERR_FILE);
+  EXPECT_EQ(bad, nullptr);
+  const std::string error = svms_last_error();
+  EXPECT_NE(error.find("bad.rig: cameras[0] 'a'"), std::string::npos) << error;
+  EXPECT_EQ(error.find('\n'), std::string::npos) << error;
+}
+
+}  // namespace

@@ -1,0 +1,120 @@
+#include "svms/camera/camera_rig.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "svms_testing/scratch_dir.h"
+
+namespace svms {
+namespace {
+namespace fs = std::filesystem;
+
+// A folder with two pinhole camera models, narrow.cameramodel and wide.cameramodel.
+const fs::path& Folder() {
+  static const svms_testing::ScratchDir scratch("svms_camera_rig_test");
+  static const fs::path dir = [] {
+    const fs::path d = scratch.path();
+    CameraModel narrow, wide;
+    EXPECT_TRUE(
+        CameraModel::Create("LENSMODEL_PINHOLE", {2900, 2900, 511.5, 511.5}, 1024, 1024, &narrow)
+            .ok());
+    EXPECT_TRUE(
+        CameraModel::Create("LENSMODEL_PINHOLE", {890, 890, 511.5, 511.5}, 1024, 1024, &wide).ok());
+    EXPECT_TRUE(narrow.Write((d / "narrow.cameramodel").string()).ok());
+    EXPECT_TRUE(wide.Write((d / "wide.cameramodel").string()).ok());
+    return d;
+  }();
+  return dir;
+}
+
+std::string WriteRig(const std::string& name, const std::string& text) {
+  const std::string path = (Folder() / name).string();
+  std::ofstream(path) << text;
+  return path;
+}
+
+const char* kCovariance =
+    "[[1e-6,0,0,0,0,0],[0,1e-6,0,0,0,0],[0,0,1e-6,0,0,0],"
+    "[0,0,0,1e-6,0,0],[0,0,0,0,1e-6,0],[0,0,0,0,0,1e-6]]";
+
+std::string RigText(const std::string& second_camera_extra = "",
+                    const std::string& covariance = kCovariance) {
+  return std::string(R"({"type": "svms.rig", "name": "port", "cameras": [
+    {"name": "narrow", "cameramodel": "narrow.cameramodel",
+     "rig_from_cam": {"rvec": [0, 0, 0], "tvec": [-0.25, 0, 0]}, "covariance": )") +
+         covariance + R"(},
+    {"name": "wide", "cameramodel": "wide.cameramodel",
+     "rig_from_cam": {"rvec": [0, 0.1, 0], "tvec": [0.25, 0, 0]})" +
+         second_camera_extra + "}]}";
+}
+
+TEST(CameraRig, ReadsCamerasPosesAndCovariances) {
+  CameraRig rig;
+  const std::string path = WriteRig("good.rig", RigText());
+  const Status s = ReadRigFile(path, &rig);
+  ASSERT_TRUE(s.ok()) << s.message();
+  EXPECT_EQ(rig.name, "port");
+  ASSERT_EQ(rig.cameras.size(), 2u);
+  EXPECT_EQ(rig.cameras[0].name, "narrow");
+  EXPECT_EQ(rig.cameras[0].camera.intrinsics()[0], 2900);
+  EXPECT_EQ(rig.cameras[1].camera.intrinsics()[0], 890);
+  EXPECT_EQ(rig.cameras[1].rig_from_cam.tvec.x(), 0.25);
+  EXPECT_EQ(rig.cameras[1].rig_from_cam.rvec.y(), 0.1);
+  ASSERT_TRUE(rig.cameras[0].rig_from_cam_covariance);
+  EXPECT_EQ((*rig.cameras[0].rig_from_cam_covariance)(5, 5), 1e-6);
+  EXPECT_FALSE(rig.cameras[1].rig_from_cam_covariance);
+}
+
+// Every bad rig file gives one line naming the file and the field.
+TEST(CameraRig, BadRigFilesGiveOneLineErrorsNamingFileAndField) {
+  const struct {
+    std::string text, expected;
+  } cases[] = {
+      {"{", "not valid JSON"},
+      {R"({"type": "svms.layout", "cameras": []})", "type: expected \"svms.rig\""},
+      {R"({"type": "svms.rig", "cameras": []})", "cameras: expected a non-empty array"},
+      {R"({"type": "svms.rig", "cameras": [{"name": "a", "cameramodel": "missing.cameramodel",
+          "rig_from_cam": {"rvec": [0, 0, 0], "tvec": [0, 0, 0]}}]})",
+       "cameras[0].cameramodel: "},
+      {RigText(R"(, "focal": 3)"), "cameras[1].focal: unknown field"},
+      {R"({"type": "svms.rig", "cameras": [{"name": "a", "cameramodel": "wide.cameramodel",
+          "rig_from_cam": {"rvec": [0, 0], "tvec": [0, 0, 0]}}]})",
+       "cameras[0].rig_from_cam.rvec: expected an array of 3 numbers"},
+      {R"({"type": "svms.rig", "cameras": [{"name": "a", "cameramodel": "wide.cameramodel"}]})",
+       "cameras[0].rig_from_cam: "},
+      {RigText("",
+               "[[1e-6,1e-7,0,0,0,0],[0,1e-6,0,0,0,0],[0,0,1e-6,0,0,0],"
+               "[0,0,0,1e-6,0,0],[0,0,0,0,1e-6,0],[0,0,0,0,0,1e-6]]"),
+       "cameras[0].covariance: expected a symmetric 6x6 matrix"},
+      {RigText("",
+               "[[-1e-6,0,0,0,0,0],[0,1e-6,0,0,0,0],[0,0,1e-6,0,0,0],"
+               "[0,0,0,1e-6,0,0],[0,0,0,0,1e-6,0],[0,0,0,0,0,1e-6]]"),
+       "cameras[0].covariance: expected a positive definite matrix"},
+      {RigText("", "[[1e-6,0,0,0,0,0]]"), "cameras[0].covariance: expected 6 rows"},
+      {R"({"type": "svms.rig", "cameras": [
+          {"name": "a", "cameramodel": "wide.cameramodel", "rig_from_cam": {"rvec": [0, 0, 0], "tvec": [0, 0, 0]}},
+          {"name": "a", "cameramodel": "wide.cameramodel", "rig_from_cam": {"rvec": [0, 0, 0], "tvec": [0, 0, 0]}}]})",
+       "cameras[1].name: 'a' appears twice"},
+  };
+  int k = 0;
+  for (const auto& c : cases) {
+    const std::string path = WriteRig("bad" + std::to_string(k++) + ".rig", c.text);
+    CameraRig rig;
+    const Status s = ReadRigFile(path, &rig);
+    ASSERT_FALSE(s.ok()) << c.text;
+    EXPECT_EQ(s.message().find('\n'), std::string::npos) << s.message();
+    EXPECT_EQ(s.message().rfind(path, 0), 0u) << s.message();
+    EXPECT_NE(s.message().find(c.expected), std::string::npos)
+        << s.message() << "\nexpected: " << c.expected;
+  }
+  CameraRig rig;
+  const Status missing = ReadRigFile((Folder() / "none.rig").string(), &rig);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.message().find("none.rig"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace svms
