@@ -132,7 +132,8 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
                   "Scale covariances by the frame's variance factor with this prior (0: off)")
       ->capture_default_str();
   cmd->add_option("--corner-fit-scale", o->corner_fit_scale,
-                  "Corner sigma = this times the detector's line-fit sigma (default: kCornerCovarianceScale with "
+                  "Corner sigma = this times the detector's line-fit sigma (default: "
+                  "kCornerCovarianceScale with "
                   "--correlated-corners, else kCornerFitScale; marker_pose.h)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();

@@ -102,8 +102,8 @@ void PrintInfo(const std::string& path, const CameraInfo& info) {
   std::cout << path << ": " << c.lensmodel() << ", " << c.width() << "x" << c.height()
             << " pixels\n";
   if (in.size() >= 4 && info.distortion_count >= 0) {
-    std::cout << "  fx " << RoundTrip(in[0]) << "  fy " << RoundTrip(in[1]) << "  cx " << RoundTrip(in[2])
-              << "  cy " << RoundTrip(in[3]) << " (pixels)\n";
+    std::cout << "  fx " << RoundTrip(in[0]) << "  fy " << RoundTrip(in[1]) << "  cx "
+              << RoundTrip(in[2]) << "  cy " << RoundTrip(in[3]) << " (pixels)\n";
   }
   std::cout << "  field of view: " << Fixed1(info.fov_x_deg) << " x " << Fixed1(info.fov_y_deg)
             << " degrees (edge to edge, through the image centre)\n";
@@ -113,7 +113,8 @@ void PrintInfo(const std::string& path, const CameraInfo& info) {
   } else {
     if (!info.distortion.empty()) {
       for (const auto& [name, value] : info.distortion) {
-        std::cout << name << " " << RoundTrip(value) << (&value == &info.distortion.back().second ? "; " : ", ");
+        std::cout << name << " " << RoundTrip(value)
+                  << (&value == &info.distortion.back().second ? "; " : ", ");
       }
     } else {
       std::cout << info.distortion_count << " parameters; ";
@@ -200,28 +201,29 @@ void AddCameraCommands(CLI::App& app, int* exit_code) {
   camera->require_subcommand(1);
   auto o = std::make_shared<CameraCliOptions>();
 
-  auto* import = camera->add_subcommand("import", "An OpenCV camera file as an mrcal .cameramodel");
-  import->add_option("FILE", o->input, "OpenCV camera (cv::FileStorage YAML, XML or JSON; ROS YAML)")
+  auto* import_cmd =
+      camera->add_subcommand("import", "An OpenCV camera file as an mrcal .cameramodel");
+  import_cmd
+      ->add_option("FILE", o->input, "OpenCV camera (cv::FileStorage YAML, XML or JSON; ROS YAML)")
       ->required();
-  import->add_option("--out", o->out, "the mrcal camera model to write (CAM.cameramodel)")
+  import_cmd->add_option("--out", o->out, "the mrcal camera model to write (CAM.cameramodel)")
       ->required();
-  import->add_option("--image-size", o->image_size,
-                     "WIDTHxHEIGHT in pixels, for a file without image_width/image_height");
-  import->footer(
+  import_cmd->add_option("--image-size", o->image_size,
+                         "WIDTHxHEIGHT in pixels, for a file without image_width/image_height");
+  import_cmd->footer(
       "Reads camera_matrix (cameraMatrix, K), distortion_coefficients (distCoeffs, dist_coeffs,\n"
       "D) and image_width/image_height (imageSize): k1 k2 p1 p2 [k3 [k4 k5 k6 [s1..s4]]] become\n"
       "LENSMODEL_OPENCV4/5/8/12, no distortion LENSMODEL_PINHOLE (docs/conventions.md).\n"
       "Skew, a tilted sensor and cv::fisheye have no mrcal 2.2 model and are refused (exit 2).\n"
       "Examples:\n  svms camera import opencv_cam.yml --out cam.cameramodel\n"
       "  svms camera import ost.yaml --image-size 1280x960 --out cam.cameramodel");
-  import->callback([o, exit_code] { *exit_code = RunImport(*o); });
+  import_cmd->callback([o, exit_code] { *exit_code = RunImport(*o); });
 
   auto* exp = camera->add_subcommand("export", "An mrcal camera model as an OpenCV camera file");
   exp->add_option("CAM", o->input, "mrcal camera model (LENSMODEL_PINHOLE or _OPENCV4/5/8/12)")
       ->required();
   exp->add_option("--format", o->format, "output format: opencv")->required();
-  exp->add_option("--out", o->out, "the file to write: .yml/.yaml (YAML), .xml, .json")
-      ->required();
+  exp->add_option("--out", o->out, "the file to write: .yml/.yaml (YAML), .xml, .json")->required();
   exp->footer(
       "Writes image_width, image_height, camera_matrix and distortion_coefficients with\n"
       "cv::FileStorage, every number exact (17 digits). Extrinsics and the covariance sidecar\n"

@@ -19,6 +19,16 @@ nlohmann::json PoseWithQuaternionJson(const Pose& pose) {
           {"quaternion", {q.w(), q.x(), q.y(), q.z()}}};
 }
 
+// A square matrix's entries, row-major (what every covariance in the JSON Lines is).
+template <typename Matrix>
+std::vector<double> RowMajor(const Matrix& m) {
+  std::vector<double> v;
+  v.reserve(m.size());
+  for (int r = 0; r < m.rows(); ++r)
+    for (int c = 0; c < m.cols(); ++c) v.push_back(m(r, c));
+  return v;
+}
+
 }  // namespace
 
 nlohmann::json DetectionJson(const Detection& d) {
@@ -28,9 +38,7 @@ nlohmann::json DetectionJson(const Detection& d) {
   if (d.corner_sigma[0] > 0)
     j["corner_sigma"] = {d.corner_sigma[0], d.corner_sigma[1], d.corner_sigma[2],
                          d.corner_sigma[3]};
-  if (d.corner_covariance(0, 0) > 0)
-    j["corner_covariance"] = std::vector<double>(
-        d.corner_covariance.data(), d.corner_covariance.data() + d.corner_covariance.size());
+  if (d.corner_covariance(0, 0) > 0) j["corner_covariance"] = RowMajor(d.corner_covariance);
   if (d.penumbra_sides[0] || d.penumbra_sides[1] || d.penumbra_sides[2] || d.penumbra_sides[3]) {
     nlohmann::json sides = nlohmann::json::array();
     for (int k = 0; k < 4; ++k)
@@ -41,10 +49,7 @@ nlohmann::json DetectionJson(const Detection& d) {
   if (d.tip) j["tip_sigma"] = d.tip->sigma_px;
   if (d.cam_from_marker) {
     j["cam_from_marker"] = PoseJson(*d.cam_from_marker);
-    std::vector<double> cov(36);
-    for (int r = 0; r < 6; ++r)
-      for (int k = 0; k < 6; ++k) cov[r * 6 + k] = d.covariance(r, k);
-    j["covariance"] = cov;
+    j["covariance"] = RowMajor(d.covariance);
     j["pose_ambiguous"] = d.pose_ambiguous;
     if (d.alternative_pose) {
       j["alternative_pose"] = PoseJson(*d.alternative_pose);
@@ -64,10 +69,7 @@ nlohmann::json FrameJson(const FrameResult& r, size_t object) {
   j["valid"] = p.valid;
   if (p.valid) {
     j["cam_from_object"] = PoseWithQuaternionJson(p.cam_from_object);
-    std::vector<double> cov(36);
-    for (int a = 0; a < 6; ++a)
-      for (int b = 0; b < 6; ++b) cov[a * 6 + b] = p.covariance(a, b);
-    j["covariance"] = cov;
+    j["covariance"] = RowMajor(p.covariance);
     if (p.alternative_cam_from_object) {
       j["alternative"] = PoseWithQuaternionJson(*p.alternative_cam_from_object);
       j["alternative"]["weight"] = p.alternative_weight;
@@ -101,10 +103,7 @@ nlohmann::json RigFrameJson(const RigFrameResult& r, const CameraRig& rig, size_
   j["valid"] = p.valid;
   if (p.valid) {
     j["rig_from_object"] = PoseWithQuaternionJson(p.cam_from_object);
-    std::vector<double> cov(36);
-    for (int a = 0; a < 6; ++a)
-      for (int b = 0; b < 6; ++b) cov[a * 6 + b] = p.covariance(a, b);
-    j["covariance"] = cov;
+    j["covariance"] = RowMajor(p.covariance);
   } else {
     j["rig_from_object"] = nullptr;
     j["covariance"] = nullptr;

@@ -149,9 +149,10 @@ void BindCamera(py::module_& m) {
           "pinhole",
           [](double f, int width, int height) {
             if (!(f > 0 && std::isfinite(f)) || width < 1 || height < 1)
-              throw py::value_error("pinhole: expected f > 0 (pixels) and a size of at least 1 x 1, got f " +
-                                    std::to_string(f) + ", " + std::to_string(width) + " x " +
-                                    std::to_string(height));
+              throw py::value_error(
+                  "pinhole: expected f > 0 (pixels) and a size of at least 1 x 1, got f " +
+                  std::to_string(f) + ", " + std::to_string(width) + " x " +
+                  std::to_string(height));
             return CameraModel::Pinhole(f, width, height);
           },
           py::arg("f"), py::arg("width"), py::arg("height"),
@@ -208,8 +209,7 @@ void BindCamera(py::module_& m) {
           "the .cameramodel text (what mrcal.cameramodel(io.StringIO(text)) reads)")
       .def("unusable_reason", &CameraModel::UnusableReason,
            "'' when poses can be measured with this camera, else why not")
-      .def("__repr__",
-           [](const CameraModel& c) { return "<svms.Camera " + c.Summary() + ">"; });
+      .def("__repr__", [](const CameraModel& c) { return "<svms.Camera " + c.Summary() + ">"; });
 }
 
 }  // namespace svms::python

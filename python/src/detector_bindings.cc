@@ -81,7 +81,8 @@ std::vector<MarkerModel> MarkerModelsFrom(const py::object& markers) {
         "markers: expected None, a path to a model file, a Layout, or MarkerModel objects, got " +
         py::str(py::type::of(markers)).cast<std::string>());
   }
-  for (const MarkerModel& mm : out) RaiseIfError(mm.Validate("markers: ID " + std::to_string(mm.id) + ": "));
+  for (const MarkerModel& mm : out)
+    RaiseIfError(mm.Validate("markers: ID " + std::to_string(mm.id) + ": "));
   return out;
 }
 
@@ -115,8 +116,7 @@ void BindDetector(py::module_& m) {
       .def_property_readonly("corners", &CornersOf,
                              "the black square's corners, 4 x 2 pixels: TL, TR, BR, BL as printed")
       .def_property_readonly(
-          "corner_sigma",
-          [](const Detection& d) { return Eigen::Vector4d(d.corner_sigma.data()); },
+          "corner_sigma", [](const Detection& d) { return Eigen::Vector4d(d.corner_sigma.data()); },
           "each corner's standard deviation from its line fits, per axis (pixels; 0: unknown), "
           "shape (4,)")
       .def_property_readonly(
@@ -207,14 +207,12 @@ void BindDetector(py::module_& m) {
            "otherwise). Its size must be the camera's. Returns a list of Detection. The GIL is "
            "released while it runs: threads may share one Detector; do not change the array "
            "meanwhile.")
-      .def_property_readonly(
-          "camera",
-          [](const PyDetector& d) -> std::optional<CameraModel> {
-            if (d.camera.empty()) return std::nullopt;
-            return d.camera;
-          })
-      .def_property_readonly("options",
-                             [](const PyDetector& d) { return d.detector->options(); });
+      .def_property_readonly("camera",
+                             [](const PyDetector& d) -> std::optional<CameraModel> {
+                               if (d.camera.empty()) return std::nullopt;
+                               return d.camera;
+                             })
+      .def_property_readonly("options", [](const PyDetector& d) { return d.detector->options(); });
 
   m.def(
       "_image_address",

@@ -170,8 +170,7 @@ int AlignGivenCamera(const PoseBenchmarkOptions& o, const std::string& D, const 
 // survey, and as the model the estimator linearises with: left unset where the files are
 // linear, full-range and not a mosaic, which the estimator takes as they are (as a
 // machine-vision camera's frames). A dataset without the block gives neither.
-Status ReadStoredPhotometry(const std::string& truth_path,
-                            std::optional<PhotometricModel>* model,
+Status ReadStoredPhotometry(const std::string& truth_path, std::optional<PhotometricModel>* model,
                             PhotometryOptions* options) {
   model->reset();
   *options = PhotometryOptions{};
@@ -192,8 +191,7 @@ Status ReadStoredPhotometry(const std::string& truth_path,
                            {"white_level", *options->white_level}};
     if (!options->bayer.empty()) text["bayer"] = options->bayer;
     PhotometricModel m;
-    if (Status s = ParsePhotometricJson(text.dump(), truth_path + ": photometry", &m); !s)
-      return s;
+    if (Status s = ParsePhotometricJson(text.dump(), truth_path + ": photometry", &m); !s) return s;
     if (m.response.kind() != Response::Kind::kLinear || m.black_level != 0 ||
         m.white_level != full || m.bayer != BayerPattern::kNone)
       *model = m;

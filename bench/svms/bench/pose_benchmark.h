@@ -21,8 +21,8 @@ struct PoseBenchmarkOptions {
   // A sensor profile (scene.h) the approach and mockup are rendered through when rendered
   // here; "" = linear 8-bit PNG. A given --data is read as its truth.json's photometry says.
   std::string profile;
-  int repeat = 20;     // passes over the approach for the long run (500 x 20 = 10,000 frames)
-  int threads = 2;     // rendering and the survey only; the pose runs on one thread
+  int repeat = 20;  // passes over the approach for the long run (500 x 20 = 10,000 frames)
+  int threads = 2;  // rendering and the survey only; the pose runs on one thread
   // The fusion's corner noise model (object_pose.h).
   double corner_sigma_px = ObjectPoseOptions{}.corner_sigma_px;
   double corner_sigma_exponent = ObjectPoseOptions{}.corner_sigma_exponent;
@@ -30,8 +30,8 @@ struct PoseBenchmarkOptions {
   double corner_fit_scale = 0;  // 0: the model's own (CornerFitScale, object_pose.h)
   double min_corner_sigma_px = ObjectPoseOptions{}.min_corner_sigma_px;
   double corner_sigma_systematic_px = ObjectPoseOptions{}.corner_sigma_systematic_px;
-  bool size_model = false;                 // corner sigma from the marker's size only
-  bool correlated_corners = false;         // whiten with the line fits' corner covariance
+  bool size_model = false;          // corner sigma from the marker's size only
+  bool correlated_corners = false;  // whiten with the line fits' corner covariance
   double min_tip_sigma_px = ObjectPoseOptions{}.min_tip_sigma_px;
   bool no_calibration_covariance = false;  // leave the calibration's uncertainty out
 };

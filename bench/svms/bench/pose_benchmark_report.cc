@@ -218,18 +218,19 @@ std::string Markdown(const PoseBenchmarkOptions& o, const PoseFindings& f, const
      << "); frames "
      << (f.photometry.empty() ? std::string("linear, taken as stored")
                               : "turned into linear light by the photometry they were stored "
-                                "with, `" + nlohmann::json::parse(f.photometry).dump() + "`")
+                                "with, `" +
+                                    nlohmann::json::parse(f.photometry).dump() + "`")
      << "; layout: `"
      << (o.layout.empty() ? "svms survey` of the rendered `mockup` dataset (reference marker 10)"
                           : o.layout + "`")
      << "; corner sigma: "
-     << (o.size_model ? ""
-                      : "the detector's line-fit sigma times " + Fixed(FitScale(o), 2) +
-                            " plus " + Fixed(o.corner_sigma_systematic_px, 3) +
-                            " px in quadrature (where refined; " +
-                            (!o.correlated_corners ? "the corners independent"
-                                                   : "the corners correlated as the line fits say") +
-                            "), else ")
+     << (o.size_model
+             ? ""
+             : "the detector's line-fit sigma times " + Fixed(FitScale(o), 2) + " plus " +
+                   Fixed(o.corner_sigma_systematic_px, 3) + " px in quadrature (where refined; " +
+                   (!o.correlated_corners ? "the corners independent"
+                                          : "the corners correlated as the line fits say") +
+                   "), else ")
      << o.corner_sigma_px << " px at 30 px scaled by (30 / shortest side)^"
      << o.corner_sigma_exponent << ", at least " << o.min_corner_sigma_px
      << " px; tip sigma the detector's, at least " << o.min_tip_sigma_px

@@ -9,9 +9,9 @@
 // that object's pose (SolveObjectPose, the same call for one layout or several): the objects'
 // poses are exactly what one single-layout estimator per object would give, for the price of
 // one detection (without a time budget: under one, the frame's single detection pass spends
-// it on the markers of every layout). A marker ID belongs to one layout at most: the same ID in two layouts would
-// make its detection a point of two objects, so creation refuses it and names both layouts.
-// Detections of no layout are reported by ID (FrameResult::unassigned_ids).
+// it on the markers of every layout). A marker ID belongs to one layout at most: the same ID in two
+// layouts would make its detection a point of two objects, so creation refuses it and names both
+// layouts. Detections of no layout are reported by ID (FrameResult::unassigned_ids).
 //
 // One estimator per thread; Estimate() is const apart from its reusable scratch, so do not
 // share one between threads.

@@ -100,8 +100,7 @@ std::string CheckLensModel(const std::string& name, mrcal_lensmodel_t* out) {
 // Error text for a value that is not a finite number, or "".
 std::string CheckFinite(const std::string& field, int index, double v) {
   if (std::isfinite(v)) return "";
-  return field + "[" + std::to_string(index) + "]: expected a finite number, got " +
-         RoundTrip(v);
+  return field + "[" + std::to_string(index) + "]: expected a finite number, got " + RoundTrip(v);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -442,7 +441,8 @@ Status CameraModel::Read(const std::string& path, CameraModel* out) {
   if (LooksLikeOpenCvCameraFile(path, text) && !StartsLikeADict(text)) {
     return Status::Error(path +
                          ": an OpenCV camera file, not an mrcal .cameramodel; convert it with "
-                         "`svms camera import " + path + " --out CAM.cameramodel`");
+                         "`svms camera import " +
+                         path + " --out CAM.cameramodel`");
   }
   if (std::string e = UnclosedString(text); !e.empty()) {
     return Status::Error(path + ": " + e + "; " + kExpectedFile);
@@ -535,8 +535,8 @@ std::string CameraModel::UnusableReason() const {
       if (!(f >= kMinFocalPx && f <= kMaxFocalPx)) {
         char range[64];
         std::snprintf(range, sizeof range, "expected %g to %g", kMinFocalPx, kMaxFocalPx);
-        return "intrinsics[" + std::to_string(i) + "]: " + (i == 0 ? "fx " : "fy ") +
-               RoundTrip(f) + " pixels is not a focal length a lens has; " + range;
+        return "intrinsics[" + std::to_string(i) + "]: " + (i == 0 ? "fx " : "fy ") + RoundTrip(f) +
+               " pixels is not a focal length a lens has; " + range;
       }
     }
   }

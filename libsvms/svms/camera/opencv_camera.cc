@@ -18,7 +18,8 @@ std::string Lower(std::string s) {
 }
 
 bool EndsWith(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+  return s.size() >= suffix.size() &&
+         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 constexpr const char* kExpectedFile =
@@ -238,9 +239,9 @@ Status ReadOpenCvCameraFile(const std::string& path, int width, int height, Open
     if (!dn.empty()) {
       Numbers d;
       // Nothing (an empty sequence; in XML an empty element) is no distortion.
-      const bool nothing = dn.isNone() || ((dn.isSeq() || dn.isMap()) && dn.size() == 0) ||
-                           (dn.isString() && dn.string().find_first_not_of(" \t\r\n") ==
-                                                 std::string::npos);
+      const bool nothing =
+          dn.isNone() || ((dn.isSeq() || dn.isMap()) && dn.size() == 0) ||
+          (dn.isString() && dn.string().find_first_not_of(" \t\r\n") == std::string::npos);
       if (!nothing) {
         if (std::string e = ReadNumbers(dn, &d); !e.empty()) return bad(dname, e);
         if (d.rows != 1 && d.cols != 1) {
@@ -270,8 +271,8 @@ Status ReadOpenCvCameraFile(const std::string& path, int width, int height, Open
       Numbers s;
       if (std::string e = ReadNumbers(sn, &s); !e.empty()) return bad(sname, e);
       if (s.v.size() != 2) {
-        return bad(sname, "expected [width, height], got " + std::to_string(s.v.size()) +
-                              " values");
+        return bad(sname,
+                   "expected [width, height], got " + std::to_string(s.v.size()) + " values");
       }
       if (std::string e = ToPixels(s.v[0], &c.width); !e.empty()) return bad(sname, "width: " + e);
       if (std::string e = ToPixels(s.v[1], &c.height); !e.empty()) {
@@ -307,7 +308,8 @@ Status CameraFromOpenCv(const OpenCvCamera& c, CameraModel* out) {
   if (K[1][0] != 0 || K[2][0] != 0 || K[2][1] != 0 || K[2][2] != 1) {
     return Status::Error(
         "camera_matrix: expected [fx 0 cx; 0 fy cy; 0 0 1], got a last row or lower triangle "
-        "of [" + RoundTrip(K[2][0]) + " " + RoundTrip(K[2][1]) + " " + RoundTrip(K[2][2]) + "], K[1][0] " +
+        "of [" +
+        RoundTrip(K[2][0]) + " " + RoundTrip(K[2][1]) + " " + RoundTrip(K[2][2]) + "], K[1][0] " +
         RoundTrip(K[1][0]));
   }
   if (K[0][1] != 0) {
@@ -344,9 +346,10 @@ Status CameraFromOpenCv(const OpenCvCamera& c, CameraModel* out) {
     }
     dist.resize(12);
   } else if (n != 0 && n != 4 && n != 5 && n != 8 && n != 12) {
-    return Status::Error("distortion_coefficients: expected 0, 4, 5, 8, 12 or 14 coefficients "
-                         "(k1 k2 p1 p2 [k3 [k4 k5 k6 [s1 s2 s3 s4 [tx ty]]]]), got " +
-                         std::to_string(n));
+    return Status::Error(
+        "distortion_coefficients: expected 0, 4, 5, 8, 12 or 14 coefficients "
+        "(k1 k2 p1 p2 [k3 [k4 k5 k6 [s1 s2 s3 s4 [tx ty]]]]), got " +
+        std::to_string(n));
   }
   const bool zero = std::all_of(dist.begin(), dist.end(), [](double d) { return d == 0; });
   const std::string lensmodel =
@@ -362,8 +365,8 @@ Status OpenCvFromCamera(const CameraModel& camera, OpenCvCamera* out) {
   OpenCvCamera c;
   if (lm == "LENSMODEL_PINHOLE") {
     c.dist.assign(5, 0.0);
-  } else if (lm == "LENSMODEL_OPENCV4" || lm == "LENSMODEL_OPENCV5" ||
-             lm == "LENSMODEL_OPENCV8" || lm == "LENSMODEL_OPENCV12") {
+  } else if (lm == "LENSMODEL_OPENCV4" || lm == "LENSMODEL_OPENCV5" || lm == "LENSMODEL_OPENCV8" ||
+             lm == "LENSMODEL_OPENCV12") {
     c.dist.assign(in.begin() + 4, in.end());
   } else {
     return Status::Error("lensmodel: " + (lm.empty() ? std::string("(empty camera model)") : lm) +
