@@ -316,7 +316,6 @@ svms_status svms_process_frame_u16(svms_estimator* e, const uint16_t* pixels, in
 svms_status svms_process_frame_multi(svms_estimator* e, const uint8_t* pixels, int width,
                                      int height, ptrdiff_t stride, double timestamp,
                                      svms_pose* poses, int n_poses, svms_frame_info* info) {
-  if (n_poses < 0) n_poses = 0;  // nothing to write; the count is refused below
   return Process("svms_process_frame_multi", e, pixels, width, height, stride, 1, timestamp, poses,
                  n_poses, true, info);
 }
@@ -324,7 +323,6 @@ svms_status svms_process_frame_multi(svms_estimator* e, const uint8_t* pixels, i
 svms_status svms_process_frame_multi_u16(svms_estimator* e, const uint16_t* pixels, int width,
                                          int height, ptrdiff_t stride, double timestamp,
                                          svms_pose* poses, int n_poses, svms_frame_info* info) {
-  if (n_poses < 0) n_poses = 0;
   return Process("svms_process_frame_multi_u16", e, pixels, width, height, stride, 2, timestamp,
                  poses, n_poses, true, info);
 }

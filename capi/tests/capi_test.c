@@ -264,6 +264,10 @@ static void CheckTwoObjects(void) {
   CHECK(strstr(svms_last_error(), "n_poses is 1, expected the estimator's number of layouts, 2") !=
         NULL);
   CHECK(poses[0].valid == 0);
+  /* A negative count is named as given. */
+  CHECK_STATUS(svms_process_frame_multi(e, pixels, W, H, W, 5, poses, -3, &info),
+               SVMS_ERR_INVALID_ARGUMENT);
+  CHECK(strstr(svms_last_error(), "n_poses is -3, expected") != NULL);
   CHECK_STATUS(svms_process_frame_multi(e, pixels, W, H, W, 5, NULL, 2, &info),
                SVMS_ERR_NULL_ARGUMENT);
   CHECK_STATUS(svms_process_frame_multi(alone[0], pixels, W, H, W, 5, poses, 1, NULL), SVMS_OK);
