@@ -29,6 +29,16 @@ std::vector<double> RowMajor(const Matrix& m) {
   return v;
 }
 
+// How well one object's fit went: the fields every pose line carries after its markers.
+void AddFitQuality(const ObjectPose& p, nlohmann::json* j) {
+  (*j)["points_rejected"] = p.points_rejected;
+  (*j)["markers_seen"] = p.markers_seen;
+  (*j)["points"] = p.points_used;
+  (*j)["rms"] = p.rms_px;
+  (*j)["chi2"] = p.chi2;
+  (*j)["dof"] = p.dof;
+}
+
 }  // namespace
 
 nlohmann::json DetectionJson(const Detection& d) {
@@ -81,12 +91,7 @@ nlohmann::json FrameJson(const FrameResult& r, size_t object) {
   }
   j["markers"] = p.ids_used;
   j["markers_rejected"] = p.ids_rejected;
-  j["points_rejected"] = p.points_rejected;
-  j["markers_seen"] = p.markers_seen;
-  j["points"] = p.points_used;
-  j["rms"] = p.rms_px;
-  j["chi2"] = p.chi2;
-  j["dof"] = p.dof;
+  AddFitQuality(p, &j);
   j["flags"] = {{"ambiguous", p.ambiguous},
                 {"poorly_conditioned", p.poorly_conditioned},
                 {"budget_exceeded", r.budget_exceeded},
@@ -125,12 +130,7 @@ nlohmann::json RigFrameJson(const RigFrameResult& r, const CameraRig& rig, size_
                        {"detect_ms", f.detect_ms}});
   }
   j["cameras"] = cameras;
-  j["points_rejected"] = p.points_rejected;
-  j["markers_seen"] = p.markers_seen;
-  j["points"] = p.points_used;
-  j["rms"] = p.rms_px;
-  j["chi2"] = p.chi2;
-  j["dof"] = p.dof;
+  AddFitQuality(p, &j);
   j["flags"] = {{"poorly_conditioned", p.poorly_conditioned},
                 {"calibration_in_covariance", p.calibration_in_covariance},
                 {"extrinsics_in_covariance", p.extrinsics_in_covariance}};
