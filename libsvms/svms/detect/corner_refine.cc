@@ -685,9 +685,11 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
     // they err together (out.correlation > 0: a JPEG's blocks, blur, a demosaic) a side's
     // line moves more as a whole than the model says, and its corners' correlation across it
     // is not known: they are left as independent (zero covariance).
-    out.corner_covariance = out.correlation > 0
-                                ? Eigen::Matrix<double, 8, 8>::Zero()
-                                : CornerCovariance(out.corners, perp, out.corner_sigma, end_margin);
+    // Only the last iteration's lines are kept, so only their covariance is computed.
+    if (it == o.iterations - 1)
+      out.corner_covariance =
+          out.correlation > 0 ? Eigen::Matrix<double, 8, 8>::Zero()
+                              : CornerCovariance(out.corners, perp, out.corner_sigma, end_margin);
   }
   out.ok = true;
   return out;
