@@ -46,4 +46,12 @@ Status ParseRig(const std::string& text, const std::string& source, const std::s
 // name the rig file and the field, and for a camera model that cannot be read, that file.
 Status ReadRigFile(const std::string& path, CameraRig* rig);
 
+// The rig file's text for `rig` (ParseRig reads it back to the same poses and covariances, to
+// the last bit): each camera's name, its cameramodel path relative to `dir` (the folder the file
+// is written to; a cameramodel_path that is absolute stays absolute), rig_from_cam and, when it
+// has one, its covariance (6 rows).
+std::string RigToJson(const CameraRig& rig, const std::string& dir);
+// Writes RigToJson(rig, PATH's folder) to `path` atomically (file_io.h).
+Status WriteRigFile(const std::string& path, const CameraRig& rig);
+
 }  // namespace svms
