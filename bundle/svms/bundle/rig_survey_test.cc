@@ -123,7 +123,7 @@ TEST(SurveyRig, RecoversTheExtrinsicsWithinTheirCovariance) {
   }
 }
 
-TEST(SurveyRig, NeesOfTheExtrinsicsIsInItsChiSquareBand) {
+TEST(SurveyRig, NeesOfTheExtrinsicsIsInItsChiSquareBandMonteCarlo) {
   // 150 trials of 5 frames each, fresh noise per trial: the mean 6-dof NEES of camera 1's
   // rig_from_cam is in the 95 % band of chi-square(900) / 150, [5.47, 6.57].
   const auto start = std::chrono::steady_clock::now();
@@ -153,7 +153,7 @@ TEST(SurveyRig, NeesOfTheExtrinsicsIsInItsChiSquareBand) {
   EXPECT_LT(mean, hi);
 }
 
-TEST(SurveyRig, TheLayoutsUncertaintyIsInTheCovariance) {
+TEST(SurveyRig, TheLayoutsUncertaintyIsInTheCovarianceMonteCarlo) {
   // The layout the survey is told is off by draws from its own covariance (1 mrad, 0.5 mm per
   // axis), the same in every frame: over 60 trials with fresh layout errors and noise, the
   // covariance with the layout's share gives a mean NEES in the 95 % band of
