@@ -75,6 +75,7 @@ Status ParseRig(const std::string& text, const std::string& source, const std::s
       const std::string model = String(c, path, "cameramodel");
       if (model.empty()) throw FieldError{path + ".cameramodel: expected a file name"};
       const std::filesystem::path model_path(model);
+      camera.cameramodel_absolute = model_path.is_absolute();
       camera.cameramodel_path = model_path.is_absolute()
                                     ? model
                                     : (std::filesystem::path(base_dir) / model_path).string();
@@ -120,7 +121,7 @@ std::string RigToJson(const CameraRig& rig, const std::string& dir) {
     const RigCamera& c = rig.cameras[i];
     const fs::path model(c.cameramodel_path);
     const std::string path =
-        model.is_absolute()
+        c.cameramodel_absolute
             ? c.cameramodel_path
             : fs::absolute(model)
                   .lexically_normal()
