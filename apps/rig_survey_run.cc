@@ -84,6 +84,7 @@ int RunRigSurvey(const RigSurveyRunOptions& o) {
   const size_t n = est->num_cameras();
   RigSurveyOptions survey;
   survey.measurement = options.fusion;
+  for (const RigCamera& c : rig.cameras) survey.camera_names.push_back(c.name);
   if (!o.reference.empty()) {
     survey.reference_camera = -1;
     std::string names;

@@ -128,7 +128,7 @@ bad 2 "short.txt, line 1: expected [TIMESTAMP] and 2 images" \
 bad 2 "--reference left: no camera of that name in $tmp/port.rig (it has narrow, wide)" \
   --rig "$tmp/port.rig" --frames-list "$tmp/frames.txt" --out "$tmp/x.rig" --reference left
 printf '5 narrow/v5.png -\n6 narrow/v6.png -\n7 - wide/v7.png\n8 - wide/v8.png\n' > "$tmp/apart.txt"
-bad 1 "camera 1 sees the object in no frame together with the reference camera" \
+bad 1 "camera 'wide' sees the object in no frame together with the reference camera (camera 'narrow')" \
   --rig "$tmp/port.rig" --frames-list "$tmp/apart.txt" --out "$tmp/x.rig"
 [ ! -e "$tmp/x.rig" ] || fail "a failed survey wrote its --out"
 [ "$(sums)" = "$before" ] || fail "an input changed"

@@ -88,7 +88,10 @@ class Solver {
   void RejectOutliers();
   Status ComputeCovariance();
   void FillResult();
-  std::string CameraName(int c) const { return "camera " + std::to_string(c); }
+  std::string CameraName(int c) const {
+    return static_cast<size_t>(c) < o_.camera_names.size() ? "camera '" + o_.camera_names[c] + "'"
+                                                           : "camera " + std::to_string(c);
+  }
 
   const std::vector<RigCameraView>& cameras_;
   const std::vector<RigSurveyFrame>& frames_;

@@ -62,8 +62,10 @@ struct RigSurveyOptions {
   double outlier_sigmas = 5;
   int max_iterations = 100;
   int num_threads = 1;
-  // Step 4: scale the measurement part of the covariance by chi2 / dof.
+  // Step 4: scale the measurement part of the covariance by the noise's variance factor.
   bool scale_covariance = true;
+  // The cameras' names for messages, in the rig's order; empty: "camera 0", "camera 1", ...
+  std::vector<std::string> camera_names;
 
   Status Check() const;
 };
