@@ -45,6 +45,7 @@ Mat6 TangentFromBlock(const Block6& b) {
 struct LayoutBlock {
   Block6 pose;
   double height = 0;  // its post's height (metres), when it has a post
+  bool has_post = false;
   // The covariance in the block's own coordinates [rvec, tvec] (the layout's is about the object
   // axes); zero when the layout gives none.
   Mat6 covariance = Mat6::Zero();
@@ -126,7 +127,6 @@ Status Solver::CollectPoints() {
       if (inserted) {
         LayoutBlock b;
         b.pose = key;
-        if (m.model.post) b.height = m.model.post->height;
         if (m.layout_covariance) {
           // Left perturbation about the object axes -> the block's rvec: d rvec = J_l^-1 d.
           const Mat6 T_inv = TangentFromBlock(key).inverse();
@@ -135,6 +135,12 @@ Status Solver::CollectPoints() {
         }
         if (m.post_height_sigma && *m.post_height_sigma > 0) b.height_sigma = *m.post_height_sigma;
         layout_.push_back(b);
+      }
+      // A dual's inner marker may share its outer marker's entry without carrying the post.
+      LayoutBlock& entry = layout_[it->second];
+      if (m.model.post && !entry.has_post) {
+        entry.height = m.model.post->height;
+        entry.has_post = true;
       }
       const auto corners = m.model.Corners();
       for (int k = 0; k < 4; ++k) {
@@ -265,9 +271,7 @@ void Solver::UpdateTipOffsets() {
 }
 
 void Solver::BuildProblem(bool robust) {
-  ceres::Problem::Options po;
-  po.enable_fast_removal = false;
-  problem_ = std::make_unique<ceres::Problem>(po);
+  problem_ = std::make_unique<ceres::Problem>();
   for (PointObs& p : points_) {
     p.id = nullptr;
     if (p.rejected) continue;
