@@ -56,10 +56,12 @@ void AddSurveyCommands(CLI::App& app, int* exit_code) {
   auto o = std::make_shared<SurveyRunOptions>();
   CLI::App* cmd = app.add_subcommand(
       "survey", "Survey where several markers sit on one object, from many images of it");
-  CLI::Option* images = cmd->add_option("IMAGES", o->inputs, "Image files, directories or globs");
-  CLI::Option* camera = cmd->add_option("--camera", o->camera, "mrcal .cameramodel of the images");
-  CLI::Option* markers =
-      cmd->add_option("--markers", o->markers, "Marker models (svms.markers or svms.layout)");
+  CLI::Option* images =
+      cmd->add_option("IMAGES", o->inputs, "Image files, directories or globs (required)");
+  CLI::Option* camera =
+      cmd->add_option("--camera", o->camera, "mrcal .cameramodel of the images (required)");
+  CLI::Option* markers = cmd->add_option("--markers", o->markers,
+                                         "Marker models (svms.markers or svms.layout; required)");
   cmd->add_option("--reference", o->reference, "ID of the marker whose frame is the object frame");
   cmd->add_option("--control-point", o->control_points,
                   "NAME=X,Y,Z[,SIGMA]: a point with known object coordinates (three or more "
@@ -77,8 +79,8 @@ void AddSurveyCommands(CLI::App& app, int* exit_code) {
                   "Standard deviation of every corner (px); by default each corner's own, from "
                   "the detector's line fits (x " +
                       Fixed(kCornerFitScale, 2) + ")");
-  CLI::Option* out =
-      cmd->add_option("--out", o->out, "The layout JSON to write (svms.layout, with covariances)");
+  CLI::Option* out = cmd->add_option(
+      "--out", o->out, "The layout JSON to write (svms.layout, with covariances; required)");
   cmd->add_option("--report", o->report, "Write report.md, tables and pictures to this directory");
   cmd->add_option("--threads", o->threads, "Threads for detection and the solver")
       ->check(CLI::Range(1, 256))

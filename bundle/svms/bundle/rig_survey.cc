@@ -112,6 +112,9 @@ class Solver {
 
 Status Solver::CollectPoints() {
   const int n = static_cast<int>(cameras_.size());
+  // Independent corners, each with the sigma the fusion gives an independent corner.
+  ObjectPoseOptions measurement = o_.measurement;
+  measurement.corner_covariance_from_fit = false;
   std::map<Block6, int> layout_index;
   for (size_t f = 0; f < frames_.size(); ++f) {
     const std::vector<MarkerObservation>& obs = frames_[f].observations;
@@ -152,7 +155,7 @@ Status Solver::CollectPoints() {
         p.layout = it->second;
         p.in_marker = corners[k];
         p.px = m.corners[k];
-        p.sigma = CornerPixelSigma(o_.measurement, m, k);
+        p.sigma = CornerPixelSigma(measurement, m, k);
         points_.push_back(p);
       }
       if (o_.measurement.use_tips && m.tip && m.model.post) {
@@ -163,7 +166,7 @@ Status Solver::CollectPoints() {
         p.point = 4;
         p.layout = it->second;
         p.px = m.tip->pixel;
-        p.sigma = TipPixelSigma(o_.measurement, m);
+        p.sigma = TipPixelSigma(measurement, m);
         points_.push_back(p);
       }
     }
