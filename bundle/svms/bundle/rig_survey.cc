@@ -12,6 +12,7 @@
 #include <map>
 #include <memory>
 
+#include "svms/base/statistics.h"
 #include "svms/bundle/cost_functions.h"
 #include "svms/bundle/view_graph.h"
 #include "svms/detect/marker_pose.h"
@@ -20,9 +21,12 @@
 namespace svms {
 namespace {
 
-// Floor on the noise's variance factor: a chi2 below what the layout's and calibration's
-// stated errors alone would give says those are overstated, not that the frames are noiseless.
-constexpr double kMinNoiseVarianceFactor = 0.01;
+// Floor on the noise's variance factor: the 1 % quantile of chi2(dof) / dof, what honest
+// sigmas give by chance once in a hundred surveys. A chi2 below what the detector's sigmas and
+// the layout's and calibration's stated errors would give says those are overstated, not that
+// the frames are noiseless; shrinking the measurements' share further for it would make the
+// rig file over-confident (a floor of 1 instead biases every survey conservative).
+double MinNoiseVarianceFactor(int dof) { return ChiSquareQuantile(0.01, dof) / dof; }
 
 using Block6 = std::array<double, 6>;
 using Mat6 = Eigen::Matrix<double, 6, 6>;
@@ -136,7 +140,6 @@ Status Solver::CollectPoints() {
           b.covariance = T_inv * *m.layout_covariance * T_inv.transpose();
           b.has_covariance = !m.layout_covariance->isZero();
         }
-        if (m.post_height_sigma && *m.post_height_sigma > 0) b.height_sigma = *m.post_height_sigma;
         layout_.push_back(b);
       }
       // A dual's inner marker may share its outer marker's entry without carrying the post.
@@ -144,6 +147,8 @@ Status Solver::CollectPoints() {
       if (m.model.post && !entry.has_post) {
         entry.height = m.model.post->height;
         entry.has_post = true;
+        if (m.post_height_sigma && *m.post_height_sigma > 0)
+          entry.height_sigma = *m.post_height_sigma;
       }
       const auto corners = m.model.Corners();
       for (int k = 0; k < 4; ++k) {
@@ -488,7 +493,8 @@ Status Solver::ComputeCovariance() {
   }
   S_.variance_factor = S_.dof > 0 ? S_.chi2 / S_.dof : 1.0;
   S_.noise_variance_factor =
-      S_.dof > 0 ? std::max(kMinNoiseVarianceFactor, (S_.chi2 - S_.fixed_chi2) / S_.dof) : 1.0;
+      S_.dof > 0 ? std::max(MinNoiseVarianceFactor(S_.dof), (S_.chi2 - S_.fixed_chi2) / S_.dof)
+                 : 1.0;
   S_.covariance_scaled = o_.scale_covariance && S_.dof > 0;
   const Eigen::MatrixXd C =
       (S_.covariance_scaled ? S_.noise_variance_factor : 1.0) * Scc_inv + fixed_share;

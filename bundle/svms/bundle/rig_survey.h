@@ -59,7 +59,7 @@ struct RigSurveyOptions {
   double init_inlier_angle_deg = 3;
   double init_inlier_distance = 0.05;  // metres
   // Step 3: Cauchy loss at loss_scale sigmas; rejection at outlier_sigmas x max(1, the robust
-  // scale 1.4826 MAD of the normalised residuals' norms / 1.1774).
+  // scale: the median of the normalised residuals' norms / 1.1774, a 2D standard normal's).
   double loss_scale = 3;
   bool reject_outliers = true;
   double outlier_sigmas = 5;
@@ -106,7 +106,8 @@ struct RigSurveySummary {
   double variance_factor = 1;  // chi2 / dof
   // The share of chi2 that the fixed errors (layout, calibration) are expected to leave in the
   // residuals, and the noise's variance factor without it, (chi2 - fixed_chi2) / dof (at least
-  // 0.01): what scales the measurement part of the covariance.
+  // the 1 % quantile of chi2(dof) / dof): what scales the measurement part of the
+  // covariance.
   double fixed_chi2 = 0;
   double noise_variance_factor = 1;
   bool covariance_scaled = false;  // the measurement part was multiplied by noise_variance_factor
