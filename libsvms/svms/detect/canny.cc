@@ -140,7 +140,62 @@ void FinalRow(const uint8_t* __restrict map, uint8_t* __restrict edges, int n) {
   for (; j < n; ++j) edges[j] = pixel(j);
 }
 
+// Thresholds exactly as cv::Canny(dx, dy, ...) turns them into integers.
+void IntegerThresholds(double low, double high, bool l2_gradient, int32_t* ilow, int32_t* ihigh) {
+  if (low > high) std::swap(low, high);
+  if (l2_gradient) {
+    low = std::min(32767.0, low);
+    high = std::min(32767.0, high);
+    if (low > 0) low *= low;
+    if (high > 0) high *= high;
+  }
+  *ilow = cvFloor(low);
+  *ihigh = cvFloor(high);
+}
+
 }  // namespace
+
+namespace canny_rows {
+
+void Thresholds(double low, double high, bool l2_gradient, int32_t* ilow, int32_t* ihigh) {
+  IntegerThresholds(low, high, l2_gradient, ilow, ihigh);
+}
+
+void Magnitude(const int16_t* dx, const int16_t* dy, bool l2_gradient, int32_t* out, int n) {
+  if (l2_gradient) {
+    MagnitudeL2(dx, dy, out, n);
+  } else {
+    MagnitudeL1(dx, dy, out, n);
+  }
+}
+
+void SuppressRow(const int32_t* above, const int32_t* here, const int32_t* below, const int16_t* dx,
+                 const int16_t* dy, int32_t low, int32_t high, uint8_t* out, int n) {
+  svms::SuppressRow(above, here, below, dx, dy, low, high, out, n);
+}
+
+void PushEdges(const uint8_t* row, int n, const uint8_t* base, int32_t* stack, size_t* top) {
+  svms::PushEdges(row, n, base, stack, top);
+}
+
+void Hysteresis(uint8_t* map, int cols, int32_t* stack, size_t top, int32_t begin, int32_t end) {
+  const ptrdiff_t s = static_cast<ptrdiff_t>(cols) + 2;
+  const ptrdiff_t neighbours[8] = {-s - 1, -s, -s + 1, -1, 1, s - 1, s, s + 1};
+  while (top > 0) {
+    const int32_t at = stack[--top];
+    for (const ptrdiff_t d : neighbours) {
+      const ptrdiff_t q = at + d;
+      if (q >= begin && q < end && map[q] == kCandidate) {
+        map[q] = kEdge;
+        stack[top++] = static_cast<int32_t>(q);
+      }
+    }
+  }
+}
+
+void FinalRow(const uint8_t* map, uint8_t* edges, int n) { svms::FinalRow(map, edges, n); }
+
+}  // namespace canny_rows
 
 void CannyFromDerivatives(const cv::Mat& dx_in, const cv::Mat& dy_in, double low, double high,
                           bool l2_gradient, CannyScratch* scratch, cv::Mat* edges) {
@@ -155,15 +210,8 @@ void CannyFromDerivatives(const cv::Mat& dx_in, const cv::Mat& dy_in, double low
   edges->create(rows, cols, CV_8UC1);
   if (rows == 0 || cols == 0) return;
 
-  // Thresholds exactly as cv::Canny(dx, dy, ...) turns them into integers.
-  if (low > high) std::swap(low, high);
-  if (l2_gradient) {
-    low = std::min(32767.0, low);
-    high = std::min(32767.0, high);
-    if (low > 0) low *= low;
-    if (high > 0) high *= high;
-  }
-  const int32_t ilow = cvFloor(low), ihigh = cvFloor(high);
+  int32_t ilow, ihigh;
+  IntegerThresholds(low, high, l2_gradient, &ilow, &ihigh);
 
   const size_t stride = static_cast<size_t>(cols) + 2;  // map and magnitude rows
   const size_t map_size = stride * (static_cast<size_t>(rows) + 2);

@@ -15,6 +15,8 @@
 
 namespace svms {
 
+class WorkerPool;
+
 struct Segment {
   // End points in pixels, ordered so that the darker side is on the right as seen on screen
   // when walking from `a` to `b` (image x right, y down): the border of a dark square is then
@@ -94,9 +96,13 @@ std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& op
 // found so far (none when linking was interrupted; unmerged where the merge had not run). True when
 // every chain was processed. The edge map itself (gradients, Canny, about 2-3 ms at 1024 x 1024 on
 // one core) is not interrupted.
+// With `pool` (2 threads or more) the edge map is computed in bands of rows (edge_bands.h) and
+// the chains are fitted in parts on its threads: the same segments in the same order, value
+// for value (the chains are still linked on the calling thread).
 bool FindSegments(
     const cv::Mat& gray8, const SegmentOptions& options, cv::Mat* gradient_x, cv::Mat* gradient_y,
     std::vector<Segment>* segments,
-    std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max());
+    std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max(),
+    WorkerPool* pool = nullptr);
 
 }  // namespace svms
