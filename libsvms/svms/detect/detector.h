@@ -13,13 +13,16 @@
 // Safe to use one Detector per thread; Detect() is const. Its working buffers are kept per
 // thread (thread_local, grown to the largest image the thread has seen), so that the Detect
 // overload with an output vector allocates nothing on the heap once a thread has warmed up on
-// images of its size (docs/flight-interface.md; capi_alloc_test counts).
+// images of its size (docs/flight-interface.md; capi_alloc_test counts). With
+// DetectorOptions::threads > 1 the Detector owns that many threads less one (worker_pool.h),
+// which share each frame with the calling thread; their buffers too are kept between frames.
 #pragma once
 
 #include <Eigen/Core>
 #include <array>
 #include <chrono>
 #include <map>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
@@ -96,12 +99,20 @@ struct DetectorOptions {
   // If set, DetectionStats::debug_pictures receives a picture of each step (the detector
   // writes no files: where pictures go is the caller's business).
   bool debug_pictures = false;
+  // Threads per frame (>= 1). Above 1, one frame is shared by that many threads: the edge map
+  // in bands of rows and the edge chains in parts (segments.h), steps 5-10 one candidate quad
+  // per part, each part into a slot of its own merged in the serial order. The detections are
+  // the same, to the last bit, as with one thread (unless a deadline passes). Images under
+  // 128 rows, the edge linking, the quad search and step 11 stay on the calling thread.
+  int threads = 1;
 };
 
 struct DetectionStats {
   static constexpr int kSteps = 6;
   static constexpr const char* kStepNames[kSteps] = {"segments", "quads", "decode",
                                                      "refine",   "pose",  "nesting"};
+  // Wall time per step. With DetectorOptions::threads > 1 steps 5-10 run together per quad:
+  // their time is under "decode", and "refine" and "pose" are 0.
   std::array<double, kSteps> ms{};
   int segments = 0, quads = 0, decoded = 0, rejected_for_evidence = 0;
   // The deadline passed before the frame was done: what was finished is returned (nothing when
@@ -114,12 +125,20 @@ struct DetectionStats {
   NoiseModel noise;
 };
 
+class WorkerPool;
+
 class Detector {
  public:
   // `camera` (may be empty) enables undistorted corner fits and poses; `models` (may be
-  // empty) give each ID's geometry, its post and its nesting.
+  // empty) give each ID's geometry, its post and its nesting. options.threads < 1 counts as 1.
   Detector(const DetectorOptions& options, const CameraModel& camera,
            const std::vector<MarkerModel>& models);
+  // A copy has threads of its own (with options.threads > 1).
+  Detector(const Detector& other);
+  Detector& operator=(const Detector& other);
+  Detector(Detector&& other) noexcept;
+  Detector& operator=(Detector&& other) noexcept;
+  ~Detector();
 
   // All markers in `image`, whose values must be linear in light (an image as a camera stores
   // it goes through LinearizeImage, photometric.h, first): CV_8UC1 or CV_16UC1 (any size >=
@@ -151,6 +170,9 @@ class Detector {
   CameraModel camera_;
   std::map<int, MarkerModel> models_;  // by ID, inner markers included
   std::map<int, int> outer_of_;        // inner ID -> outer ID
+  // The other threads of a frame (options_.threads > 1). A Detect call from a second thread
+  // while one runs does its frame on its own thread (WorkerPool::Run): the same results.
+  std::unique_ptr<WorkerPool> pool_;
 };
 
 }  // namespace svms

@@ -172,6 +172,107 @@ TEST(Detector, ADeadlinePassedBeforeTheEdgesEndsTheFrameFlaggedAndEmpty) {
   EXPECT_FALSE(stats.budget_exceeded);
 }
 
+// Every field of two detections, to the bit.
+void ExpectSameBitForBit(const Detection& a, const Detection& b, const std::string& what) {
+  EXPECT_EQ(a.id, b.id) << what;
+  EXPECT_EQ(a.rotation, b.rotation) << what;
+  EXPECT_EQ(a.bit_errors, b.bit_errors) << what;
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_TRUE(a.corners[k] == b.corners[k]) << what << " corner " << k;
+    EXPECT_EQ(a.corner_sigma[k], b.corner_sigma[k]) << what;
+    EXPECT_EQ(a.penumbra_sides[k], b.penumbra_sides[k]) << what;
+  }
+  EXPECT_TRUE(a.corner_covariance == b.corner_covariance) << what;
+  ASSERT_EQ(a.tip.has_value(), b.tip.has_value()) << what;
+  if (a.tip) {
+    EXPECT_TRUE(a.tip->pixel == b.tip->pixel) << what;
+    EXPECT_EQ(a.tip->sigma_px, b.tip->sigma_px) << what;
+  }
+  ASSERT_EQ(a.cam_from_marker.has_value(), b.cam_from_marker.has_value()) << what;
+  if (a.cam_from_marker) {
+    EXPECT_TRUE(a.cam_from_marker->rvec == b.cam_from_marker->rvec) << what;
+    EXPECT_TRUE(a.cam_from_marker->tvec == b.cam_from_marker->tvec) << what;
+  }
+  EXPECT_TRUE(a.covariance == b.covariance) << what;
+  EXPECT_EQ(a.pose_ambiguous, b.pose_ambiguous) << what;
+  EXPECT_TRUE(a.ambiguity_covariance == b.ambiguity_covariance) << what;
+  ASSERT_EQ(a.alternative_pose.has_value(), b.alternative_pose.has_value()) << what;
+  if (a.alternative_pose) {
+    EXPECT_TRUE(a.alternative_pose->rvec == b.alternative_pose->rvec) << what;
+    EXPECT_TRUE(a.alternative_pose->tvec == b.alternative_pose->tvec) << what;
+  }
+  EXPECT_EQ(a.alternative_weight, b.alternative_weight) << what;
+  EXPECT_EQ(a.calibration_in_covariance, b.calibration_in_covariance) << what;
+  EXPECT_EQ(a.pose_rms_px, b.pose_rms_px) << what;
+  EXPECT_EQ(a.pose_error, b.pose_error) << what;
+  EXPECT_EQ(a.nested_in, b.nested_in) << what;
+  EXPECT_EQ(a.black, b.black) << what;
+  EXPECT_EQ(a.white, b.white) << what;
+}
+
+TEST(Detector, SeveralThreadsGiveTheSameDetectionsToTheBit) {
+  // Sixteen markers of 25-90 px (one a dual marker) on a noise-textured plate seen at an
+  // angle through a distorted lens: hundreds of edge chains across every band of rows, dozens
+  // of candidate quads.
+  CameraModel cam;
+  ASSERT_TRUE(CameraModel::Create("LENSMODEL_OPENCV4", {700, 700, 479.5, 359.5, -0.2, 0.05, 0, 0},
+                                  960, 720, &cam)
+                  .ok());
+  std::vector<std::pair<MarkerModel, Pose>> markers;
+  for (int i = 0; i < 16; ++i) {
+    const double size = i == 5 ? 0.12 : 0.04 + 0.01 * (i % 5);
+    MarkerModel m = MarkerModel::Standard(40 + i, size, i % 3 == 0 ? -size / 5 : size / 4);
+    if (i == 5) {
+      m.post = MarkerModel::Standard(40 + i, size, 0.02).post;
+      m.AddInner(140, 0.03);
+      m.post->radius = m.post->tip_radius = 0.003;
+    }
+    Pose p;
+    p.tvec = Eigen::Vector3d(-0.36 + 0.24 * (i % 4), -0.27 + 0.18 * (i / 4), 0);
+    p.rvec = Eigen::Vector3d(0, 0, 0.4 * i);
+    markers.emplace_back(m, p);
+  }
+  Scene scene = Base(cam, markers, Look({0.15, -0.3, 1.1}, {0, 0, 0}));
+  scene.objects[0].material.pattern.kind = Pattern::Kind::kNoise;
+  scene.objects[0].material.pattern.period = 0.01;
+  scene.objects[0].material.pattern.low = 0.05;
+  scene.objects[0].material.pattern.high = 0.4;
+  const Rendered r = Render(scene);
+  std::vector<MarkerModel> models;
+  for (const auto& [m, p] : markers) models.push_back(m);
+  DetectorOptions one;
+  const Detector serial(one, cam, models);
+  DetectionStats stats1;
+  const std::vector<Detection> want = serial.Detect(r.image, &stats1);
+  ASSERT_GE(want.size(), 15u) << "segments " << stats1.segments << " quads " << stats1.quads;
+  EXPECT_GE(stats1.quads, 30);
+  for (const int threads : {2, 3}) {
+    DetectorOptions several;
+    several.threads = threads;
+    const Detector parallel(several, cam, models);
+    for (int frame = 0; frame < 2; ++frame) {  // the second frame on warmed-up threads
+      DetectionStats stats;
+      const std::vector<Detection> got = parallel.Detect(r.image, &stats);
+      EXPECT_EQ(stats.segments, stats1.segments);
+      EXPECT_EQ(stats.quads, stats1.quads);
+      EXPECT_EQ(stats.rejected_for_evidence, stats1.rejected_for_evidence);
+      EXPECT_FALSE(stats.budget_exceeded);
+      ASSERT_EQ(got.size(), want.size()) << threads << " threads";
+      for (size_t i = 0; i < want.size(); ++i)
+        ExpectSameBitForBit(got[i], want[i],
+                            std::to_string(threads) + " threads, detection " + std::to_string(i));
+    }
+  }
+  // A copy has its own threads and gives the same.
+  DetectorOptions two;
+  two.threads = 2;
+  const Detector original(two, cam, models);
+  const Detector copy = original;
+  const std::vector<Detection> again = copy.Detect(r.image);
+  ASSERT_EQ(again.size(), want.size());
+  for (size_t i = 0; i < want.size(); ++i) ExpectSameBitForBit(again[i], want[i], "copy");
+}
+
 TEST(Detector, DualMarkerReportsBothWithTheirNesting) {
   MarkerModel dual = MarkerModel::Standard(1, 0.3, 0.02);
   dual.AddInner(2, 0.075);
