@@ -197,8 +197,11 @@ void FinalRow(const uint8_t* map, uint8_t* edges, int n) { svms::FinalRow(map, e
 
 }  // namespace canny_rows
 
-void CannyFromDerivatives(const cv::Mat& dx_in, const cv::Mat& dy_in, double low, double high,
-                          bool l2_gradient, CannyScratch* scratch, cv::Mat* edges) {
+bool CannyFromDerivatives(const cv::Mat& dx_in, const cv::Mat& dy_in, double low, double high,
+                          bool l2_gradient, CannyScratch* scratch, cv::Mat* edges,
+                          std::chrono::steady_clock::time_point deadline) {
+  const bool has_deadline = deadline != std::chrono::steady_clock::time_point::max();
+  auto past = [&] { return has_deadline && std::chrono::steady_clock::now() >= deadline; };
   // The same checks as cv::Canny. Headers are copied (no allocation) so that `edges` may even
   // be one of the inputs.
   CV_Assert(dx_in.dims == 2);
@@ -208,7 +211,7 @@ void CannyFromDerivatives(const cv::Mat& dx_in, const cv::Mat& dy_in, double low
   const cv::Mat dx = dx_in, dy = dy_in;
   const int rows = dx.rows, cols = dx.cols;
   edges->create(rows, cols, CV_8UC1);
-  if (rows == 0 || cols == 0) return;
+  if (rows == 0 || cols == 0) return true;
 
   int32_t ilow, ihigh;
   IntegerThresholds(low, high, l2_gradient, &ilow, &ihigh);
@@ -244,6 +247,7 @@ void CannyFromDerivatives(const cv::Mat& dx_in, const cv::Mat& dy_in, double low
   int32_t* stack = scratch->stack.data();
   size_t top = 0;
   for (int y = 0; y < rows; ++y) {
+    if (y % 64 == 63 && past()) return false;
     uint8_t* row = map + stride * (y + 1) + 1;
     row[-1] = row[cols] = kNotEdge;
     SuppressRow(above, here, below, dx.ptr<int16_t>(y), dy.ptr<int16_t>(y), ilow, ihigh, row, cols);
@@ -259,7 +263,8 @@ void CannyFromDerivatives(const cv::Mat& dx_in, const cv::Mat& dy_in, double low
   // it turns into kEdge, so the stack never holds more than rows * cols offsets.
   const ptrdiff_t s = static_cast<ptrdiff_t>(stride);
   const ptrdiff_t neighbours[8] = {-s - 1, -s, -s + 1, -1, 1, s - 1, s, s + 1};
-  while (top > 0) {
+  for (uint32_t popped = 1; top > 0; ++popped) {
+    if (popped % 65536 == 0 && past()) return false;
     const int32_t at = stack[--top];
     uint8_t* m = map + at;
     for (const ptrdiff_t d : neighbours) {
@@ -270,7 +275,11 @@ void CannyFromDerivatives(const cv::Mat& dx_in, const cv::Mat& dy_in, double low
     }
   }
 
-  for (int y = 0; y < rows; ++y) FinalRow(map + stride * (y + 1) + 1, edges->ptr<uint8_t>(y), cols);
+  for (int y = 0; y < rows; ++y) {
+    if (y % 64 == 63 && past()) return false;
+    FinalRow(map + stride * (y + 1) + 1, edges->ptr<uint8_t>(y), cols);
+  }
+  return true;
 }
 
 }  // namespace svms

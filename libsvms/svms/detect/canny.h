@@ -33,6 +33,7 @@
 // with the row kernels below.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <vector>
@@ -56,8 +57,12 @@ struct CannyScratch {
 // gives an empty map. Allocates nothing when `scratch` has already served an image with at least as
 // many rows and at least as many columns, and `edges` already has dx's size and type CV_8UC1. The
 // scratch then holds about 5 bytes per pixel (map and stack) plus 3 rows of magnitudes.
-void CannyFromDerivatives(const cv::Mat& dx, const cv::Mat& dy, double low, double high,
-                          bool l2_gradient, CannyScratch* scratch, cv::Mat* edges);
+// `deadline`: read every 64 rows and every 65,536 pixels of the hysteresis; once it has passed
+// the result is false and `edges` incomplete. True when the map is whole.
+bool CannyFromDerivatives(
+    const cv::Mat& dx, const cv::Mat& dy, double low, double high, bool l2_gradient,
+    CannyScratch* scratch, cv::Mat* edges,
+    std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max());
 
 // The pieces of CannyFromDerivatives, row by row, for a caller that computes the map in bands
 // of rows (edge_bands.h): the very code the whole-image function runs, so the map is the same.

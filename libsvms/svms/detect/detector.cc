@@ -129,15 +129,16 @@ bool PrepareImages(const cv::Mat& input, DetectScratch* sc, StepImages* im) {
 // image at its full depth (noise_model.h: black backgrounds clipped at 0 and saturated glints
 // left out) and the edges are searched on a scale where it is the same everywhere. False when
 // `deadline` passed before every edge chain was processed (sc->segments then holds a part, or
-// nothing).
+// nothing), the noise estimate and the edge map included.
 bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, DetectScratch* sc,
                       DetectionStats* stats, Clock::time_point deadline, WorkerPool* pool) {
   const cv::Mat* edge_image = &im.gray;
   SegmentOptions segment_options = options;
   if (im.measure.depth() == CV_16U) {
-    stats->noise = EstimateNoise(im.measure);
+    if (!EstimateNoise(im.measure, deadline, &stats->noise)) return false;
     if (stats->noise.valid() && stats->noise.read_sigma + stats->noise.shot_gain > 0) {
-      const double unit = StabiliseVariance(im.measure, stats->noise, &sc->stabilised);
+      const double unit = StabiliseVariance(im.measure, stats->noise, &sc->stabilised, deadline);
+      if (unit == 0) return false;
       segment_options.stabilise_variance = false;
       // Very clean images would put the thresholds under the 8 bits' own steps.
       segment_options.noise_sigma = std::max(unit, 0.5);

@@ -130,7 +130,7 @@ bool BandEdges(const cv::Mat& gray8, const uint8_t* table, int32_t low, int32_t 
   int32_t* stack = band->stack.data();
   size_t top = 0;
   for (int y = y0; y < y1; ++y) {
-    if ((y - y0) % 32 == 31 && has_deadline && Clock::now() >= deadline) return false;
+    if ((y - y0) % 32 == 0 && has_deadline && Clock::now() >= deadline) return false;
     uint8_t* row = map + stride * (y + 1) + 1;
     row[-1] = row[cols] = cr::kNotEdge;
     cr::SuppressRow(above, here, below, dx_row(y), dy_row(y), low, high, row, cols);
