@@ -5,6 +5,7 @@
 // --benchmark_report_aggregates_only=true
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -171,6 +172,8 @@ void BM_DetectDeadline(benchmark::State& state) {
   std::vector<svms::Detection> out;
   double longest = 0;
   int exceeded = 0;
+  std::vector<double> frame_ms;
+  frame_ms.reserve(4096);
   for (auto _ : state) {
     const auto t0 = std::chrono::steady_clock::now();
     const auto deadline =
@@ -180,9 +183,14 @@ void BM_DetectDeadline(benchmark::State& state) {
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     longest = std::max(longest, ms);
+    frame_ms.push_back(ms);
     exceeded += stats.budget_exceeded;
   }
+  // The 99th percentile beside the longest: on a shared machine the longest frame is the one
+  // the scheduler took the core from.
+  std::sort(frame_ms.begin(), frame_ms.end());
   state.counters["budget_ms"] = budget_ms;
+  state.counters["p99_ms"] = frame_ms[std::min(frame_ms.size() - 1, frame_ms.size() * 99 / 100)];
   state.counters["longest_ms"] = longest;
   state.counters["longest_over_budget_ms"] = budget_ms > 0 ? longest - budget_ms : 0;
   state.counters["share_exceeded"] = static_cast<double>(exceeded) / state.iterations();

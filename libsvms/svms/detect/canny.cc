@@ -178,10 +178,14 @@ void PushEdges(const uint8_t* row, int n, const uint8_t* base, int32_t* stack, s
   svms::PushEdges(row, n, base, stack, top);
 }
 
-void Hysteresis(uint8_t* map, int cols, int32_t* stack, size_t top, int32_t begin, int32_t end) {
+bool Hysteresis(uint8_t* map, int cols, int32_t* stack, size_t top, int32_t begin, int32_t end,
+                std::chrono::steady_clock::time_point deadline) {
+  const bool has_deadline = deadline != std::chrono::steady_clock::time_point::max();
   const ptrdiff_t s = static_cast<ptrdiff_t>(cols) + 2;
   const ptrdiff_t neighbours[8] = {-s - 1, -s, -s + 1, -1, 1, s - 1, s, s + 1};
-  while (top > 0) {
+  for (uint32_t popped = 1; top > 0; ++popped) {
+    if (popped % 4096 == 0 && has_deadline && std::chrono::steady_clock::now() >= deadline)
+      return false;
     const int32_t at = stack[--top];
     for (const ptrdiff_t d : neighbours) {
       const ptrdiff_t q = at + d;
@@ -191,6 +195,7 @@ void Hysteresis(uint8_t* map, int cols, int32_t* stack, size_t top, int32_t begi
       }
     }
   }
+  return true;
 }
 
 void FinalRow(const uint8_t* map, uint8_t* edges, int n) { svms::FinalRow(map, edges, n); }
@@ -264,7 +269,7 @@ bool CannyFromDerivatives(const cv::Mat& dx_in, const cv::Mat& dy_in, double low
   const ptrdiff_t s = static_cast<ptrdiff_t>(stride);
   const ptrdiff_t neighbours[8] = {-s - 1, -s, -s + 1, -1, 1, s - 1, s, s + 1};
   for (uint32_t popped = 1; top > 0; ++popped) {
-    if (popped % 65536 == 0 && past()) return false;
+    if (popped % 4096 == 0 && past()) return false;
     const int32_t at = stack[--top];
     uint8_t* m = map + at;
     for (const ptrdiff_t d : neighbours) {

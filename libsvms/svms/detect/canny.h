@@ -57,7 +57,7 @@ struct CannyScratch {
 // gives an empty map. Allocates nothing when `scratch` has already served an image with at least as
 // many rows and at least as many columns, and `edges` already has dx's size and type CV_8UC1. The
 // scratch then holds about 5 bytes per pixel (map and stack) plus 3 rows of magnitudes.
-// `deadline`: read every 64 rows and every 65,536 pixels of the hysteresis; once it has passed
+// `deadline`: read every 64 rows and every 4,096 pixels of the hysteresis; once it has passed
 // the result is false and `edges` incomplete. True when the map is whole.
 bool CannyFromDerivatives(
     const cv::Mat& dx, const cv::Mat& dy, double low, double high, bool l2_gradient,
@@ -84,7 +84,10 @@ void PushEdges(const uint8_t* row, int n, const uint8_t* base, int32_t* stack, s
 // Hysteresis from the kEdge pixels at stack[0, top) (map offsets): kCandidate pixels
 // 8-connected to them become kEdge, looking only at offsets in [begin, end) (a band's rows;
 // the whole map for [0, map size)). `stack` needs room for every kCandidate pixel in range.
-void Hysteresis(uint8_t* map, int cols, int32_t* stack, size_t top, int32_t begin, int32_t end);
+// False when `deadline` (read every 4,096 pixels) passed first.
+bool Hysteresis(
+    uint8_t* map, int cols, int32_t* stack, size_t top, int32_t begin, int32_t end,
+    std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max());
 // edges[j] = 255 where map[j] is kEdge, else 0.
 void FinalRow(const uint8_t* map, uint8_t* edges, int n);
 }  // namespace canny_rows

@@ -141,9 +141,8 @@ bool BandEdges(const cv::Mat& gray8, const uint8_t* table, int32_t low, int32_t 
     below = spare;
     if (y + 2 <= y1) magnitude(y + 2, below);
   }
-  cr::Hysteresis(map, cols, stack, top, static_cast<int32_t>(stride * (y0 + 1)),
-                 static_cast<int32_t>(stride * (y1 + 1)));
-  return true;
+  return cr::Hysteresis(map, cols, stack, top, static_cast<int32_t>(stride * (y0 + 1)),
+                        static_cast<int32_t>(stride * (y1 + 1)), deadline);
 }
 
 }  // namespace
@@ -186,6 +185,8 @@ bool EdgeMapInBands(const cv::Mat& gray8, const uint8_t* table, double low, doub
   });
   for (int k = 0; k < n; ++k)
     if (sc->bands[k].interrupted) return false;
+  auto past = [&] { return deadline != Clock::time_point::max() && Clock::now() >= deadline; };
+  if (past()) return false;
 
   // The hysteresis across bands: each band has grown its edges inside itself; the edges on
   // the rows where two bands meet grow on into the other band (and on from there).
@@ -196,13 +197,19 @@ bool EdgeMapInBands(const cv::Mat& gray8, const uint8_t* table, double low, doub
     cr::PushEdges(map + stride * y + 1, cols, map, stack, &top);
     cr::PushEdges(map + stride * (y + 1) + 1, cols, map, stack, &top);
   }
-  cr::Hysteresis(map, cols, stack, top, 0, static_cast<int32_t>(map_size));
+  if (!cr::Hysteresis(map, cols, stack, top, 0, static_cast<int32_t>(map_size), deadline))
+    return false;
 
+  std::atomic<bool> stopped{false};
   pool->Run(n, [&](int k) {
+    if (past()) {
+      stopped = true;
+      return;
+    }
     for (int y = sc->bands[k].y0; y < sc->bands[k].y1; ++y)
       cr::FinalRow(map + stride * (y + 1) + 1, edges->ptr<uint8_t>(y), cols);
   });
-  return true;
+  return !stopped;
 }
 
 }  // namespace svms

@@ -42,10 +42,9 @@ int EdgeBandCount(int rows, int threads);
 // Sobel derivatives into *gx, *gy (CV_16SC1), all three (re)created at gray8's size:
 // cv::spatialGradient(T(gray8), gx, gy, 3) and CannyFromDerivatives(gx, gy, low, high,
 // l2_gradient) where T applies `table` (256 entries; nullptr: the identity). The work runs on
-// `pool`'s threads. `deadline` is read at the start of each band and every 32 rows of it (not in
-// the hysteresis across bands, whose stack holds the edges of the bands' borders); once it has
-// passed the result is false and the outputs are incomplete. No heap allocation once the scratch
-// has served an image of this size.
+// `pool`'s threads. `deadline` is read at the start of each band, every 32 rows of it and
+// every 4,096 pixels of each hysteresis; once it has passed the result is false and the
+// outputs are incomplete. No heap allocation once the scratch has served an image of this size.
 bool EdgeMapInBands(
     const cv::Mat& gray8, const uint8_t* table, double low, double high, bool l2_gradient,
     WorkerPool* pool, EdgeBandsScratch* scratch, cv::Mat* gx, cv::Mat* gy, cv::Mat* edges,

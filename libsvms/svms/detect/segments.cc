@@ -299,20 +299,30 @@ void FitChain(cv::Point* chain, int chain_size, const SegmentOptions& o, const c
   }
 }
 
-// EstimateReadNoise's estimate with its sums taken by bands of rows on the pool's threads.
-double ReadNoiseInBands(const cv::Mat& gray8, WorkerPool* pool,
-                        std::vector<ReadNoiseTally>* tallies) {
-  if (gray8.rows < 8 || gray8.cols < 8 || gray8.type() != CV_8UC1) return 0;
+// EstimateReadNoise's estimate into *sigma, with its sums taken by bands of rows on the pool's
+// threads. False when `past` said the deadline had passed (read before each band).
+template <typename Past>
+bool ReadNoiseInBands(const cv::Mat& gray8, WorkerPool* pool, const Past& past,
+                      std::vector<ReadNoiseTally>* tallies, double* sigma) {
+  *sigma = 0;
+  if (gray8.rows < 8 || gray8.cols < 8 || gray8.type() != CV_8UC1) return true;
   const int n = EdgeBandCount(gray8.rows, pool->threads());
   if (tallies->size() < static_cast<size_t>(n)) tallies->resize(n);
+  std::atomic<bool> stopped{false};
   pool->Run(n, [&](int k) {
+    if (past()) {
+      stopped = true;
+      return;
+    }
     ReadNoiseTally& t = (*tallies)[k];
     t = ReadNoiseTally();
     t.Add(gray8, static_cast<int>(static_cast<int64_t>(gray8.rows) * k / n),
           static_cast<int>(static_cast<int64_t>(gray8.rows) * (k + 1) / n));
   });
+  if (stopped) return false;
   for (int k = 1; k < n; ++k) (*tallies)[0].Add((*tallies)[k]);
-  return (*tallies)[0].Sigma();
+  *sigma = (*tallies)[0].Sigma();
+  return true;
 }
 
 // The segment from s.a to t.b: its line through the length-weighted middle of both pieces,
@@ -354,8 +364,13 @@ bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
   std::vector<Segment>& out = *segments;
   out.clear();
   // Several threads split the edge map into bands of rows and the chains into parts; small
-  // images are not worth it.
-  const bool parallel = pool && pool->threads() > 1 && gray8.rows >= 128 && gray8.cols >= 16;
+  // images are not worth it. Under a deadline the edge map is made by bands on this thread
+  // alone (the same map): every part of it then reads the clock within 32 rows.
+  const bool large = gray8.rows >= 128 && gray8.cols >= 16;
+  const bool parallel = pool && pool->threads() > 1 && large;
+  static WorkerPool this_thread_only(1);  // runs every part on the calling thread
+  WorkerPool* band_pool = parallel ? pool : &this_thread_only;
+  const bool banded = parallel || (has_deadline && large);
   // Edges are found on 16 sqrt(grey): shot noise makes the noise grow as the square root of
   // the signal, so on this scale it is about one level everywhere, and a marker in shadow
   // (white at 15, black at 3) shows a step of 35 instead of 12: one pair of thresholds serves
@@ -372,9 +387,12 @@ bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
     }();
     // With read noise: 16 (sqrt(grey + c) - sqrt(c)), c = 64 sigma^2 (see SegmentOptions).
     table = lut.data();
-    if (parallel && past()) return false;
-    const double read_noise =
-        parallel ? ReadNoiseInBands(gray8, pool, &sc.tallies) : EstimateReadNoise(gray8);
+    double read_noise = 0;
+    if (!banded) {
+      read_noise = EstimateReadNoise(gray8);
+    } else if (!ReadNoiseInBands(gray8, band_pool, past, &sc.tallies, &read_noise)) {
+      return false;
+    }
     if (read_noise > o.read_noise_gate) {
       const double c = 64 * read_noise * read_noise;
       for (int v = 0; v < 256; ++v)
@@ -383,9 +401,9 @@ bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
     }
   }
   const double low = o.canny_low * 8 * o.noise_sigma, high = o.canny_high * 8 * o.noise_sigma;
-  if (parallel) {
+  if (banded) {
     // The same derivatives and edges as below, computed by bands (edge_bands.h).
-    if (!EdgeMapInBands(gray8, table, low, high, true, pool, &sc.bands, gx, gy, &sc.edges,
+    if (!EdgeMapInBands(gray8, table, low, high, true, band_pool, &sc.bands, gx, gy, &sc.edges,
                         deadline))
       return false;
   } else {
@@ -459,14 +477,14 @@ bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
                *gx, *gy, &sc.pieces, &sc.merged, &out);
     }
   }
-  if (past()) return false;
-  MergeCollinear(o, &out);
-  if (past()) return false;
+  if (past() || !MergeCollinear(o, &out, deadline) || past()) return false;
   BridgeKinks(o, &out);
   return true;
 }
 
-void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
+bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
+                    std::chrono::steady_clock::time_point deadline) {
+  const bool has_deadline = deadline != std::chrono::steady_clock::time_point::max();
   SegmentScratch& sc = Scratch();
   const double cos_max = std::cos(o.merge_angle_deg * M_PI / 180);
   const double both_long = 4 * o.merge_offset_px / std::tan(o.merge_angle_deg * M_PI / 180);
@@ -502,6 +520,8 @@ void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
     std::vector<char>& gone = sc.gone;
     gone.assign(v.size(), 0);
     for (size_t i = 0; i < v.size(); ++i) {
+      if (i % 256 == 255 && has_deadline && std::chrono::steady_clock::now() >= deadline)
+        return false;
       if (gone[i]) continue;
       for (bool joined = true; joined;) {
         joined = false;
@@ -556,6 +576,7 @@ void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
       segs->swap(kept);
     }
   }
+  return true;
 }
 
 void BridgeKinks(const SegmentOptions& o, std::vector<Segment>* segs) {

@@ -73,7 +73,11 @@ struct SegmentOptions {
 };
 
 // Step 3b: joins collinear pieces (see SegmentOptions); the result replaces `segments`.
-void MergeCollinear(const SegmentOptions& options, std::vector<Segment>* segments);
+// `deadline` is read every 256 pieces of each sweep: once it has passed the result is false and
+// *segments a part-merged list fit for nothing but discarding.
+bool MergeCollinear(
+    const SegmentOptions& options, std::vector<Segment>* segments,
+    std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max());
 // Step 3c: appends a segment over each pair of pieces joined by a small bend (SegmentOptions).
 void BridgeKinks(const SegmentOptions& options, std::vector<Segment>* segments);
 
@@ -92,7 +96,7 @@ std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& op
 // calls, per thread), are reused: with *segments, gradient_x and gradient_y kept by the caller,
 // a call on an image no larger than earlier ones allocates nothing once they have grown.
 // `deadline`: checked every 64 rows of the edge map (the grey-level table, Canny's non-maximum
-// suppression and its final map; every 65,536 pixels of its hysteresis), before the Sobel
+// suppression and its final map; every 4,096 pixels of its hysteresis), before the Sobel
 // derivatives (one OpenCV call, 0.4 ms at 1024 x 1024 on one core, not interrupted), every 32
 // rows of edge linking, every 64 edge chains and between the merging passes; once it has passed
 // the result is false, with the segments found so far (none when the edge map or linking was
