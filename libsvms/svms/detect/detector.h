@@ -147,15 +147,15 @@ class Detector {
   // images and other depths are converted to grey with OpenCV's weights (other depths through
   // float, saturated to 8 bits); 1, 3 or 4 channels, none for other counts.
   std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats = nullptr) const;
-  // The same under a deadline: every step checks it (a 16-bit image's noise estimate and its
-  // rescaling every 64 rows, the edge map every 64 rows (32 with several threads), edge linking
-  // every 32 rows, the edge chains every 64, the quad search every 256 segments, the decoding
-  // every 8 quads, corners, tip and pose every marker); once it has passed,
-  // stats->budget_exceeded is set and only the markers that went through every step before it
-  // are returned: none when it passed in steps 1-4 (edges, segments, quads). Not interrupted, so
-  // they bound how far past the deadline a frame can run: step 0 (grey conversion; a 16-bit
-  // image's scaling to 8 bits), the 8-bit read-noise estimate and the Sobel derivatives (0.2 and
-  // 0.4 ms at 1024 x 1024 on one core, segments.h), one marker's corners, tip and pose.
+  // The same under a deadline: every step checks it (a 16-bit image's noise estimate every 64
+  // rows, the edge map, made by bands under a deadline, within every 32 rows and 4,096 pixels of
+  // hysteresis, edge linking every 32 rows, the chains every 64, the collinear merge every 256
+  // pieces, the quad search every 256 segments, the decoding every 8 quads, corners, tip and pose
+  // every marker); once it has passed, stats->budget_exceeded is set and only the markers that
+  // went through every step before it are returned: none when it passed in steps 1-4 (edges,
+  // segments, quads). Not interrupted, so they bound how far past the deadline a frame runs:
+  // step 0 (grey conversion; a 16-bit image's scaling to 8 bits) and one marker's corners, tip
+  // and pose (docs/benchmarks.md: 0.35 ms past it at most on a cluttered 1024 x 1024 frame).
   std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats,
                                 std::chrono::steady_clock::time_point deadline) const;
   // The same into *detections (replaced), whose capacity is reused: with one vector kept by

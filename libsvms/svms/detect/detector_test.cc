@@ -305,6 +305,7 @@ TEST(Detector, SeveralThreadsGiveTheSameDetectionsToTheBit) {
   scene.objects[0].material.pattern.period = 0.01;
   scene.objects[0].material.pattern.low = 0.05;
   scene.objects[0].material.pattern.high = 0.4;
+  scene.sensor.rays_per_pixel = 4;  // a quarter of the default: this test needs no fine edges
   const Rendered r = Render(scene);
   std::vector<MarkerModel> models;
   for (const auto& [m, p] : markers) models.push_back(m);
