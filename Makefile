@@ -33,15 +33,17 @@ test: build
 #                       rendered tests) and the corners' joint covariance against 150 noisy
 #                       synthetic squares (the code paths of the other RefineCorners tests) and
 #                       the rendered two-camera rig (RigPoseEstimator's paths, which
-#                       CapiRig.ProcessRigFrameIsTheRigPoseEstimators runs under ASan too) run
-#                       only in `make test`.
+#                       CapiRig.ProcessRigFrameIsTheRigPoseEstimators runs under ASan too) and
+#                       the rig survey's Monte Carlo runs (300 solves; the paths of
+#                       SurveyRig.RecoversTheExtrinsicsWithinTheirCovariance) run only in
+#                       `make test`.
 #   make fuzz           each libFuzzer target of fuzz/ for FUZZ_SECONDS from its seeds
 # Stack traces need file and line only: line tables instead of full debug info (of Eigen, Ceres
 # and OpenCV templates) keep the build shorter.
 SANITIZE_BUILD ?= build-sanitize
 FUZZ_SECONDS ?= 15
 SANITIZE_ENV = LSAN_OPTIONS=suppressions=$(CURDIR)/cmake/lsan.supp UBSAN_OPTIONS=print_stacktrace=1
-SANITIZE_UNIT = $(SANITIZE_ENV) ctest --test-dir $(SANITIZE_BUILD) -L unit -E "EveryIdTwoFlips|NeesIsNearSix|TheCornersJointCovariance|RenderedTwoCameraRig" \
+SANITIZE_UNIT = $(SANITIZE_ENV) ctest --test-dir $(SANITIZE_BUILD) -L unit -E "EveryIdTwoFlips|NeesIsNearSix|TheCornersJointCovariance|RenderedTwoCameraRig|SurveyRig.*MonteCarlo" \
   --output-on-failure -j $(JOBS)
 SANITIZE_FUZZ = $(SANITIZE_ENV) scripts/run_fuzz $(SANITIZE_BUILD) $(FUZZ_SECONDS)
 

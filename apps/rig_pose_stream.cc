@@ -23,10 +23,10 @@ int BadInput(const std::string& m) {
   return kExitBadInput;
 }
 
-// One line of the frames list split into a time stamp and one path per camera ("" for "-").
-// False with *error when the line does not fit.
-bool ParseListLine(const std::string& line, size_t cameras, const std::filesystem::path& base,
-                   double* timestamp, std::vector<std::string>* paths, std::string* error) {
+}  // namespace
+
+bool ParseFramesListLine(const std::string& line, size_t cameras, const std::filesystem::path& base,
+                         double* timestamp, std::vector<std::string>* paths, std::string* error) {
   std::istringstream in(line);
   std::vector<std::string> fields;
   for (std::string f; in >> f;) fields.push_back(f);
@@ -54,8 +54,6 @@ bool ParseListLine(const std::string& line, size_t cameras, const std::filesyste
   }
   return true;
 }
-
-}  // namespace
 
 int RunRigPose(const RigPoseOptions& o) {
   if (o.layouts.empty()) return BadInput("--layout: expected a layout file");
@@ -88,7 +86,7 @@ int RunRigPose(const RigPoseOptions& o) {
     if (start == std::string::npos || line[start] == '#') continue;
     double timestamp = static_cast<double>(index);
     std::string error;
-    if (!ParseListLine(line, n, base, &timestamp, &paths, &error)) {
+    if (!ParseFramesListLine(line, n, base, &timestamp, &paths, &error)) {
       error = o.frames_list + ", line " + std::to_string(line_number) + ": " + error;
     } else {
       for (size_t c = 0; c < n && error.empty(); ++c) {

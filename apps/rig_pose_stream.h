@@ -9,6 +9,7 @@
 // lines and lines starting with '#' are skipped.
 #pragma once
 
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,12 @@ struct RigPoseOptions {
   double max_megapixels = 100;
   bool quiet = false;
 };
+
+// One line of a frames list (above) split into a time stamp and one path per camera ("" for
+// "-"), relative paths resolved against `base` (the list's folder). *timestamp is left as it
+// is when the line has none. False with *error when the line does not fit.
+bool ParseFramesListLine(const std::string& line, size_t cameras, const std::filesystem::path& base,
+                         double* timestamp, std::vector<std::string>* paths, std::string* error);
 
 // Runs the stream. Returns the exit code: 2 for bad input found before any work (rig, layouts,
 // the list unreadable), 1 when a line failed (its JSON line has "error") or stdout failed.

@@ -58,6 +58,32 @@ svms_status Fail(svms_status s, const std::string& message) {
   return s;
 }
 
+// The same from pieces joined inside the try: usable where building the message may itself
+// run out of memory.
+svms_status Fail(svms_status s, const char* a, const char* b, const char* c = "") noexcept {
+  try {
+    last_error.assign(a).append(b).append(c);
+  } catch (...) {
+  }
+  return s;
+}
+
+// Runs an entry point's body so that nothing thrown in it -- by the estimator, or by the
+// wording of an error message, or by a lock -- crosses into C: `extern "C"` callers cannot
+// catch, and an exception there would end the program.
+template <typename Body>
+svms_status Guarded(const char* fn, Body&& body) noexcept {
+  try {
+    return body();
+  } catch (const std::bad_alloc&) {
+    return Fail(SVMS_ERR_INTERNAL, fn, ": out of memory");
+  } catch (const std::exception& ex) {
+    return Fail(SVMS_ERR_INTERNAL, fn, ": ", ex.what());
+  } catch (...) {
+    return Fail(SVMS_ERR_INTERNAL, fn, ": unknown failure");
+  }
+}
+
 // A pose as rvec[3], tvec[3] and quaternion[4] ([w, x, y, z]).
 void PoseOut(const svms::Pose& pose, double* rvec, double* tvec, double* quaternion) {
   const Eigen::Quaterniond q(pose.Rotation());
@@ -259,236 +285,262 @@ svms_status Create(const char* fn, const char* camera_path, const char* const* l
 
 svms_status svms_create(const char* camera_path, const char* layout_path,
                         const svms_options* options, svms_estimator** out) {
-  if (!out) return Fail(SVMS_ERR_NULL_ARGUMENT, "svms_create: out is NULL");
-  *out = nullptr;
-  if (!camera_path || !layout_path)
-    return Fail(
-        SVMS_ERR_NULL_ARGUMENT,
-        std::string("svms_create: ") + (!camera_path ? "camera_path" : "layout_path") + " is NULL");
-  return Create("svms_create", camera_path, &layout_path, 1, options, 0, out);
+  return Guarded("svms_create", [&]() -> svms_status {
+    if (!out) return Fail(SVMS_ERR_NULL_ARGUMENT, "svms_create: out is NULL");
+    *out = nullptr;
+    if (!camera_path || !layout_path)
+      return Fail(SVMS_ERR_NULL_ARGUMENT, std::string("svms_create: ") +
+                                              (!camera_path ? "camera_path" : "layout_path") +
+                                              " is NULL");
+    return Create("svms_create", camera_path, &layout_path, 1, options, 0, out);
+  });
 }
 
 svms_status svms_create_multi(const char* camera_path, const char* const* layout_paths,
                               int n_layouts, const svms_options* options, uint32_t create_flags,
                               svms_estimator** out) {
-  if (!out) return Fail(SVMS_ERR_NULL_ARGUMENT, "svms_create_multi: out is NULL");
-  *out = nullptr;
-  if (!camera_path || !layout_paths)
-    return Fail(SVMS_ERR_NULL_ARGUMENT, std::string("svms_create_multi: ") +
-                                            (!camera_path ? "camera_path" : "layout_paths") +
-                                            " is NULL");
-  if (n_layouts < 1)
-    return Fail(SVMS_ERR_INVALID_ARGUMENT, "svms_create_multi: n_layouts is " +
-                                               std::to_string(n_layouts) + ", expected at least 1");
-  for (int i = 0; i < n_layouts; ++i)
-    if (!layout_paths[i])
-      return Fail(SVMS_ERR_NULL_ARGUMENT,
-                  "svms_create_multi: layout_paths[" + std::to_string(i) + "] is NULL");
-  return Create("svms_create_multi", camera_path, layout_paths, n_layouts, options, create_flags,
-                out);
+  return Guarded("svms_create_multi", [&]() -> svms_status {
+    if (!out) return Fail(SVMS_ERR_NULL_ARGUMENT, "svms_create_multi: out is NULL");
+    *out = nullptr;
+    if (!camera_path || !layout_paths)
+      return Fail(SVMS_ERR_NULL_ARGUMENT, std::string("svms_create_multi: ") +
+                                              (!camera_path ? "camera_path" : "layout_paths") +
+                                              " is NULL");
+    if (n_layouts < 1)
+      return Fail(
+          SVMS_ERR_INVALID_ARGUMENT,
+          "svms_create_multi: n_layouts is " + std::to_string(n_layouts) + ", expected at least 1");
+    for (int i = 0; i < n_layouts; ++i)
+      if (!layout_paths[i])
+        return Fail(SVMS_ERR_NULL_ARGUMENT,
+                    "svms_create_multi: layout_paths[" + std::to_string(i) + "] is NULL");
+    return Create("svms_create_multi", camera_path, layout_paths, n_layouts, options, create_flags,
+                  out);
+  });
 }
 
 svms_status svms_layout_count(const svms_estimator* e, int* n_layouts) {
-  if (!e || !n_layouts)
-    return Fail(SVMS_ERR_NULL_ARGUMENT,
-                std::string("svms_layout_count: ") + (!e ? "estimator" : "n_layouts") + " is NULL");
-  *n_layouts = 0;
-  std::lock_guard<std::mutex> lock(registry_mutex);
-  if (!Live().count(e) || e->magic != svms_estimator::kMagic || !e->impl)
-    return Fail(SVMS_ERR_BAD_HANDLE,
-                "svms_layout_count: the estimator is not one from svms_create, or was destroyed");
-  *n_layouts = static_cast<int>(e->impl->layouts().size());
-  return SVMS_OK;
+  return Guarded("svms_layout_count", [&]() -> svms_status {
+    if (!e || !n_layouts)
+      return Fail(SVMS_ERR_NULL_ARGUMENT, std::string("svms_layout_count: ") +
+                                              (!e ? "estimator" : "n_layouts") + " is NULL");
+    *n_layouts = 0;
+    std::lock_guard<std::mutex> lock(registry_mutex);
+    if (!Live().count(e) || e->magic != svms_estimator::kMagic || !e->impl)
+      return Fail(SVMS_ERR_BAD_HANDLE,
+                  "svms_layout_count: the estimator is not one from svms_create, or was destroyed");
+    *n_layouts = static_cast<int>(e->impl->layouts().size());
+    return SVMS_OK;
+  });
 }
 
 svms_status svms_process_frame(svms_estimator* e, const uint8_t* pixels, int width, int height,
                                ptrdiff_t stride, double timestamp, svms_pose* out) {
-  return Process("svms_process_frame", e, pixels, width, height, stride, 1, timestamp, out, 1,
-                 false, nullptr);
+  return Guarded("svms_process_frame", [&]() -> svms_status {
+    return Process("svms_process_frame", e, pixels, width, height, stride, 1, timestamp, out, 1,
+                   false, nullptr);
+  });
 }
 
 svms_status svms_process_frame_u16(svms_estimator* e, const uint16_t* pixels, int width, int height,
                                    ptrdiff_t stride, double timestamp, svms_pose* out) {
-  return Process("svms_process_frame_u16", e, pixels, width, height, stride, 2, timestamp, out, 1,
-                 false, nullptr);
+  return Guarded("svms_process_frame_u16", [&]() -> svms_status {
+    return Process("svms_process_frame_u16", e, pixels, width, height, stride, 2, timestamp, out, 1,
+                   false, nullptr);
+  });
 }
 
 svms_status svms_process_frame_multi(svms_estimator* e, const uint8_t* pixels, int width,
                                      int height, ptrdiff_t stride, double timestamp,
                                      svms_pose* poses, int n_poses, svms_frame_info* info) {
-  return Process("svms_process_frame_multi", e, pixels, width, height, stride, 1, timestamp, poses,
-                 n_poses, true, info);
+  return Guarded("svms_process_frame_multi", [&]() -> svms_status {
+    return Process("svms_process_frame_multi", e, pixels, width, height, stride, 1, timestamp,
+                   poses, n_poses, true, info);
+  });
 }
 
 svms_status svms_process_frame_multi_u16(svms_estimator* e, const uint16_t* pixels, int width,
                                          int height, ptrdiff_t stride, double timestamp,
                                          svms_pose* poses, int n_poses, svms_frame_info* info) {
-  return Process("svms_process_frame_multi_u16", e, pixels, width, height, stride, 2, timestamp,
-                 poses, n_poses, true, info);
+  return Guarded("svms_process_frame_multi_u16", [&]() -> svms_status {
+    return Process("svms_process_frame_multi_u16", e, pixels, width, height, stride, 2, timestamp,
+                   poses, n_poses, true, info);
+  });
 }
 
 svms_status svms_destroy(svms_estimator* e) {
-  if (!e) return SVMS_OK;
-  {
-    // Checked and claimed under the lock Process takes: a call in progress keeps its handle.
-    std::lock_guard<std::mutex> lock(registry_mutex);
-    if (!Live().count(e))
-      return Fail(SVMS_ERR_BAD_HANDLE,
-                  "svms_destroy: the estimator is not one from svms_create, or was destroyed");
-    bool expected = false;
-    if (!e->busy.compare_exchange_strong(expected, true))
-      return Fail(SVMS_ERR_BUSY, "svms_destroy: the estimator is in use by another thread");
-    Live().erase(e);
-  }
-  // Free everything but the shell (see the header): the address is never handed out again.
-  e->impl.reset();
-  delete e->scratch;
-  e->scratch = nullptr;
-  e->magic = 0;
-  return SVMS_OK;
+  return Guarded("svms_destroy", [&]() -> svms_status {
+    if (!e) return SVMS_OK;
+    {
+      // Checked and claimed under the lock Process takes: a call in progress keeps its handle.
+      std::lock_guard<std::mutex> lock(registry_mutex);
+      if (!Live().count(e))
+        return Fail(SVMS_ERR_BAD_HANDLE,
+                    "svms_destroy: the estimator is not one from svms_create, or was destroyed");
+      bool expected = false;
+      if (!e->busy.compare_exchange_strong(expected, true))
+        return Fail(SVMS_ERR_BUSY, "svms_destroy: the estimator is in use by another thread");
+      Live().erase(e);
+    }
+    // Free everything but the shell (see the header): the address is never handed out again.
+    e->impl.reset();
+    delete e->scratch;
+    e->scratch = nullptr;
+    e->magic = 0;
+    return SVMS_OK;
+  });
 }
 
 svms_status svms_create_rig(const char* rig_path, const char* layout_path,
                             const svms_options* options, svms_rig_estimator** out) {
-  if (!out) return Fail(SVMS_ERR_NULL_ARGUMENT, "svms_create_rig: out is NULL");
-  *out = nullptr;
-  if (!rig_path || !layout_path)
-    return Fail(SVMS_ERR_NULL_ARGUMENT, std::string("svms_create_rig: ") +
-                                            (!rig_path ? "rig_path" : "layout_path") + " is NULL");
-  try {
-    svms_options o;
-    svms_options_default(&o);
-    if (options) o = *options;
-    if (!(o.corner_sigma_px > 0) || !std::isfinite(o.corner_sigma_px) || !(o.budget_ms >= 0) ||
-        !std::isfinite(o.budget_ms))
-      return Fail(SVMS_ERR_INVALID_ARGUMENT,
-                  "svms_create_rig: options: expected corner_sigma_px > 0 and budget_ms >= 0, "
-                  "got " +
-                      std::to_string(o.corner_sigma_px) + " and " + std::to_string(o.budget_ms));
-    svms::PoseEstimatorOptions po;
-    po.fusion.corner_sigma_px = o.corner_sigma_px;
-    po.budget_ms = o.budget_ms;
-    std::unique_ptr<svms::RigPoseEstimator> impl;
-    if (svms::Status s =
-            svms::RigPoseEstimator::CreateFromFiles(rig_path, {layout_path}, po, &impl);
-        !s)
-      return Fail(SVMS_ERR_FILE, "svms_create_rig: " + s.message());
-    auto e = std::make_unique<svms_rig_estimator>();
-    e->impl = std::move(impl);
-    e->scratch = new svms::RigFrameResult;
-    e->frames = new std::vector<cv::Mat>(e->impl->num_cameras());
-    {
-      std::lock_guard<std::mutex> lock(registry_mutex);
-      LiveRigs().insert(e.get());
+  return Guarded("svms_create_rig", [&]() -> svms_status {
+    if (!out) return Fail(SVMS_ERR_NULL_ARGUMENT, "svms_create_rig: out is NULL");
+    *out = nullptr;
+    if (!rig_path || !layout_path)
+      return Fail(
+          SVMS_ERR_NULL_ARGUMENT,
+          std::string("svms_create_rig: ") + (!rig_path ? "rig_path" : "layout_path") + " is NULL");
+    try {
+      svms_options o;
+      svms_options_default(&o);
+      if (options) o = *options;
+      if (!(o.corner_sigma_px > 0) || !std::isfinite(o.corner_sigma_px) || !(o.budget_ms >= 0) ||
+          !std::isfinite(o.budget_ms))
+        return Fail(SVMS_ERR_INVALID_ARGUMENT,
+                    "svms_create_rig: options: expected corner_sigma_px > 0 and budget_ms >= 0, "
+                    "got " +
+                        std::to_string(o.corner_sigma_px) + " and " + std::to_string(o.budget_ms));
+      svms::PoseEstimatorOptions po;
+      po.fusion.corner_sigma_px = o.corner_sigma_px;
+      po.budget_ms = o.budget_ms;
+      std::unique_ptr<svms::RigPoseEstimator> impl;
+      if (svms::Status s =
+              svms::RigPoseEstimator::CreateFromFiles(rig_path, {layout_path}, po, &impl);
+          !s)
+        return Fail(SVMS_ERR_FILE, "svms_create_rig: " + s.message());
+      auto e = std::make_unique<svms_rig_estimator>();
+      e->impl = std::move(impl);
+      e->scratch = new svms::RigFrameResult;
+      e->frames = new std::vector<cv::Mat>(e->impl->num_cameras());
+      {
+        std::lock_guard<std::mutex> lock(registry_mutex);
+        LiveRigs().insert(e.get());
+      }
+      *out = e.release();
+      return SVMS_OK;
+    } catch (const std::bad_alloc&) {
+      return Fail(SVMS_ERR_INTERNAL, "svms_create_rig: out of memory");
+    } catch (const std::exception& ex) {
+      return Fail(SVMS_ERR_INTERNAL, std::string("svms_create_rig: ") + ex.what());
+    } catch (...) {
+      return Fail(SVMS_ERR_INTERNAL, "svms_create_rig: unknown failure");
     }
-    *out = e.release();
-    return SVMS_OK;
-  } catch (const std::bad_alloc&) {
-    return Fail(SVMS_ERR_INTERNAL, "svms_create_rig: out of memory");
-  } catch (const std::exception& ex) {
-    return Fail(SVMS_ERR_INTERNAL, std::string("svms_create_rig: ") + ex.what());
-  } catch (...) {
-    return Fail(SVMS_ERR_INTERNAL, "svms_create_rig: unknown failure");
-  }
+  });
 }
 
 svms_status svms_rig_camera_count(const svms_rig_estimator* e, int* n_cameras) {
-  if (!e || !n_cameras)
-    return Fail(SVMS_ERR_NULL_ARGUMENT, std::string("svms_rig_camera_count: ") +
-                                            (!e ? "estimator" : "n_cameras") + " is NULL");
-  *n_cameras = 0;
-  std::lock_guard<std::mutex> lock(registry_mutex);
-  if (!LiveRigs().count(e) || e->magic != svms_rig_estimator::kMagic || !e->impl)
-    return Fail(SVMS_ERR_BAD_HANDLE,
-                "svms_rig_camera_count: the estimator is not one from svms_create_rig, or was "
-                "destroyed");
-  *n_cameras = static_cast<int>(e->impl->num_cameras());
-  return SVMS_OK;
+  return Guarded("svms_rig_camera_count", [&]() -> svms_status {
+    if (!e || !n_cameras)
+      return Fail(SVMS_ERR_NULL_ARGUMENT, std::string("svms_rig_camera_count: ") +
+                                              (!e ? "estimator" : "n_cameras") + " is NULL");
+    *n_cameras = 0;
+    std::lock_guard<std::mutex> lock(registry_mutex);
+    if (!LiveRigs().count(e) || e->magic != svms_rig_estimator::kMagic || !e->impl)
+      return Fail(SVMS_ERR_BAD_HANDLE,
+                  "svms_rig_camera_count: the estimator is not one from svms_create_rig, or was "
+                  "destroyed");
+    *n_cameras = static_cast<int>(e->impl->num_cameras());
+    return SVMS_OK;
+  });
 }
 
 svms_status svms_process_rig_frame(svms_rig_estimator* e, const svms_rig_frame* frames,
                                    int n_frames, double timestamp, svms_pose* out) {
-  const std::string fn = "svms_process_rig_frame";
-  if (!e || !frames || !out)
-    return Fail(SVMS_ERR_NULL_ARGUMENT, fn + ": " +
-                                            (!e        ? "estimator"
-                                             : !frames ? "frames"
-                                                       : "out") +
-                                            " is NULL");
-  *out = svms_pose{};
-  out->timestamp = timestamp;
-  {
-    std::lock_guard<std::mutex> lock(registry_mutex);
-    if (!LiveRigs().count(e) || e->magic != svms_rig_estimator::kMagic || !e->impl)
-      return Fail(SVMS_ERR_BAD_HANDLE,
-                  fn + ": the estimator is not one from svms_create_rig, or was destroyed");
-    bool expected = false;
-    if (!e->busy.compare_exchange_strong(expected, true))
-      return Fail(SVMS_ERR_BUSY, fn + ": the estimator is in use by another thread");
-  }
-  struct Release {
-    svms_rig_estimator* e;
-    ~Release() { e->busy.store(false); }
-  } release{e};
-  const int cameras = static_cast<int>(e->impl->num_cameras());
-  if (n_frames != cameras)
-    return Fail(SVMS_ERR_INVALID_ARGUMENT, fn + ": n_frames is " + std::to_string(n_frames) +
-                                               ", expected the rig's number of cameras, " +
-                                               std::to_string(cameras));
-  if (!std::isfinite(timestamp))
-    return Fail(SVMS_ERR_INVALID_ARGUMENT, fn + ": timestamp is not finite");
-  for (int c = 0; c < cameras; ++c) {
-    const svms_rig_frame& f = frames[c];
-    (*e->frames)[c] = cv::Mat();
-    if (!f.pixels) continue;
-    const svms::CameraModel& cam = e->impl->camera(static_cast<size_t>(c)).camera();
-    if (f.width != cam.width() || f.height != cam.height())
-      return Fail(SVMS_ERR_INVALID_ARGUMENT,
-                  fn + ": frames[" + std::to_string(c) + "] is " + std::to_string(f.width) + "x" +
-                      std::to_string(f.height) + " pixels, camera '" +
-                      e->impl->rig().cameras[c].name + "' " + std::to_string(cam.width()) + "x" +
-                      std::to_string(cam.height()));
-    if (f.stride < static_cast<ptrdiff_t>(f.width))
-      return Fail(SVMS_ERR_INVALID_ARGUMENT,
-                  fn + ": frames[" + std::to_string(c) + "].stride is below its width");
-    (*e->frames)[c] = cv::Mat(f.height, f.width, CV_8UC1, const_cast<uint8_t*>(f.pixels),
-                              static_cast<size_t>(f.stride));
-  }
-  try {
-    e->impl->Estimate(*e->frames, timestamp, e->scratch);
-    bool budget_exceeded = false;
-    for (const svms::FrameResult& r : e->scratch->cameras) budget_exceeded |= r.budget_exceeded;
-    FillPose(e->scratch->pose, timestamp, e->scratch->latency_ms, budget_exceeded, out);
-  } catch (const std::bad_alloc&) {
-    return Fail(SVMS_ERR_INTERNAL, fn + ": out of memory");
-  } catch (const std::exception& ex) {
-    return Fail(SVMS_ERR_INTERNAL, fn + ": " + ex.what());
-  } catch (...) {
-    return Fail(SVMS_ERR_INTERNAL, fn + ": unknown failure");
-  }
-  return SVMS_OK;
+  return Guarded("svms_process_rig_frame", [&]() -> svms_status {
+    const std::string fn = "svms_process_rig_frame";
+    if (!e || !frames || !out)
+      return Fail(SVMS_ERR_NULL_ARGUMENT, fn + ": " +
+                                              (!e        ? "estimator"
+                                               : !frames ? "frames"
+                                                         : "out") +
+                                              " is NULL");
+    *out = svms_pose{};
+    out->timestamp = timestamp;
+    {
+      std::lock_guard<std::mutex> lock(registry_mutex);
+      if (!LiveRigs().count(e) || e->magic != svms_rig_estimator::kMagic || !e->impl)
+        return Fail(SVMS_ERR_BAD_HANDLE,
+                    fn + ": the estimator is not one from svms_create_rig, or was destroyed");
+      bool expected = false;
+      if (!e->busy.compare_exchange_strong(expected, true))
+        return Fail(SVMS_ERR_BUSY, fn + ": the estimator is in use by another thread");
+    }
+    struct Release {
+      svms_rig_estimator* e;
+      ~Release() { e->busy.store(false); }
+    } release{e};
+    const int cameras = static_cast<int>(e->impl->num_cameras());
+    if (n_frames != cameras)
+      return Fail(SVMS_ERR_INVALID_ARGUMENT, fn + ": n_frames is " + std::to_string(n_frames) +
+                                                 ", expected the rig's number of cameras, " +
+                                                 std::to_string(cameras));
+    if (!std::isfinite(timestamp))
+      return Fail(SVMS_ERR_INVALID_ARGUMENT, fn + ": timestamp is not finite");
+    for (int c = 0; c < cameras; ++c) {
+      const svms_rig_frame& f = frames[c];
+      (*e->frames)[c] = cv::Mat();
+      if (!f.pixels) continue;
+      const svms::CameraModel& cam = e->impl->camera(static_cast<size_t>(c)).camera();
+      if (f.width != cam.width() || f.height != cam.height())
+        return Fail(SVMS_ERR_INVALID_ARGUMENT,
+                    fn + ": frames[" + std::to_string(c) + "] is " + std::to_string(f.width) + "x" +
+                        std::to_string(f.height) + " pixels, camera '" +
+                        e->impl->rig().cameras[c].name + "' " + std::to_string(cam.width()) + "x" +
+                        std::to_string(cam.height()));
+      if (f.stride < static_cast<ptrdiff_t>(f.width))
+        return Fail(SVMS_ERR_INVALID_ARGUMENT,
+                    fn + ": frames[" + std::to_string(c) + "].stride is below its width");
+      (*e->frames)[c] = cv::Mat(f.height, f.width, CV_8UC1, const_cast<uint8_t*>(f.pixels),
+                                static_cast<size_t>(f.stride));
+    }
+    try {
+      e->impl->Estimate(*e->frames, timestamp, e->scratch);
+      bool budget_exceeded = false;
+      for (const svms::FrameResult& r : e->scratch->cameras) budget_exceeded |= r.budget_exceeded;
+      FillPose(e->scratch->pose, timestamp, e->scratch->latency_ms, budget_exceeded, out);
+    } catch (const std::bad_alloc&) {
+      return Fail(SVMS_ERR_INTERNAL, fn + ": out of memory");
+    } catch (const std::exception& ex) {
+      return Fail(SVMS_ERR_INTERNAL, fn + ": " + ex.what());
+    } catch (...) {
+      return Fail(SVMS_ERR_INTERNAL, fn + ": unknown failure");
+    }
+    return SVMS_OK;
+  });
 }
 
 svms_status svms_destroy_rig(svms_rig_estimator* e) {
-  if (!e) return SVMS_OK;
-  {
-    std::lock_guard<std::mutex> lock(registry_mutex);
-    if (!LiveRigs().count(e))
-      return Fail(SVMS_ERR_BAD_HANDLE,
-                  "svms_destroy_rig: the estimator is not one from svms_create_rig, or was "
-                  "destroyed");
-    bool expected = false;
-    if (!e->busy.compare_exchange_strong(expected, true))
-      return Fail(SVMS_ERR_BUSY, "svms_destroy_rig: the estimator is in use by another thread");
-    LiveRigs().erase(e);
-  }
-  e->impl.reset();
-  delete e->scratch;
-  e->scratch = nullptr;
-  delete e->frames;
-  e->frames = nullptr;
-  e->magic = 0;
-  return SVMS_OK;
+  return Guarded("svms_destroy_rig", [&]() -> svms_status {
+    if (!e) return SVMS_OK;
+    {
+      std::lock_guard<std::mutex> lock(registry_mutex);
+      if (!LiveRigs().count(e))
+        return Fail(SVMS_ERR_BAD_HANDLE,
+                    "svms_destroy_rig: the estimator is not one from svms_create_rig, or was "
+                    "destroyed");
+      bool expected = false;
+      if (!e->busy.compare_exchange_strong(expected, true))
+        return Fail(SVMS_ERR_BUSY, "svms_destroy_rig: the estimator is in use by another thread");
+      LiveRigs().erase(e);
+    }
+    e->impl.reset();
+    delete e->scratch;
+    e->scratch = nullptr;
+    delete e->frames;
+    e->frames = nullptr;
+    e->magic = 0;
+    return SVMS_OK;
+  });
 }
 
 const char* svms_last_error(void) { return last_error.c_str(); }

@@ -5,6 +5,8 @@
 // What it checks (the C API's promise: no allocation at all after the first frames): after
 // warm-up on a fixture frame, 8-bit and 16-bit, every svms_process_frame makes no heap
 // allocation at all; nor does svms_process_frame_multi with two layouts on the two-object frame.
+// And, with every allocation failing, an entry point that has to word an error returns a status
+// instead of letting std::bad_alloc cross into C (which would end this program).
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
@@ -24,6 +26,7 @@ void __libc_free(void*);
 
 namespace {
 std::atomic<bool> counting{false};
+std::atomic<bool> failing{false};  // every allocation returns NULL (operator new throws)
 std::atomic<long> allocations{0}, frees{0};
 void Count() {
   if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
@@ -33,14 +36,17 @@ void Count() {
 extern "C" {
 void* malloc(size_t n) {
   Count();
+  if (failing) return nullptr;
   return __libc_malloc(n);
 }
 void* calloc(size_t a, size_t b) {
   Count();
+  if (failing) return nullptr;
   return __libc_calloc(a, b);
 }
 void* realloc(void* p, size_t n) {
   Count();
+  if (failing) return nullptr;
   return __libc_realloc(p, n);
 }
 void free(void* p) {
@@ -49,6 +55,7 @@ void free(void* p) {
 }
 int posix_memalign(void** out, size_t align, size_t n) {
   Count();
+  if (failing) return 12;  // ENOMEM
   void* p = __libc_memalign(align, n);
   if (!p) return 12;  // ENOMEM
   *out = p;
@@ -56,10 +63,12 @@ int posix_memalign(void** out, size_t align, size_t n) {
 }
 void* aligned_alloc(size_t align, size_t n) {
   Count();
+  if (failing) return nullptr;
   return __libc_memalign(align, n);
 }
 void* memalign(size_t align, size_t n) {
   Count();
+  if (failing) return nullptr;
   return __libc_memalign(align, n);
 }
 }
@@ -102,6 +111,27 @@ int main(int argc, char** argv) {
     }
     per_frame.push_back(allocations.load());
     unfreed.push_back(allocations.load() - frees.load());
+  }
+  // Out of memory while wording errors: a frame of the wrong size, a NULL rig estimator, files
+  // that do not exist. Each message is longer than a short string's inline buffer.
+  svms_rig_frame rig_frame{};
+  svms_estimator* none = nullptr;
+  (void)svms_last_error();  // its thread-local string exists (glibc allocates to register it)
+  failing = true;
+  const svms_status wrong_size = svms_process_frame(e, frame.data(), 640, 480, 640, 0, &pose);
+  const svms_status null_rig = svms_process_rig_frame(nullptr, &rig_frame, 1, 0, &pose);
+  const svms_status no_files =
+      svms_create("/nonexistent/camera.cameramodel", "/nonexistent/layout.json", nullptr, &none);
+  failing = false;
+  if (wrong_size == SVMS_OK || null_rig == SVMS_OK || no_files == SVMS_OK || none) {
+    std::fprintf(stderr, "FAIL: out of memory: %s, %s, %s\n", svms_status_string(wrong_size),
+                 svms_status_string(null_rig), svms_status_string(no_files));
+    return 1;
+  }
+  // The handle still works.
+  if (process(0) != SVMS_OK) {
+    std::fprintf(stderr, "FAIL: after the out-of-memory calls: %s\n", svms_last_error());
+    return 1;
   }
   svms_destroy(e);
 

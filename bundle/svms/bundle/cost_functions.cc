@@ -3,6 +3,7 @@
 #include <ceres/dynamic_autodiff_cost_function.h>
 
 #include <algorithm>
+#include <array>
 
 namespace svms {
 
@@ -110,6 +111,56 @@ bool MarkerPointCost::Evaluate(double const* const* parameters, double* residual
     Eigen::Map<Eigen::Matrix<double, 2, Eigen::Dynamic, Eigen::RowMajor>> d_intrinsics(
         jacobians[tip_xy_ ? 3 : 2], 2, n_intrinsics);
     d_intrinsics = dpx_dintrinsics / sigma_px_;
+  }
+  return true;
+}
+
+RigMarkerPointCost::RigMarkerPointCost(MarkerPointCost* point) : point_(point) {
+  set_num_residuals(2);
+  std::vector<int32_t>* sizes = mutable_parameter_block_sizes();
+  sizes->push_back(6);
+  const std::vector<int32_t>& inner = point_->parameter_block_sizes();
+  sizes->insert(sizes->end(), inner.begin(), inner.end());
+}
+
+bool RigMarkerPointCost::Evaluate(double const* const* parameters, double* residuals,
+                                  double** jacobians) const {
+  const size_t n_inner = point_->parameter_block_sizes().size();
+  // cam_from_object and its Jacobian with respect to [rig_from_object(6), rig_from_cam(6)].
+  using Jet = ceres::Jet<double, 12>;
+  Jet ro[6], rc[6], co[6];
+  for (int i = 0; i < 6; ++i) {
+    ro[i] = Jet(parameters[0][i], i);
+    rc[i] = Jet(parameters[1][i], 6 + i);
+  }
+  CamFromObjectOnRig(ro, rc, co);
+  double cam_from_object[6];
+  for (int i = 0; i < 6; ++i) cam_from_object[i] = co[i].a;
+  // The wrapped cost's blocks: cam_from_object, then this cost's blocks from the third on.
+  std::array<const double*, 4> inner_params{};
+  std::array<double*, 4> inner_jacobians{};
+  inner_params[0] = cam_from_object;
+  for (size_t b = 1; b < n_inner; ++b) inner_params[b] = parameters[b + 1];
+  const bool pose_jacobian = jacobians && (jacobians[0] || jacobians[1]);
+  Eigen::Matrix<double, 2, 6, Eigen::RowMajor> d_cam;
+  if (jacobians) {
+    inner_jacobians[0] = pose_jacobian ? d_cam.data() : nullptr;
+    for (size_t b = 1; b < n_inner; ++b) inner_jacobians[b] = jacobians[b + 1];
+  }
+  if (!point_->Evaluate(inner_params.data(), residuals,
+                        jacobians ? inner_jacobians.data() : nullptr))
+    return false;
+  if (!pose_jacobian) return true;
+  Eigen::Matrix<double, 6, 12> dco;
+  for (int r = 0; r < 6; ++r) dco.row(r) = co[r].v.transpose();
+  using Block6 = Eigen::Matrix<double, 2, 6, Eigen::RowMajor>;
+  if (jacobians[0]) {
+    Eigen::Map<Block6> d_rig_from_object(jacobians[0]);
+    d_rig_from_object = d_cam * dco.leftCols<6>();
+  }
+  if (jacobians[1]) {
+    Eigen::Map<Block6> d_rig_from_cam(jacobians[1]);
+    d_rig_from_cam = d_cam * dco.rightCols<6>();
   }
   return true;
 }

@@ -11,6 +11,7 @@
 #include <ceres/rotation.h>
 
 #include <Eigen/Core>
+#include <memory>
 #include <vector>
 
 #include "svms/bundle/survey_options.h"
@@ -72,6 +73,41 @@ class MarkerPointCost : public ceres::CostFunction {
   Eigen::Vector2d observed_px_;
   double sigma_px_;
   bool refine_intrinsics_;
+};
+
+// cam_from_object of a camera on a rig: inverse(rig_from_cam) * rig_from_object, all three pose
+// blocks [rvec(3), tvec(3)] (radians, metres). Templated, so that Jets give its Jacobian.
+template <typename T>
+void CamFromObjectOnRig(const T* rig_from_object, const T* rig_from_cam, T* cam_from_object) {
+  T q_ro[4], q_rc[4], q_cr[4], q_co[4];
+  ceres::AngleAxisToQuaternion(rig_from_object, q_ro);
+  ceres::AngleAxisToQuaternion(rig_from_cam, q_rc);
+  q_cr[0] = q_rc[0];
+  for (int i = 1; i < 4; ++i) q_cr[i] = -q_rc[i];
+  ceres::QuaternionProduct(q_cr, q_ro, q_co);
+  ceres::QuaternionToAngleAxis(q_co, cam_from_object);
+  // t_co = R_cr (t_ro - t_rc)
+  const T d[3] = {rig_from_object[3] - rig_from_cam[3], rig_from_object[4] - rig_from_cam[4],
+                  rig_from_object[5] - rig_from_cam[5]};
+  ceres::UnitQuaternionRotatePoint(q_cr, d, cam_from_object + 3);
+}
+
+// A MarkerPointCost seen by a camera of a rig (the rig survey): its cam_from_object block is
+// replaced by two, rig_from_object[6] and rig_from_cam[6], composed by CamFromObjectOnRig; the
+// blocks after it are MarkerPointCost's own (object_from_marker[6], [post_height[1]],
+// [intrinsics[N]]). The residual, its sigma and every other Jacobian are the wrapped cost's:
+// one projection model for the survey and the rig survey. Owns `point`.
+class RigMarkerPointCost : public ceres::CostFunction {
+ public:
+  explicit RigMarkerPointCost(MarkerPointCost* point);
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+  const MarkerPointCost& point() const { return *point_; }
+
+ private:
+  std::unique_ptr<MarkerPointCost> point_;
 };
 
 // A named point of the object, in the object frame: object_from_marker * point_in_marker,

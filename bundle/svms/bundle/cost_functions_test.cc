@@ -69,6 +69,40 @@ TEST(MarkerPointCost, TipJacobiansIncludeThePostHeight) {
   EXPECT_NEAR(r[0], -0.2, 1e-9);
 }
 
+TEST(RigMarkerPointCost, IsTheWrappedCostThroughTheRigWithMatchingJacobians) {
+  Fixture f;
+  // A camera half a metre from the rig's origin, turned by 0.4 rad: rig_from_object is
+  // rig_from_cam * cam_from_object, so the wrapped cost sees the fixture's cam_from_object.
+  double rig_from_cam[6] = {0.1, 0.4, -0.05, 0.5, 0.02, -0.03};
+  double rig_from_object[6];
+  {
+    const Pose rc{Eigen::Vector3d(rig_from_cam[0], rig_from_cam[1], rig_from_cam[2]),
+                  Eigen::Vector3d(rig_from_cam[3], rig_from_cam[4], rig_from_cam[5])};
+    const Pose co{
+        Eigen::Vector3d(f.cam_from_object[0], f.cam_from_object[1], f.cam_from_object[2]),
+        Eigen::Vector3d(f.cam_from_object[3], f.cam_from_object[4], f.cam_from_object[5])};
+    const Pose ro = rc * co;
+    for (int i = 0; i < 3; ++i) {
+      rig_from_object[i] = ro.rvec(i);
+      rig_from_object[3 + i] = ro.tvec(i);
+    }
+  }
+  const Eigen::Vector2d tip_xy(0.001, 0.002);
+  const Eigen::Vector2d obs = f.Project(Eigen::Vector3d(tip_xy.x(), tip_xy.y(), f.post_height[0])) +
+                              Eigen::Vector2d(0.2, -0.1);
+  std::vector<double> intrinsics = f.camera.intrinsics();
+  RigMarkerPointCost cost(MarkerPointCost::CreateTip(&f.camera, &tip_xy, obs, 0.5, true));
+  ASSERT_EQ(cost.parameter_block_sizes().size(), 5u);
+  ExpectGradientsMatch(cost, {rig_from_object, rig_from_cam, f.object_from_marker, f.post_height,
+                              intrinsics.data()});
+  double r[2];
+  const double* p[] = {rig_from_object, rig_from_cam, f.object_from_marker, f.post_height,
+                       intrinsics.data()};
+  ASSERT_TRUE(cost.Evaluate(p, r, nullptr));
+  EXPECT_NEAR(r[0], -0.4, 1e-8);
+  EXPECT_NEAR(r[1], 0.2, 1e-8);
+}
+
 TEST(MarkerPointCost, IntrinsicsJacobiansComeFromMrcal) {
   Fixture f;
   std::vector<double> intrinsics = f.camera.intrinsics();

@@ -118,16 +118,10 @@ void UpdatePoints(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
   const MarkerObservation& m = *b->obs;
   b->points.clear();
   const auto corners = m.model.Corners();
-  const double size_sigma = CornerSigma(o, m.side_px);
-  const double fit_scale = CornerFitScale(o, CorrelatedCorners(o, m));
   for (int k = 0; k < 4; ++k) {
     if (b->dropped[k]) continue;
-    const double sigma =
-        o.corner_sigma_from_fit && m.corner_sigma[k] > 0
-            ? std::max(o.min_corner_sigma_px,
-                       std::hypot(fit_scale * m.corner_sigma[k], o.corner_sigma_systematic_px))
-            : size_sigma;
-    b->points.push_back({corners[k], m.corners[k], sigma, Eigen::Vector3d::Zero(), k});
+    b->points.push_back(
+        {corners[k], m.corners[k], CornerPixelSigma(o, m, k), Eigen::Vector3d::Zero(), k});
   }
   if (o.use_tips && m.tip && m.model.post && !b->dropped[4]) {
     // Camera centre in the marker frame: marker_from_cam = (cam_from_object object_from_marker)^-1.
@@ -140,7 +134,7 @@ void UpdatePoints(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
     double fraction = 0;
     const Eigen::Vector3d tip = VisibleTipPoint(m.model, cam_in_marker, &fraction);
     if (fraction > 0 || !m.model.post->concave()) {
-      Point p{tip, m.tip->pixel, std::max(o.min_tip_sigma_px, m.tip->sigma_px)};
+      Point p{tip, m.tip->pixel, TipPixelSigma(o, m)};
       p.d_dheight = Eigen::Vector3d::UnitZ();
       p.index = 4;
       b->points.push_back(p);
@@ -669,6 +663,17 @@ double CornerSigma(const ObjectPoseOptions& o, double side_px) {
   const double side = std::max(1.0, side_px);
   return std::max(o.min_corner_sigma_px,
                   o.corner_sigma_px * std::pow(30.0 / side, o.corner_sigma_exponent));
+}
+
+double CornerPixelSigma(const ObjectPoseOptions& o, const MarkerObservation& m, int k) {
+  if (!o.corner_sigma_from_fit || !(m.corner_sigma[k] > 0)) return CornerSigma(o, m.side_px);
+  const double fit_scale = CornerFitScale(o, CorrelatedCorners(o, m));
+  return std::max(o.min_corner_sigma_px,
+                  std::hypot(fit_scale * m.corner_sigma[k], o.corner_sigma_systematic_px));
+}
+
+double TipPixelSigma(const ObjectPoseOptions& o, const MarkerObservation& m) {
+  return std::max(o.min_tip_sigma_px, m.tip ? m.tip->sigma_px : 0.0);
 }
 
 std::vector<MarkerObservation> ObservationsFromDetections(const std::vector<Detection>& detections,

@@ -175,6 +175,14 @@ double CornerFitScale(const ObjectPoseOptions& options, bool correlated);
 // The corner sigma the size model gives a marker of `side_px` pixels.
 double CornerSigma(const ObjectPoseOptions& options, double side_px);
 
+// The measurement model's pixel noise, each axis, that every fit of these observations uses
+// (SolveObjectPose, SolveRigObjectPose, the rig survey): corner k (0-3) of `m` gets
+// corner_fit_scale x its line-fit sigma (with the systematic term, at least
+// min_corner_sigma_px) when corner_sigma_from_fit and the detector gave one, else the size
+// model's CornerSigma; the post tip its detector's sigma, at least min_tip_sigma_px.
+double CornerPixelSigma(const ObjectPoseOptions& options, const MarkerObservation& m, int k);
+double TipPixelSigma(const ObjectPoseOptions& options, const MarkerObservation& m);
+
 // Solves cam_from_object. Returns an invalid pose with a message when there is nothing to fit
 // (no observation, the camera cannot project, a singular problem).
 ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,

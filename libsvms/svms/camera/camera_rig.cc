@@ -75,6 +75,7 @@ Status ParseRig(const std::string& text, const std::string& source, const std::s
       const std::string model = String(c, path, "cameramodel");
       if (model.empty()) throw FieldError{path + ".cameramodel: expected a file name"};
       const std::filesystem::path model_path(model);
+      camera.cameramodel_absolute = model_path.is_absolute();
       camera.cameramodel_path = model_path.is_absolute()
                                     ? model
                                     : (std::filesystem::path(base_dir) / model_path).string();
@@ -103,6 +104,50 @@ Status ReadRigFile(const std::string& path, CameraRig* rig) {
   }
   *rig = std::move(out);
   return Status::Ok();
+}
+
+namespace {
+std::string Number(double v) { return json(v).dump(); }
+std::string Vector3(const Eigen::Vector3d& v) {
+  return "[" + Number(v(0)) + ", " + Number(v(1)) + ", " + Number(v(2)) + "]";
+}
+}  // namespace
+
+std::string RigToJson(const CameraRig& rig, const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::string out = "{\"type\": \"" + std::string(kType) +
+                    "\", \"name\": " + json(rig.name).dump() + ",\n \"cameras\": [\n";
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    const RigCamera& c = rig.cameras[i];
+    const fs::path model(c.cameramodel_path);
+    const std::string path =
+        c.cameramodel_absolute
+            ? c.cameramodel_path
+            : fs::absolute(model)
+                  .lexically_normal()
+                  .lexically_relative(
+                      fs::absolute(dir.empty() ? fs::path(".") : fs::path(dir)).lexically_normal())
+                  .string();
+    out += "   {\"name\": " + json(c.name).dump() + ", \"cameramodel\": " + json(path).dump() +
+           ",\n    \"rig_from_cam\": {\"rvec\": " + Vector3(c.rig_from_cam.rvec) +
+           ", \"tvec\": " + Vector3(c.rig_from_cam.tvec) + "}";
+    if (c.rig_from_cam_covariance) {
+      out += ",\n    \"covariance\": [";
+      for (int r = 0; r < 6; ++r) {
+        out += r ? ",\n                   [" : "[";
+        for (int k = 0; k < 6; ++k)
+          out += (k ? ", " : "") + Number((*c.rig_from_cam_covariance)(r, k));
+        out += "]";
+      }
+      out += "]";
+    }
+    out += i + 1 < rig.cameras.size() ? "},\n" : "}]}\n";
+  }
+  return out;
+}
+
+Status WriteRigFile(const std::string& path, const CameraRig& rig) {
+  return WriteTextFile(path, RigToJson(rig, std::filesystem::path(path).parent_path().string()));
 }
 
 }  // namespace svms

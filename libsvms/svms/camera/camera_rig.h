@@ -25,8 +25,9 @@
 namespace svms {
 
 struct RigCamera {
-  std::string name;              // unique in the rig
-  std::string cameramodel_path;  // as resolved (rig folder / the file's path)
+  std::string name;                   // unique in the rig
+  std::string cameramodel_path;       // as resolved (rig folder / the file's path)
+  bool cameramodel_absolute = false;  // the rig file gave an absolute path
   CameraModel camera;
   Pose rig_from_cam;
   std::optional<PoseCovariance> rig_from_cam_covariance;  // rig axes, [rotation, translation]
@@ -45,5 +46,13 @@ Status ParseRig(const std::string& text, const std::string& source, const std::s
 // Reads a rig file and every camera model it names (with their covariance sidecars). Errors
 // name the rig file and the field, and for a camera model that cannot be read, that file.
 Status ReadRigFile(const std::string& path, CameraRig* rig);
+
+// The rig file's text for `rig` (ParseRig reads it back to the same poses and covariances, to
+// the last bit): each camera's name, its cameramodel path relative to `dir` (the folder the file
+// is written to; absolute where the rig file read gave it so, cameramodel_absolute),
+// rig_from_cam and, when it has one, its covariance (6 rows).
+std::string RigToJson(const CameraRig& rig, const std::string& dir);
+// Writes RigToJson(rig, PATH's folder) to `path` atomically (file_io.h).
+Status WriteRigFile(const std::string& path, const CameraRig& rig);
 
 }  // namespace svms

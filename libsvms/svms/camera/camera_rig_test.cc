@@ -116,5 +116,39 @@ TEST(CameraRig, BadRigFilesGiveOneLineErrorsNamingFileAndField) {
   EXPECT_NE(missing.message().find("none.rig"), std::string::npos);
 }
 
+std::string Quoted(const std::string& s) { return "\"" + s + "\""; }
+
+TEST(CameraRig, WrittenRigFilesReadBackToTheLastBit) {
+  CameraRig rig;
+  ASSERT_TRUE(ReadRigFile(WriteRig("in.rig", RigText()), &rig).ok());
+  rig.cameras[1].rig_from_cam =
+      Pose{Eigen::Vector3d(0.1 / 3, -0.2, 1e-17), Eigen::Vector3d(1 / 3.0, 0, -2e-3)};
+  PoseCovariance c = PoseCovariance::Identity() * 1e-7;
+  c(0, 3) = c(3, 0) = 2.0 / 3 * 1e-8;
+  rig.cameras[1].rig_from_cam_covariance = c;
+  // Written into a sub-folder: the camera models' paths are rewritten relative to it.
+  fs::create_directories(Folder() / "out");
+  const std::string out = (Folder() / "out" / "surveyed.rig").string();
+  ASSERT_TRUE(WriteRigFile(out, rig).ok());
+  CameraRig back;
+  const Status s = ReadRigFile(out, &back);
+  ASSERT_TRUE(s.ok()) << s.message();
+  ASSERT_EQ(back.cameras.size(), 2u);
+  EXPECT_EQ(back.name, "port");
+  for (size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(back.cameras[i].name, rig.cameras[i].name);
+    EXPECT_EQ(back.cameras[i].rig_from_cam.rvec, rig.cameras[i].rig_from_cam.rvec);
+    EXPECT_EQ(back.cameras[i].rig_from_cam.tvec, rig.cameras[i].rig_from_cam.tvec);
+    ASSERT_TRUE(back.cameras[i].rig_from_cam_covariance);
+    EXPECT_EQ(*back.cameras[i].rig_from_cam_covariance, *rig.cameras[i].rig_from_cam_covariance);
+    EXPECT_EQ(back.cameras[i].camera.intrinsics(), rig.cameras[i].camera.intrinsics());
+  }
+  EXPECT_NE(RigToJson(rig, (Folder() / "out").string()).find("\"../narrow.cameramodel\""),
+            std::string::npos);
+  // A path the rig file gave as absolute stays so.
+  rig.cameras[0].cameramodel_absolute = true;
+  EXPECT_NE(RigToJson(rig, "x").find(Quoted(rig.cameras[0].cameramodel_path)), std::string::npos);
+}
+
 }  // namespace
 }  // namespace svms

@@ -360,6 +360,77 @@ TEST(Detector, DualMarkerReportsBothWithTheirNesting) {
   }
 }
 
+// Flips bit cells `cells` of the marker with pixel corners `c` (TL, TR, BR, BL) by painting
+// each cell's square (90 % of it) with the level of the opposite colour.
+void PaintFlippedCells(const std::array<Eigen::Vector2d, 4>& c, const std::vector<int>& cells,
+                       cv::Mat* image) {
+  const MarkerModel unit = MarkerModel::Standard(0, 1.0, 0);
+  cv::Mat src = (cv::Mat_<float>(4, 2) << -0.5, 0.5, 0.5, 0.5, 0.5, -0.5, -0.5, -0.5),
+          dst(4, 2, CV_32F);
+  for (int k = 0; k < 4; ++k) dst.at<float>(k, 0) = c[k].x(), dst.at<float>(k, 1) = c[k].y();
+  const cv::Mat H = cv::getPerspectiveTransform(src, dst);
+  double lo, hi;
+  cv::minMaxLoc(*image, &lo, &hi);
+  for (int i : cells) {
+    const Eigen::Vector2d m = unit.BitCellCentre(i);
+    const double h = 0.45 * unit.cell_size;
+    std::vector<cv::Point2f> in = {{float(m.x() - h), float(m.y() + h)},
+                                   {float(m.x() + h), float(m.y() + h)},
+                                   {float(m.x() + h), float(m.y() - h)},
+                                   {float(m.x() - h), float(m.y() - h)}},
+                             out;
+    cv::perspectiveTransform(in, out, H);
+    std::vector<cv::Point2f> centre;
+    cv::perspectiveTransform(std::vector<cv::Point2f>{{float(m.x()), float(m.y())}}, centre, H);
+    cv::perspectiveTransform(in, out, H);
+    const bool white =
+        image->at<uint8_t>(cvRound(centre[0].y), cvRound(centre[0].x)) > 0.5 * (lo + hi);
+    std::vector<cv::Point> poly;
+    for (const cv::Point2f& p : out) poly.emplace_back(cvRound(p.x * 16), cvRound(p.y * 16));
+    cv::fillConvexPoly(*image, poly, cv::Scalar(white ? lo : hi), cv::LINE_AA, 4);
+  }
+}
+
+// A decode with 4 corrected bits has no evidence of its own without a tip (more than
+// max_unsupported_corrections, more than the 3 a known ID may have): the inner marker of a
+// dual is still accepted inside its outer marker's square, while the same reading of the
+// same ID standing alone is not.
+TEST(Detector, AnInnerMarkersLargeCorrectionIsAcceptedInsideItsOuterMarker) {
+  MarkerModel dual = MarkerModel::Standard(1, 0.3, 0.02);
+  dual.AddInner(2, 0.075);
+  dual.post->radius = dual.post->tip_radius = 0.004;
+  const MarkerModel alone = MarkerModel::Standard(2, 0.075, 0);
+  Pose there;
+  there.tvec = Eigen::Vector3d(0.45, 0, 0);
+  Rendered r = Render(
+      Base(Distorted(), {{dual, Pose{}}, {alone, there}}, Look({0.15, -0.15, 1.5}, {0.15, 0, 0})));
+  std::vector<Eigen::Vector2d> inner_centres;
+  for (const MarkerTruth& m : r.truth.markers) {
+    if (m.id != 2) continue;
+    std::array<Eigen::Vector2d, 4> c;
+    for (int k = 0; k < 4; ++k) c[k] = m.corners[k].pixel;
+    EXPECT_GT((c[1] - c[0]).norm(), 18);  // large enough for the painted cells to be read
+    PaintFlippedCells(c, {3, 14, 25, 36}, &r.image);
+    if (m.nested_in == 1) inner_centres.push_back(0.25 * (c[0] + c[1] + c[2] + c[3]));
+  }
+  ASSERT_EQ(inner_centres.size(), 1u);
+  // No camera: no pose, so no tip; the models give the IDs and the nesting.
+  const Detector det(DetectorOptions{}, CameraModel(), {dual});
+  DetectionStats stats;
+  const std::vector<Detection> found = det.Detect(r.image, &stats);
+  int twos = 0;
+  for (const Detection& d : found) {
+    if (d.id != 2) continue;
+    ++twos;
+    EXPECT_EQ(d.bit_errors, 4);
+    EXPECT_EQ(d.nested_in, 1);
+    const Eigen::Vector2d c = 0.25 * (d.corners[0] + d.corners[1] + d.corners[2] + d.corners[3]);
+    EXPECT_LT((c - inner_centres[0]).norm(), 1.0);
+  }
+  EXPECT_EQ(twos, 1);
+  EXPECT_GE(stats.rejected_for_evidence, 1);  // the one standing alone
+}
+
 // At 65 degrees the standard post (a quarter of the side high) leans across a side of the
 // square: its dark body bulges into the white stripe and its top sits on the edge. Fitted
 // through, that side is off by tenths of a pixel at its corners.
