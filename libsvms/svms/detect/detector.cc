@@ -46,7 +46,8 @@ struct DetectScratch {
   std::vector<ExcludedRegion> excluded;
   // With several threads: steps 5-10 of quad i in slots[i].
   struct QuadSlot {
-    enum State { kDropped, kAccepted, kRejectedForEvidence, kUnfinished } state = kDropped;
+    enum State { kDropped, kAccepted, kPending, kRejectedForEvidence, kUnfinished };
+    State state = kDropped;
     Detection detection;
   };
   std::vector<QuadSlot> slots;
@@ -229,11 +230,13 @@ void PoseMarker(const StepImages& im, const CameraModel& camera, const MarkerMod
 // 5-10 on the pool's threads, one quad per part, for DetectorOptions::threads > 1: what the
 // serial steps do to each quad (decoding, the ID filter, corners, tip and pose, the evidence
 // for large corrections), each quad's outcome into its slot; the accepted detections are then
-// appended to *accepted in the quads' order, as the serial steps append them. A quad reached
-// after the deadline is left unfinished (stats->budget_exceeded).
+// appended to sc->accepted, and the inner markers of duals that wait for their outer marker
+// (AcceptNestedInOuter) to sc->pending, in the quads' order, as the serial steps append them. A
+// quad reached after the deadline is left unfinished (stats->budget_exceeded).
 void MeasureQuadsInParallel(const StepImages& im, const std::vector<Quad>& quads,
                             const DetectorOptions& o, const CameraModel& camera,
-                            const std::map<int, MarkerModel>& models, Clock::time_point deadline,
+                            const std::map<int, MarkerModel>& models,
+                            const std::map<int, int>& outer_of, Clock::time_point deadline,
                             WorkerPool* pool, DetectScratch* sc, DetectionStats* stats) {
   using Slot = DetectScratch::QuadSlot;
   const bool has_deadline = deadline != Clock::time_point::max();
@@ -275,14 +278,19 @@ void MeasureQuadsInParallel(const StepImages& im, const std::vector<Quad>& quads
     thread_local std::vector<ExcludedRegion> excluded;
     if (cam && known) PoseMarker(im, camera, it->second, o, &excluded, &d);
     const bool evidence = d.tip.has_value() || (d.bit_errors <= 3 && known);
-    slot.state = d.bit_errors > o.max_unsupported_corrections && !evidence
-                     ? Slot::kRejectedForEvidence
-                     : Slot::kAccepted;
+    if (d.bit_errors <= o.max_unsupported_corrections || evidence) {
+      slot.state = Slot::kAccepted;
+    } else if (outer_of.count(d.id) > 0) {
+      slot.state = Slot::kPending;  // the inner marker of a known dual: AcceptNestedInOuter
+    } else {
+      slot.state = Slot::kRejectedForEvidence;
+    }
   });
   for (size_t i = 0; i < quads.size(); ++i) {
     const Slot& slot = sc->slots[i];
     if (slot.state == Slot::kUnfinished) stats->budget_exceeded = true;
     if (slot.state == Slot::kRejectedForEvidence) ++stats->rejected_for_evidence;
+    if (slot.state == Slot::kPending) sc->pending.push_back(slot.detection);
     if (slot.state == Slot::kAccepted) sc->accepted.push_back(slot.detection);
   }
 }
@@ -468,7 +476,10 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   if (pool_) {
     // 5-10 per quad on the pool's threads.
     sc.accepted.clear();
-    MeasureQuadsInParallel(im, quads, o, camera_, models_, deadline, pool_.get(), &sc, &stats);
+    sc.pending.clear();
+    MeasureQuadsInParallel(im, quads, o, camera_, models_, outer_of_, deadline, pool_.get(), &sc,
+                           &stats);
+    AcceptNestedInOuter(outer_of_, &sc.pending, &sc.accepted, &stats.rejected_for_evidence);
     const auto t5 = Clock::now();
     stats.ms[2] = Ms(t2, t5);
     MergeAndNest(sc.accepted, outer_of_, &result);

@@ -429,6 +429,15 @@ TEST(Detector, AnInnerMarkersLargeCorrectionIsAcceptedInsideItsOuterMarker) {
   }
   EXPECT_EQ(twos, 1);
   EXPECT_GE(stats.rejected_for_evidence, 1);  // the one standing alone
+  // Two threads: the inner marker waits for its outer one there too, and all is the same.
+  DetectorOptions two;
+  two.threads = 2;
+  DetectionStats stats2;
+  const std::vector<Detection> again =
+      Detector(two, CameraModel(), {dual}).Detect(r.image, &stats2);
+  EXPECT_EQ(stats2.rejected_for_evidence, stats.rejected_for_evidence);
+  ASSERT_EQ(again.size(), found.size());
+  for (size_t i = 0; i < found.size(); ++i) ExpectSameBitForBit(again[i], found[i], "2 threads");
 }
 
 // At 65 degrees the standard post (a quarter of the side high) leans across a side of the
