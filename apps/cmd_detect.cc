@@ -21,6 +21,10 @@ void AddDetectCommands(CLI::App& app, int* exit_code) {
   det->add_option("--threads", o->threads, "Images processed in parallel")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
+  det->add_option("--frame-threads", o->frame_threads,
+                  "Threads sharing each image (large frames; same detections as 1)")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
   det->add_option("--max-megapixels", o->max_megapixels,
                   "Refuse larger images (checked from the file header, before decoding)")
       ->check(CLI::Range(1e-6, 1e5))

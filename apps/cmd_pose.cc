@@ -46,6 +46,10 @@ void AddPoseCommands(CLI::App& app, int* exit_code) {
   cmd->add_option("--budget-ms", o->budget_ms, "Time budget per frame (0: none)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  cmd->add_option("--frame-threads", o->frame_threads,
+                  "Threads sharing each frame (large frames; same poses as 1)")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
   cmd->add_option("--overlay", o->overlay, "Write overlay PNGs to this directory");
   cmd->add_option("--max-megapixels", o->max_megapixels, "Refuse larger images")
       ->check(CLI::PositiveNumber)
@@ -94,6 +98,7 @@ void AddPoseCommands(CLI::App& app, int* exit_code) {
       rig->layouts = o->layouts;
       rig->corner_sigma_px = o->corner_sigma_px;
       rig->budget_ms = o->budget_ms;
+      rig->frame_threads = o->frame_threads;
       rig->max_megapixels = o->max_megapixels;
       rig->quiet = o->quiet;
       *exit_code = RunRigPose(*rig);

@@ -92,6 +92,7 @@ int Prepare(Batch* b) {
   setenv("OPENCV_IO_MAX_IMAGE_PIXELS", std::to_string(b->max_pixels).c_str(), 1);
   DetectorOptions dopt;
   dopt.debug_pictures = !o.debug.empty();
+  dopt.threads = o.frame_threads;
   dopt.refine.max_row_window_px = b->photometry.CornerRowWindowPx();
   b->detector = std::make_unique<Detector>(dopt, b->camera, b->models);
   for (const MarkerModel& m : b->models) {

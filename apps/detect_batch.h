@@ -17,6 +17,7 @@ struct DetectOptions {
   std::string camera, markers;      // "" = none
   std::string overlay, debug;       // output directories ("" = none)
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  int frame_threads = 1;  // threads sharing one image (DetectorOptions::threads)
   double max_megapixels = kDefaultMaxImagePixels / 1e6;
   PhotometryOptions photometry;
   bool quiet = false;

@@ -21,7 +21,8 @@ struct PoseOptions {
   bool from_stdin = false;  // frames from stdin: "PATH [TIMESTAMP]" per line
   bool quiet = false;
   double corner_sigma_px = ObjectPoseOptions{}.corner_sigma_px;
-  double budget_ms = 0;  // per frame; 0 = none
+  double budget_ms = 0;   // per frame; 0 = none
+  int frame_threads = 1;  // threads sharing one frame (DetectorOptions::threads)
   double max_megapixels = 100;
   PhotometryOptions photometry;
 };

@@ -20,6 +20,7 @@ struct RigPoseOptions {
   std::vector<std::string> layouts;
   double corner_sigma_px = 0;  // 0: the default (ObjectPoseOptions)
   double budget_ms = 0;        // per camera and frame; 0 = none
+  int frame_threads = 1;       // threads sharing one frame (DetectorOptions::threads)
   double max_megapixels = 100;
   bool quiet = false;
 };

@@ -177,6 +177,15 @@ for i, j in enumerate(lines):
     assert len(j["cam_from_object"]["quaternion"]) == 4 and j["markers"][0] in (1, 2), j
 PY
 else fail "svms pose --stdin exited $?"; fi
+# --frame-threads: the same lines as on one thread, bar the timings
+strip_ms() { python3 -c "import json,sys; [print(json.dumps({k: v for k, v in json.loads(l).items() if k not in ('ms', 'latency_ms', 'detect_ms')}, sort_keys=True)) for l in sys.stdin]"; }
+one=$("$svms" pose --stdin --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json" --quiet < "$tmp/frames.txt" | strip_ms)
+two=$("$svms" pose --stdin --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json" --quiet --frame-threads 2 < "$tmp/frames.txt" | strip_ms)
+[ -n "$one" ] && [ "$one" == "$two" ] && pass || fail "pose --frame-threads 2 differs: $two"
+one=$("$svms" detect "$tmp"/range/range_000[0-2].png --camera "$tmp/range/true.cameramodel" --markers "$tmp/range/markers.json" --quiet | strip_ms)
+two=$("$svms" detect "$tmp"/range/range_000[0-2].png --camera "$tmp/range/true.cameramodel" --markers "$tmp/range/markers.json" --quiet --frame-threads 3 | strip_ms)
+grep -q cam_from_marker <<<"$one" && [ "$one" == "$two" ] && pass || fail "detect --frame-threads 3 differs: $two"
+expect 2 "--frame-threads" "$svms" detect "$tmp/det/a.png" --frame-threads 0
 printf '%s 12.5\n/nonexistent.png 13\n' "$(head -1 "$tmp/frames.txt")" > "$tmp/frames2.txt"
 expect 1 "/nonexistent.png: no such file" "$svms" pose --stdin --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json" --quiet < "$tmp/frames2.txt"
 if out=$("$svms" pose --stdin --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json" --quiet < "$tmp/frames2.txt" 2>/dev/null); then fail "bad frame: exit 0"

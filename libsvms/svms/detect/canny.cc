@@ -140,10 +140,73 @@ void FinalRow(const uint8_t* __restrict map, uint8_t* __restrict edges, int n) {
   for (; j < n; ++j) edges[j] = pixel(j);
 }
 
+// Thresholds exactly as cv::Canny(dx, dy, ...) turns them into integers.
+void IntegerThresholds(double low, double high, bool l2_gradient, int32_t* ilow, int32_t* ihigh) {
+  if (low > high) std::swap(low, high);
+  if (l2_gradient) {
+    low = std::min(32767.0, low);
+    high = std::min(32767.0, high);
+    if (low > 0) low *= low;
+    if (high > 0) high *= high;
+  }
+  *ilow = cvFloor(low);
+  *ihigh = cvFloor(high);
+}
+
 }  // namespace
 
-void CannyFromDerivatives(const cv::Mat& dx_in, const cv::Mat& dy_in, double low, double high,
-                          bool l2_gradient, CannyScratch* scratch, cv::Mat* edges) {
+namespace canny_rows {
+
+void Thresholds(double low, double high, bool l2_gradient, int32_t* ilow, int32_t* ihigh) {
+  IntegerThresholds(low, high, l2_gradient, ilow, ihigh);
+}
+
+void Magnitude(const int16_t* dx, const int16_t* dy, bool l2_gradient, int32_t* out, int n) {
+  if (l2_gradient) {
+    MagnitudeL2(dx, dy, out, n);
+  } else {
+    MagnitudeL1(dx, dy, out, n);
+  }
+}
+
+void SuppressRow(const int32_t* above, const int32_t* here, const int32_t* below, const int16_t* dx,
+                 const int16_t* dy, int32_t low, int32_t high, uint8_t* out, int n) {
+  svms::SuppressRow(above, here, below, dx, dy, low, high, out, n);
+}
+
+void PushEdges(const uint8_t* row, int n, const uint8_t* base, int32_t* stack, size_t* top) {
+  svms::PushEdges(row, n, base, stack, top);
+}
+
+bool Hysteresis(uint8_t* map, int cols, int32_t* stack, size_t top, int32_t begin, int32_t end,
+                std::chrono::steady_clock::time_point deadline) {
+  const bool has_deadline = deadline != std::chrono::steady_clock::time_point::max();
+  const ptrdiff_t s = static_cast<ptrdiff_t>(cols) + 2;
+  const ptrdiff_t neighbours[8] = {-s - 1, -s, -s + 1, -1, 1, s - 1, s, s + 1};
+  for (uint32_t popped = 1; top > 0; ++popped) {
+    if (popped % 4096 == 0 && has_deadline && std::chrono::steady_clock::now() >= deadline)
+      return false;
+    const int32_t at = stack[--top];
+    for (const ptrdiff_t d : neighbours) {
+      const ptrdiff_t q = at + d;
+      if (q >= begin && q < end && map[q] == kCandidate) {
+        map[q] = kEdge;
+        stack[top++] = static_cast<int32_t>(q);
+      }
+    }
+  }
+  return true;
+}
+
+void FinalRow(const uint8_t* map, uint8_t* edges, int n) { svms::FinalRow(map, edges, n); }
+
+}  // namespace canny_rows
+
+bool CannyFromDerivatives(const cv::Mat& dx_in, const cv::Mat& dy_in, double low, double high,
+                          bool l2_gradient, CannyScratch* scratch, cv::Mat* edges,
+                          std::chrono::steady_clock::time_point deadline) {
+  const bool has_deadline = deadline != std::chrono::steady_clock::time_point::max();
+  auto past = [&] { return has_deadline && std::chrono::steady_clock::now() >= deadline; };
   // The same checks as cv::Canny. Headers are copied (no allocation) so that `edges` may even
   // be one of the inputs.
   CV_Assert(dx_in.dims == 2);
@@ -153,17 +216,10 @@ void CannyFromDerivatives(const cv::Mat& dx_in, const cv::Mat& dy_in, double low
   const cv::Mat dx = dx_in, dy = dy_in;
   const int rows = dx.rows, cols = dx.cols;
   edges->create(rows, cols, CV_8UC1);
-  if (rows == 0 || cols == 0) return;
+  if (rows == 0 || cols == 0) return true;
 
-  // Thresholds exactly as cv::Canny(dx, dy, ...) turns them into integers.
-  if (low > high) std::swap(low, high);
-  if (l2_gradient) {
-    low = std::min(32767.0, low);
-    high = std::min(32767.0, high);
-    if (low > 0) low *= low;
-    if (high > 0) high *= high;
-  }
-  const int32_t ilow = cvFloor(low), ihigh = cvFloor(high);
+  int32_t ilow, ihigh;
+  IntegerThresholds(low, high, l2_gradient, &ilow, &ihigh);
 
   const size_t stride = static_cast<size_t>(cols) + 2;  // map and magnitude rows
   const size_t map_size = stride * (static_cast<size_t>(rows) + 2);
@@ -196,6 +252,7 @@ void CannyFromDerivatives(const cv::Mat& dx_in, const cv::Mat& dy_in, double low
   int32_t* stack = scratch->stack.data();
   size_t top = 0;
   for (int y = 0; y < rows; ++y) {
+    if (y % 64 == 63 && past()) return false;
     uint8_t* row = map + stride * (y + 1) + 1;
     row[-1] = row[cols] = kNotEdge;
     SuppressRow(above, here, below, dx.ptr<int16_t>(y), dy.ptr<int16_t>(y), ilow, ihigh, row, cols);
@@ -211,7 +268,8 @@ void CannyFromDerivatives(const cv::Mat& dx_in, const cv::Mat& dy_in, double low
   // it turns into kEdge, so the stack never holds more than rows * cols offsets.
   const ptrdiff_t s = static_cast<ptrdiff_t>(stride);
   const ptrdiff_t neighbours[8] = {-s - 1, -s, -s + 1, -1, 1, s - 1, s, s + 1};
-  while (top > 0) {
+  for (uint32_t popped = 1; top > 0; ++popped) {
+    if (popped % 4096 == 0 && past()) return false;
     const int32_t at = stack[--top];
     uint8_t* m = map + at;
     for (const ptrdiff_t d : neighbours) {
@@ -222,7 +280,11 @@ void CannyFromDerivatives(const cv::Mat& dx_in, const cv::Mat& dy_in, double low
     }
   }
 
-  for (int y = 0; y < rows; ++y) FinalRow(map + stride * (y + 1) + 1, edges->ptr<uint8_t>(y), cols);
+  for (int y = 0; y < rows; ++y) {
+    if (y % 64 == 63 && past()) return false;
+    FinalRow(map + stride * (y + 1) + 1, edges->ptr<uint8_t>(y), cols);
+  }
+  return true;
 }
 
 }  // namespace svms

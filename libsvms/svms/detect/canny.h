@@ -29,9 +29,11 @@
 // OpenCV's SIMD body takes |-32768| as -32768 (16-bit abs) while its scalar tail takes 32768,
 // so its result for dx or dy == -32768 depends on the column; here it is always 32768.
 //
-// Single-threaded by design (the detector runs one frame per thread).
+// Single-threaded; edge_bands.h computes the same map in bands of rows on several threads
+// with the row kernels below.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <vector>
@@ -55,7 +57,39 @@ struct CannyScratch {
 // gives an empty map. Allocates nothing when `scratch` has already served an image with at least as
 // many rows and at least as many columns, and `edges` already has dx's size and type CV_8UC1. The
 // scratch then holds about 5 bytes per pixel (map and stack) plus 3 rows of magnitudes.
-void CannyFromDerivatives(const cv::Mat& dx, const cv::Mat& dy, double low, double high,
-                          bool l2_gradient, CannyScratch* scratch, cv::Mat* edges);
+// `deadline`: read every 64 rows and every 4,096 pixels of the hysteresis; once it has passed
+// the result is false and `edges` incomplete. True when the map is whole.
+bool CannyFromDerivatives(
+    const cv::Mat& dx, const cv::Mat& dy, double low, double high, bool l2_gradient,
+    CannyScratch* scratch, cv::Mat* edges,
+    std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max());
+
+// The pieces of CannyFromDerivatives, row by row, for a caller that computes the map in bands
+// of rows (edge_bands.h): the very code the whole-image function runs, so the map is the same.
+// The map has a pad of one pixel all round: (rows + 2) x (cols + 2), row y of the image at map
+// row y + 1, column x at x + 1.
+namespace canny_rows {
+constexpr uint8_t kCandidate = 0, kNotEdge = 1, kEdge = 2;
+// The integer thresholds cv::Canny compares with (see above).
+void Thresholds(double low, double high, bool l2_gradient, int32_t* ilow, int32_t* ihigh);
+// out[j] = the gradient magnitude of (dx[j], dy[j]), j in [0, n).
+void Magnitude(const int16_t* dx, const int16_t* dy, bool l2_gradient, int32_t* out, int n);
+// Non-maximum suppression and double threshold of one row into out[0, n): `above`, `here`,
+// `below` the magnitudes of the rows before, at and after it, readable at [-1, n] (zero
+// outside the image).
+void SuppressRow(const int32_t* above, const int32_t* here, const int32_t* below, const int16_t* dx,
+                 const int16_t* dy, int32_t low, int32_t high, uint8_t* out, int n);
+// Appends the offsets from `base` of row[0, n)'s kEdge pixels to stack[*top...].
+void PushEdges(const uint8_t* row, int n, const uint8_t* base, int32_t* stack, size_t* top);
+// Hysteresis from the kEdge pixels at stack[0, top) (map offsets): kCandidate pixels
+// 8-connected to them become kEdge, looking only at offsets in [begin, end) (a band's rows;
+// the whole map for [0, map size)). `stack` needs room for every kCandidate pixel in range.
+// False when `deadline` (read every 4,096 pixels) passed first.
+bool Hysteresis(
+    uint8_t* map, int cols, int32_t* stack, size_t top, int32_t begin, int32_t end,
+    std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max());
+// edges[j] = 255 where map[j] is kEdge, else 0.
+void FinalRow(const uint8_t* map, uint8_t* edges, int n);
+}  // namespace canny_rows
 
 }  // namespace svms

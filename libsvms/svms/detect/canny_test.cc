@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -290,6 +291,20 @@ TEST(Canny, LaterCallsReuseEveryBuffer) {
   cv::Mat expected;
   cv::Canny(dx, dy, expected, 24, 64, true);
   EXPECT_EQ(Difference(expected, small_edges), "");  // stale scratch contents do not matter
+}
+
+TEST(Canny, APassedDeadlineStopsTheMapAndAFarOneChangesNothing) {
+  cv::Mat dx, dy;
+  Derivatives(Noise(cv::Size(300, 200), 4), &dx, &dy);
+  CannyScratch scratch;
+  cv::Mat whole, again;
+  ASSERT_TRUE(CannyFromDerivatives(dx, dy, 24, 64, true, &scratch, &whole));
+  const auto now = std::chrono::steady_clock::now();
+  EXPECT_FALSE(
+      CannyFromDerivatives(dx, dy, 24, 64, true, &scratch, &again, now - std::chrono::seconds(1)));
+  ASSERT_TRUE(
+      CannyFromDerivatives(dx, dy, 24, 64, true, &scratch, &again, now + std::chrono::hours(1)));
+  EXPECT_EQ(Difference(whole, again), "");
 }
 
 }  // namespace

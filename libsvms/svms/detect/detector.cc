@@ -6,6 +6,7 @@
 #include "svms/codec/svms44.h"
 #include "svms/detect/bit_sampler.h"
 #include "svms/detect/noise_model.h"
+#include "svms/detect/worker_pool.h"
 
 namespace svms {
 namespace {
@@ -43,6 +44,13 @@ struct DetectScratch {
   std::vector<Quad> quads;
   std::vector<Detection> decoded, accepted, pending;
   std::vector<ExcludedRegion> excluded;
+  // With several threads: steps 5-10 of quad i in slots[i].
+  struct QuadSlot {
+    enum State { kDropped, kAccepted, kPending, kRejectedForEvidence, kUnfinished };
+    State state = kDropped;
+    Detection detection;
+  };
+  std::vector<QuadSlot> slots;
 };
 
 bool Inside(const Eigen::Vector2d& p, const std::array<Eigen::Vector2d, 4>& q) {
@@ -122,15 +130,16 @@ bool PrepareImages(const cv::Mat& input, DetectScratch* sc, StepImages* im) {
 // image at its full depth (noise_model.h: black backgrounds clipped at 0 and saturated glints
 // left out) and the edges are searched on a scale where it is the same everywhere. False when
 // `deadline` passed before every edge chain was processed (sc->segments then holds a part, or
-// nothing).
+// nothing), the noise estimate and the edge map included.
 bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, DetectScratch* sc,
-                      DetectionStats* stats, Clock::time_point deadline) {
+                      DetectionStats* stats, Clock::time_point deadline, WorkerPool* pool) {
   const cv::Mat* edge_image = &im.gray;
   SegmentOptions segment_options = options;
   if (im.measure.depth() == CV_16U) {
-    stats->noise = EstimateNoise(im.measure);
+    if (!EstimateNoise(im.measure, deadline, &stats->noise)) return false;
     if (stats->noise.valid() && stats->noise.read_sigma + stats->noise.shot_gain > 0) {
-      const double unit = StabiliseVariance(im.measure, stats->noise, &sc->stabilised);
+      const double unit = StabiliseVariance(im.measure, stats->noise, &sc->stabilised, deadline);
+      if (unit == 0) return false;
       segment_options.stabilise_variance = false;
       // Very clean images would put the thresholds under the 8 bits' own steps.
       segment_options.noise_sigma = std::max(unit, 0.5);
@@ -138,7 +147,7 @@ bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, Detec
     }
   }
   const bool complete =
-      FindSegments(*edge_image, segment_options, &sc->gx, &sc->gy, &sc->segments, deadline);
+      FindSegments(*edge_image, segment_options, &sc->gx, &sc->gy, &sc->segments, deadline, pool);
   stats->segments = static_cast<int>(sc->segments.size());
   return complete;
 }
@@ -182,7 +191,7 @@ std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorO
 // 9-10 for one detection of a marker whose model is known: the tip and the pose, and 10b.
 // Without a pose, d->pose_error says why.
 void PoseMarker(const StepImages& im, const CameraModel& camera, const MarkerModel& model,
-                const DetectorOptions& o, DetectScratch* sc, Detection* d) {
+                const DetectorOptions& o, std::vector<ExcludedRegion>* excluded, Detection* d) {
   MarkerPose mp;
   const bool posed = EstimateMarkerPose(im.measure, d->corners, model, camera, d->black * im.level,
                                         d->white * im.level, o.pose, &mp, d->corner_sigma);
@@ -197,9 +206,9 @@ void PoseMarker(const StepImages& im, const CameraModel& camera, const MarkerMod
   if (o.refine_corners && o.post_silhouette_margin_px > 0)
     post = PostSilhouette(model, camera, mp.cam_from_marker, o.post_silhouette_margin_px);
   if (!post || !RegionTouchesSides(*post, d->corners)) return;
-  sc->excluded.assign(1, *post);
+  excluded->assign(1, *post);
   const RefinedCorners r =
-      RefineCorners(im.measure, d->corners, &camera, o.refine, sc->excluded, d->black * im.level);
+      RefineCorners(im.measure, d->corners, &camera, o.refine, *excluded, d->black * im.level);
   MarkerPose again;
   // Kept only if the sides fit better without those points: on a short side (a small
   // marker at a grazing angle) the post may hide most of it, and the few points left
@@ -215,6 +224,74 @@ void PoseMarker(const StepImages& im, const CameraModel& camera, const MarkerMod
     d->corner_covariance = r.corner_covariance;
     d->penumbra_sides = r.penumbra_sides;
     SetPose(again, d);
+  }
+}
+
+// 5-10 on the pool's threads, one quad per part, for DetectorOptions::threads > 1: what the
+// serial steps do to each quad (decoding, the ID filter, corners, tip and pose, the evidence
+// for large corrections), each quad's outcome into its slot; the accepted detections are then
+// appended to sc->accepted, and the inner markers of duals that wait for their outer marker
+// (AcceptNestedInOuter) to sc->pending, in the quads' order, as the serial steps append them. A
+// quad reached after the deadline is left unfinished (stats->budget_exceeded).
+void MeasureQuadsInParallel(const StepImages& im, const std::vector<Quad>& quads,
+                            const DetectorOptions& o, const CameraModel& camera,
+                            const std::map<int, MarkerModel>& models,
+                            const std::map<int, int>& outer_of, Clock::time_point deadline,
+                            WorkerPool* pool, DetectScratch* sc, DetectionStats* stats) {
+  using Slot = DetectScratch::QuadSlot;
+  const bool has_deadline = deadline != Clock::time_point::max();
+  auto past = [&] { return has_deadline && Clock::now() >= deadline; };
+  const CameraModel* cam = camera.empty() ? nullptr : &camera;
+  if (sc->slots.size() < quads.size()) sc->slots.resize(quads.size());
+  pool->Run(static_cast<int>(quads.size()), [&](int i) {
+    Slot& slot = sc->slots[i];
+    slot.state = Slot::kDropped;
+    if (past()) {
+      slot.state = Slot::kUnfinished;
+      return;
+    }
+    std::optional<Detection> decoded = DecodeQuad(im.gray, quads[i], o, cam);
+    if (!decoded) return;
+    Detection& d = slot.detection;
+    d = std::move(*decoded);
+    auto it = models.find(d.id);
+    const bool known = it != models.end();
+    if (!models.empty() && o.known_ids_only && !known) return;
+    if (o.refine_corners) {
+      if (past()) {
+        slot.state = Slot::kUnfinished;
+        return;
+      }
+      const RefinedCorners r =
+          RefineCorners(im.measure, d.corners, cam, o.refine, {}, d.black * im.level);
+      if (r.ok) {
+        d.corners = r.corners;
+        d.corner_sigma = r.corner_sigma;
+        d.corner_covariance = r.corner_covariance;
+        d.penumbra_sides = r.penumbra_sides;
+      }
+    }
+    if (past()) {
+      slot.state = Slot::kUnfinished;
+      return;
+    }
+    thread_local std::vector<ExcludedRegion> excluded;
+    if (cam && known) PoseMarker(im, camera, it->second, o, &excluded, &d);
+    const bool evidence = d.tip.has_value() || (d.bit_errors <= 3 && known);
+    if (d.bit_errors <= o.max_unsupported_corrections || evidence) {
+      slot.state = Slot::kAccepted;
+    } else if (outer_of.count(d.id) > 0) {
+      slot.state = Slot::kPending;  // the inner marker of a known dual: AcceptNestedInOuter
+    } else {
+      slot.state = Slot::kRejectedForEvidence;
+    }
+  });
+  for (size_t i = 0; i < quads.size(); ++i) {
+    const Slot& slot = sc->slots[i];
+    if (slot.state == Slot::kUnfinished) stats->budget_exceeded = true;
+    if (slot.state == Slot::kRejectedForEvidence) ++stats->rejected_for_evidence;
+    if (slot.state == Slot::kPending) sc->pending.push_back(slot.detection);
+    if (slot.state == Slot::kAccepted) sc->accepted.push_back(slot.detection);
   }
 }
 
@@ -303,6 +380,7 @@ double Detection::side_px() const {
 Detector::Detector(const DetectorOptions& options, const CameraModel& camera,
                    const std::vector<MarkerModel>& models)
     : options_(options), camera_(camera) {
+  options_.threads = std::max(options_.threads, 1);
   for (const MarkerModel& m : models) {
     models_[m.id] = m;
     if (auto inner = m.InnerModel()) {
@@ -310,7 +388,31 @@ Detector::Detector(const DetectorOptions& options, const CameraModel& camera,
       outer_of_[inner->id] = m.id;
     }
   }
+  if (options_.threads > 1) pool_ = std::make_unique<WorkerPool>(options_.threads);
 }
+
+Detector::Detector(const Detector& other)
+    : options_(other.options_),
+      camera_(other.camera_),
+      models_(other.models_),
+      outer_of_(other.outer_of_) {
+  if (options_.threads > 1) pool_ = std::make_unique<WorkerPool>(options_.threads);
+}
+
+Detector& Detector::operator=(const Detector& other) {
+  if (this == &other) return *this;
+  options_ = other.options_;
+  camera_ = other.camera_;
+  models_ = other.models_;
+  outer_of_ = other.outer_of_;
+  pool_.reset();
+  if (options_.threads > 1) pool_ = std::make_unique<WorkerPool>(options_.threads);
+  return *this;
+}
+
+Detector::Detector(Detector&& other) noexcept = default;
+Detector& Detector::operator=(Detector&& other) noexcept = default;
+Detector::~Detector() = default;
 
 std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* stats_out) const {
   return Detect(input, stats_out, Clock::time_point::max());
@@ -349,7 +451,7 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   // Past the deadline in steps 1-4 the frame ends there, flagged, with no detections: a part of
   // the edges or quads would find the markers of a part of the image, which a caller could not
   // tell from a frame without the others.
-  const bool edges_complete = FindEdgeSegments(im, o.segments, &sc, &stats, deadline);
+  const bool edges_complete = FindEdgeSegments(im, o.segments, &sc, &stats, deadline, pool_.get());
   auto t1 = Clock::now();
   stats.ms[0] = Ms(t0, t1);
   if (!edges_complete) {
@@ -367,6 +469,23 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   stats.ms[1] = Ms(t1, t2);
   if (!quads_complete) {
     stats.budget_exceeded = true;
+    if (stats_out) *stats_out = stats;
+    return;
+  }
+
+  if (pool_) {
+    // 5-10 per quad on the pool's threads.
+    sc.accepted.clear();
+    sc.pending.clear();
+    MeasureQuadsInParallel(im, quads, o, camera_, models_, outer_of_, deadline, pool_.get(), &sc,
+                           &stats);
+    AcceptNestedInOuter(outer_of_, &sc.pending, &sc.accepted, &stats.rejected_for_evidence);
+    const auto t5 = Clock::now();
+    stats.ms[2] = Ms(t2, t5);
+    MergeAndNest(sc.accepted, outer_of_, &result);
+    stats.decoded = static_cast<int>(result.size());
+    stats.ms[5] = Ms(t5, Clock::now());
+    if (o.debug_pictures) DrawDebugPictures(im.gray, sc.segments, quads, &stats);
     if (stats_out) *stats_out = stats;
     return;
   }
@@ -414,7 +533,7 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   for (Detection& d : out) {
     if (past_deadline()) break;
     auto it = models_.find(d.id);
-    if (cam && it != models_.end()) PoseMarker(im, camera_, it->second, o, &sc, &d);
+    if (cam && it != models_.end()) PoseMarker(im, camera_, it->second, o, &sc.excluded, &d);
     if (d.bit_errors > o.max_unsupported_corrections) {
       // Independent evidence: the post tip found where the pose puts it (and, for 3
       // corrections, membership of the known set is enough).

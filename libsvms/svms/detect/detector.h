@@ -13,13 +13,16 @@
 // Safe to use one Detector per thread; Detect() is const. Its working buffers are kept per
 // thread (thread_local, grown to the largest image the thread has seen), so that the Detect
 // overload with an output vector allocates nothing on the heap once a thread has warmed up on
-// images of its size (docs/flight-interface.md; capi_alloc_test counts).
+// images of its size (docs/flight-interface.md; capi_alloc_test counts). With
+// DetectorOptions::threads > 1 the Detector owns that many threads less one (worker_pool.h),
+// which share each frame with the calling thread; their buffers too are kept between frames.
 #pragma once
 
 #include <Eigen/Core>
 #include <array>
 #include <chrono>
 #include <map>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
@@ -99,12 +102,20 @@ struct DetectorOptions {
   // If set, DetectionStats::debug_pictures receives a picture of each step (the detector
   // writes no files: where pictures go is the caller's business).
   bool debug_pictures = false;
+  // Threads per frame (>= 1). Above 1, one frame is shared by that many threads: the edge map
+  // in bands of rows and the edge chains in parts (segments.h), steps 5-10 one candidate quad
+  // per part, each part into a slot of its own merged in the serial order. The detections are
+  // the same, to the last bit, as with one thread (unless a deadline passes). Images under
+  // 128 rows, the edge linking, the quad search and step 11 stay on the calling thread.
+  int threads = 1;
 };
 
 struct DetectionStats {
   static constexpr int kSteps = 6;
   static constexpr const char* kStepNames[kSteps] = {"segments", "quads", "decode",
                                                      "refine",   "pose",  "nesting"};
+  // Wall time per step. With DetectorOptions::threads > 1 steps 5-10 run together per quad:
+  // their time is under "decode", and "refine" and "pose" are 0.
   std::array<double, kSteps> ms{};
   int segments = 0, quads = 0, decoded = 0, rejected_for_evidence = 0;
   // The deadline passed before the frame was done: what was finished is returned (nothing when
@@ -117,12 +128,20 @@ struct DetectionStats {
   NoiseModel noise;
 };
 
+class WorkerPool;
+
 class Detector {
  public:
   // `camera` (may be empty) enables undistorted corner fits and poses; `models` (may be
-  // empty) give each ID's geometry, its post and its nesting.
+  // empty) give each ID's geometry, its post and its nesting. options.threads < 1 counts as 1.
   Detector(const DetectorOptions& options, const CameraModel& camera,
            const std::vector<MarkerModel>& models);
+  // A copy has threads of its own (with options.threads > 1).
+  Detector(const Detector& other);
+  Detector& operator=(const Detector& other);
+  Detector(Detector&& other) noexcept;
+  Detector& operator=(Detector&& other) noexcept;
+  ~Detector();
 
   // All markers in `image`, whose values must be linear in light (an image as a camera stores
   // it goes through LinearizeImage, photometric.h, first): CV_8UC1 or CV_16UC1 (any size >=
@@ -131,12 +150,15 @@ class Detector {
   // images and other depths are converted to grey with OpenCV's weights (other depths through
   // float, saturated to 8 bits); 1, 3 or 4 channels, none for other counts.
   std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats = nullptr) const;
-  // The same under a deadline: every step checks it (edge linking every 32 rows, the edge
-  // chains every 64, the quad search every 256 segments, the decoding every 8 quads, corners, tip
-  // and pose every marker); once it has passed, stats->budget_exceeded is set and only the markers
-  // that went through every step before it are returned: none when it passed in steps 1-4 (edges,
-  // segments, quads). Not interrupted: the 16-bit noise estimate and the edge map (gradients and
-  // hysteresis), whose cost the image size sets.
+  // The same under a deadline: every step checks it (a 16-bit image's noise estimate every 64
+  // rows, the edge map, made by bands under a deadline, within every 32 rows and 4,096 pixels of
+  // hysteresis, edge linking every 32 rows, the chains every 64, the collinear merge every 256
+  // pieces, the quad search every 256 segments, the decoding every 8 quads, corners, tip and pose
+  // every marker); once it has passed, stats->budget_exceeded is set and only the markers that
+  // went through every step before it are returned: none when it passed in steps 1-4 (edges,
+  // segments, quads). Not interrupted, so they bound how far past the deadline a frame runs:
+  // step 0 (grey conversion; a 16-bit image's scaling to 8 bits) and one marker's corners, tip
+  // and pose (docs/benchmarks.md: 0.35 ms past it at most on a cluttered 1024 x 1024 frame).
   std::vector<Detection> Detect(const cv::Mat& image, DetectionStats* stats,
                                 std::chrono::steady_clock::time_point deadline) const;
   // The same into *detections (replaced), whose capacity is reused: with one vector kept by
@@ -154,6 +176,9 @@ class Detector {
   CameraModel camera_;
   std::map<int, MarkerModel> models_;  // by ID, inner markers included
   std::map<int, int> outer_of_;        // inner ID -> outer ID
+  // The other threads of a frame (options_.threads > 1). A Detect call from a second thread
+  // while one runs does its frame on its own thread (WorkerPool::Run): the same results.
+  std::unique_ptr<WorkerPool> pool_;
 };
 
 }  // namespace svms

@@ -31,9 +31,16 @@ constexpr double kQuantileToSigma = 1.0 / (0.3186 * 4.4721359549995796);
 // hundred per bin).
 constexpr int kStride = 4;
 
+using Clock = std::chrono::steady_clock;
+
+bool Past(Clock::time_point deadline) {
+  return deadline != Clock::time_point::max() && Clock::now() >= deadline;
+}
+
+// False when `deadline` (read every 64 rows) passed.
 template <typename T>
-void Sample(const cv::Mat& img, int full, std::array<std::vector<int>, kBins>* r,
-            std::array<double, kBins>* level_sum) {
+bool Sample(const cv::Mat& img, int full, std::array<std::vector<int>, kBins>* r,
+            std::array<double, kBins>* level_sum, Clock::time_point deadline) {
   // The bin of a level, uniform in sqrt(level / full), from a table over level / 16.
   thread_local std::vector<uint8_t> bin_of;
   const int shift = full > 255 ? 4 : 0;
@@ -42,6 +49,7 @@ void Sample(const cv::Mat& img, int full, std::array<std::vector<int>, kBins>* r
     bin_of[i] = static_cast<uint8_t>(std::min(
         kBins - 1, static_cast<int>(kBins * std::sqrt(static_cast<double>(i << shift) / full))));
   for (int y = 1; y + 1 < img.rows; y += kStride) {
+    if ((y / kStride) % 16 == 15 && Past(deadline)) return false;
     const T *up = img.ptr<T>(y - 1), *row = img.ptr<T>(y), *down = img.ptr<T>(y + 1);
     for (int x = 1 + (y / kStride) % kStride; x + 1 < img.cols; x += kStride) {
       const int v = row[x], a = row[x - 1], b = row[x + 1], c = up[x], d = down[x];
@@ -56,22 +64,30 @@ void Sample(const cv::Mat& img, int full, std::array<std::vector<int>, kBins>* r
       (*level_sum)[bin] += sum / 5.0;
     }
   }
+  return true;
 }
 
 }  // namespace
 
 NoiseModel EstimateNoise(const cv::Mat& img) {
   NoiseModel out;
-  if (img.rows < 8 || img.cols < 8 || (img.type() != CV_8UC1 && img.type() != CV_16UC1)) return out;
+  EstimateNoise(img, Clock::time_point::max(), &out);
+  return out;
+}
+
+bool EstimateNoise(const cv::Mat& img, Clock::time_point deadline, NoiseModel* noise) {
+  NoiseModel& out = *noise;
+  out = NoiseModel();
+  if (img.rows < 8 || img.cols < 8 || (img.type() != CV_8UC1 && img.type() != CV_16UC1))
+    return true;
   const bool eight = img.depth() == CV_8U;
   const int full = eight ? 255 : 65535;
   thread_local std::array<std::vector<int>, kBins> r;
   std::array<double, kBins> level_sum{};
   for (auto& v : r) v.clear();
-  if (eight)
-    Sample<uint8_t>(img, full, &r, &level_sum);
-  else
-    Sample<uint16_t>(img, full, &r, &level_sum);
+  if (!(eight ? Sample<uint8_t>(img, full, &r, &level_sum, deadline)
+              : Sample<uint16_t>(img, full, &r, &level_sum, deadline)))
+    return false;
   // Per bin: its mean level and the noise variance from the quantile of |Laplacian|.
   struct Bin {
     double level, var, weight;
@@ -109,7 +125,7 @@ NoiseModel EstimateNoise(const cv::Mat& img) {
     const double s2 = std::max(var, 1e-6 * full);
     bins.push_back({level, var, n / (s2 * s2)});
   }
-  if (bins.empty()) return out;
+  if (bins.empty()) return true;
   // var = a + g L, weighted least squares; a, g >= 0. Bins far above the fit (texture) are
   // dropped once.
   double a = 0, g = 0;
@@ -142,10 +158,11 @@ NoiseModel EstimateNoise(const cv::Mat& img) {
   out.read_sigma = std::sqrt(a);
   out.shot_gain = g;
   out.bins = static_cast<int>(bins.size());
-  return out;
+  return true;
 }
 
-double StabiliseVariance(const cv::Mat& linear16, const NoiseModel& noise, cv::Mat* out8) {
+double StabiliseVariance(const cv::Mat& linear16, const NoiseModel& noise, cv::Mat* out8,
+                         Clock::time_point deadline) {
   CV_Assert(linear16.type() == CV_16UC1);
   const double a = std::max(noise.read_sigma * noise.read_sigma, 1e-12), g = noise.shot_gain;
   auto T = [&](double L) {
@@ -164,6 +181,7 @@ double StabiliseVariance(const cv::Mat& linear16, const NoiseModel& noise, cv::M
   out8->create(linear16.size(), CV_8UC1);
   const uint8_t* __restrict table = lut.data();
   for (int y = 0; y < linear16.rows; ++y) {
+    if (y % 64 == 63 && Past(deadline)) return 0;
     const uint16_t* __restrict in = linear16.ptr<uint16_t>(y);
     uint8_t* __restrict o = out8->ptr<uint8_t>(y);
     for (int x = 0; x < linear16.cols; ++x) o[x] = table[in[x]];

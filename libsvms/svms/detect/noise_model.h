@@ -16,6 +16,7 @@
 // noise: it is all counted as read noise, which never amplifies the dark parts of the image.
 #pragma once
 
+#include <chrono>
 #include <opencv2/core.hpp>
 
 namespace svms {
@@ -34,12 +35,19 @@ struct NoiseModel {
 // depth's largest value saturation. Samples every 4th pixel of every 4th row (about 65,000
 // samples at 1024 x 1024).
 NoiseModel EstimateNoise(const cv::Mat& linear);
+// The same under a deadline, read every 64 rows: false, with *noise invalid, once it has passed.
+bool EstimateNoise(const cv::Mat& linear, std::chrono::steady_clock::time_point deadline,
+                   NoiseModel* noise);
 
 // The 16-bit linear image on a scale where `noise` is the same at every brightness (the
 // generalised Anscombe transform T(L) = 2 / g (sqrt(g L + r^2) - r) for read noise r and shot
 // gain g; L / r for read noise alone), scaled to fill 8 bits: what the edge search runs on.
 // Returns the noise's sigma on that 8-bit scale (its thresholds are in those units): the
 // scale factor itself, since T has unit noise.
-double StabiliseVariance(const cv::Mat& linear16, const NoiseModel& noise, cv::Mat* out8);
+// `deadline` is read every 64 rows (not while the 65,536-entry table is rebuilt for a new model):
+// once it has passed the result is 0 and *out8 incomplete.
+double StabiliseVariance(
+    const cv::Mat& linear16, const NoiseModel& noise, cv::Mat* out8,
+    std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max());
 
 }  // namespace svms

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <random>
 
@@ -34,6 +35,21 @@ TEST(EstimateNoise, RecoversReadNoiseAndGainOnFlatPatches) {
   ASSERT_TRUE(m.valid());
   EXPECT_NEAR(m.read_sigma, 30, 0.25 * 30);
   EXPECT_NEAR(m.shot_gain, 2.0, 0.15 * 2.0);
+}
+
+TEST(EstimateNoise, APassedDeadlineStopsTheEstimateAndTheRescaling) {
+  const cv::Mat img = Patches({500, 2000, 8000, 20000, 40000}, 30, 2.0, 1);
+  const auto now = std::chrono::steady_clock::now();
+  NoiseModel m;
+  EXPECT_FALSE(EstimateNoise(img, now - std::chrono::seconds(1), &m));
+  EXPECT_FALSE(m.valid());
+  ASSERT_TRUE(EstimateNoise(img, now + std::chrono::hours(1), &m));
+  const NoiseModel whole = EstimateNoise(img);
+  EXPECT_EQ(m.read_sigma, whole.read_sigma);
+  EXPECT_EQ(m.shot_gain, whole.shot_gain);
+  cv::Mat out8;
+  EXPECT_GT(StabiliseVariance(img, m, &out8), 0);
+  EXPECT_EQ(StabiliseVariance(img, m, &out8, now - std::chrono::seconds(1)), 0);
 }
 
 // A black background clipped at 0 (space): its spread is less than the noise; the estimate

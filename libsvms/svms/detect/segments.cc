@@ -3,12 +3,15 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <opencv2/imgproc.hpp>
 
 #include "svms/detect/canny.h"
+#include "svms/detect/edge_bands.h"
+#include "svms/detect/worker_pool.h"
 
 namespace svms {
 namespace {
@@ -26,6 +29,55 @@ int NextNonZero(const uint8_t* row, int x, int cols) {
   return x;
 }
 
+// EstimateReadNoise's sums: |4 I - (sum of the 4 neighbours)| at every 4th pixel of every
+// 4th row (0.02 ms at 640 x 480), per grey-level bin (steps of 32), as histograms: the median
+// without sorting or allocating. Integer counts, so the sums over bands of rows add up to the
+// sums over the image exactly.
+struct ReadNoiseTally {
+  static constexpr int kBins = 8, kLevels = 256;
+  std::array<std::array<int, kLevels>, kBins> hist{};
+  std::array<int64_t, kBins> level_sum{};
+  std::array<int, kBins> count{};
+
+  // The sampled rows (1, 5, 9, ...) in [y_begin, y_end).
+  void Add(const cv::Mat& gray8, int y_begin, int y_end) {
+    const int first = y_begin <= 1 ? 1 : y_begin + ((1 - y_begin) % 4 + 4) % 4;
+    for (int y = first; y < y_end && y + 1 < gray8.rows; y += 4) {
+      const uint8_t *up = gray8.ptr<uint8_t>(y - 1), *row = gray8.ptr<uint8_t>(y),
+                    *down = gray8.ptr<uint8_t>(y + 1);
+      for (int x = 1; x + 1 < gray8.cols; x += 4) {
+        const int v = row[x];
+        const int r = std::abs(4 * v - row[x - 1] - row[x + 1] - up[x] - down[x]);
+        const int b = v >> 5;
+        ++hist[b][std::min(r, kLevels - 1)];
+        level_sum[b] += v;
+        ++count[b];
+      }
+    }
+  }
+  void Add(const ReadNoiseTally& t) {
+    for (int b = 0; b < kBins; ++b) {
+      for (int l = 0; l < kLevels; ++l) hist[b][l] += t.hist[b][l];
+      level_sum[b] += t.level_sum[b];
+      count[b] += t.count[b];
+    }
+  }
+  // The read noise from the darkest bin with enough samples (EstimateReadNoise).
+  double Sigma() const {
+    for (int b = 0; b < kBins; ++b) {
+      if (count[b] < 500) continue;
+      int seen = 0, median = 0;
+      while (median < kLevels - 1 && (seen += hist[b][median]) < count[b] / 2) ++median;
+      // White noise sigma gives the Laplacian a sigma of sqrt(20) sigma; 1.4826 x median |r|.
+      const double sigma = 1.4826 * median / std::sqrt(20.0);
+      const double shot = static_cast<double>(level_sum[b]) / count[b] / 64,
+                   quantisation = 1.0 / 12;
+      return std::sqrt(std::max(0.0, sigma * sigma - shot - quantisation));
+    }
+    return 0;
+  }
+};
+
 // Buffers of FindSegments, kept per thread between calls so that a thread's detector
 // allocates nothing once they have grown to its largest frame (the C API's promise).
 struct SegmentScratch {
@@ -40,6 +92,12 @@ struct SegmentScratch {
   std::vector<char> gone;
   std::vector<Segment> kept;
   std::vector<double> length, start_x, start_y;  // by piece; starts in sorted order
+  // With a worker pool: the edge map's bands, the read noise's sums by band, and the
+  // segments of each part of the chains.
+  EdgeBandsScratch bands;
+  std::vector<ReadNoiseTally> tallies;
+  std::vector<int> part_begin;
+  std::vector<std::vector<Segment>> part_segments;
 };
 SegmentScratch& Scratch() {
   thread_local SegmentScratch scratch;
@@ -184,6 +242,89 @@ void MergeAdjacent(const cv::Point* c, double tol, double rel,
   pieces->swap(out);
 }
 
+// Step 3 for one chain: split where it stops being straight, a total-least-squares segment
+// on each piece that is long enough, appended to *out in the chain's order. The chain may be
+// rotated in place (a closed curve). `pieces`, `merged`: buffers.
+void FitChain(cv::Point* chain, int chain_size, const SegmentOptions& o, const cv::Mat& gx,
+              const cv::Mat& gy, std::vector<std::pair<int, int>>* pieces_buffer,
+              std::vector<std::pair<int, int>>* merged, std::vector<Segment>* out) {
+  std::vector<std::pair<int, int>>& pieces = *pieces_buffer;
+  auto split = [&] {
+    pieces.clear();
+    Split(chain, 0, chain_size - 1, o.max_deviation, o.relative_deviation, &pieces);
+    MergeAdjacent(chain, o.rejoin_deviation, o.relative_deviation, &pieces, merged);
+  };
+  split();
+  // A closed curve's seam lies wherever the walk began, often just past a corner, which then
+  // bends the first piece: start the curve again at its first corner and split once more.
+  const cv::Point gap = chain[0] - chain[chain_size - 1];
+  if (pieces.size() >= 2 && gap.dot(gap) <= 2) {
+    std::rotate(chain, chain + pieces[0].second, chain + chain_size);
+    split();
+  }
+  for (const auto& [lo, hi] : pieces) {
+    if (hi - lo + 1 < o.min_length) continue;
+    // Total least squares line through the piece's pixels, and its mean gradient.
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero(), g = Eigen::Vector2d::Zero();
+    for (int i = lo; i <= hi; ++i) {
+      mean += Eigen::Vector2d(chain[i].x, chain[i].y);
+      g += Eigen::Vector2d(gx.at<int16_t>(chain[i]), gy.at<int16_t>(chain[i]));
+    }
+    const int n = hi - lo + 1;
+    mean /= n;
+    g /= n;
+    Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+    for (int i = lo; i <= hi; ++i) {
+      const Eigen::Vector2d q = Eigen::Vector2d(chain[i].x, chain[i].y) - mean;
+      cov += q * q.transpose();
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es;
+    es.computeDirect(cov);  // closed form for 2 x 2 (the iterative solver costs 3x more)
+    const Eigen::Vector2d dir = es.eigenvectors().col(1);
+    auto project = [&](const cv::Point& p) {
+      return Eigen::Vector2d(mean + dir * dir.dot(Eigen::Vector2d(p.x, p.y) - mean));
+    };
+    Segment s;
+    s.a = project(chain[lo]);
+    s.b = project(chain[hi]);
+    if (s.length() < o.min_length) continue;
+    // Dark on the screen-right of a -> b: the gradient (dark to bright) points screen-left.
+    const Eigen::Vector2d d = s.b - s.a, right(-d.y(), d.x());
+    if (g.dot(right) > 0) std::swap(s.a, s.b);
+    const Eigen::Vector2d u = (s.b - s.a).normalized();
+    const Eigen::Vector2d nrm(-u.y(), u.x());
+    s.line = Eigen::Vector3d(nrm.x(), nrm.y(), -nrm.dot(mean));
+    s.contrast = g.norm() / 8;
+    out->push_back(s);
+  }
+}
+
+// EstimateReadNoise's estimate into *sigma, with its sums taken by bands of rows on the pool's
+// threads. False when `past` said the deadline had passed (read before each band).
+template <typename Past>
+bool ReadNoiseInBands(const cv::Mat& gray8, WorkerPool* pool, const Past& past,
+                      std::vector<ReadNoiseTally>* tallies, double* sigma) {
+  *sigma = 0;
+  if (gray8.rows < 8 || gray8.cols < 8 || gray8.type() != CV_8UC1) return true;
+  const int n = EdgeBandCount(gray8.rows, pool->threads());
+  if (tallies->size() < static_cast<size_t>(n)) tallies->resize(n);
+  std::atomic<bool> stopped{false};
+  pool->Run(n, [&](int k) {
+    if (past()) {
+      stopped = true;
+      return;
+    }
+    ReadNoiseTally& t = (*tallies)[k];
+    t = ReadNoiseTally();
+    t.Add(gray8, static_cast<int>(static_cast<int64_t>(gray8.rows) * k / n),
+          static_cast<int>(static_cast<int64_t>(gray8.rows) * (k + 1) / n));
+  });
+  if (stopped) return false;
+  for (int k = 1; k < n; ++k) (*tallies)[0].Add((*tallies)[k]);
+  *sigma = (*tallies)[0].Sigma();
+  return true;
+}
+
 // The segment from s.a to t.b: its line through the length-weighted middle of both pieces,
 // its contrast their length-weighted mean.
 Segment Joined(const Segment& s, const Segment& t) {
@@ -202,35 +343,9 @@ Segment Joined(const Segment& s, const Segment& t) {
 
 double EstimateReadNoise(const cv::Mat& gray8) {
   if (gray8.rows < 8 || gray8.cols < 8 || gray8.type() != CV_8UC1) return 0;
-  // |4 I - (sum of the 4 neighbours)| at every 4th pixel of every 4th row (0.02 ms at
-  // 640 x 480), per grey-level bin (steps of 32), as histograms: the median without sorting
-  // or allocating.
-  constexpr int kBins = 8, kLevels = 256;
-  std::array<std::array<int, kLevels>, kBins> hist{};
-  std::array<int64_t, kBins> level_sum{};
-  std::array<int, kBins> count{};
-  for (int y = 1; y + 1 < gray8.rows; y += 4) {
-    const uint8_t *up = gray8.ptr<uint8_t>(y - 1), *row = gray8.ptr<uint8_t>(y),
-                  *down = gray8.ptr<uint8_t>(y + 1);
-    for (int x = 1; x + 1 < gray8.cols; x += 4) {
-      const int v = row[x];
-      const int r = std::abs(4 * v - row[x - 1] - row[x + 1] - up[x] - down[x]);
-      const int b = v >> 5;
-      ++hist[b][std::min(r, kLevels - 1)];
-      level_sum[b] += v;
-      ++count[b];
-    }
-  }
-  for (int b = 0; b < kBins; ++b) {
-    if (count[b] < 500) continue;
-    int seen = 0, median = 0;
-    while (median < kLevels - 1 && (seen += hist[b][median]) < count[b] / 2) ++median;
-    // White noise sigma gives the Laplacian a sigma of sqrt(20) sigma; 1.4826 x median |r|.
-    const double sigma = 1.4826 * median / std::sqrt(20.0);
-    const double shot = static_cast<double>(level_sum[b]) / count[b] / 64, quantisation = 1.0 / 12;
-    return std::sqrt(std::max(0.0, sigma * sigma - shot - quantisation));
-  }
-  return 0;
+  ReadNoiseTally tally;
+  tally.Add(gray8, 0, gray8.rows);
+  return tally.Sigma();
 }
 
 std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx,
@@ -241,18 +356,29 @@ std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& o,
 }
 
 bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv::Mat* gy,
-                  std::vector<Segment>* segments, std::chrono::steady_clock::time_point deadline) {
+                  std::vector<Segment>* segments, std::chrono::steady_clock::time_point deadline,
+                  WorkerPool* pool) {
   const bool has_deadline = deadline != std::chrono::steady_clock::time_point::max();
   auto past = [&] { return has_deadline && std::chrono::steady_clock::now() >= deadline; };
   SegmentScratch& sc = Scratch();
   std::vector<Segment>& out = *segments;
   out.clear();
+  // Several threads split the edge map into bands of rows and the chains into parts; small
+  // images are not worth it. Under a deadline the edge map is made by bands on this thread
+  // alone (the same map): every part of it then reads the clock within 32 rows.
+  const bool large = gray8.rows >= 128 && gray8.cols >= 16;
+  const bool parallel = pool && pool->threads() > 1 && large;
+  static WorkerPool this_thread_only(1);  // runs every part on the calling thread
+  WorkerPool* band_pool = parallel ? pool : &this_thread_only;
+  const bool banded = parallel || (has_deadline && large);
   // Edges are found on 16 sqrt(grey): shot noise makes the noise grow as the square root of
   // the signal, so on this scale it is about one level everywhere, and a marker in shadow
   // (white at 15, black at 3) shows a step of 35 instead of 12: one pair of thresholds serves
   // sunlit and shadowed markers alike. Later steps measure on the image itself.
   const cv::Mat* edge_input = &gray8;
   cv::Mat& stabilised = sc.stabilised;
+  const uint8_t* __restrict table = nullptr;
+  std::array<uint8_t, 256> noisy_lut;
   if (o.stabilise_variance) {
     static const std::array<uint8_t, 256> lut = [] {
       std::array<uint8_t, 256> t{};
@@ -260,103 +386,105 @@ bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
       return t;
     }();
     // With read noise: 16 (sqrt(grey + c) - sqrt(c)), c = 64 sigma^2 (see SegmentOptions).
-    std::array<uint8_t, 256> noisy_lut;
-    const uint8_t* __restrict table = lut.data();
-    const double read_noise = EstimateReadNoise(gray8);
+    table = lut.data();
+    double read_noise = 0;
+    if (!banded) {
+      read_noise = EstimateReadNoise(gray8);
+    } else if (!ReadNoiseInBands(gray8, band_pool, past, &sc.tallies, &read_noise)) {
+      return false;
+    }
     if (read_noise > o.read_noise_gate) {
       const double c = 64 * read_noise * read_noise;
       for (int v = 0; v < 256; ++v)
         noisy_lut[v] = cv::saturate_cast<uint8_t>(16 * (std::sqrt(v + c) - std::sqrt(c)));
       table = noisy_lut.data();
     }
-    // A plain loop, not cv::LUT: that one goes through parallel_for_, which allocates per call.
-    stabilised.create(gray8.size(), CV_8U);
-    for (int y = 0; y < gray8.rows; ++y) {
-      const uint8_t* __restrict in = gray8.ptr<uint8_t>(y);
-      uint8_t* __restrict o8 = stabilised.ptr<uint8_t>(y);
-      int x = 0;
-      // Four loads before four stores: as fast as cv::LUT on one core (0.29 ms at 1024x1024).
-      for (; x + 4 <= gray8.cols; x += 4) {
-        const uint8_t a = table[in[x]], b = table[in[x + 1]], c = table[in[x + 2]],
-                      d = table[in[x + 3]];
-        o8[x] = a;
-        o8[x + 1] = b;
-        o8[x + 2] = c;
-        o8[x + 3] = d;
-      }
-      for (; x < gray8.cols; ++x) o8[x] = table[in[x]];
-    }
-    edge_input = &stabilised;
   }
-  // Both 3x3 Sobel derivatives in one pass (the same values as two cv::Sobel calls).
-  cv::spatialGradient(*edge_input, *gx, *gy, 3);
-  // OpenCV's cv::Canny, reproduced without its per-call allocations (canny.h).
-  CannyFromDerivatives(*gx, *gy, o.canny_low * 8 * o.noise_sigma, o.canny_high * 8 * o.noise_sigma,
-                       true, &sc.canny,
-                       &sc.edges);  // Sobel is 8x the slope
+  const double low = o.canny_low * 8 * o.noise_sigma, high = o.canny_high * 8 * o.noise_sigma;
+  if (banded) {
+    // The same derivatives and edges as below, computed by bands (edge_bands.h).
+    if (!EdgeMapInBands(gray8, table, low, high, true, band_pool, &sc.bands, gx, gy, &sc.edges,
+                        deadline))
+      return false;
+  } else {
+    if (table) {
+      // A plain loop, not cv::LUT: that one goes through parallel_for_, which allocates per
+      // call.
+      stabilised.create(gray8.size(), CV_8U);
+      for (int y = 0; y < gray8.rows; ++y) {
+        if (y % 64 == 63 && past()) return false;
+        const uint8_t* __restrict in = gray8.ptr<uint8_t>(y);
+        uint8_t* __restrict o8 = stabilised.ptr<uint8_t>(y);
+        int x = 0;
+        // Four loads before four stores: as fast as cv::LUT on one core (0.29 ms at 1024x1024).
+        for (; x + 4 <= gray8.cols; x += 4) {
+          const uint8_t a = table[in[x]], b = table[in[x + 1]], c = table[in[x + 2]],
+                        d = table[in[x + 3]];
+          o8[x] = a;
+          o8[x + 1] = b;
+          o8[x + 2] = c;
+          o8[x + 3] = d;
+        }
+        for (; x < gray8.cols; ++x) o8[x] = table[in[x]];
+      }
+      edge_input = &stabilised;
+    }
+    // Both 3x3 Sobel derivatives in one pass (the same values as two cv::Sobel calls), the one
+    // part of the edge map that does not read the clock (0.4 ms at 1024 x 1024 on one core).
+    if (past()) return false;
+    cv::spatialGradient(*edge_input, *gx, *gy, 3);
+    // OpenCV's cv::Canny, reproduced without its per-call allocations (canny.h). Sobel is 8x
+    // the slope.
+    if (!CannyFromDerivatives(*gx, *gy, low, high, true, &sc.canny, &sc.edges, deadline))
+      return false;
+  }
   if (past() || !LinkChains(sc.edges, &sc, past)) return false;
-  std::vector<std::pair<int, int>>& pieces = sc.pieces;
-  for (size_t c = 0; c + 1 < sc.chain_begin.size(); ++c) {
-    if (c % 64 == 63 && past()) return false;
-    cv::Point* const chain = sc.points.data() + sc.chain_begin[c];
-    const int chain_size = sc.chain_begin[c + 1] - sc.chain_begin[c];
-    auto split = [&] {
-      pieces.clear();
-      Split(chain, 0, chain_size - 1, o.max_deviation, o.relative_deviation, &pieces);
-      MergeAdjacent(chain, o.rejoin_deviation, o.relative_deviation, &pieces, &sc.merged);
-    };
-    split();
-    // A closed curve's seam lies wherever the walk began, often just past a corner, which then
-    // bends the first piece: start the curve again at its first corner and split once more.
-    const cv::Point gap = chain[0] - chain[chain_size - 1];
-    if (pieces.size() >= 2 && gap.dot(gap) <= 2) {
-      std::rotate(chain, chain + pieces[0].second, chain + chain_size);
-      split();
+  const int chains = static_cast<int>(sc.chain_begin.size()) - 1;
+  if (parallel) {
+    // Parts of about equal numbers of chained pixels, each fitted on its own into its own
+    // list; the lists put end to end are the serial order.
+    const int parts = std::min(chains, 4 * pool->threads());
+    sc.part_begin.assign(1, 0);
+    const int64_t total = sc.chain_begin.back();
+    for (int c = 0, k = 1; k < parts; ++k) {
+      while (c < chains && static_cast<int64_t>(sc.chain_begin[c]) * parts < total * k) ++c;
+      sc.part_begin.push_back(std::max(c, sc.part_begin.back()));
     }
-    for (const auto& [lo, hi] : pieces) {
-      if (hi - lo + 1 < o.min_length) continue;
-      // Total least squares line through the piece's pixels, and its mean gradient.
-      Eigen::Vector2d mean = Eigen::Vector2d::Zero(), g = Eigen::Vector2d::Zero();
-      for (int i = lo; i <= hi; ++i) {
-        mean += Eigen::Vector2d(chain[i].x, chain[i].y);
-        g += Eigen::Vector2d(gx->at<int16_t>(chain[i]), gy->at<int16_t>(chain[i]));
+    sc.part_begin.push_back(chains);
+    if (sc.part_segments.size() < static_cast<size_t>(parts)) sc.part_segments.resize(parts);
+    std::atomic<bool> stopped{false};
+    pool->Run(parts, [&](int k) {
+      // This thread's own buffers for the pieces (the chains are the caller's).
+      SegmentScratch& mine = Scratch();
+      std::vector<Segment>& part = sc.part_segments[k];
+      part.clear();
+      for (int c = sc.part_begin[k]; c < sc.part_begin[k + 1]; ++c) {
+        if ((c - sc.part_begin[k]) % 64 == 63 && past()) {
+          stopped = true;
+          return;
+        }
+        FitChain(sc.points.data() + sc.chain_begin[c], sc.chain_begin[c + 1] - sc.chain_begin[c], o,
+                 *gx, *gy, &mine.pieces, &mine.merged, &part);
       }
-      const int n = hi - lo + 1;
-      mean /= n;
-      g /= n;
-      Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
-      for (int i = lo; i <= hi; ++i) {
-        const Eigen::Vector2d q = Eigen::Vector2d(chain[i].x, chain[i].y) - mean;
-        cov += q * q.transpose();
-      }
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es;
-      es.computeDirect(cov);  // closed form for 2 x 2 (the iterative solver costs 3x more)
-      const Eigen::Vector2d dir = es.eigenvectors().col(1);
-      auto project = [&](const cv::Point& p) {
-        return Eigen::Vector2d(mean + dir * dir.dot(Eigen::Vector2d(p.x, p.y) - mean));
-      };
-      Segment s;
-      s.a = project(chain[lo]);
-      s.b = project(chain[hi]);
-      if (s.length() < o.min_length) continue;
-      // Dark on the screen-right of a -> b: the gradient (dark to bright) points screen-left.
-      const Eigen::Vector2d d = s.b - s.a, right(-d.y(), d.x());
-      if (g.dot(right) > 0) std::swap(s.a, s.b);
-      const Eigen::Vector2d u = (s.b - s.a).normalized();
-      const Eigen::Vector2d nrm(-u.y(), u.x());
-      s.line = Eigen::Vector3d(nrm.x(), nrm.y(), -nrm.dot(mean));
-      s.contrast = g.norm() / 8;
-      out.push_back(s);
+    });
+    if (stopped) return false;
+    for (int k = 0; k < parts; ++k)
+      out.insert(out.end(), sc.part_segments[k].begin(), sc.part_segments[k].end());
+  } else {
+    for (int c = 0; c < chains; ++c) {
+      if (c % 64 == 63 && past()) return false;
+      FitChain(sc.points.data() + sc.chain_begin[c], sc.chain_begin[c + 1] - sc.chain_begin[c], o,
+               *gx, *gy, &sc.pieces, &sc.merged, &out);
     }
   }
-  if (past()) return false;
-  MergeCollinear(o, &out);
-  if (past()) return false;
+  if (past() || !MergeCollinear(o, &out, deadline) || past()) return false;
   BridgeKinks(o, &out);
   return true;
 }
 
-void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
+bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
+                    std::chrono::steady_clock::time_point deadline) {
+  const bool has_deadline = deadline != std::chrono::steady_clock::time_point::max();
   SegmentScratch& sc = Scratch();
   const double cos_max = std::cos(o.merge_angle_deg * M_PI / 180);
   const double both_long = 4 * o.merge_offset_px / std::tan(o.merge_angle_deg * M_PI / 180);
@@ -392,6 +520,8 @@ void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
     std::vector<char>& gone = sc.gone;
     gone.assign(v.size(), 0);
     for (size_t i = 0; i < v.size(); ++i) {
+      if (i % 256 == 255 && has_deadline && std::chrono::steady_clock::now() >= deadline)
+        return false;
       if (gone[i]) continue;
       for (bool joined = true; joined;) {
         joined = false;
@@ -446,6 +576,7 @@ void MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs) {
       segs->swap(kept);
     }
   }
+  return true;
 }
 
 void BridgeKinks(const SegmentOptions& o, std::vector<Segment>* segs) {

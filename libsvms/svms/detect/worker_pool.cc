@@ -1,0 +1,71 @@
+#include "svms/detect/worker_pool.h"
+
+#include <algorithm>
+
+namespace svms {
+
+WorkerPool::WorkerPool(int threads) {
+  const int workers = std::max(threads, 1) - 1;
+  workers_.reserve(workers);
+  for (int k = 0; k < workers; ++k) workers_.emplace_back([this] { WorkerLoop(); });
+}
+
+WorkerPool::~WorkerPool() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  for (std::thread& t : workers_) t.join();
+}
+
+void WorkerPool::Work() {
+  for (int i; (i = next_.fetch_add(1, std::memory_order_relaxed)) < n_;) call_(task_, i);
+}
+
+void WorkerPool::Dispatch(int n, Call call, const void* task) {
+  bool expected = false;
+  if (workers_.empty() || n <= 1 || !busy_.compare_exchange_strong(expected, true)) {
+    for (int i = 0; i < n; ++i) call(task, i);
+    return;
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    call_ = call;
+    task_ = task;
+    n_ = n;
+    next_.store(0, std::memory_order_relaxed);
+    open_ = true;
+    ++generation_;
+  }
+  wake_.notify_all();
+  Work();
+  // Every part has been handed out. Workers that have not joined yet stay out (they would see
+  // the next job's counter with this job's task); the ones inside finish their parts.
+  {
+    std::unique_lock<std::mutex> lock(mutex_);
+    open_ = false;
+    done_.wait(lock, [this] { return inside_ == 0; });
+  }
+  busy_.store(false);
+}
+
+void WorkerPool::WorkerLoop() {
+  uint64_t seen = 0;
+  for (;;) {
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait(lock, [&] { return stop_ || (open_ && generation_ != seen); });
+      if (stop_) return;
+      seen = generation_;
+      ++inside_;
+    }
+    Work();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (--inside_ == 0) done_.notify_one();
+    }
+  }
+}
+
+}  // namespace svms

@@ -1,0 +1,63 @@
+// A small fixed set of threads that share the parts of one job with the thread that asks.
+//
+// The detector splits one frame into independent parts (bands of rows of the edge map, ranges
+// of edge chains, candidate quads) whose results go to slots of their own and are put
+// together in a fixed order afterwards: which thread ran which part never shows in a result.
+// The pool only hands the parts out. Its threads live as long as the pool, so whatever they
+// keep per thread (the detector's thread_local scratch buffers) is grown once and reused, and
+// a job allocates nothing on the heap.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace svms {
+
+class WorkerPool {
+ public:
+  // `threads` (>= 1) threads work on each job: the caller of Run and threads - 1 workers
+  // started here (none for 1).
+  explicit WorkerPool(int threads);
+  ~WorkerPool();  // waits for the workers to finish their current part and stops them
+  WorkerPool(const WorkerPool&) = delete;
+  WorkerPool& operator=(const WorkerPool&) = delete;
+
+  int threads() const { return static_cast<int>(workers_.size()) + 1; }
+
+  // Calls task(i) once for every i in [0, n), each on one of the pool's threads (the caller's
+  // among them), and returns when every call has returned. Parts are handed out in the order
+  // of i as threads become free. May be called from several threads at once: a call that
+  // finds the workers busy with another job runs all its parts on its own thread (so does a
+  // call from inside a task). `task` must not throw. No heap allocation.
+  template <typename Task>
+  void Run(int n, const Task& task) {
+    Dispatch(
+        n, [](const void* t, int i) { (*static_cast<const Task*>(t))(i); }, &task);
+  }
+
+ private:
+  using Call = void (*)(const void* task, int i);
+  void Dispatch(int n, Call call, const void* task);
+  void Work();
+  void WorkerLoop();
+
+  std::atomic<bool> busy_{false};  // a job is using the workers
+  std::mutex mutex_;
+  std::condition_variable wake_, done_;
+  // The current job, set under mutex_ by its caller while no worker is inside a job.
+  Call call_ = nullptr;
+  const void* task_ = nullptr;
+  int n_ = 0;
+  std::atomic<int> next_{0};  // the next part to hand out
+  uint64_t generation_ = 0;   // counts jobs: a worker joins each job once
+  bool open_ = false;         // workers may still join the current job
+  int inside_ = 0;            // workers that joined it and have not finished
+  bool stop_ = false;
+  std::vector<std::thread> workers_;
+};
+
+}  // namespace svms

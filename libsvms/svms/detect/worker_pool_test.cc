@@ -1,0 +1,62 @@
+#include "svms/detect/worker_pool.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <thread>
+#include <vector>
+
+namespace svms {
+namespace {
+
+TEST(WorkerPool, RunsEveryPartOnceOnSeveralThreads) {
+  WorkerPool pool(3);
+  EXPECT_EQ(pool.threads(), 3);
+  for (int n : {0, 1, 2, 7, 100}) {
+    std::vector<std::atomic<int>> calls(n);
+    std::vector<std::thread::id> by(n);
+    for (int job = 0; job < 50; ++job) {
+      pool.Run(n, [&](int i) {
+        ++calls[i];
+        by[i] = std::this_thread::get_id();
+      });
+    }
+    for (int i = 0; i < n; ++i) EXPECT_EQ(calls[i], 50) << "n " << n << " part " << i;
+  }
+  // Parts that wait for each other finish only if at least two threads run them at once.
+  std::atomic<int> arrived{0};
+  pool.Run(2, [&](int) {
+    ++arrived;
+    while (arrived < 2) std::this_thread::yield();
+  });
+  EXPECT_EQ(arrived, 2);
+}
+
+TEST(WorkerPool, CallsFromSeveralThreadsAndFromInsideATaskAllRun) {
+  WorkerPool pool(2);
+  std::atomic<int> sum{0};
+  auto job = [&] {
+    for (int r = 0; r < 200; ++r)
+      pool.Run(4, [&](int i) {
+        // A nested call finds the workers busy and runs its parts on this thread.
+        pool.Run(2, [&](int j) { sum += 1 + i + j; });
+      });
+  };
+  std::thread a(job), b(job);
+  job();
+  a.join();
+  b.join();
+  // Each outer part i adds (1 + i) + (2 + i); over i = 0..3: 24; 200 jobs on each of 3 threads.
+  EXPECT_EQ(sum, 3 * 200 * 24);
+}
+
+TEST(WorkerPool, OneThreadRunsOnTheCaller) {
+  WorkerPool pool(1);
+  EXPECT_EQ(pool.threads(), 1);
+  std::vector<std::thread::id> by(5);
+  pool.Run(5, [&](int i) { by[i] = std::this_thread::get_id(); });
+  for (const auto& id : by) EXPECT_EQ(id, std::this_thread::get_id());
+}
+
+}  // namespace
+}  // namespace svms
