@@ -380,7 +380,7 @@ double Detection::side_px() const {
 Detector::Detector(const DetectorOptions& options, const CameraModel& camera,
                    const std::vector<MarkerModel>& models)
     : options_(options), camera_(camera) {
-  options_.threads = std::max(options_.threads, 1);
+  options_.threads = std::clamp(options_.threads, 1, kMaxDetectorThreads);
   for (const MarkerModel& m : models) {
     models_[m.id] = m;
     if (auto inner = m.InnerModel()) {

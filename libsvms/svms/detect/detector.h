@@ -107,8 +107,10 @@ struct DetectorOptions {
   // per part, each part into a slot of its own merged in the serial order. The detections are
   // the same, to the last bit, as with one thread (unless a deadline passes). Images under
   // 128 rows, the edge linking, the quad search and step 11 stay on the calling thread.
+  // At most kMaxDetectorThreads (more are taken as that many).
   int threads = 1;
 };
+constexpr int kMaxDetectorThreads = 64;
 
 struct DetectionStats {
   static constexpr int kSteps = 6;
@@ -133,7 +135,8 @@ class WorkerPool;
 class Detector {
  public:
   // `camera` (may be empty) enables undistorted corner fits and poses; `models` (may be
-  // empty) give each ID's geometry, its post and its nesting. options.threads < 1 counts as 1.
+  // empty) give each ID's geometry, its post and its nesting. options.threads < 1 counts as 1,
+  // above kMaxDetectorThreads as that.
   Detector(const DetectorOptions& options, const CameraModel& camera,
            const std::vector<MarkerModel>& models);
   // A copy has threads of its own (with options.threads > 1).

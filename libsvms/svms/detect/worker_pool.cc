@@ -20,7 +20,16 @@ WorkerPool::~WorkerPool() {
 }
 
 void WorkerPool::Work() {
-  for (int i; (i = next_.fetch_add(1, std::memory_order_relaxed)) < n_;) call_(task_, i);
+  for (int i; (i = next_.fetch_add(1, std::memory_order_relaxed)) < n_;) {
+    try {
+      call_(task_, i);
+    } catch (...) {
+      // Kept for the caller; no further parts are handed out.
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!error_) error_ = std::current_exception();
+      next_.store(n_, std::memory_order_relaxed);
+    }
+  }
 }
 
 void WorkerPool::Dispatch(int n, Call call, const void* task) {
@@ -35,6 +44,7 @@ void WorkerPool::Dispatch(int n, Call call, const void* task) {
     task_ = task;
     n_ = n;
     next_.store(0, std::memory_order_relaxed);
+    error_ = nullptr;
     open_ = true;
     ++generation_;
   }
@@ -42,12 +52,15 @@ void WorkerPool::Dispatch(int n, Call call, const void* task) {
   Work();
   // Every part has been handed out. Workers that have not joined yet stay out (they would see
   // the next job's counter with this job's task); the ones inside finish their parts.
+  std::exception_ptr error;
   {
     std::unique_lock<std::mutex> lock(mutex_);
     open_ = false;
     done_.wait(lock, [this] { return inside_ == 0; });
+    std::swap(error, error_);
   }
   busy_.store(false);
+  if (error) std::rethrow_exception(error);
 }
 
 void WorkerPool::WorkerLoop() {

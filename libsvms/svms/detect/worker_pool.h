@@ -11,6 +11,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <exception>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -32,7 +33,10 @@ class WorkerPool {
   // among them), and returns when every call has returned. Parts are handed out in the order
   // of i as threads become free. May be called from several threads at once: a call that
   // finds the workers busy with another job runs all its parts on its own thread (so does a
-  // call from inside a task). `task` must not throw. No heap allocation.
+  // call from inside a task). A part that throws ends the job as one thread would: no further
+  // parts are started, the running ones finish, and the first exception is rethrown here, on
+  // the caller's thread (never on a worker's, where it would end the program). No heap
+  // allocation unless a part throws.
   template <typename Task>
   void Run(int n, const Task& task) {
     Dispatch(
@@ -57,6 +61,7 @@ class WorkerPool {
   bool open_ = false;         // workers may still join the current job
   int inside_ = 0;            // workers that joined it and have not finished
   bool stop_ = false;
+  std::exception_ptr error_;  // the current job's first exception, under mutex_
   std::vector<std::thread> workers_;
 };
 

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <stdexcept>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -48,6 +50,26 @@ TEST(WorkerPool, CallsFromSeveralThreadsAndFromInsideATaskAllRun) {
   b.join();
   // Each outer part i adds (1 + i) + (2 + i); over i = 0..3: 24; 200 jobs on each of 3 threads.
   EXPECT_EQ(sum, 3 * 200 * 24);
+}
+
+// A part that throws, on whichever thread: the exception reaches the caller of Run, the job
+// ends, and the pool runs the next job normally.
+TEST(WorkerPool, APartThatThrowsRethrowsOnTheCallerAndThePoolGoesOn) {
+  WorkerPool pool(2);
+  for (int job = 0; job < 20; ++job) {
+    const int bad = job % 8;
+    std::atomic<int> ran{0};
+    EXPECT_THROW(pool.Run(8,
+                          [&](int i) {
+                            ++ran;
+                            if (i == bad) throw std::runtime_error("part " + std::to_string(i));
+                          }),
+                 std::runtime_error);
+    EXPECT_GE(ran.load(), 1);
+    std::atomic<int> calls{0};
+    pool.Run(8, [&](int) { ++calls; });
+    EXPECT_EQ(calls.load(), 8);
+  }
 }
 
 TEST(WorkerPool, OneThreadRunsOnTheCaller) {
