@@ -56,6 +56,9 @@ typedef enum svms_status {
 /* A rig's pose: the covariance includes the cameras' rig_from_cam uncertainty (the rig file
  * gave a covariance for some camera). */
 #define SVMS_FLAG_EXTRINSICS_IN_COVARIANCE 32u
+/* The pose rests on one marker and is that marker's own pose, which also fitted its stripe's
+ * and decal's outer edges (with the layout's uncertainty added to its covariance). */
+#define SVMS_FLAG_MARKER_POSE_WITH_EDGES 64u
 
 #define SVMS_MAX_REPORTED_MARKERS 32
 
