@@ -126,7 +126,7 @@ void SetUpEdges(const ObjectPoseOptions& o, Block* b) {
   const MarkerObservation& m = *b->obs;
   b->edge_rows = 0;
   if (!o.use_edges || m.edge_points <= 0 || !m.cam_from_marker || m.pose_ambiguous ||
-      !b->view->identity || !m.edge_information.allFinite() || !m.edge_offset.allFinite())
+      !m.edge_information.allFinite() || !m.edge_offset.allFinite())
     return;
   const Eigen::SelfAdjointEigenSolver<Mat6> eig(
       0.5 * (m.edge_information + m.edge_information.transpose()));
@@ -218,27 +218,43 @@ bool Evaluate(const Block& b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t
     }
   }
   if (b.edge_rows > 0) {
-    // The edges' rows (one camera at the rig's origin: R, t are cam_from_object):
-    // cam_from_marker = (R R_om, R t_om + t), d its change from the detector's pose
-    // [log(R_cm R_det^T), t_cm - t_det]. A left perturbation (w, v) of the object's pose moves it
-    // by [w, v - [R t_om]x w]; one (e, f) of object_from_marker (object axes) by [R e, R f].
+    // The edges' rows: cam_from_marker = cam_from_rig (R R_om, R t_om + t), d its change from
+    // the detector's pose [log(R_cm R_det^T), t_cm - t_det] (camera axes). A left perturbation
+    // (w, u) of rig_from_object (rig axes) moves it by R_cr [w, u - [R t_om]x w]; one (e, f) of
+    // object_from_marker (object axes) by [R_c e, R_c f]; one (a, c) of rig_from_cam (rig
+    // axes) by R_cr [-a, [p - t_rc]x a - c], p = R t_om + t the marker's origin in the rig.
     const int k = b.edge_rows, e0 = 2 * n;
-    const Eigen::Matrix3d R_cm = R * b.R_om;
+    Eigen::Matrix3d R_c;
+    Eigen::Vector3d t_c;
+    ToCamera(v, R, t, &R_c, &t_c);
+    const Eigen::Matrix3d R_cr = v.identity ? Eigen::Matrix3d::Identity() : v.R_cr;
     Vec6 d;
-    d.head<3>() = Log(R_cm * b.R_det.transpose());
-    d.tail<3>() = R * b.t_om + t - b.t_det;
+    d.head<3>() = Log(R_c * b.R_om * b.R_det.transpose());
+    d.tail<3>() = R_c * b.t_om + t_c - b.t_det;
     r->segment(e0, k) = b.edge_U.topRows(k) * (d - b.edge_mu);
-    Mat6 dd_dpose = Mat6::Identity();
-    dd_dpose.bottomLeftCorner<3, 3>() = -Skew(R * b.t_om);
+    Mat6 dd_dpose = Mat6::Zero();
+    dd_dpose.topLeftCorner<3, 3>() = R_cr;
+    dd_dpose.bottomLeftCorner<3, 3>() = -R_cr * Skew(R * b.t_om);
+    dd_dpose.bottomRightCorner<3, 3>() = R_cr;
     J->middleRows(e0, k) = b.edge_U.topRows(k) * dd_dpose;
     if (J_layout) {
       Mat6 dd_dlayout = Mat6::Zero();
-      dd_dlayout.topLeftCorner<3, 3>() = R;
-      dd_dlayout.bottomRightCorner<3, 3>() = R;
+      dd_dlayout.topLeftCorner<3, 3>() = R_c;
+      dd_dlayout.bottomRightCorner<3, 3>() = R_c;
       J_layout->block(e0, 0, k, 6) = b.edge_U.topRows(k) * dd_dlayout;
       J_layout->block(e0, 6, k, 1).setZero();
     }
-    if (J_extrinsics) J_extrinsics->middleRows(e0, k).setZero();
+    if (J_extrinsics) {
+      if (v.identity) {
+        J_extrinsics->middleRows(e0, k).setZero();
+      } else {
+        Mat6 dd_dextrinsics = Mat6::Zero();
+        dd_dextrinsics.topLeftCorner<3, 3>() = -R_cr;
+        dd_dextrinsics.bottomLeftCorner<3, 3>() = R_cr * Skew(R * b.t_om + t - v.t_rc);
+        dd_dextrinsics.bottomRightCorner<3, 3>() = -R_cr;
+        J_extrinsics->middleRows(e0, k) = b.edge_U.topRows(k) * dd_dextrinsics;
+      }
+    }
   }
   return true;
 }
@@ -533,6 +549,11 @@ void RejectOutliers(const ObjectPoseOptions& o, std::vector<Block>* blocks_io,
 // What the markers kept say at the final pose (step 4).
 struct FitInformation {
   Mat6 H = Mat6::Zero();  // their unweighted information, sum of (whitened J)^T (whitened J)
+  // The same over their corners and tips alone: the calibration's share is S = -H_points^-1 G
+  // (the edges' quadratic does not say how it moves with the intrinsics; the edges lie along
+  // the square's sides and move with them, so the pose moves as the corners-and-tips fit
+  // does, the detector's own rule for its single-marker covariance).
+  Mat6 H_points = Mat6::Zero();
   bool with_calibration = false;  // some G below is filled
   bool with_extrinsics = false;   // some G_extrinsics below is filled
   double ss = 0, chi2 = 0;        // sums of squared residuals, pixels and whitened
@@ -581,11 +602,21 @@ bool AccumulateInformation(const std::vector<View>& views, const ObjectPoseOptio
       const Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxRows> wJt_W =
           wJ.transpose() * b.L_inv;
       if ((*G)[c].size() > 0) {
-        if (!IntrinsicsJacobian(b, R, t, &J_intrinsics)) {
+        // The corners and tips alone (their own whitening without the edge rows).
+        Block points = b;
+        points.edge_rows = 0;
+        VecR r_points;
+        MatR6 J_points;
+        if (!Whitening(&points, R, t, o) ||
+            !Evaluate(points, R, t, &r_points, &J_points, nullptr) ||
+            !IntrinsicsJacobian(points, R, t, &J_intrinsics)) {
           result->message = "the camera gives no intrinsics gradients (CAHVORE)";
           return false;
         }
-        (*G)[c].noalias() += wJt_W * J_intrinsics.topRows(J.rows());
+        const MatR6 wJ_points = points.L_inv * J_points;
+        info->H_points += wJ_points.transpose() * wJ_points;
+        (*G)[c].noalias() +=
+            wJ_points.transpose() * points.L_inv * J_intrinsics.topRows(J_points.rows());
       }
       if (extrinsics) (*G_extrinsics)[c].noalias() += wJt_W * J_extrinsics;
     }
@@ -635,15 +666,18 @@ bool FusedCovariance(const std::vector<View>& views, const ObjectPoseOptions& o,
                                                     : 1.0;
   result.covariance *= result.variance_factor;
   if (info.with_calibration) {
-    // The calibration's error moves the optimum by d pose = S d intrinsics,
-    // S = -H^-1 G (the implicit function theorem at J^T W r = 0); its covariance S L L^T S^T
-    // is added after the variance factor (it is not the frame's noise). The same error is in
-    // every frame, so it is a bias along a sequence, not noise that averages away.
+    // The calibration's error moves the optimum by d pose = S d intrinsics, S = -H_points^-1 G
+    // (the implicit function theorem at J^T W r = 0, over the corners and tips: FitInformation);
+    // its covariance S L L^T S^T is added after the variance factor (not the frame's noise).
+    // The same error is in every frame, so it is a bias along a sequence, not noise that
+    // averages away.
     // Each camera's calibration is its own, independent error.
     thread_local Eigen::MatrixXd HG, SL;
+    Eigen::FullPivLU<Mat6> lu_points(info.H_points);
+    const Mat6 H_points_inv = lu_points.rank() == 6 ? Mat6(lu_points.inverse()) : H_inv;
     for (size_t c = 0; c < views.size(); ++c) {
       if (G[c].size() == 0) continue;
-      HG.noalias() = H_inv * G[c];
+      HG.noalias() = H_points_inv * G[c];
       SL.noalias() = HG * views[c].camera->intrinsics_covariance_factor();
       result.covariance.noalias() += SL * SL.transpose();
     }
@@ -683,23 +717,36 @@ bool FusedCovariance(const std::vector<View>& views, const ObjectPoseOptions& o,
 
 // Where the fit rests on one marker whose detector pose used the stripe's and decal's edges
 // (ObjectPoseOptions::use_marker_pose_with_edges), that pose moved to the object replaces (*R,
-// *t) and the covariance. Only with one camera at the rig's origin (a rig camera's
-// extrinsics are not in the detector's covariance), when none of the marker's points was
-// rejected here (the detector's pose holds them all), and when the detector's covariance
-// carries the camera calibration's share exactly when this fit's would.
+// *t) and the covariance: when none of the marker's points was rejected here (the detector's
+// pose holds them all), and when the detector's covariance carries the camera calibration's
+// share exactly when this fit's would. In a rig it is composed with the camera's
+// rig_from_cam (rig axes), whose covariance, if any, is added to first order: an error (a, c)
+// of it moves rig_from_object by [a, c - [R_rc t_co]x a].
 void UseMarkerPoseWithEdges(const ObjectPoseOptions& o, const FitInformation& info,
                             Eigen::Matrix3d* R, Eigen::Vector3d* t, ObjectPose* out) {
   ObjectPose& result = *out;
   const MarkerObservation* m = info.last;
   if (!o.use_marker_pose_with_edges || result.markers_used != 1 || !m || !info.last_view ||
-      !info.last_view->identity || result.points_rejected > 0 || m->edge_points <= 0 ||
-      !m->cam_from_marker || m->calibration_in_marker_covariance != info.with_calibration)
+      result.points_rejected > 0 || m->edge_points <= 0 || !m->cam_from_marker ||
+      m->calibration_in_marker_covariance != info.with_calibration)
     return;
   Pose cam_from_object;
   PoseCovariance covariance;
-  if (!ObjectPoseFromMarker(*m, o.use_layout_covariance, &cam_from_object, &covariance) ||
-      !covariance.allFinite())
-    return;
+  if (!ObjectPoseFromMarker(*m, o.use_layout_covariance, &cam_from_object, &covariance)) return;
+  const View& v = *info.last_view;
+  if (!v.identity) {
+    Mat6 A = Mat6::Zero();
+    A.topLeftCorner<3, 3>() = v.R_rc;
+    A.bottomRightCorner<3, 3>() = v.R_rc;
+    covariance = (A * covariance * A.transpose()).eval();
+    if (o.use_extrinsics_covariance && v.extrinsics_covariance) {
+      Mat6 JE = Mat6::Identity();
+      JE.bottomLeftCorner<3, 3>() = -Skew(v.R_rc * cam_from_object.tvec);
+      covariance += JE * *v.extrinsics_covariance * JE.transpose();
+    }
+    cam_from_object = v.rig_from_cam * cam_from_object;
+  }
+  if (!covariance.allFinite()) return;
   *R = cam_from_object.Rotation();
   *t = cam_from_object.tvec;
   result.covariance = covariance;

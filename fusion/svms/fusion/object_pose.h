@@ -85,9 +85,9 @@ struct ObjectPoseOptions {
   // (MarkerObservation::edge_points): their quadratic about the detector's cam_from_marker
   // (edge_information, edge_offset, the same residual as the single-marker fit, EdgeResidual
   // in marker_pose.h) joins the marker's residuals, up to 6 rows whitened by it, with the
-  // layout's uncertainty pushed into them like into the corners. Not for a marker flagged
-  // ambiguous (the quadratic holds about its kept planar pose only), nor in a rig (the rig
-  // camera's extrinsics are not propagated into them). Linearised at the detector's pose: the
+  // layout's uncertainty (and in a rig the camera's extrinsics) pushed into them like into
+  // the corners. Not for a marker flagged ambiguous (the quadratic holds about its kept planar
+  // pose only). Linearised at the detector's pose: the
   // fused pose moves a marker by a fraction of a degree from it, where the edges' normals do
   // not change. The camera calibration's share of the covariance leaves the edges out.
   bool use_edges = true;
@@ -120,8 +120,8 @@ struct ObjectPoseOptions {
   // object (ObjectPoseFromMarker, the layout's covariance added), so that it is never worse
   // than svms detect's own. The refit over the same corners, tip and edges (use_edges) would
   // differ by the tip's floor (min_tip_sigma_px) and the layout's post-height sigma only.
-  // Not in a rig (SolveRigObjectPose), and only where the detector's covariance carries the
-  // camera calibration's share exactly when this fit's would.
+  // In a rig, composed with the camera's rig_from_cam (its covariance added); only where the
+  // detector's covariance carries the camera calibration's share exactly when this fit's would.
   bool use_marker_pose_with_edges = true;
 };
 
@@ -192,7 +192,7 @@ struct ObjectPose {
   bool poorly_conditioned = false;  // sigmas above ObjectPoseOptions' limits
   // The pose and covariance are the one marker's own, with its stripe and decal edges
   // (ObjectPoseOptions::use_marker_pose_with_edges); rms_px, chi2, dof and variance_factor
-  // still describe the refit over its corners, tip and edges. Never in a rig (SolveRigObjectPose).
+  // still describe the refit over its corners, tip and edges.
   bool from_marker_pose = false;
   std::string message;  // why not valid
 };

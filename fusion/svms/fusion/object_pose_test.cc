@@ -733,42 +733,57 @@ TEST(RigObjectPose, AOneCameraRigAtTheOriginIsTheOneCameraSolve) {
 
 // The extrinsics' share of the covariance is (d pose / d rig_from_cam) Sigma (...)^T: against
 // central finite differences of the solve itself (exact observations, the nominal extrinsics
-// of one camera moved by +-h along each of its six error coordinates).
+// of one camera moved by +-h along each of its six error coordinates). Also with every marker's
+// edge quadratic in the fit (its rows move with the extrinsics like the corners).
 TEST(RigObjectPose, ExtrinsicsCovarianceMatchesFiniteDifferences) {
-  const TwoCameras rig;
-  const std::vector<MarkerObservation> obs = rig.ObserveAll(rig.rig_from_cam);
-  PoseCovariance sigma = PoseCovariance::Zero();
-  sigma.diagonal() << 4e-6, 1e-6, 2e-6, 1e-6, 4e-6, 9e-6;
-  sigma(0, 4) = sigma(4, 0) = 1e-6;
-  ObjectPoseOptions o;
-  std::vector<RigCameraView> views = rig.Views(std::nullopt);
-  const ObjectPose without = SolveRigObjectPose(views, obs, o);
-  views[1].rig_from_cam_covariance = sigma;
-  const ObjectPose with = SolveRigObjectPose(views, obs, o);
-  ASSERT_TRUE(without.valid && with.valid);
-  EXPECT_TRUE(with.extrinsics_in_covariance);
-  Eigen::Matrix<double, 6, 6> S;
-  const double h = 1e-6;
-  for (int k = 0; k < 6; ++k) {
-    std::array<Eigen::Matrix<double, 6, 1>, 2> moved;
-    for (int sign : {0, 1}) {
-      Eigen::Matrix<double, 6, 1> e = Eigen::Matrix<double, 6, 1>::Zero();
-      e[k] = sign ? h : -h;
-      std::vector<RigCameraView> v = rig.Views(std::nullopt);
-      v[1].rig_from_cam = Pose::FromRotation(Exp(e.head<3>()) * rig.rig_from_cam[1].Rotation(),
-                                             rig.rig_from_cam[1].tvec + e.tail<3>());
-      const ObjectPose p = SolveRigObjectPose(v, obs, o);
-      ASSERT_TRUE(p.valid);
-      moved[sign] = PoseError(p.cam_from_object, rig.rig_from_object);
+  for (bool edges : {false, true}) {
+    SCOPED_TRACE(edges ? "with edges" : "corners and tips");
+    const TwoCameras rig;
+    std::vector<MarkerObservation> obs = rig.ObserveAll(rig.rig_from_cam);
+    if (edges) {
+      Eigen::Matrix<double, 6, 6> A;
+      for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j) A(i, j) = std::cos(0.7 + 2.0 * i + j);
+      for (MarkerObservation& m : obs) {
+        m.edge_points = 60;
+        m.edge_information =
+            1e6 * (A * A.transpose() + 0.1 * Eigen::Matrix<double, 6, 6>::Identity());
+      }
     }
-    S.col(k) = (moved[1] - moved[0]) / (2 * h);
+    PoseCovariance sigma = PoseCovariance::Zero();
+    sigma.diagonal() << 4e-6, 1e-6, 2e-6, 1e-6, 4e-6, 9e-6;
+    sigma(0, 4) = sigma(4, 0) = 1e-6;
+    ObjectPoseOptions o;
+    std::vector<RigCameraView> views = rig.Views(std::nullopt);
+    const ObjectPose without = SolveRigObjectPose(views, obs, o);
+    views[1].rig_from_cam_covariance = sigma;
+    const ObjectPose with = SolveRigObjectPose(views, obs, o);
+    ASSERT_TRUE(without.valid && with.valid);
+    EXPECT_TRUE(with.extrinsics_in_covariance);
+    EXPECT_EQ(with.edge_rows, edges ? 6 * static_cast<int>(obs.size()) : 0);
+    Eigen::Matrix<double, 6, 6> S;
+    const double h = 1e-6;
+    for (int k = 0; k < 6; ++k) {
+      std::array<Eigen::Matrix<double, 6, 1>, 2> moved;
+      for (int sign : {0, 1}) {
+        Eigen::Matrix<double, 6, 1> e = Eigen::Matrix<double, 6, 1>::Zero();
+        e[k] = sign ? h : -h;
+        std::vector<RigCameraView> v = rig.Views(std::nullopt);
+        v[1].rig_from_cam = Pose::FromRotation(Exp(e.head<3>()) * rig.rig_from_cam[1].Rotation(),
+                                               rig.rig_from_cam[1].tvec + e.tail<3>());
+        const ObjectPose p = SolveRigObjectPose(v, obs, o);
+        ASSERT_TRUE(p.valid);
+        moved[sign] = PoseError(p.cam_from_object, rig.rig_from_object);
+      }
+      S.col(k) = (moved[1] - moved[0]) / (2 * h);
+    }
+    const PoseCovariance expected = S * sigma * S.transpose();
+    const PoseCovariance added = with.covariance - without.covariance;
+    EXPECT_GT(expected.norm(), 1e-3 * without.covariance.norm());  // the share matters here
+    EXPECT_LT((added - expected).norm(), 1e-4 * expected.norm()) << "added\n"
+                                                                 << added << "\nexpected\n"
+                                                                 << expected;
   }
-  const PoseCovariance expected = S * sigma * S.transpose();
-  const PoseCovariance added = with.covariance - without.covariance;
-  EXPECT_GT(expected.norm(), 1e-3 * without.covariance.norm());  // the share matters here
-  EXPECT_LT((added - expected).norm(), 1e-4 * expected.norm()) << "added\n"
-                                                               << added << "\nexpected\n"
-                                                               << expected;
 }
 
 // NEES of the two-camera solve ~ chi-square(6): with pixel noise only, and with the cameras
