@@ -160,6 +160,22 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
       ->capture_default_str();
   cmd->add_flag("--size-model", o->size_model,
                 "Corner sigma from the marker's size only (--corner-sigma, exponent)");
+  cmd->add_flag("--no-marker-pose-with-edges", o->no_marker_pose_with_edges,
+                "Where the fused pose rests on one marker, refit it from corners and tip instead "
+                "of taking that marker's detector pose with its stripe and decal edges "
+                "(ObjectPoseOptions::use_marker_pose_with_edges)");
+  cmd->add_flag("--no-edges", o->no_edges,
+                "Leave the markers' stripe and decal edges out of the fit "
+                "(ObjectPoseOptions::use_edges); with --no-marker-pose-with-edges the fused pose "
+                "rests on corners and tips only");
+  cmd->add_option("--object", o->object,
+                  "The dataset's object whose pose is the truth (truth.json: the approach's "
+                  "'module', the range set's 'plate')")
+      ->capture_default_str();
+  cmd->add_option("--reference", o->reference,
+                  "The marker that ties the layout's object frame to the dataset's "
+                  "true_layout.json (the approach's 10, the range set's 1)")
+      ->capture_default_str();
   cmd->add_option("--threads", o->threads, "Threads for rendering and the survey")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();

@@ -66,6 +66,7 @@ nlohmann::json DetectionJson(const Detection& d) {
       j["alternative_pose"]["weight"] = d.alternative_weight;
     }
     j["calibration_in_covariance"] = d.calibration_in_covariance;
+    j["edge_points"] = d.edge_points;
   }
   if (!d.pose_error.empty()) j["pose_error"] = d.pose_error;
   if (d.nested_in >= 0) j["nested_in"] = d.nested_in;
@@ -95,7 +96,8 @@ nlohmann::json FrameJson(const FrameResult& r, size_t object) {
   j["flags"] = {{"ambiguous", p.ambiguous},
                 {"poorly_conditioned", p.poorly_conditioned},
                 {"budget_exceeded", r.budget_exceeded},
-                {"calibration_in_covariance", p.calibration_in_covariance}};
+                {"calibration_in_covariance", p.calibration_in_covariance},
+                {"marker_pose_with_edges", p.from_marker_pose}};
   j["latency_ms"] = r.latency_ms;
   j["detect_ms"] = r.detect_ms;
   return j;

@@ -116,7 +116,8 @@ void FillPose(const svms::ObjectPose& p, double timestamp, double latency_ms, bo
                (budget_exceeded ? SVMS_FLAG_BUDGET_EXCEEDED : 0u) |
                (p.ids_rejected.empty() ? 0u : SVMS_FLAG_MARKER_REJECTED) |
                (p.calibration_in_covariance ? SVMS_FLAG_CALIBRATION_IN_COVARIANCE : 0u) |
-               (p.extrinsics_in_covariance ? SVMS_FLAG_EXTRINSICS_IN_COVARIANCE : 0u);
+               (p.extrinsics_in_covariance ? SVMS_FLAG_EXTRINSICS_IN_COVARIANCE : 0u) |
+               (p.from_marker_pose ? SVMS_FLAG_MARKER_POSE_WITH_EDGES : 0u);
   out->latency_ms = latency_ms;
   if (!p.valid) return;
   PoseOut(p.cam_from_object, out->rvec, out->tvec, out->quaternion);

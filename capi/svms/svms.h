@@ -56,6 +56,9 @@ typedef enum svms_status {
 /* A rig's pose: the covariance includes the cameras' rig_from_cam uncertainty (the rig file
  * gave a covariance for some camera). */
 #define SVMS_FLAG_EXTRINSICS_IN_COVARIANCE 32u
+/* The pose rests on one marker and is that marker's own pose, which also fitted its stripe's
+ * and decal's outer edges (with the layout's uncertainty added to its covariance). */
+#define SVMS_FLAG_MARKER_POSE_WITH_EDGES 64u
 
 #define SVMS_MAX_REPORTED_MARKERS 32
 
@@ -82,7 +85,9 @@ typedef struct svms_pose {
   int marker_ids[SVMS_MAX_REPORTED_MARKERS]; /* IDs used (the first SVMS_MAX_REPORTED_MARKERS) */
   double rms_px;                             /* RMS pixel residual, per coordinate */
   double chi2;                               /* whitened residual sum of squares */
-  int dof;                                   /* 2 * points_used - 6 */
+  /* 2 * points_used + the rows of the markers' stripe and decal edge quadratics (at most 6 a
+   * marker) - 6 */
+  int dof;
   uint32_t flags;                            /* SVMS_FLAG_* */
   double latency_ms;                         /* detection and fusion, wall clock */
   /* With SVMS_FLAG_AMBIGUOUS, where the one marker's other planar pose is known

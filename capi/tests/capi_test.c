@@ -357,7 +357,8 @@ int main(int argc, char** argv) {
   CHECK(pose.timestamp == 1.1);
   CHECK(pose.markers_used >= 2 && pose.markers_used <= pose.markers_seen);
   CHECK(pose.points_used >= 4 * pose.markers_used);
-  CHECK(pose.dof == 2 * pose.points_used - 6);
+  CHECK(pose.dof >= 2 * pose.points_used - 6 &&
+        pose.dof <= 2 * pose.points_used - 6 + 6 * pose.markers_used);
   const double range = sqrt(truth[3] * truth[3] + truth[4] * truth[4] + truth[5] * truth[5]);
   double dt = 0;
   for (int i = 0; i < 3; ++i) dt += (pose.tvec[i] - truth[3 + i]) * (pose.tvec[i] - truth[3 + i]);

@@ -151,6 +151,7 @@ void BindDetector(py::module_& m) {
       .def_readonly("calibration_in_covariance", &Detection::calibration_in_covariance,
                     "the covariance includes the camera calibration's uncertainty")
       .def_readonly("pose_rms_px", &Detection::pose_rms_px)
+      .def_readonly("edge_points", &Detection::edge_points)
       .def_readonly("pose_error", &Detection::pose_error,
                     "with a camera and the marker's model but no pose: why ('' otherwise)")
       .def_readonly("nested_in", &Detection::nested_in,

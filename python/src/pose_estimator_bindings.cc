@@ -105,6 +105,10 @@ void BindPoseEstimator(py::module_& m) {
       .def_readonly("alternative_cam_from_object", &ObjectPose::alternative_cam_from_object)
       .def_readonly("alternative_weight", &ObjectPose::alternative_weight)
       .def_readonly("calibration_in_covariance", &ObjectPose::calibration_in_covariance)
+      .def_readonly("from_marker_pose", &ObjectPose::from_marker_pose,
+                    "the pose is its one marker's own, with its stripe and decal edges")
+      .def_readonly("edge_rows", &ObjectPose::edge_rows,
+                    "rows of the markers' edge quadratics in the fit")
       .def_readonly("extrinsics_in_covariance", &ObjectPose::extrinsics_in_covariance,
                     "a rig's: the cameras' rig_from_cam uncertainty is in the covariance")
       .def_readonly("cameras_used", &ObjectPose::cameras_used,

@@ -35,7 +35,7 @@ class PoseEstimatorTest(unittest.TestCase):
         self.assertTrue(p.valid, p.message)
         self.assertEqual(r.timestamp, 1.1)
         self.assertGreaterEqual(p.markers_used, 2)
-        self.assertEqual(p.dof, 2 * p.points_used - 6)
+        self.assertEqual(p.dof, 2 * p.points_used + p.edge_rows - 6)
         self.assertTrue(r.detections)
         # The C API's limits on this frame (capi_test.c): 0.16 mm and 0.008 degrees.
         self.assertLess(np.linalg.norm(p.cam_from_object.tvec - self.truth.tvec), 0.16e-3)

@@ -105,26 +105,28 @@ PoseEstimatorOptions EstimatorOptions(const PoseBenchmarkOptions& o) {
   options.fusion.corner_covariance_from_fit = o.correlated_corners;
   options.fusion.min_tip_sigma_px = o.min_tip_sigma_px;
   options.fusion.use_calibration_covariance = !o.no_calibration_covariance;
+  options.fusion.use_marker_pose_with_edges = !o.no_marker_pose_with_edges;
+  options.fusion.use_edges = !o.no_edges;
   return options;
 }
 
-// Every view's cam_from_object in the layout's object frame: the renderer's cam_from_module
-// times module_from_object, placed through marker 10, whose pose is known in both (the
-// survey's reference: identity in the layout; the true layout: the module frame). kExitOk to
-// go on.
-int ReadTruth(const std::string& D, const std::string& layout_path, const PoseEstimator& est,
-              std::vector<std::pair<std::string, Pose>>* truth) {
+// Every view's cam_from_object in the layout's object frame: the renderer's cam_from_OBJECT
+// (o.object) times OBJECT_from_object, placed through the reference marker (o.reference),
+// whose pose is known in both (the survey's reference: identity in the layout; the true
+// layout: the dataset object's frame). kExitOk to go on.
+int ReadTruth(const PoseBenchmarkOptions& o, const std::string& D, const std::string& layout_path,
+              const PoseEstimator& est, std::vector<std::pair<std::string, Pose>>* truth) {
   ModelFile truth_layout;
   for (Status s : {ReadModelFile(D + "/true_layout.json", &truth_layout),
-                   ReadTruthPoses(D + "/truth.json", "module", truth)})
+                   ReadTruthPoses(D + "/truth.json", o.object, truth)})
     if (!s) {
       std::cerr << "svms bench pose: " << s.message() << "\n";
       return kExitBadInput;
     }
-  const LayoutEntry* ref = truth_layout.layout.Find(10);
-  const LayoutEntry* ref_in_layout = est.layout().Find(10);
+  const LayoutEntry* ref = truth_layout.layout.Find(o.reference);
+  const LayoutEntry* ref_in_layout = est.layout().Find(o.reference);
   if (!ref || !ref_in_layout) {
-    std::cerr << "svms bench pose: marker 10 (the reference) is missing from "
+    std::cerr << "svms bench pose: marker " << o.reference << " (the reference) is missing from "
               << (!ref ? D + "/true_layout.json" : layout_path) << "\n";
     return kExitBadInput;
   }
@@ -246,6 +248,7 @@ void EstimateFrames(const std::vector<cv::Mat>& images,
     row.range = truth[i].second.tvec.norm();
     row.valid = r.pose.valid;
     row.markers = r.pose.markers_used;
+    row.from_marker_pose = r.pose.from_marker_pose;
     row.rejected = static_cast<int>(r.pose.ids_rejected.size());
     row.latency_ms = r.latency_ms;
     row.chi2 = r.pose.chi2;
@@ -257,6 +260,7 @@ void EstimateFrames(const std::vector<cv::Mat>& images,
       row.nees = Nees(truth[i].second, r.pose.cam_from_object, r.pose.covariance);
       row.position_mm = 1000 * row.error.tail<3>().norm();
       row.orientation_deg = row.error.head<3>().norm() * 180 / M_PI;
+      row.range_error_mm = 1000 * (r.pose.cam_from_object.tvec.norm() - row.range);
       if (f->aligned) {
         const Pose truth_in_given = given_from_true * truth[i].second;
         const auto e = PoseError(truth_in_given, r.pose.cam_from_object);
@@ -284,6 +288,26 @@ void EstimateFrames(const std::vector<cv::Mat>& images,
           const auto e = PoseError(truth[i].second, single.cam_from_object);
           row.single_position_mm = 1000 * e.tail<3>().norm();
           row.single_orientation_deg = e.head<3>().norm() * 180 / M_PI;
+        }
+      }
+      // svms detect's own pose of each marker (with its stripe and decal edges where it used
+      // them) moved to the object, the one with the smallest predicted position sigma (the
+      // layout's covariance included): what a user of svms detect alone would have.
+      double best_detect = std::numeric_limits<double>::infinity();
+      for (const MarkerObservation& one : obs) {
+        Pose cam_from_object;
+        PoseCovariance covariance;
+        if (!ObjectPoseFromMarker(one, options.fusion.use_layout_covariance, &cam_from_object,
+                                  &covariance))
+          continue;
+        const double predicted = covariance.bottomRightCorner<3, 3>().trace();
+        if (predicted < best_detect) {
+          best_detect = predicted;
+          const auto e = PoseError(truth[i].second, cam_from_object);
+          row.detect_position_mm = 1000 * e.tail<3>().norm();
+          row.detect_orientation_deg = e.head<3>().norm() * 180 / M_PI;
+          row.detect_range_error_mm = 1000 * (cam_from_object.tvec.norm() - row.range);
+          row.detect_edges = one.edge_points > 0;
         }
       }
     }
@@ -325,7 +349,7 @@ int RunBenchmark(const PoseBenchmarkOptions& o) {
   if (const int rc = PrepareData(o, &D, &layout_path); rc != kExitOk) return rc;
   PoseEstimatorOptions options = EstimatorOptions(o);
   std::vector<std::pair<std::string, Pose>> truth_names;
-  if (Status s = ReadTruthPoses(D + "/truth.json", "module", &truth_names); !s) {
+  if (Status s = ReadTruthPoses(D + "/truth.json", o.object, &truth_names); !s) {
     std::cerr << "svms bench pose: " << s.message() << "\n";
     return kExitBadInput;
   }
@@ -345,7 +369,7 @@ int RunBenchmark(const PoseBenchmarkOptions& o) {
     return kExitBadInput;
   }
   std::vector<std::pair<std::string, Pose>> truth;
-  if (const int rc = ReadTruth(D, layout_path, *est, &truth); rc != kExitOk) return rc;
+  if (const int rc = ReadTruth(o, D, layout_path, *est, &truth); rc != kExitOk) return rc;
   PoseFindings f;
   Pose given_from_true;
   if (const int rc = AlignGivenCamera(o, D, *est, &f, &given_from_true); rc != kExitOk) return rc;

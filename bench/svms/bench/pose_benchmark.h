@@ -23,6 +23,11 @@ struct PoseBenchmarkOptions {
   std::string profile;
   int repeat = 20;  // passes over the approach for the long run (500 x 20 = 10,000 frames)
   int threads = 2;  // rendering and the survey only; the pose runs on one thread
+  // The dataset's object whose cam_from_object is the truth (truth.json), and the marker whose
+  // pose in both the layout and the dataset's true_layout.json ties their object frames
+  // together: the approach's module and marker 10; the range set's plate and its dual marker 1.
+  std::string object = "module";
+  int reference = 10;
   // The fusion's corner noise model (object_pose.h).
   double corner_sigma_px = ObjectPoseOptions{}.corner_sigma_px;
   double corner_sigma_exponent = ObjectPoseOptions{}.corner_sigma_exponent;
@@ -34,6 +39,12 @@ struct PoseBenchmarkOptions {
   bool correlated_corners = false;  // whiten with the line fits' corner covariance
   double min_tip_sigma_px = ObjectPoseOptions{}.min_tip_sigma_px;
   bool no_calibration_covariance = false;  // leave the calibration's uncertainty out
+  // The fused pose of one marker is its detector pose with the stripe and decal edges
+  // (ObjectPoseOptions::use_marker_pose_with_edges); false: the refit over corners and tip.
+  bool no_marker_pose_with_edges = false;
+  // Leave every marker's stripe and decal edges out of the fit (ObjectPoseOptions::use_edges);
+  // with no_marker_pose_with_edges: the fused pose from corners and tips only.
+  bool no_edges = false;
 };
 
 // Runs the benchmark. Returns an exit code (exit_codes.h): 3 when a target was missed, 2 for

@@ -26,6 +26,30 @@ double FitScale(const PoseBenchmarkOptions& o) {
 
 namespace fs = std::filesystem;
 
+double Rms(const std::vector<double>& v) {
+  double ss = 0;
+  for (double x : v) ss += x * x;
+  return v.empty() ? std::nan("") : std::sqrt(ss / v.size());
+}
+
+// One range bin of the approach (metres, [lo, hi)).
+struct RangeBin {
+  double lo = 0, hi = 0;
+  int frames = 0, one_marker = 0, one_marker_with_edges = 0;
+  std::vector<double> ori, pos, range, detect_ori, detect_pos, detect_range;  // deg, mm, mm
+  std::vector<double> one_ori, one_detect_ori;  // the frames resting on one marker
+  bool no_worse() const {
+    // A hair of slack for the last digit: with one marker the two are the same pose.
+    return Rms(ori) <= Rms(detect_ori) * (1 + 1e-9) && Rms(pos) <= Rms(detect_pos) * (1 + 1e-9);
+  }
+};
+
+// The bins' edges (metres): the approach runs 12.9 -> 1.3 m, the range set 0.8 -> 16 m; the
+// last but one holds 16 m.
+constexpr double kRangeEdges[] = {0, 1, 1.5, 2, 3, 4, 6, 8, 10, 12, 14, 15, 17, 1e9};
+// The one-marker target at 16 m: orientation and range RMS.
+constexpr double kFarLo = 15, kFarHi = 17, kFarOrientationDeg = 0.35, kFarRangeMm = 3;
+
 // The figures of the report, from the frames and the long run.
 struct Figures {
   // Over the frames with a pose: NEES, chi2 / dof, errors (mm, deg), the best single marker's
@@ -38,6 +62,12 @@ struct Figures {
   double nees_mean = 0;
   double half = 0;  // chi-square(6) 95 % bounds on the mean NEES: 6 +- half
   bool nees_ok = false;
+  // Per range bin: the fused pose against svms detect's best single-marker pose (its edges
+  // included), over every frame with both; and the ~16 m one-marker target.
+  std::vector<RangeBin> by_range;
+  bool no_worse_everywhere =
+      true;  // fused RMS <= detect's RMS in every bin (orientation, position)
+  bool far_target_checked = false, far_target_met = false;
   double lat_median = 0, lat_p99 = 0;               // ms
   double rss_first = 0, rss_last = 0, rss_max = 0;  // MiB
 };
@@ -70,6 +100,37 @@ Figures Summarise(const PoseFindings& f) {
       }
     }
   }
+  constexpr int kBins = sizeof(kRangeEdges) / sizeof(kRangeEdges[0]) - 1;
+  std::vector<RangeBin> bins(kBins);
+  for (int b = 0; b < kBins; ++b) bins[b].lo = kRangeEdges[b], bins[b].hi = kRangeEdges[b + 1];
+  for (const FrameRow& w : f.rows) {
+    if (!w.valid || !std::isfinite(w.detect_position_mm)) continue;
+    for (RangeBin& b : bins) {
+      if (w.range < b.lo || w.range >= b.hi) continue;
+      ++b.frames;
+      b.ori.push_back(w.orientation_deg);
+      b.pos.push_back(w.position_mm);
+      b.range.push_back(w.range_error_mm);
+      b.detect_ori.push_back(w.detect_orientation_deg);
+      b.detect_pos.push_back(w.detect_position_mm);
+      b.detect_range.push_back(w.detect_range_error_mm);
+      if (w.markers == 1) {
+        ++b.one_marker;
+        b.one_marker_with_edges += w.detect_edges;
+        b.one_ori.push_back(w.orientation_deg);
+        b.one_detect_ori.push_back(w.detect_orientation_deg);
+      }
+    }
+  }
+  for (RangeBin& b : bins) {
+    if (b.frames == 0) continue;
+    g.no_worse_everywhere = g.no_worse_everywhere && b.no_worse();
+    if (b.lo == kFarLo && b.hi == kFarHi) {
+      g.far_target_checked = true;
+      g.far_target_met = Rms(b.ori) <= kFarOrientationDeg && Rms(b.range) <= kFarRangeMm;
+    }
+    g.by_range.push_back(std::move(b));
+  }
   g.nees_mean = Mean(g.nees);
   // chi-square(6) 95 % bounds on the mean of n NEES values: 6 +- 1.96 sqrt(12 / n).
   g.half = 1.96 * std::sqrt(12.0 / std::max<size_t>(1, g.nees.size()));
@@ -89,7 +150,9 @@ void WriteFrameFiles(const PoseBenchmarkOptions& o, const PoseFindings& f) {
   csv << "frame,name,range_m,valid,markers,rejected,ex_rad,ey_rad,ez_rad,ex_m,ey_m,ez_m,"
          "sx_rad,sy_rad,sz_rad,sx_m,sy_m,sz_m,nees,position_mm,orientation_deg,"
          "single_position_mm,single_orientation_deg,latency_ms,chi2,dof,"
-         "aligned_nees,aligned_position_mm,aligned_orientation_deg\n";
+         "aligned_nees,aligned_position_mm,aligned_orientation_deg,range_error_mm,"
+         "detect_position_mm,detect_orientation_deg,detect_range_error_mm,detect_edges,"
+         "from_marker_pose\n";
   for (size_t i = 0; i < f.rows.size(); ++i) {
     const FrameRow& w = f.rows[i];
     csv << i << "," << w.name << "," << G(w.range) << "," << w.valid << "," << w.markers << ","
@@ -99,7 +162,10 @@ void WriteFrameFiles(const PoseBenchmarkOptions& o, const PoseFindings& f) {
     csv << "," << G(w.nees) << "," << G(w.position_mm) << "," << G(w.orientation_deg) << ","
         << G(w.single_position_mm) << "," << G(w.single_orientation_deg) << "," << G(w.latency_ms)
         << "," << G(w.chi2) << "," << w.dof << "," << G(w.aligned_nees) << ","
-        << G(w.aligned_position_mm) << "," << G(w.aligned_orientation_deg) << "\n";
+        << G(w.aligned_position_mm) << "," << G(w.aligned_orientation_deg) << ","
+        << G(w.range_error_mm) << "," << G(w.detect_position_mm) << ","
+        << G(w.detect_orientation_deg) << "," << G(w.detect_range_error_mm) << "," << w.detect_edges
+        << "," << w.from_marker_pose << "\n";
   }
   OutputFile s(fs::path(o.out) / "soak.csv");
   s << "frames,rss_mib\n";
@@ -154,6 +220,26 @@ void WriteSummary(const PoseBenchmarkOptions& o, const PoseFindings& f, const Fi
       {"rss_mib_after_first_100", g.rss_first},
       {"rss_mib_end", g.rss_last},
       {"rss_mib_max", g.rss_max}};
+  nlohmann::json bins = nlohmann::json::array();
+  auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
+  for (const RangeBin& b : g.by_range)
+    bins.push_back({{"range_m", {b.lo, b.hi}},
+                    {"frames", b.frames},
+                    {"one_marker_frames", b.one_marker},
+                    {"orientation_rms_deg", number(Rms(b.ori))},
+                    {"detect_orientation_rms_deg", number(Rms(b.detect_ori))},
+                    {"position_rms_mm", number(Rms(b.pos))},
+                    {"detect_position_rms_mm", number(Rms(b.detect_pos))},
+                    {"range_rms_mm", number(Rms(b.range))},
+                    {"detect_range_rms_mm", number(Rms(b.detect_range))},
+                    {"one_marker_orientation_rms_deg", number(Rms(b.one_ori))},
+                    {"one_marker_detect_orientation_rms_deg", number(Rms(b.one_detect_ori))},
+                    {"no_worse", b.no_worse()}});
+  summary["by_range"] = bins;
+  summary["fused_no_worse_than_detect_everywhere"] = g.no_worse_everywhere;
+  summary["far_16m_target_met"] =
+      g.far_target_checked ? nlohmann::json(g.far_target_met) : nlohmann::json();
+  summary["nees_p95"] = Percentile(g.nees, 0.95);
   OutputFile(fs::path(o.out) / "summary.json") << summary.dump(2) << "\n";
 }
 
@@ -287,6 +373,37 @@ std::string Markdown(const PoseBenchmarkOptions& o, const PoseFindings& f, const
      << "| resident memory after 100 frames / at the end / max (MiB) | " << Fixed(g.rss_first, 1)
      << " / " << Fixed(g.rss_last, 1) << " / " << Fixed(g.rss_max, 1) << " | flat |\n"
      << "| frames over a budget | " << g.budget << " (no budget set) | |\n\n";
+  md << "Fused pose against `svms detect`'s best single-marker pose (the marker with the smallest "
+        "predicted position sigma; its pose with the stripe and decal edges where its fit used "
+        "them, moved to the object through the layout) by range, RMS over the frames with both. "
+        "Range error: the distance camera-object estimated minus true. Target: the fused no "
+        "worse at every range (orientation and position), including frames with one marker; at "
+        "16 m (bin "
+     << kFarLo << "-" << kFarHi << " m) orientation RMS <= " << kFarOrientationDeg
+     << " deg and range RMS <= " << kFarRangeMm << " mm. The fused pose of a frame that rests "
+     << "on one marker with edges is that marker's own pose ("
+     << (o.no_marker_pose_with_edges ? "**off in this run**, --no-marker-pose-with-edges"
+                                     : "ObjectPoseOptions::use_marker_pose_with_edges")
+     << "); every marker's edges are in the fit as their quadratic ("
+     << (o.no_edges ? "**off in this run**, --no-edges" : "ObjectPoseOptions::use_edges")
+     << ").\n\n"
+     << "| range (m) | frames | one marker (with edges) | orientation RMS fused / detect (deg) "
+        "| position RMS fused / detect (mm) | range RMS fused / detect (mm) | one-marker "
+        "orientation RMS fused / detect (deg) | no worse |\n|---|---|---|---|---|---|---|---|\n";
+  for (const RangeBin& b : g.by_range)
+    md << "| " << Fixed(b.lo, 1) << "-" << (b.hi > 100 ? std::string("") : Fixed(b.hi, 1)) << " | "
+       << b.frames << " | " << b.one_marker << " (" << b.one_marker_with_edges << ") | "
+       << Fixed(Rms(b.ori), 4) << " / " << Fixed(Rms(b.detect_ori), 4) << " | "
+       << Fixed(Rms(b.pos), 3) << " / " << Fixed(Rms(b.detect_pos), 3) << " | "
+       << Fixed(Rms(b.range), 3) << " / " << Fixed(Rms(b.detect_range), 3) << " | "
+       << (b.one_ori.empty() ? std::string("-")
+                             : Fixed(Rms(b.one_ori), 4) + " / " + Fixed(Rms(b.one_detect_ori), 4))
+       << " | " << (b.no_worse() ? "yes" : "**no**") << " |\n";
+  md << "\nFused no worse than svms detect's best single marker at every range: "
+     << (g.no_worse_everywhere ? "met" : "**not met**") << "; 16 m one-marker target: "
+     << (!g.far_target_checked ? std::string("no frames at 15-17 m in this dataset")
+                               : (g.far_target_met ? "met" : "**not met**"))
+     << ".\n\n";
   md << "NEES by the number of markers used:\n\n| markers | frames | mean NEES |\n|---|---|---|\n";
   for (const auto& [m, v] : g.nees_by_markers)
     md << "| " << (m == 5 ? "5+" : std::to_string(m)) << " | " << v.size() << " | "
@@ -310,7 +427,8 @@ int WritePoseBenchmarkReport(const PoseBenchmarkOptions& o, const PoseFindings& 
   OutputFile(fs::path(o.out) / "report.md") << md;
   std::cout << md;
   // A missed target: exit kExitTargetMissed, after writing everything.
-  const bool all_met = g.nees_ok && g.lat_median <= 15;
+  const bool all_met = g.nees_ok && g.lat_median <= 15 && g.no_worse_everywhere &&
+                       (!g.far_target_checked || g.far_target_met);
   if (!all_met) std::cerr << "svms bench pose: some targets not met (report.md)\n";
   return all_met ? kExitOk : kExitTargetMissed;
 }

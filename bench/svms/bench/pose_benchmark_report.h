@@ -28,6 +28,14 @@ struct FrameRow {
          aligned_orientation_deg = std::nan("");
   double position_mm = 0, orientation_deg = 0;
   double single_position_mm = std::nan(""), single_orientation_deg = std::nan("");
+  // The fused pose's range (distance camera-object) minus the truth's, mm.
+  double range_error_mm = std::nan("");
+  // svms detect's best single-marker pose (the smallest predicted position sigma, with the
+  // stripe and decal edges where its fit used them; ObjectPoseFromMarker) against the truth.
+  double detect_position_mm = std::nan(""), detect_orientation_deg = std::nan(""),
+         detect_range_error_mm = std::nan("");
+  bool detect_edges = false;      // that marker's pose used the edges
+  bool from_marker_pose = false;  // the fused pose is the one marker's own (ObjectPose)
   double latency_ms = 0;
   double chi2 = 0;
   int dof = 0;

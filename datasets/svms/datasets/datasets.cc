@@ -99,6 +99,11 @@ Dataset Range(const DatasetOptions& o) {
   const MarkerModel dual = Dual(1, 0.432, 2, 0.108);
   plate.markers.push_back(Printed(dual, OnPlate(0, 0, 0)));
   s.objects.push_back(plate);
+  // The dual marker's place on the plate (the object "plate"): what `svms bench pose --object
+  // plate --reference 1` reads as the truth's layout.
+  Layout truth_layout;
+  truth_layout.name = "range plate (true)";
+  truth_layout.markers.push_back({dual, OnPlate(0, 0, 0), std::nullopt, std::nullopt});
   std::mt19937_64 rng(o.seed);
   std::uniform_real_distribution<double> u(-1, 1);
   const int distances = o.quick ? 6 : 24, per = o.quick ? 1 : 4;
@@ -119,6 +124,7 @@ Dataset Range(const DatasetOptions& o) {
     }
   }
   d.scenes.emplace_back("", s);
+  d.files.emplace_back("true_layout.json", LayoutToJson(truth_layout));
   return d;
 }
 

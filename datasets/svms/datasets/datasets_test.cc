@@ -116,6 +116,32 @@ TEST(Datasets, MockupHasEightMarkersOfThreeSizesWithADualAndAConcave) {
   EXPECT_TRUE(found);
 }
 
+// The range set's true layout (what `svms bench pose --object plate --reference 1` reads):
+// its dual marker where the scene prints it on the plate, inner marker included.
+TEST(Datasets, TheRangeSetsTrueLayoutIsWhereTheSceneHasItsMarker) {
+  Dataset d;
+  ASSERT_TRUE(MakeDataset("range", DatasetOptions{1, true}, &d).ok());
+  const SceneObject& plate = d.scenes.at(0).second.objects.at(0);
+  ASSERT_EQ(plate.name, "plate");
+  ASSERT_EQ(plate.markers.size(), 1u);
+  bool found = false;
+  for (const auto& [rel, text] : d.files) {
+    if (rel != "true_layout.json") continue;
+    ModelFile f;
+    ASSERT_TRUE(ParseModelJson(text, rel, &f).ok());
+    ASSERT_EQ(f.layout.markers.size(), 1u);
+    const LayoutEntry& e = f.layout.markers[0];
+    EXPECT_EQ(e.marker.id, 1);
+    ASSERT_TRUE(e.marker.inner);
+    EXPECT_EQ(e.marker.inner->id, 2);
+    EXPECT_NEAR(e.marker.size, 0.432, 1e-12);
+    EXPECT_LT((e.object_from_marker.tvec - plate.markers[0].object_from_marker.tvec).norm(), 1e-12);
+    EXPECT_LT((e.object_from_marker.rvec - plate.markers[0].object_from_marker.rvec).norm(), 1e-12);
+    found = true;
+  }
+  EXPECT_TRUE(found);
+}
+
 TEST(Datasets, LookAtPutsTheTargetOnTheOpticalAxis) {
   const Eigen::Vector3d eye(1, -2, 3), target(0.2, 0.1, -0.3);
   const Pose cam_from_world = LookAt(eye, target, Eigen::Vector3d(0, 0, 1));

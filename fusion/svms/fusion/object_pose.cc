@@ -19,9 +19,10 @@ namespace {
 
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 using Mat6 = Eigen::Matrix<double, 6, 6>;
-// A marker has at most 5 points (4 corners and a tip), 10 residuals: every per-marker matrix
-// has that bound at compile time and lives on the stack (no heap allocation per frame).
-constexpr int kMaxPoints = 5, kMaxRows = 2 * kMaxPoints;
+// A marker has at most 5 points (4 corners and a tip), 10 residuals, and up to 6 rows of its
+// edges' quadratic: every per-marker matrix has that bound at compile time and lives on the
+// stack (no heap allocation per frame).
+constexpr int kMaxPoints = 5, kMaxEdgeRows = 6, kMaxRows = 2 * kMaxPoints + kMaxEdgeRows;
 using VecR = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxRows, 1>;
 using MatR6 = Eigen::Matrix<double, Eigen::Dynamic, 6, 0, kMaxRows, 6>;
 using MatR7 = Eigen::Matrix<double, Eigen::Dynamic, 7, 0, kMaxRows, 7>;
@@ -103,6 +104,13 @@ struct Block {
   std::array<double, kMaxPoints> reject_sigma{};
   double weight = 1;  // robust weight of the iteration
   bool active = true;
+  // The marker's edges (ObjectPoseOptions::use_edges): edge_rows rows U (d - mu), d the change
+  // of cam_from_marker from the detector's (R_det, t_det), U^T U the edges' information.
+  int edge_rows = 0;
+  Eigen::Matrix<double, kMaxEdgeRows, 6> edge_U = Eigen::Matrix<double, kMaxEdgeRows, 6>::Zero();
+  Vec6 edge_mu = Vec6::Zero();
+  Eigen::Matrix3d R_det = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t_det = Eigen::Vector3d::Zero();
   std::array<bool, 5> dropped{};  // points left out as outliers (corners 0-3, tip 4)
 };
 
@@ -110,6 +118,28 @@ struct Block {
 bool CorrelatedCorners(const ObjectPoseOptions& o, const MarkerObservation& m) {
   return o.corner_sigma_from_fit && o.corner_covariance_from_fit &&
          m.corner_covariance.diagonal().minCoeff() > 0;
+}
+
+// The marker's edge rows (Block::edge_rows) from its detector's edge quadratic: U = Lambda^1/2
+// V^T over the information's eigenvalues above 1e-9 of the largest (H = V Lambda V^T).
+void SetUpEdges(const ObjectPoseOptions& o, Block* b) {
+  const MarkerObservation& m = *b->obs;
+  b->edge_rows = 0;
+  if (!o.use_edges || m.edge_points <= 0 || !m.cam_from_marker || m.pose_ambiguous ||
+      !m.edge_information.allFinite() || !m.edge_offset.allFinite())
+    return;
+  const Eigen::SelfAdjointEigenSolver<Mat6> eig(
+      0.5 * (m.edge_information + m.edge_information.transpose()));
+  const double largest = eig.eigenvalues().maxCoeff();
+  if (!(largest > 0)) return;
+  for (int k = 0; k < 6; ++k) {
+    if (!(eig.eigenvalues()(k) > 1e-9 * largest)) continue;
+    b->edge_U.row(b->edge_rows++) =
+        std::sqrt(eig.eigenvalues()(k)) * eig.eigenvectors().col(k).transpose();
+  }
+  b->edge_mu = m.edge_offset;
+  b->R_det = m.cam_from_marker->Rotation();
+  b->t_det = m.cam_from_marker->tvec;
 }
 
 // The marker's points at the current pose (the concave well's visible bottom depends on it).
@@ -152,10 +182,11 @@ bool Evaluate(const Block& b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t
   const View& v = *b.view;
   const CameraModel& camera = *v.camera;
   const int n = static_cast<int>(b.points.size());
-  r->resize(2 * n);
-  J->resize(2 * n, 6);
-  if (J_layout) J_layout->resize(2 * n, 7);
-  if (J_extrinsics) J_extrinsics->resize(2 * n, 6);
+  const int rows = 2 * n + b.edge_rows;
+  r->resize(rows);
+  J->resize(rows, 6);
+  if (J_layout) J_layout->resize(rows, 7);
+  if (J_extrinsics) J_extrinsics->resize(rows, 6);
   for (int i = 0; i < n; ++i) {
     const Point& p = b.points[i];
     const Eigen::Vector3d in_object_rotated = b.R_om * p.in_marker;
@@ -186,6 +217,45 @@ bool Evaluate(const Block& b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t
       J_layout->block<2, 1>(2 * i, 6) = dq_dp * R * b.R_om * p.d_dheight;
     }
   }
+  if (b.edge_rows > 0) {
+    // The edges' rows: cam_from_marker = cam_from_rig (R R_om, R t_om + t), d its change from
+    // the detector's pose [log(R_cm R_det^T), t_cm - t_det] (camera axes). A left perturbation
+    // (w, u) of rig_from_object (rig axes) moves it by R_cr [w, u - [R t_om]x w]; one (e, f) of
+    // object_from_marker (object axes) by [R_c e, R_c f]; one (a, c) of rig_from_cam (rig
+    // axes) by R_cr [-a, [p - t_rc]x a - c], p = R t_om + t the marker's origin in the rig.
+    const int k = b.edge_rows, e0 = 2 * n;
+    Eigen::Matrix3d R_c;
+    Eigen::Vector3d t_c;
+    ToCamera(v, R, t, &R_c, &t_c);
+    const Eigen::Matrix3d R_cr = v.identity ? Eigen::Matrix3d::Identity() : v.R_cr;
+    Vec6 d;
+    d.head<3>() = Log(R_c * b.R_om * b.R_det.transpose());
+    d.tail<3>() = R_c * b.t_om + t_c - b.t_det;
+    r->segment(e0, k) = b.edge_U.topRows(k) * (d - b.edge_mu);
+    Mat6 dd_dpose = Mat6::Zero();
+    dd_dpose.topLeftCorner<3, 3>() = R_cr;
+    dd_dpose.bottomLeftCorner<3, 3>() = -R_cr * Skew(R * b.t_om);
+    dd_dpose.bottomRightCorner<3, 3>() = R_cr;
+    J->middleRows(e0, k) = b.edge_U.topRows(k) * dd_dpose;
+    if (J_layout) {
+      Mat6 dd_dlayout = Mat6::Zero();
+      dd_dlayout.topLeftCorner<3, 3>() = R_c;
+      dd_dlayout.bottomRightCorner<3, 3>() = R_c;
+      J_layout->block(e0, 0, k, 6) = b.edge_U.topRows(k) * dd_dlayout;
+      J_layout->block(e0, 6, k, 1).setZero();
+    }
+    if (J_extrinsics) {
+      if (v.identity) {
+        J_extrinsics->middleRows(e0, k).setZero();
+      } else {
+        Mat6 dd_dextrinsics = Mat6::Zero();
+        dd_dextrinsics.topLeftCorner<3, 3>() = -R_cr;
+        dd_dextrinsics.bottomLeftCorner<3, 3>() = R_cr * Skew(R * b.t_om + t - v.t_rc);
+        dd_dextrinsics.bottomRightCorner<3, 3>() = -R_cr;
+        J_extrinsics->middleRows(e0, k) = b.edge_U.topRows(k) * dd_dextrinsics;
+      }
+    }
+  }
   return true;
 }
 
@@ -208,6 +278,8 @@ bool IntrinsicsJacobian(const Block& b, const Eigen::Matrix3d& R_rig, const Eige
     if (!camera.Project(p_cam, &q, nullptr, &dq_dintrinsics)) return false;
     J->middleRows<2>(2 * i) = dq_dintrinsics;
   }
+  // The edges' rows: their quadratic does not say how it moves with the intrinsics.
+  J->middleRows(2 * n, b.edge_rows).setZero();
   return true;
 }
 
@@ -219,9 +291,12 @@ bool Whitening(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
   MatR7 JL;
   if (!Evaluate(*b, R, t, &r, &J, &JL)) return false;
   const int n = static_cast<int>(b->points.size());
-  MatRR C = MatRR::Zero(2 * n, 2 * n);
+  const int rows = 2 * n + b->edge_rows;
+  MatRR C = MatRR::Zero(rows, rows);
   for (int i = 0; i < n; ++i)
     C.block<2, 2>(2 * i, 2 * i).diagonal().setConstant(b->points[i].sigma * b->points[i].sigma);
+  // The edges' rows are whitened already (unit covariance) before the layout's share.
+  for (int k = 0; k < b->edge_rows; ++k) C(2 * n + k, 2 * n + k) = 1;
   const MarkerObservation& m = *b->obs;
   if (CorrelatedCorners(o, m)) {
     // The line fits' joint covariance, scaled; each corner's own block shifted so that its
@@ -251,7 +326,7 @@ bool Whitening(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
     b->total_sigma[i] = std::sqrt(0.5 * C.block<2, 2>(2 * i, 2 * i).trace());
   Eigen::LLT<MatRR> llt(C);
   if (llt.info() != Eigen::Success) return false;
-  b->L_inv = llt.matrixL().solve(MatRR::Identity(2 * n, 2 * n));
+  b->L_inv = llt.matrixL().solve(MatRR::Identity(rows, rows));
   b->reject_with_extrinsics = o.use_extrinsics_covariance && b->view->extrinsics_covariance;
   if (b->reject_with_extrinsics) {
     MatR6 JE;
@@ -261,7 +336,7 @@ bool Whitening(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
       b->reject_sigma[i] = std::sqrt(0.5 * C.block<2, 2>(2 * i, 2 * i).trace());
     Eigen::LLT<MatRR> llt_reject(C);
     if (llt_reject.info() != Eigen::Success) return false;
-    b->L_inv_reject = llt_reject.matrixL().solve(MatRR::Identity(2 * n, 2 * n));
+    b->L_inv_reject = llt_reject.matrixL().solve(MatRR::Identity(rows, rows));
   }
   return true;
 }
@@ -313,7 +388,7 @@ bool StartPose(const ObjectPoseOptions& o, std::vector<Block>* blocks, Eigen::Ma
           cost += 1e6;
           continue;
         }
-        for (int i = 0; i < r.size(); i += 2) {
+        for (int i = 0; i < 2 * static_cast<int>(b.points.size()); i += 2) {
           const double e =
               r.segment<2>(i).norm() / o.corner_sigma_px;  // Cauchy: robust to outliers
           cost += std::log1p(e * e / 9);
@@ -401,7 +476,7 @@ double Excess(const ObjectPoseOptions& o, const Block& b, const Eigen::Matrix3d&
     }
   }
   return ((b.reject_with_extrinsics ? b.L_inv_reject : b.L_inv) * r).squaredNorm() /
-         ChiSquareQuantile(o.reject_quantile, 2 * static_cast<int>(b.points.size()));
+         ChiSquareQuantile(o.reject_quantile, static_cast<int>(r.size()));
 }
 
 // 3. Rejection, one thing at a time, each followed by a new fit (FitPose from (*R, *t)). The
@@ -474,10 +549,16 @@ void RejectOutliers(const ObjectPoseOptions& o, std::vector<Block>* blocks_io,
 // What the markers kept say at the final pose (step 4).
 struct FitInformation {
   Mat6 H = Mat6::Zero();  // their unweighted information, sum of (whitened J)^T (whitened J)
+  // The same over their corners and tips alone: the calibration's share is S = -H_points^-1 G
+  // (the edges' quadratic does not say how it moves with the intrinsics; the edges lie along
+  // the square's sides and move with them, so the pose moves as the corners-and-tips fit
+  // does, the detector's own rule for its single-marker covariance).
+  Mat6 H_points = Mat6::Zero();
   bool with_calibration = false;  // some G below is filled
   bool with_extrinsics = false;   // some G_extrinsics below is filled
   double ss = 0, chi2 = 0;        // sums of squared residuals, pixels and whitened
   int points = 0;
+  int edge_rows = 0;                        // of the edges' quadratics
   bool ambiguous_single = false;            // the last marker's pose was ambiguous
   const MarkerObservation* last = nullptr;  // the last marker used
   const View* last_view = nullptr;          // and its camera
@@ -521,18 +602,29 @@ bool AccumulateInformation(const std::vector<View>& views, const ObjectPoseOptio
       const Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxRows> wJt_W =
           wJ.transpose() * b.L_inv;
       if ((*G)[c].size() > 0) {
-        if (!IntrinsicsJacobian(b, R, t, &J_intrinsics)) {
+        // The corners and tips alone (their own whitening without the edge rows).
+        Block points = b;
+        points.edge_rows = 0;
+        VecR r_points;
+        MatR6 J_points;
+        if (!Whitening(&points, R, t, o) ||
+            !Evaluate(points, R, t, &r_points, &J_points, nullptr) ||
+            !IntrinsicsJacobian(points, R, t, &J_intrinsics)) {
           result->message = "the camera gives no intrinsics gradients (CAHVORE)";
           return false;
         }
-        (*G)[c].noalias() += wJt_W * J_intrinsics.topRows(J.rows());
+        const MatR6 wJ_points = points.L_inv * J_points;
+        info->H_points += wJ_points.transpose() * wJ_points;
+        (*G)[c].noalias() +=
+            wJ_points.transpose() * points.L_inv * J_intrinsics.topRows(J_points.rows());
       }
       if (extrinsics) (*G_extrinsics)[c].noalias() += wJt_W * J_extrinsics;
     }
     info->H += wJ.transpose() * wJ;
-    info->ss += r.squaredNorm();
+    info->ss += r.head(2 * b.points.size()).squaredNorm();
     info->chi2 += (b.L_inv * r).squaredNorm();
     info->points += static_cast<int>(b.points.size());
+    info->edge_rows += b.edge_rows;
     result->ids_used.push_back(b.obs->id);
     result->cameras_used.push_back(b.view->index);
     info->ambiguous_single = b.obs->pose_ambiguous;
@@ -568,21 +660,24 @@ bool FusedCovariance(const std::vector<View>& views, const ObjectPoseOptions& o,
   const Mat6 H_inv = result.covariance;
   // The frame's own evidence on the noise level: the variance factor's posterior mean under a
   // prior worth variance_prior_dof degrees of freedom at 1 (the nominal noise model).
-  const int dof = 2 * points - 6;
+  const int dof = 2 * points + info.edge_rows - 6;
   result.variance_factor = o.variance_prior_dof > 0 ? (o.variance_prior_dof + info.chi2) /
                                                           (o.variance_prior_dof + std::max(0, dof))
                                                     : 1.0;
   result.covariance *= result.variance_factor;
   if (info.with_calibration) {
-    // The calibration's error moves the optimum by d pose = S d intrinsics,
-    // S = -H^-1 G (the implicit function theorem at J^T W r = 0); its covariance S L L^T S^T
-    // is added after the variance factor (it is not the frame's noise). The same error is in
-    // every frame, so it is a bias along a sequence, not noise that averages away.
+    // The calibration's error moves the optimum by d pose = S d intrinsics, S = -H_points^-1 G
+    // (the implicit function theorem at J^T W r = 0, over the corners and tips: FitInformation);
+    // its covariance S L L^T S^T is added after the variance factor (not the frame's noise).
+    // The same error is in every frame, so it is a bias along a sequence, not noise that
+    // averages away.
     // Each camera's calibration is its own, independent error.
     thread_local Eigen::MatrixXd HG, SL;
+    Eigen::FullPivLU<Mat6> lu_points(info.H_points);
+    const Mat6 H_points_inv = lu_points.rank() == 6 ? Mat6(lu_points.inverse()) : H_inv;
     for (size_t c = 0; c < views.size(); ++c) {
       if (G[c].size() == 0) continue;
-      HG.noalias() = H_inv * G[c];
+      HG.noalias() = H_points_inv * G[c];
       SL.noalias() = HG * views[c].camera->intrinsics_covariance_factor();
       result.covariance.noalias() += SL * SL.transpose();
     }
@@ -620,6 +715,44 @@ bool FusedCovariance(const std::vector<View>& views, const ObjectPoseOptions& o,
   return true;
 }
 
+// Where the fit rests on one marker whose detector pose used the stripe's and decal's edges
+// (ObjectPoseOptions::use_marker_pose_with_edges), that pose moved to the object replaces (*R,
+// *t) and the covariance: when none of the marker's points was rejected here (the detector's
+// pose holds them all), and when the detector's covariance carries the camera calibration's
+// share exactly when this fit's would. In a rig it is composed with the camera's
+// rig_from_cam (rig axes), whose covariance, if any, is added to first order: an error (a, c)
+// of it moves rig_from_object by [a, c - [R_rc t_co]x a].
+void UseMarkerPoseWithEdges(const ObjectPoseOptions& o, const FitInformation& info,
+                            Eigen::Matrix3d* R, Eigen::Vector3d* t, ObjectPose* out) {
+  ObjectPose& result = *out;
+  const MarkerObservation* m = info.last;
+  if (!o.use_marker_pose_with_edges || result.markers_used != 1 || !m || !info.last_view ||
+      result.points_rejected > 0 || m->edge_points <= 0 || !m->cam_from_marker ||
+      m->calibration_in_marker_covariance != info.with_calibration)
+    return;
+  Pose cam_from_object;
+  PoseCovariance covariance;
+  if (!ObjectPoseFromMarker(*m, o.use_layout_covariance, &cam_from_object, &covariance)) return;
+  const View& v = *info.last_view;
+  if (!v.identity) {
+    Mat6 A = Mat6::Zero();
+    A.topLeftCorner<3, 3>() = v.R_rc;
+    A.bottomRightCorner<3, 3>() = v.R_rc;
+    covariance = (A * covariance * A.transpose()).eval();
+    if (o.use_extrinsics_covariance && v.extrinsics_covariance) {
+      Mat6 JE = Mat6::Identity();
+      JE.bottomLeftCorner<3, 3>() = -Skew(v.R_rc * cam_from_object.tvec);
+      covariance += JE * *v.extrinsics_covariance * JE.transpose();
+    }
+    cam_from_object = v.rig_from_cam * cam_from_object;
+  }
+  if (!covariance.allFinite()) return;
+  *R = cam_from_object.Rotation();
+  *t = cam_from_object.tvec;
+  result.covariance = covariance;
+  result.from_marker_pose = true;
+}
+
 // The rest of the result at the fused pose (R, t): residual statistics, the single marker's
 // ambiguity and alternative, the conditioning flag and validity.
 void DescribeResult(const ObjectPoseOptions& o, const FitInformation& info,
@@ -630,7 +763,8 @@ void DescribeResult(const ObjectPoseOptions& o, const FitInformation& info,
   result.cam_from_object = Pose::FromRotation(R, t);
   result.rms_px = std::sqrt(info.ss / (2.0 * points));
   result.chi2 = info.chi2;
-  result.dof = 2 * points - 6;
+  result.dof = 2 * points + info.edge_rows - 6;
+  result.edge_rows = info.edge_rows;
   result.ambiguous = result.markers_used == 1 && info.ambiguous_single;
   if (result.ambiguous && last->alternative_cam_from_marker && last->cam_from_marker) {
     // Should the fit have ended nearer the detector's other pose than its kept one, the kept
@@ -726,6 +860,11 @@ void ObservationsFromDetections(const std::vector<Detection>& detections, const 
       o.ambiguity_covariance = d->ambiguity_covariance;
       o.alternative_cam_from_marker = d->alternative_pose;
       o.alternative_weight = d->alternative_weight;
+      o.marker_covariance = d->covariance;
+      o.calibration_in_marker_covariance = d->calibration_in_covariance;
+      o.edge_points = d->edge_points;
+      o.edge_information = d->edge_information;
+      o.edge_offset = d->edge_offset;
       // One tip per physical post: the inner marker of a dual shares the outer's post, whether
       // the layout has them as one entry or (as the survey writes) as two.
       if (d->tip && o.model.post) {
@@ -740,6 +879,32 @@ void ObservationsFromDetections(const std::vector<Detection>& detections, const 
       break;
     }
   }
+}
+
+bool ObjectPoseFromMarker(const MarkerObservation& m, bool with_layout, Pose* cam_from_object,
+                          PoseCovariance* covariance) {
+  if (!m.cam_from_marker) return false;
+  *cam_from_object = *m.cam_from_marker * m.object_from_marker.Inverse();
+  const Eigen::Matrix3d R = cam_from_object->Rotation();
+  // The marker's covariance about its origin, moved to the object's: with a left perturbation
+  // in camera axes, d t_object = d t_marker - [a]x d theta, a = object origin - marker origin
+  // (camera axes).
+  const Eigen::Vector3d a = cam_from_object->tvec - m.cam_from_marker->tvec;
+  Mat6 J = Mat6::Identity();
+  J.bottomLeftCorner<3, 3>() = -Skew(a);
+  *covariance = J * m.marker_covariance * J.transpose();
+  // The layout's error of object_from_marker (left perturbation, object axes). Its post
+  // height's sigma is not counted: the detector fitted the tip at the model's height, and the
+  // tip's share of a pose that also has the edges is small.
+  if (with_layout && m.layout_covariance) {
+    Mat6 JL = Mat6::Zero();
+    JL.topLeftCorner<3, 3>() = -R;
+    JL.bottomLeftCorner<3, 3>() = -Skew(R * m.object_from_marker.tvec) * R;
+    JL.bottomRightCorner<3, 3>() = -R;
+    *covariance += JL * *m.layout_covariance * JL.transpose();
+  }
+  *covariance = 0.5 * (*covariance + covariance->transpose()).eval();
+  return true;
 }
 
 ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,
@@ -770,6 +935,7 @@ void Solve(const std::vector<View>& views, const std::vector<MarkerObservation>&
     blocks[i].view = &views[camera_of(i)];
     blocks[i].R_om = obs[i].object_from_marker.Rotation();
     blocks[i].t_om = obs[i].object_from_marker.tvec;
+    SetUpEdges(o, &blocks[i]);
   }
 
   // 1. Start: the best single-marker candidate.
@@ -788,6 +954,7 @@ void Solve(const std::vector<View>& views, const std::vector<MarkerObservation>&
   FitInformation info;
   if (!AccumulateInformation(views, o, &blocks, R, t, &info, &G, &G_extrinsics, &result)) return;
   if (!FusedCovariance(views, o, info, G, G_extrinsics, R, t, &result)) return;
+  UseMarkerPoseWithEdges(o, info, &R, &t, &result);
   DescribeResult(o, info, R, t, &result);
 }
 }  // namespace

@@ -3,8 +3,10 @@
 // The unknown is cam_from_object (6 parameters). Every corner and post tip of every detected
 // marker of the layout is one observation of a known point of the object: its pixel is
 // predicted through the camera's mrcal lens model from the marker's surveyed object_from_marker
-// and compared with the detection. The fit is one weighted least-squares problem over all of
-// them (not an average of per-marker poses), solved by Gauss-Newton:
+// and compared with the detection. Each marker's stripe and decal edges, where its detector
+// pose fitted them, join as their quadratic about that pose (use_edges). The fit is one weighted
+// least-squares problem over all of them (not an average of per-marker poses), solved by
+// Gauss-Newton:
 //
 //   - Noise model per marker: the corners' and the tip's pixel noise (isotropic, per point)
 //     plus the layout's own uncertainty pushed into pixels to first order,
@@ -77,8 +79,18 @@ struct ObjectPoseOptions {
   // corners' errors are not the independent edge points' the model assumes
   // (docs/flight-interface.md).
   bool corner_covariance_from_fit = false;
-  double min_tip_sigma_px = 0.3;      // floor on the detector's own tip sigma
-  bool use_tips = true;               // post tips as observations
+  double min_tip_sigma_px = 0.3;  // floor on the detector's own tip sigma
+  bool use_tips = true;           // post tips as observations
+  // Each marker's stripe and decal edges, where its detector pose fitted them
+  // (MarkerObservation::edge_points): their quadratic about the detector's cam_from_marker
+  // (edge_information, edge_offset, the same residual as the single-marker fit, EdgeResidual
+  // in marker_pose.h) joins the marker's residuals, up to 6 rows whitened by it, with the
+  // layout's uncertainty (and in a rig the camera's extrinsics) pushed into them like into
+  // the corners. Not for a marker flagged ambiguous (the quadratic holds about its kept planar
+  // pose only). Linearised at the detector's pose: the
+  // fused pose moves a marker by a fraction of a degree from it, where the edges' normals do
+  // not change. The camera calibration's share of the covariance leaves the edges out.
+  bool use_edges = true;
   bool use_layout_covariance = true;  // add the layout's uncertainty to the noise model
   // Add the camera calibration's uncertainty to the pose covariance, when the camera carries
   // one (CameraModel::intrinsics_covariance_factor, camera_covariance.h).
@@ -102,6 +114,15 @@ struct ObjectPoseOptions {
   // translation sigma above this fraction of the range.
   double max_rotation_sigma_deg = 1.0;
   double max_translation_sigma_fraction = 0.02;
+  // Where the fit rests on one marker whose single-marker pose also fitted the stripe's and
+  // the decal's outer edges (MarkerObservation::edge_points > 0; detector step 10c), none of
+  // whose points was rejected here: the result is that pose and covariance moved to the
+  // object (ObjectPoseFromMarker, the layout's covariance added), so that it is never worse
+  // than svms detect's own. The refit over the same corners, tip and edges (use_edges) would
+  // differ by the tip's floor (min_tip_sigma_px) and the layout's post-height sigma only.
+  // In a rig, composed with the camera's rig_from_cam (its covariance added); only where the
+  // detector's covariance carries the camera calibration's share exactly when this fit's would.
+  bool use_marker_pose_with_edges = true;
 };
 
 // One marker's observations: which layout entry, the detection's corners and tip.
@@ -128,6 +149,17 @@ struct MarkerObservation {
   // of the likelihood, in (0.01, 0.5] (Detection::alternative_pose, alternative_weight).
   std::optional<Pose> alternative_cam_from_marker;
   double alternative_weight = 0;
+  // The detector's covariance of cam_from_marker (Detection::covariance: [rotation,
+  // translation], camera axes, about the marker's origin; its widening for the other planar
+  // solution included, and the calibration's where calibration_in_marker_covariance), and how
+  // many stripe and decal edge points its fit used (Detection::edge_points).
+  PoseCovariance marker_covariance = PoseCovariance::Zero();
+  bool calibration_in_marker_covariance = false;
+  int edge_points = 0;
+  // Those edge points' own quadratic about cam_from_marker (Detection::edge_information,
+  // edge_offset: [rotation, translation], camera axes; MarkerPose).
+  Eigen::Matrix<double, 6, 6> edge_information = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> edge_offset = Eigen::Matrix<double, 6, 1>::Zero();
 };
 
 struct ObjectPose {
@@ -144,7 +176,8 @@ struct ObjectPose {
   std::vector<int> cameras_used, cameras_rejected;
   double rms_px = 0;           // RMS pixel residual (per coordinate) of the points used
   double chi2 = 0;             // whitened residual sum of squares of the points used
-  int dof = 0;                 // 2 * points_used - 6
+  int dof = 0;                 // 2 * points_used + edge_rows - 6
+  int edge_rows = 0;           // rows of the markers' edge quadratics in the fit (use_edges)
   double variance_factor = 1;  // the scale applied to the covariance (variance_prior_dof)
   bool ambiguous = false;      // one marker, and its planar pose could not be told apart
   // With `ambiguous`, where the detector gave the marker's other planar pose: the object's pose
@@ -157,7 +190,11 @@ struct ObjectPose {
   // A rig's: the covariance includes the cameras' rig_from_cam uncertainty (some had one).
   bool extrinsics_in_covariance = false;
   bool poorly_conditioned = false;  // sigmas above ObjectPoseOptions' limits
-  std::string message;              // why not valid
+  // The pose and covariance are the one marker's own, with its stripe and decal edges
+  // (ObjectPoseOptions::use_marker_pose_with_edges); rms_px, chi2, dof and variance_factor
+  // still describe the refit over its corners, tip and edges.
+  bool from_marker_pose = false;
+  std::string message;  // why not valid
 };
 
 // Observations from detections: every detection whose ID is in the layout (as a marker, or
@@ -182,6 +219,16 @@ double CornerSigma(const ObjectPoseOptions& options, double side_px);
 // model's CornerSigma; the post tip its detector's sigma, at least min_tip_sigma_px.
 double CornerPixelSigma(const ObjectPoseOptions& options, const MarkerObservation& m, int k);
 double TipPixelSigma(const ObjectPoseOptions& options, const MarkerObservation& m);
+
+// The object pose one marker's single-marker pose gives: cam_from_object = cam_from_marker
+// object_from_marker^-1, with m.marker_covariance moved from the marker's origin to the
+// object's ([rotation, translation], camera axes) and, with `with_layout` and where the layout
+// gives one, the layout's covariance of object_from_marker (object axes) added to first order:
+// an error (e_rot, e_trans) of it moves the object by d_rot = -R e_rot, d_trans = -R e_trans -
+// [R t_om]x R e_rot (R the cam_from_object rotation, t_om the marker's place in the object).
+// False when m has no cam_from_marker.
+bool ObjectPoseFromMarker(const MarkerObservation& m, bool with_layout, Pose* cam_from_object,
+                          PoseCovariance* covariance);
 
 // Solves cam_from_object. Returns an invalid pose with a message when there is nothing to fit
 // (no observation, the camera cannot project, a singular problem).

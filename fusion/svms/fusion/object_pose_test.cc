@@ -13,6 +13,7 @@
 #include "svms/datasets/datasets.h"
 #include "svms/detect/ippe.h"
 #include "svms/geometry/pose.h"
+#include "svms/geometry/so3.h"
 
 namespace svms {
 namespace {
@@ -476,6 +477,177 @@ TEST(ObjectPose, AnAmbiguousMarkersAlternativeIsAStart) {
   EXPECT_FALSE(p.alternative_cam_from_object);
 }
 
+// The object pose from one marker's own pose: the composition, and the covariance's two
+// first-order terms checked against finite differences of the composition itself (a small
+// error of cam_from_marker, then of the layout's object_from_marker, each a left perturbation:
+// camera axes for the first, object axes for the second).
+TEST(ObjectPose, ObjectPoseFromMarkerMovesTheCovarianceAndAddsTheLayouts) {
+  const Rig rig;
+  MarkerObservation m = rig.Observe(1, rig.layout.markers[1].object_from_marker);
+  Pose cam_from_object;
+  PoseCovariance C;
+  EXPECT_FALSE(ObjectPoseFromMarker(MarkerObservation{}, true, &cam_from_object, &C));
+  ASSERT_TRUE(ObjectPoseFromMarker(m, true, &cam_from_object, &C));
+  EXPECT_LT(PoseError(rig.cam_from_object, cam_from_object).norm(), 1e-12);
+  EXPECT_LT(C.cwiseAbs().maxCoeff(), 1e-300);  // no covariance given, none made up
+  auto perturbed = [](const Pose& p, const Eigen::Matrix<double, 6, 1>& d) {
+    return Pose::FromRotation(Exp(Vec3(d.head<3>())) * p.Rotation(), p.tvec + d.tail<3>());
+  };
+  const double h = 1e-7;
+  Eigen::Matrix<double, 6, 6> J_marker, J_layout;
+  for (int k = 0; k < 6; ++k) {
+    const Eigen::Matrix<double, 6, 1> d = h * Eigen::Matrix<double, 6, 1>::Unit(k);
+    MarkerObservation a = m;
+    a.cam_from_marker = perturbed(*m.cam_from_marker, d);
+    Pose p;
+    ASSERT_TRUE(ObjectPoseFromMarker(a, false, &p, &C));
+    J_marker.col(k) = -PoseError(cam_from_object, p) / h;  // PoseError: truth - estimate
+    MarkerObservation b = m;
+    b.object_from_marker = perturbed(m.object_from_marker, d);
+    ASSERT_TRUE(ObjectPoseFromMarker(b, false, &p, &C));
+    J_layout.col(k) = -PoseError(cam_from_object, p) / h;
+  }
+  // Covariances with every entry in play (rotation-translation cross terms too).
+  Eigen::Matrix<double, 6, 6> A;
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 6; ++j) A(i, j) = std::sin(1.0 + i + 3.0 * j);
+  const PoseCovariance S_marker = 1e-6 * (A * A.transpose() + PoseCovariance::Identity());
+  const PoseCovariance S_layout = 1e-6 * (A.transpose() * A + PoseCovariance::Identity());
+  m.marker_covariance = S_marker;
+  m.layout_covariance = S_layout;
+  ASSERT_TRUE(ObjectPoseFromMarker(m, false, &cam_from_object, &C));
+  const PoseCovariance expect_marker = J_marker * S_marker * J_marker.transpose();
+  EXPECT_LT((C - expect_marker).cwiseAbs().maxCoeff(), 1e-5 * expect_marker.norm());
+  ASSERT_TRUE(ObjectPoseFromMarker(m, true, &cam_from_object, &C));
+  const PoseCovariance expect = expect_marker + J_layout * S_layout * J_layout.transpose();
+  EXPECT_LT((C - expect).cwiseAbs().maxCoeff(), 1e-5 * expect.norm());
+  // The layout's share is not negligible here (the test would not see a wrong term).
+  EXPECT_GT((expect - expect_marker).norm(), 0.1 * expect_marker.norm());
+}
+
+// A lone marker whose detector pose fitted its stripe and decal edges: the fused pose is that
+// pose moved to the object, with the detector's covariance moved likewise (and the layout's
+// added); without edges, with the option off, or with one of its points rejected here, the
+// fusion refits from the corners and tip.
+TEST(ObjectPose, ALoneMarkerWithEdgesGivesItsOwnPose) {
+  const Rig rig;
+  MarkerObservation m = rig.Observe(0, rig.layout.markers[0].object_from_marker);
+  // The detector's pose: off the corners' own solution by a small rotation (what the edges
+  // moved it by), with a covariance.
+  m.cam_from_marker = Pose::FromRotation(Exp(Vec3(2e-3, -1e-3, 0)) * m.cam_from_marker->Rotation(),
+                                         m.cam_from_marker->tvec + Vec3(1e-4, 0, 0));
+  m.marker_covariance = PoseCovariance::Identity() * 1e-6;
+  m.layout_covariance = PoseCovariance::Identity() * 1e-8;
+  m.edge_points = 90;
+  Pose expected_pose;
+  PoseCovariance expected_covariance;
+  ASSERT_TRUE(ObjectPoseFromMarker(m, true, &expected_pose, &expected_covariance));
+  const ObjectPose p = SolveObjectPose(rig.camera, {m}, ObjectPoseOptions{});
+  ASSERT_TRUE(p.valid) << p.message;
+  EXPECT_TRUE(p.from_marker_pose);
+  EXPECT_LT(PoseError(expected_pose, p.cam_from_object).norm(), 1e-12);
+  EXPECT_LT((p.covariance - expected_covariance).cwiseAbs().maxCoeff(), 1e-18);
+  EXPECT_EQ(p.markers_used, 1);
+  // The refit over the corners and tip goes back to their exact solution (the truth).
+  auto refits = [&](const MarkerObservation& o, const ObjectPoseOptions& options) {
+    const ObjectPose q = SolveObjectPose(rig.camera, {o}, options);
+    EXPECT_TRUE(q.valid) << q.message;
+    EXPECT_FALSE(q.from_marker_pose);
+    EXPECT_LT(PoseError(rig.cam_from_object, q.cam_from_object).norm(), 1e-8);
+  };
+  MarkerObservation no_edges = m;
+  no_edges.edge_points = 0;
+  refits(no_edges, ObjectPoseOptions{});
+  ObjectPoseOptions off;
+  off.use_marker_pose_with_edges = false;
+  refits(m, off);
+  MarkerObservation glint = m;
+  glint.tip->pixel += Eigen::Vector2d(4, 3);  // a glint taken for the tip: rejected here
+  const ObjectPose q = SolveObjectPose(rig.camera, {glint}, ObjectPoseOptions{});
+  ASSERT_TRUE(q.valid) << q.message;
+  EXPECT_EQ(q.points_rejected, 1);
+  EXPECT_FALSE(q.from_marker_pose);
+  // Two markers: the joint fit, as before.
+  const ObjectPose two =
+      SolveObjectPose(rig.camera, {m, rig.Observe(1, rig.layout.markers[1].object_from_marker)},
+                      ObjectPoseOptions{});
+  ASSERT_TRUE(two.valid) << two.message;
+  EXPECT_FALSE(two.from_marker_pose);
+}
+
+// A marker's edge quadratic in the fit: its information reaches the fused pose moved from the
+// marker's origin to the object's (J^T H J, J = [[I, 0], [-[R t_om]x, I]]), its offset moves
+// the pose by the same amount the marker's own information says, and a layout covariance adds
+// exactly the layout's share of one rigid marker (the edge rows carry the layout's error like
+// the corners do). The lone marker's own-pose shortcut is off here so that the fit is seen.
+TEST(ObjectPose, AMarkersEdgeQuadraticJoinsTheFit) {
+  const Rig rig;
+  ObjectPoseOptions o;
+  o.use_marker_pose_with_edges = false;
+  const MarkerObservation plain = rig.Observe(0, rig.layout.markers[0].object_from_marker);
+  const ObjectPose without = SolveObjectPose(rig.camera, {plain}, o);
+  ASSERT_TRUE(without.valid) << without.message;
+  EXPECT_EQ(without.edge_rows, 0);
+  Eigen::Matrix<double, 6, 6> A;
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 6; ++j) A(i, j) = std::cos(0.7 + 2.0 * i + j);
+  const Eigen::Matrix<double, 6, 6> H =
+      1e6 * (A * A.transpose() + 0.1 * Eigen::Matrix<double, 6, 6>::Identity());
+  MarkerObservation m = plain;
+  m.edge_points = 60;
+  m.edge_information = H;
+  const ObjectPose with = SolveObjectPose(rig.camera, {m}, o);
+  ASSERT_TRUE(with.valid) << with.message;
+  EXPECT_EQ(with.edge_rows, 6);
+  EXPECT_EQ(with.dof, without.dof + 6);
+  EXPECT_LT(PoseError(rig.cam_from_object, with.cam_from_object).norm(), 1e-9);  // mu = 0
+  const Pose cam_from_marker = with.cam_from_object * plain.object_from_marker;
+  Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Identity();
+  J.bottomLeftCorner<3, 3>() = -Skew(cam_from_marker.tvec - with.cam_from_object.tvec);
+  const Eigen::Matrix<double, 6, 6> info_expected =
+      without.covariance.inverse() + J.transpose() * H * J;
+  const Eigen::Matrix<double, 6, 6> info = with.covariance.inverse();
+  EXPECT_LT((info - info_expected).norm(), 1e-6 * info_expected.norm());
+  // An offset: the edges alone want the marker moved by mu; the fit goes a share of the way
+  // that the two informations set: d = (I_pts + H)^-1 H mu in the marker's coordinates.
+  Eigen::Matrix<double, 6, 1> mu;
+  mu << 1e-4, -2e-4, 5e-5, 1e-5, 2e-5, -1e-5;
+  m.edge_offset = mu;
+  const ObjectPose moved = SolveObjectPose(rig.camera, {m}, o);
+  ASSERT_TRUE(moved.valid) << moved.message;
+  const Eigen::Matrix<double, 6, 6> I_pts =
+      J.transpose().inverse() * without.covariance.inverse() * J.inverse();
+  const Eigen::Matrix<double, 6, 1> d_expected = (I_pts + H).ldlt().solve(H * mu);
+  // PoseError(a, b) = [log(R_a R_b^T), t_a - t_b]: the change from b to a.
+  const Eigen::Matrix<double, 6, 1> d =
+      PoseError(moved.cam_from_object * plain.object_from_marker, cam_from_marker);
+  EXPECT_LT((d - d_expected).norm(), 0.02 * d_expected.norm()) << d.transpose() << "\n"
+                                                               << d_expected.transpose();
+  // A layout covariance: one rigid marker, so its share is exactly the layout's
+  // (ObjectPoseFromMarker's first-order term).
+  m.edge_offset.setZero();
+  const PoseCovariance S = 1e-7 * (A.transpose() * A + PoseCovariance::Identity());
+  MarkerObservation with_layout = m;
+  with_layout.layout_covariance = S;
+  const ObjectPose p = SolveObjectPose(rig.camera, {with_layout}, o);
+  ASSERT_TRUE(p.valid) << p.message;
+  MarkerObservation layout_only = with_layout;
+  layout_only.marker_covariance.setZero();
+  layout_only.cam_from_marker = cam_from_marker;
+  Pose unused;
+  PoseCovariance layout_share;
+  ASSERT_TRUE(ObjectPoseFromMarker(layout_only, true, &unused, &layout_share));
+  const PoseCovariance expected = with.covariance + layout_share;
+  EXPECT_LT((p.covariance - expected).norm(), 1e-6 * expected.norm());
+  EXPECT_GT(layout_share.norm(), 0.1 * with.covariance.norm());  // not negligible
+  // An ambiguous marker's quadratic is left out.
+  MarkerObservation ambiguous = m;
+  ambiguous.pose_ambiguous = true;
+  EXPECT_EQ(SolveObjectPose(rig.camera, {ambiguous}, o).edge_rows, 0);
+  o.use_edges = false;
+  EXPECT_EQ(SolveObjectPose(rig.camera, {m}, o).edge_rows, 0);
+}
+
 TEST(ObjectPose, NeesOfAKnownErrorIsItsMahalanobisNorm) {
   Pose truth{Vec3(0.1, 0.2, 0.3), Vec3(1, 2, 3)};
   Pose est = truth;
@@ -561,42 +733,57 @@ TEST(RigObjectPose, AOneCameraRigAtTheOriginIsTheOneCameraSolve) {
 
 // The extrinsics' share of the covariance is (d pose / d rig_from_cam) Sigma (...)^T: against
 // central finite differences of the solve itself (exact observations, the nominal extrinsics
-// of one camera moved by +-h along each of its six error coordinates).
+// of one camera moved by +-h along each of its six error coordinates). Also with every marker's
+// edge quadratic in the fit (its rows move with the extrinsics like the corners).
 TEST(RigObjectPose, ExtrinsicsCovarianceMatchesFiniteDifferences) {
-  const TwoCameras rig;
-  const std::vector<MarkerObservation> obs = rig.ObserveAll(rig.rig_from_cam);
-  PoseCovariance sigma = PoseCovariance::Zero();
-  sigma.diagonal() << 4e-6, 1e-6, 2e-6, 1e-6, 4e-6, 9e-6;
-  sigma(0, 4) = sigma(4, 0) = 1e-6;
-  ObjectPoseOptions o;
-  std::vector<RigCameraView> views = rig.Views(std::nullopt);
-  const ObjectPose without = SolveRigObjectPose(views, obs, o);
-  views[1].rig_from_cam_covariance = sigma;
-  const ObjectPose with = SolveRigObjectPose(views, obs, o);
-  ASSERT_TRUE(without.valid && with.valid);
-  EXPECT_TRUE(with.extrinsics_in_covariance);
-  Eigen::Matrix<double, 6, 6> S;
-  const double h = 1e-6;
-  for (int k = 0; k < 6; ++k) {
-    std::array<Eigen::Matrix<double, 6, 1>, 2> moved;
-    for (int sign : {0, 1}) {
-      Eigen::Matrix<double, 6, 1> e = Eigen::Matrix<double, 6, 1>::Zero();
-      e[k] = sign ? h : -h;
-      std::vector<RigCameraView> v = rig.Views(std::nullopt);
-      v[1].rig_from_cam = Pose::FromRotation(Exp(e.head<3>()) * rig.rig_from_cam[1].Rotation(),
-                                             rig.rig_from_cam[1].tvec + e.tail<3>());
-      const ObjectPose p = SolveRigObjectPose(v, obs, o);
-      ASSERT_TRUE(p.valid);
-      moved[sign] = PoseError(p.cam_from_object, rig.rig_from_object);
+  for (bool edges : {false, true}) {
+    SCOPED_TRACE(edges ? "with edges" : "corners and tips");
+    const TwoCameras rig;
+    std::vector<MarkerObservation> obs = rig.ObserveAll(rig.rig_from_cam);
+    if (edges) {
+      Eigen::Matrix<double, 6, 6> A;
+      for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j) A(i, j) = std::cos(0.7 + 2.0 * i + j);
+      for (MarkerObservation& m : obs) {
+        m.edge_points = 60;
+        m.edge_information =
+            1e6 * (A * A.transpose() + 0.1 * Eigen::Matrix<double, 6, 6>::Identity());
+      }
     }
-    S.col(k) = (moved[1] - moved[0]) / (2 * h);
+    PoseCovariance sigma = PoseCovariance::Zero();
+    sigma.diagonal() << 4e-6, 1e-6, 2e-6, 1e-6, 4e-6, 9e-6;
+    sigma(0, 4) = sigma(4, 0) = 1e-6;
+    ObjectPoseOptions o;
+    std::vector<RigCameraView> views = rig.Views(std::nullopt);
+    const ObjectPose without = SolveRigObjectPose(views, obs, o);
+    views[1].rig_from_cam_covariance = sigma;
+    const ObjectPose with = SolveRigObjectPose(views, obs, o);
+    ASSERT_TRUE(without.valid && with.valid);
+    EXPECT_TRUE(with.extrinsics_in_covariance);
+    EXPECT_EQ(with.edge_rows, edges ? 6 * static_cast<int>(obs.size()) : 0);
+    Eigen::Matrix<double, 6, 6> S;
+    const double h = 1e-6;
+    for (int k = 0; k < 6; ++k) {
+      std::array<Eigen::Matrix<double, 6, 1>, 2> moved;
+      for (int sign : {0, 1}) {
+        Eigen::Matrix<double, 6, 1> e = Eigen::Matrix<double, 6, 1>::Zero();
+        e[k] = sign ? h : -h;
+        std::vector<RigCameraView> v = rig.Views(std::nullopt);
+        v[1].rig_from_cam = Pose::FromRotation(Exp(e.head<3>()) * rig.rig_from_cam[1].Rotation(),
+                                               rig.rig_from_cam[1].tvec + e.tail<3>());
+        const ObjectPose p = SolveRigObjectPose(v, obs, o);
+        ASSERT_TRUE(p.valid);
+        moved[sign] = PoseError(p.cam_from_object, rig.rig_from_object);
+      }
+      S.col(k) = (moved[1] - moved[0]) / (2 * h);
+    }
+    const PoseCovariance expected = S * sigma * S.transpose();
+    const PoseCovariance added = with.covariance - without.covariance;
+    EXPECT_GT(expected.norm(), 1e-3 * without.covariance.norm());  // the share matters here
+    EXPECT_LT((added - expected).norm(), 1e-4 * expected.norm()) << "added\n"
+                                                                 << added << "\nexpected\n"
+                                                                 << expected;
   }
-  const PoseCovariance expected = S * sigma * S.transpose();
-  const PoseCovariance added = with.covariance - without.covariance;
-  EXPECT_GT(expected.norm(), 1e-3 * without.covariance.norm());  // the share matters here
-  EXPECT_LT((added - expected).norm(), 1e-4 * expected.norm()) << "added\n"
-                                                               << added << "\nexpected\n"
-                                                               << expected;
 }
 
 // NEES of the two-camera solve ~ chi-square(6): with pixel noise only, and with the cameras

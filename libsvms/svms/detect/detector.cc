@@ -72,6 +72,9 @@ void SetPose(const MarkerPose& mp, Detection* d) {
   d->alternative_weight = mp.alternative_weight;
   d->calibration_in_covariance = mp.calibration_in_covariance;
   d->pose_rms_px = mp.rms_px;
+  d->edge_points = mp.edge_points;
+  d->edge_information = mp.edge_information;
+  d->edge_offset = mp.edge_offset;
 }
 
 // Step 0's images: what the other steps read.

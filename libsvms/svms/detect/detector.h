@@ -64,6 +64,11 @@ struct Detection {
   double alternative_weight = 0;
   bool calibration_in_covariance = false;  // `covariance` includes the camera calibration's
   double pose_rms_px = 0;
+  // Stripe and decal edge points in the pose's fit (MarkerPose::edge_points); 0: corners and tip.
+  // Their own quadratic about cam_from_marker (MarkerPose::edge_information, edge_offset).
+  int edge_points = 0;
+  Eigen::Matrix<double, 6, 6> edge_information = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> edge_offset = Eigen::Matrix<double, 6, 1>::Zero();
   // With a camera and the marker's model but no pose: why (MarkerPose::failure).
   std::string pose_error;
   int nested_in = -1;           // the outer marker's ID for the inner marker of a dual

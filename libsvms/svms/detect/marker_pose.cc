@@ -430,6 +430,47 @@ bool CalibrationCovariance(const CameraModel& camera, const Pose& pose,
   return out->allFinite();
 }
 
+bool EdgeResidual(const CameraModel& camera, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                  const EdgeObservation& e, double* residual, Eigen::Matrix<double, 1, 6>* row) {
+  const Eigen::Vector3d a = R * e.point;
+  Eigen::Vector2d q;
+  Eigen::Matrix<double, 2, 3> dq_dp;
+  if (!camera.Project(a + t, &q, &dq_dp)) return false;
+  const Eigen::Vector2d along = dq_dp * (R * e.direction);
+  if (!(along.norm() > 0)) return false;
+  const Eigen::Vector2d n = Eigen::Vector2d(-along.y(), along.x()).normalized();
+  *residual = n.dot(q - e.pixel);
+  // A row g^T of dq/dp projected on n: [((R X) x g)^T, g^T] (left perturbation).
+  const Eigen::Vector3d g = dq_dp.transpose() * n;
+  row->head<3>() = a.cross(g).transpose();
+  row->tail<3>() = g.transpose();
+  return true;
+}
+
+bool EdgeQuadratic(const CameraModel& camera, const Pose& cam_from_marker,
+                   const std::vector<EdgeObservation>& edges,
+                   Eigen::Matrix<double, 6, 6>* information, Eigen::Matrix<double, 6, 1>* offset) {
+  const Eigen::Matrix3d R = cam_from_marker.Rotation();
+  Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+  for (const EdgeObservation& e : edges) {
+    double r;
+    Eigen::Matrix<double, 1, 6> row;
+    if (!EdgeResidual(camera, R, cam_from_marker.tvec, e, &r, &row)) return false;
+    AddRow(row.head<3>().transpose(), row.tail<3>().transpose(), 1.0 / (e.sigma_px * e.sigma_px), r,
+           &H, &g);
+  }
+  H.triangularView<Eigen::StrictlyLower>() = H.transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(H);
+  const double floor = 1e-12 * std::max(0.0, eig.eigenvalues().maxCoeff());
+  Eigen::Matrix<double, 6, 1> inverse = Eigen::Matrix<double, 6, 1>::Zero();
+  for (int k = 0; k < 6; ++k)
+    if (eig.eigenvalues()(k) > floor && floor > 0) inverse(k) = 1 / eig.eigenvalues()(k);
+  *information = H;
+  *offset = -(eig.eigenvectors() * inverse.asDiagonal() * eig.eigenvectors().transpose() * g);
+  return information->allFinite() && offset->allFinite();
+}
+
 bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X,
                 const std::vector<Eigen::Vector2d>& px, const std::vector<double>& sigma,
                 Pose* pose, PoseCovariance* cov, double* rms,
@@ -455,21 +496,14 @@ bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X
       for (int k = 0; k < 2; ++k)
         AddRow(a.cross(dq_dp.row(k).transpose()), dq_dp.row(k).transpose(), w, r[k], &JtWJ, &JtWr);
     }
-    // Edge points: the distance across the edge's image, along its normal at the current pose
-    // (the normal's own change with the pose is left out of J: it multiplies the offset along
-    // the edge between the model point's image and the edge point, which is tiny).
+    // Edge points: the distance across the edge's image (EdgeResidual).
     for (size_t i = 0; edges && i < edges->size(); ++i) {
       const EdgeObservation& e = (*edges)[i];
-      const Eigen::Vector3d p = R * e.point + t;
-      Eigen::Vector2d q;
-      Eigen::Matrix<double, 2, 3> dq_dp;
-      if (!camera.Project(p, &q, &dq_dp)) return false;
-      const Eigen::Vector2d along = dq_dp * (R * e.direction);
-      if (!(along.norm() > 0)) return false;
-      const Eigen::Vector2d n = Eigen::Vector2d(-along.y(), along.x()).normalized();
-      const double r = n.dot(q - e.pixel);
-      const Eigen::Vector3d g = dq_dp.transpose() * n;
-      AddRow((p - t).cross(g), g, 1.0 / (e.sigma_px * e.sigma_px), r, &JtWJ, &JtWr);
+      double r;
+      Eigen::Matrix<double, 1, 6> row;
+      if (!EdgeResidual(camera, R, t, e, &r, &row)) return false;
+      AddRow(row.head<3>().transpose(), row.tail<3>().transpose(), 1.0 / (e.sigma_px * e.sigma_px),
+             r, &JtWJ, &JtWr);
     }
     JtWJ.triangularView<Eigen::StrictlyLower>() = JtWJ.transpose();
     const PoseStep step = PoseGaussNewtonStep(JtWJ, JtWr, kMarkerPoseTolerances, &R, &t);
@@ -496,12 +530,15 @@ namespace {
 // three correlated points per cell; points beyond 3 sigmas (at least 0.3 px) are dropped
 // once, as an occluder or a glint at a cell would place them. A group with fewer than 12
 // points on 3 sides is left out. Leaves *pose and *cov as they were when the cells are too
-// small, no group has enough points, or a fit fails.
-void RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const CameraModel& camera,
-                          const MarkerPoseOptions& o, const std::vector<Eigen::Vector3d>& X,
-                          const std::vector<Eigen::Vector2d>& px, const std::vector<double>& sig,
-                          Pose* pose, PoseCovariance* cov) {
-  if (!o.use_stripe_edge || !(model.cell_size > 0) || model.id < 0) return;
+// small, no group has enough points, or a fit fails. Returns the number of edge points in the
+// fit (0 when *pose and *cov were left as they were), and their own quadratic at the new pose
+// in *information and *offset (EdgeQuadratic; untouched when 0 is returned).
+int RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const CameraModel& camera,
+                         const MarkerPoseOptions& o, const std::vector<Eigen::Vector3d>& X,
+                         const std::vector<Eigen::Vector2d>& px, const std::vector<double>& sig,
+                         Pose* pose, PoseCovariance* cov, Eigen::Matrix<double, 6, 6>* information,
+                         Eigen::Matrix<double, 6, 1>* offset) {
+  if (!o.use_stripe_edge || !(model.cell_size > 0) || model.id < 0) return 0;
   thread_local std::vector<EdgeObservation> edges;
   thread_local std::vector<int> group;
   edges.clear();
@@ -533,9 +570,9 @@ void RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const 
       Eigen::Vector2d q0, q1, q2;
       if (!camera.Project(P_cam, &q0) || !camera.Project(P_cam + 0.5 * c * (R * inward), &q1) ||
           !camera.Project(P_cam + 0.5 * c * (R * along), &q2))
-        return;
+        return 0;
       const double cell_px = 2 * std::min((q1 - q0).norm(), (q2 - q0).norm());
-      if (cell_px < o.stripe_edge_min_cell_px) return;
+      if (cell_px < o.stripe_edge_min_cell_px) return 0;
       // The search stays within the cell and its neighbour across the edge (0.4 cell either way).
       Eigen::Vector2d edge;
       double strength;
@@ -567,13 +604,13 @@ void RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const 
     group.resize(kept);
   };
   keep_usable();
-  if (edges.empty()) return;
+  if (edges.empty()) return 0;
   Pose p = *pose;
   PoseCovariance C;
   double rms;
   // First fit at a nominal 0.1 px, then each group's own scatter sets its sigma. Its pose
   // serves only to measure that scatter: three iterations from the corners' pose suffice.
-  if (!RefinePose(camera, X, px, sig, &p, &C, &rms, &edges, 3)) return;
+  if (!RefinePose(camera, X, px, sig, &p, &C, &rms, &edges, 3)) return 0;
   thread_local std::vector<double> residual;
   residual.clear();
   std::array<double, 2> ss{};
@@ -584,7 +621,7 @@ void RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const 
     const Eigen::Vector3d e_cam = R_fit * e.point + p.tvec;
     Eigen::Vector2d q, q2;
     if (!camera.Project(e_cam, &q) || !camera.Project(e_cam + 1e-3 * (R_fit * e.direction), &q2))
-      return;
+      return 0;
     const Eigen::Vector2d along = q2 - q;
     residual.push_back(Eigen::Vector2d(-along.y(), along.x()).normalized().dot(q - e.pixel));
     ss[group[i]] += residual.back() * residual.back();
@@ -613,10 +650,12 @@ void RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const 
   group.resize(kept);
   for (int g = 0; g < 2; ++g) usable[g] = usable[g] && kept_in[g] >= 12;
   keep_usable();
-  if (edges.empty()) return;
-  if (!RefinePose(camera, X, px, sig, &p, &C, &rms, &edges)) return;
+  if (edges.empty()) return 0;
+  if (!RefinePose(camera, X, px, sig, &p, &C, &rms, &edges)) return 0;
+  if (!EdgeQuadratic(camera, p, edges, information, offset)) return 0;
   *pose = p;
   *cov = C;
+  return static_cast<int>(edges.size());
 }
 
 // A planar solution of the corners, with the white top found where it predicts the tip.
@@ -900,7 +939,11 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
   Pose pose = refined[pick].pose;
   out->covariance = refined[pick].covariance;
   out->rms_px = refined[pick].rms;
-  RefineWithStripeEdge(image, model, camera, o, X, px, sig, &pose, &out->covariance);
+  out->edge_information.setZero();
+  out->edge_offset.setZero();
+  out->edge_points =
+      RefineWithStripeEdge(image, model, camera, o, X, px, sig, &pose, &out->covariance,
+                           &out->edge_information, &out->edge_offset);
   // The other planar solution, as far as the data leave it likely, widens the covariance.
   out->ambiguous = false;
   out->ambiguity_covariance.setZero();

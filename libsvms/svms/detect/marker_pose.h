@@ -110,7 +110,17 @@ struct MarkerPose {
   // can check against other data (another marker, the previous frame) may take instead.
   std::optional<Pose> alternative;
   double alternative_weight = 0;
-  double rms_px = 0;                       // RMS of the corner (and tip) residuals after the fit
+  double rms_px = 0;  // RMS of the corner (and tip) residuals after the fit
+  // Stripe and decal edge points in the kept fit (MarkerPoseOptions::use_stripe_edge); 0: the
+  // pose rests on the corners and tip alone.
+  int edge_points = 0;
+  // What those edge points alone say about cam_from_marker, linearised at it (EdgeQuadratic):
+  // their weighted squared residuals are (d - edge_offset)^T edge_information (d -
+  // edge_offset) + const for a small change d = [rotation, translation] of cam_from_marker
+  // (left perturbation, camera axes: radians, metres). Zero without edge points. A fit over
+  // other points too (the fused pose) adds the edges through it.
+  Eigen::Matrix<double, 6, 6> edge_information = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> edge_offset = Eigen::Matrix<double, 6, 1>::Zero();
   int solutions = 0;                       // planar solutions considered
   bool calibration_in_covariance = false;  // the camera calibration's uncertainty is included
   std::string failure;  // when EstimateMarkerPose returns false: why (one phrase)
@@ -190,6 +200,25 @@ bool RegionTouchesSides(const ExcludedRegion& region,
 bool CalibrationCovariance(const CameraModel& camera, const Pose& cam_from_marker,
                            const std::vector<Eigen::Vector3d>& X, const std::vector<double>& sigma,
                            PoseCovariance* out);
+
+// The residual of one edge point at cam_from_marker (R, t): the signed pixel distance from
+// e.pixel to the image of the edge's line, across it (along the normal of the projected edge
+// direction at the projected e.point), and its row d residual / d [rotation, translation]
+// (left perturbation, camera axes). The normal's own change with the pose is left out (it
+// multiplies the offset along the edge between the model point's image and the edge point,
+// which is tiny). False when the point does not project or the edge's image degenerates.
+// The one residual of the stripe and decal edges for every fit that uses them.
+bool EdgeResidual(const CameraModel& camera, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                  const EdgeObservation& e, double* residual, Eigen::Matrix<double, 1, 6>* row);
+
+// The edge points' own quadratic at cam_from_marker: *information = sum of row^T row /
+// sigma^2 and *offset = -information^+ sum of row^T r / sigma^2 (EdgeResidual; the
+// pseudo-inverse over eigenvalues above 1e-12 of the largest), so that their weighted squared
+// residuals at a small change d of the pose are (d - offset)^T information (d - offset) plus a
+// constant, to first order. False when a point does not project.
+bool EdgeQuadratic(const CameraModel& camera, const Pose& cam_from_marker,
+                   const std::vector<EdgeObservation>& edges,
+                   Eigen::Matrix<double, 6, 6>* information, Eigen::Matrix<double, 6, 1>* offset);
 
 // Gauss-Newton refinement of cam_from_marker over `points_in_marker` observed at `pixels`
 // with per-point sigmas (and `edges`, point-to-line), at most `max_iterations` steps; fills

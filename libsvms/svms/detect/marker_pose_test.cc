@@ -201,6 +201,72 @@ TEST(FindTip, NothingBrightNearThePredictionIsNoTop) {
   EXPECT_FALSE(FindTip(img, Eigen::Vector2d(35, 35), 5, kBlack, kWhite, 0.35, 2.0));
 }
 
+// The edge residual's row against central differences of the residual itself, through a
+// distorted lens (left perturbation, camera axes), for edges along x and y at both sides.
+TEST(EdgeResidual, ItsRowMatchesFiniteDifferences) {
+  CameraModel camera;
+  ASSERT_TRUE(CameraModel::Create(
+                  "LENSMODEL_OPENCV8",
+                  {800, 800, 321, 238, -0.3, 0.1, 0.0005, -0.0003, -0.01, 0.01, 0.004, 0.001}, 640,
+                  480, &camera)
+                  .ok());
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.3, -0.8, 0.2).normalized()).toRotationMatrix();
+  const Eigen::Vector3d t(0.05, -0.03, 0.9);
+  std::vector<EdgeObservation> edges = {{{0.1, 0.03, 0}, {0, 1, 0}, {}, 0.1},
+                                        {{-0.1, -0.02, 0}, {0, 1, 0}, {}, 0.08},
+                                        {{0.02, 0.1, 0}, {1, 0, 0}, {}, 0.1},
+                                        {{-0.03, -0.1, 0}, {1, 0, 0}, {}, 0.12}};
+  // Each edge point found a few tenths of a pixel off the edge's image, as in use.
+  for (size_t i = 0; i < edges.size(); ++i) {
+    ASSERT_TRUE(camera.Project(R * edges[i].point + t, &edges[i].pixel));
+    edges[i].pixel += Eigen::Vector2d(0.3, -0.2 * static_cast<double>(i));
+  }
+  for (const EdgeObservation& e : edges) {
+    double r;
+    Eigen::Matrix<double, 1, 6> row;
+    ASSERT_TRUE(EdgeResidual(camera, R, t, e, &r, &row));
+    const double h = 1e-6;
+    for (int k = 0; k < 6; ++k) {
+      Eigen::Matrix<double, 6, 1> d = Eigen::Matrix<double, 6, 1>::Zero();
+      d(k) = h;
+      auto at = [&](double sign) {
+        const Eigen::Matrix3d Rk =
+            k < 3 ? Eigen::AngleAxisd(sign * h, Eigen::Vector3d::Unit(k)).toRotationMatrix() * R
+                  : R;
+        const Eigen::Vector3d tk = k < 3 ? t : Eigen::Vector3d(t + sign * d.tail<3>());
+        double rk;
+        Eigen::Matrix<double, 1, 6> unused;
+        EXPECT_TRUE(EdgeResidual(camera, Rk, tk, e, &rk, &unused));
+        return rk;
+      };
+      const double numeric = (at(1) - at(-1)) / (2 * h);
+      // The normal's own turn with the pose is left out of the row: it multiplies the offset
+      // of the edge point from the model point's image (under a pixel), a small share.
+      EXPECT_NEAR(row(k), numeric, 2e-3 * row.norm()) << "column " << k;
+    }
+  }
+  // The quadratic: at a change d of the pose, the weighted squared residuals grow as
+  // (d - offset)^T H (d - offset) + const to first order; their gradient at d = 0 is -2 H offset.
+  Eigen::Matrix<double, 6, 6> H;
+  Eigen::Matrix<double, 6, 1> offset;
+  const Pose pose = Pose::FromRotation(R, t);
+  ASSERT_TRUE(EdgeQuadratic(camera, pose, edges, &H, &offset));
+  Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+  Eigen::Matrix<double, 6, 6> H_direct = Eigen::Matrix<double, 6, 6>::Zero();
+  for (const EdgeObservation& e : edges) {
+    double r;
+    Eigen::Matrix<double, 1, 6> row;
+    ASSERT_TRUE(EdgeResidual(camera, R, t, e, &r, &row));
+    g += row.transpose() * r / (e.sigma_px * e.sigma_px);
+    H_direct += row.transpose() * row / (e.sigma_px * e.sigma_px);
+  }
+  EXPECT_LT((H - H_direct).norm(), 1e-9 * H.norm());
+  // Four edge points fix four directions only: the offset is the pseudo-inverse's, within
+  // H's range, and reproduces the gradient there.
+  EXPECT_LT((H * offset + g).norm(), 1e-6 * g.norm());
+}
+
 TEST(EstimateMarkerPose, AFailureSaysWhy) {
   const CameraModel camera = CameraModel::Pinhole(800, 640, 480);
   const MarkerModel model = MarkerModel::Standard(3, 0.1, 0.02);
