@@ -7,13 +7,13 @@
 // value given, so the rig frame stays the one the rig file's writer chose (tied to that
 // camera); the others are measured relative to it.
 //
-// Measurements: those of the fused pose (object_pose.h), one Ceres residual per corner and post
-// tip of every marker seen, with the fused pose's pixel sigmas (CornerPixelSigma,
-// TipPixelSigma) and the survey's projection cost (RigMarkerPointCost around MarkerPointCost,
-// cost_functions.h). The layout, the post heights and the intrinsics are constant blocks. Corners
-// are independent points, with the sigmas the fusion gives independent corners:
-// ObjectPoseOptions::corner_covariance_from_fit (the fusion's joint 8x8 whitening, off by
-// default) is not applied here.
+// Measurements: the fused pose's corners and tips (object_pose.h; not its stripe and decal
+// edges), one Ceres residual per corner and post tip of every marker seen, with the fused pose's
+// pixel sigmas (CornerPixelSigma, TipPixelSigma) and the survey's projection cost
+// (RigMarkerPointCost around MarkerPointCost, cost_functions.h). The layout, the post heights and
+// the intrinsics are constant blocks. Corners are independent points, with the sigmas the fusion
+// gives independent corners: ObjectPoseOptions::corner_covariance_from_fit (the fusion's joint 8x8
+// whitening, off by default) is not applied here.
 //
 // Steps (SurveyRig):
 //   1. Each camera's own fused pose at every time step (SolveObjectPose).

@@ -57,8 +57,8 @@ struct Points {
 
 // One camera as the solver sees it: its lens model and where it sits in the rig. The unknown is
 // rig_from_object; a camera's points map into it by cam_from_rig. `identity` (the one-camera
-// solve, and a rig camera at the rig's origin) skips the extra transform, so that the
-// one-camera solve is exactly what it was without rigs.
+// solve only: every rig camera has it false, even one at the rig's origin) skips the extra
+// transform, so that the one-camera solve is exactly what it was without rigs.
 struct View {
   const CameraModel* camera = nullptr;
   int index = 0;  // in the rig
@@ -726,9 +726,11 @@ void UseMarkerPoseWithEdges(const ObjectPoseOptions& o, const FitInformation& in
                             Eigen::Matrix3d* R, Eigen::Vector3d* t, ObjectPose* out) {
   ObjectPose& result = *out;
   const MarkerObservation* m = info.last;
+  // Not for a marker flagged ambiguous: its edges are left out of the fit too (SetUpEdges),
+  // and the fit's own ambiguity result describes the pose it returns.
   if (!o.use_marker_pose_with_edges || result.markers_used != 1 || !m || !info.last_view ||
       result.points_rejected > 0 || m->edge_points <= 0 || !m->cam_from_marker ||
-      m->calibration_in_marker_covariance != info.with_calibration)
+      m->pose_ambiguous || m->calibration_in_marker_covariance != info.with_calibration)
     return;
   Pose cam_from_object;
   PoseCovariance covariance;

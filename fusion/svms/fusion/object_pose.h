@@ -122,6 +122,7 @@ struct ObjectPoseOptions {
   // differ by the tip's floor (min_tip_sigma_px) and the layout's post-height sigma only.
   // In a rig, composed with the camera's rig_from_cam (its covariance added); only where the
   // detector's covariance carries the camera calibration's share exactly when this fit's would.
+  // Not for a marker the detector flagged ambiguous (its edges are not in the fit either).
   bool use_marker_pose_with_edges = true;
 };
 
@@ -178,7 +179,7 @@ struct ObjectPose {
   double chi2 = 0;             // whitened residual sum of squares of the points used
   int dof = 0;                 // 2 * points_used + edge_rows - 6
   int edge_rows = 0;           // rows of the markers' edge quadratics in the fit (use_edges)
-  double variance_factor = 1;  // the scale applied to the covariance (variance_prior_dof)
+  double variance_factor = 1;  // the scale applied to the fit's covariance (variance_prior_dof)
   bool ambiguous = false;      // one marker, and its planar pose could not be told apart
   // With `ambiguous`, where the detector gave the marker's other planar pose: the object's pose
   // under it, and its share of the likelihood, in (0.01, 0.5]. The one marker's alternative
