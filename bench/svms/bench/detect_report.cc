@@ -34,13 +34,6 @@ struct Rate {
   }
 };
 
-double Rms(const std::vector<double>& v) {
-  if (v.empty()) return kNaN;
-  double s = 0;
-  for (double x : v) s += x * x;
-  return std::sqrt(s / v.size());
-}
-
 const char* Verdict(bool ok) { return ok ? "**met**" : "**NOT met**"; }
 
 // Size bins for detection rates, by the shortest projected side in pixels.

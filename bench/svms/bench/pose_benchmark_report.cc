@@ -26,12 +26,6 @@ double FitScale(const PoseBenchmarkOptions& o) {
 
 namespace fs = std::filesystem;
 
-double Rms(const std::vector<double>& v) {
-  double ss = 0;
-  for (double x : v) ss += x * x;
-  return v.empty() ? std::nan("") : std::sqrt(ss / v.size());
-}
-
 // One range bin of the approach (metres, [lo, hi)).
 struct RangeBin {
   double lo = 0, hi = 0;

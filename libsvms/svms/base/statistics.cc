@@ -17,6 +17,13 @@ double Percentile(std::vector<double> v, double p) {
 
 double Median(std::vector<double> v) { return Percentile(std::move(v), 0.5); }
 
+double Rms(const std::vector<double>& v) {
+  if (v.empty()) return std::nan("");
+  double ss = 0;
+  for (double x : v) ss += x * x;
+  return std::sqrt(ss / v.size());
+}
+
 double NormalQuantile(double p) {
   double lo = -10, hi = 10;
   for (int i = 0; i < 80; ++i) {

@@ -14,6 +14,9 @@ double Percentile(std::vector<double> v, double p);
 // for an even count). NaN when `v` has no finite value.
 double Median(std::vector<double> v);
 
+// The root mean square of `v`'s values; NaN when it is empty.
+double Rms(const std::vector<double>& v);
+
 // The p-quantile of the standard normal distribution, p in (0, 1): the z with Phi(z) = p, by
 // bisection on erfc over [-10, 10] (p outside (0, 1) gives -10 or 10). Accurate to about
 // 2e-16 / phi(z), the resolution of Phi near p: 5e-16 at the centre, 7e-14 at p = 0.999.

@@ -30,6 +30,12 @@ TEST(Statistics, NonFiniteValuesAreLeftOut) {
   EXPECT_TRUE(std::isnan(Percentile({NAN, inf}, 0.5)));
 }
 
+TEST(Statistics, RmsIsTheRootOfTheMeanSquare) {
+  EXPECT_DOUBLE_EQ(Rms({3, -4}), std::sqrt(12.5));
+  EXPECT_DOUBLE_EQ(Rms({-2}), 2);
+  EXPECT_TRUE(std::isnan(Rms({})));
+}
+
 TEST(Statistics, MedianOfAnEvenCountIsTheMeanOfTheMiddleTwo) {
   EXPECT_DOUBLE_EQ(Median({4, 1, 3, 2}), 2.5);
   EXPECT_DOUBLE_EQ(Median({10, -10}), 0);
