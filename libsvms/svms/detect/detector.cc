@@ -84,6 +84,20 @@ struct StepImages {
   double level = 1;  // one grey level of `gray` in `measure`'s units
 };
 
+// Step 8 for one decoded marker: its corners, their sigmas and joint covariance, and its
+// penumbra sides from the sub-pixel fit on the full-depth image (left as decoded where the fit
+// fails).
+void RefineDetectionCorners(const StepImages& im, const CameraModel* cam, const DetectorOptions& o,
+                            Detection* d) {
+  const RefinedCorners r =
+      RefineCorners(im.measure, d->corners, cam, o.refine, {}, d->black * im.level);
+  if (!r.ok) return;
+  d->corners = r.corners;
+  d->corner_sigma = r.corner_sigma;
+  d->corner_covariance = r.corner_covariance;
+  d->penumbra_sides = r.penumbra_sides;
+}
+
 // 0. One 8-bit grey image (16-bit scaled to its used range, colour converted; other depths
 // through 32-bit float, which cvtColor accepts, then saturated to 8 bits), and the image to
 // measure on. An 8-bit grey image is used in place; conversions go to sc's buffers. False when
@@ -265,14 +279,7 @@ void MeasureQuadsInParallel(const StepImages& im, const std::vector<Quad>& quads
         slot.state = Slot::kUnfinished;
         return;
       }
-      const RefinedCorners r =
-          RefineCorners(im.measure, d.corners, cam, o.refine, {}, d.black * im.level);
-      if (r.ok) {
-        d.corners = r.corners;
-        d.corner_sigma = r.corner_sigma;
-        d.corner_covariance = r.corner_covariance;
-        d.penumbra_sides = r.penumbra_sides;
-      }
+      RefineDetectionCorners(im, cam, o, &d);
     }
     if (past()) {
       slot.state = Slot::kUnfinished;
@@ -515,14 +522,7 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
         break;
       }
       Detection& d = out[i];
-      const RefinedCorners r =
-          RefineCorners(im.measure, d.corners, cam, o.refine, {}, d.black * im.level);
-      if (r.ok) {
-        d.corners = r.corners;
-        d.corner_sigma = r.corner_sigma;
-        d.corner_covariance = r.corner_covariance;
-        d.penumbra_sides = r.penumbra_sides;
-      }
+      RefineDetectionCorners(im, cam, o, &d);
     }
   }
   auto t4 = Clock::now();
