@@ -88,8 +88,8 @@ typedef struct svms_pose {
   /* 2 * points_used + the rows of the markers' stripe and decal edge quadratics (at most 6 a
    * marker) - 6 */
   int dof;
-  uint32_t flags;                            /* SVMS_FLAG_* */
-  double latency_ms;                         /* detection and fusion, wall clock */
+  uint32_t flags;    /* SVMS_FLAG_* */
+  double latency_ms; /* detection and fusion, wall clock */
   /* With SVMS_FLAG_AMBIGUOUS, where the one marker's other planar pose is known
    * (has_alternative = 1): cam_from_object under that pose, as rvec, tvec and quaternion above,
    * and its share of the likelihood, in (0.01, 0.5]. A filter can carry both hypotheses until a
