@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 
 #include "svms/detect/canny.h"
@@ -91,7 +92,10 @@ struct SegmentScratch {
   std::vector<int> order;
   std::vector<char> gone;
   std::vector<Segment> kept;
-  std::vector<double> length, start_x, start_y;  // by piece; starts in sorted order
+  std::vector<double> length, start_x, start_y;    // by piece; starts in sorted order
+  std::vector<std::pair<double, int>> by_x;        // (start x, piece) in x order
+  std::vector<int> grid_begin, grid_fill, grid_k;  // the starts by cells of a grid
+  std::vector<double> grid_x, grid_y;
   // With a worker pool: the edge map's bands, the read noise's sums by band, and the
   // segments of each part of the chains.
   EdgeBandsScratch bands;
@@ -497,6 +501,14 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
   // piece's start (Joined), so the order holds through the sweep, and a piece goes on joining
   // from its new end at once: on a cluttered frame (long grid lines in many pieces) sweeping
   // again after every join takes a fifth of the detector's time. A last sweep finds nothing.
+  //
+  // The starts are also binned into a grid of cells kCell px wide, each cell in x order: a
+  // piece looks only at the cells its window covers. Scanning the whole x window instead
+  // (every start within reach in x, at any y) took a quarter of the detector's time on dense
+  // texture (foliage: 17,000 pieces in a 1024 x 1024 frame, long ones reaching 100 px either
+  // way). Of the starts that pass every test the first in x order is joined, as a scan of the
+  // x window would: the grid changes the cost, not the result.
+  constexpr double kCell = 8;
   while (merged) {
     merged = false;
     std::vector<Segment>& v = *segs;
@@ -504,18 +516,63 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
     std::vector<double>& len = sc.length;
     order.resize(v.size());
     len.resize(v.size());
+    // Sorted as (start x, index) pairs: the comparisons then read contiguous memory instead of
+    // the pieces, and ties in x keep index order.
+    std::vector<std::pair<double, int>>& by_x = sc.by_x;
+    by_x.resize(v.size());
     for (size_t i = 0; i < v.size(); ++i) {
-      order[i] = static_cast<int>(i);
+      by_x[i] = {v[i].a.x(), static_cast<int>(i)};
       len[i] = v[i].length();
     }
-    std::sort(order.begin(), order.end(), [&](int a, int b) { return v[a].a.x() < v[b].a.x(); });
+    std::sort(by_x.begin(), by_x.end());
     // The starts in that order, side by side in memory: the window scans below read them.
     std::vector<double>&xs = sc.start_x, &ys = sc.start_y;
     xs.resize(v.size());
     ys.resize(v.size());
+    double x_min = 0, x_max = 0, y_min = 0, y_max = 0;
     for (size_t k = 0; k < v.size(); ++k) {
-      xs[k] = v[order[k]].a.x();
+      order[k] = by_x[k].second;
+      xs[k] = by_x[k].first;
       ys[k] = v[order[k]].a.y();
+      x_min = k == 0 ? xs[k] : std::min(x_min, xs[k]);
+      x_max = k == 0 ? xs[k] : std::max(x_max, xs[k]);
+      y_min = k == 0 ? ys[k] : std::min(y_min, ys[k]);
+      y_max = k == 0 ? ys[k] : std::max(y_max, ys[k]);
+    }
+    // Cells of kCell px, larger where the starts spread far (about 4 cells per piece at most).
+    const double spread = std::max(x_max - x_min, y_max - y_min);
+    const double cell =
+        std::max(kCell, spread / (2 * std::sqrt(static_cast<double>(v.size())) + 1));
+    const int cols = v.empty() ? 0 : static_cast<int>((x_max - x_min) / cell) + 1;
+    const int rows = v.empty() ? 0 : static_cast<int>((y_max - y_min) / cell) + 1;
+    // Clamped to the grid (and 0 for a NaN) so that no value is cast out of range.
+    auto bin = [cell](double u, double u_min, int n) {
+      const double r = (u - u_min) / cell;
+      return r >= 0 ? (r < n ? static_cast<int>(r) : n - 1) : 0;
+    };
+    // Counting sort of the sorted positions k by cell: cell c holds grid_k[grid_begin[c],
+    // grid_begin[c + 1]) in increasing k (so increasing x).
+    const int cells = cols * rows;
+    auto cell_of = [&](size_t k) {
+      return bin(ys[k], y_min, rows) * cols + bin(xs[k], x_min, cols);
+    };
+    std::vector<int>& begin = sc.grid_begin;
+    begin.assign(cells + 1, 0);
+    for (size_t k = 0; k < v.size(); ++k) ++begin[cell_of(k) + 1];
+    for (int c = 0; c < cells; ++c) begin[c + 1] += begin[c];
+    std::vector<int>& fill = sc.grid_fill;
+    fill.assign(begin.begin(), begin.end());
+    // The starts again, in cell order: a window's cells are read from contiguous memory.
+    std::vector<int>& grid_k = sc.grid_k;
+    std::vector<double>&grid_x = sc.grid_x, &grid_y = sc.grid_y;
+    grid_k.resize(v.size());
+    grid_x.resize(v.size());
+    grid_y.resize(v.size());
+    for (size_t k = 0; k < v.size(); ++k) {
+      const int at = fill[cell_of(k)]++;
+      grid_k[at] = static_cast<int>(k);
+      grid_x[at] = xs[k];
+      grid_y[at] = ys[k];
     }
     std::vector<char>& gone = sc.gone;
     gone.assign(v.size(), 0);
@@ -527,44 +584,66 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
         joined = false;
         const Segment& s = v[i];
         const Eigen::Vector2d di = (s.b - s.a) / len[i];
-        const double reach = std::max(o.merge_gap_px, o.merge_gap_fraction * len[i]) + 1;
+        const double max_gap_i = std::max(o.merge_gap_px, o.merge_gap_fraction * len[i]);
+        const double reach = max_gap_i + 1;
         const double y_reach = reach + 2 * o.merge_offset_px;
-        // Starts with x in [b.x - reach, b.x + reach].
-        const size_t lo = std::lower_bound(xs.begin(), xs.end(), s.b.x() - reach) - xs.begin();
-        const double x_end = s.b.x() + reach, y = s.b.y();
-        for (size_t k = lo; k < xs.size() && xs[k] <= x_end; ++k) {
-          // The start must be near in y as well (the gap along the piece is below reach and
-          // the offset across it below two merge offsets).
-          if (std::abs(ys[k] - y) > y_reach) continue;
-          const int j = order[k];
-          if (j == static_cast<int>(i) || gone[j]) continue;
-          const Segment& t = v[j];
-          const double shorter = std::min(len[i], len[j]);
-          const double gap = (t.a - s.b).dot(di);
-          if (gap > std::max(o.merge_gap_px, o.merge_gap_fraction * shorter) ||
-              gap < -o.merge_gap_px)
-            continue;
-          // A short piece's direction is uncertain: allow it the angle at which its own
-          // length moves its far end by merge_offset_px, cos(atan(offset / shorter)) =
-          // shorter / sqrt(shorter^2 + offset^2), compared squared (this runs for every pair).
-          const double c = di.dot(t.b - t.a) / len[j];
-          if (c < cos_max && (c <= 0 || c * c * (shorter * shorter + offset2) < shorter * shorter))
-            continue;
-          // The shorter piece's ends must lie on the longer piece's line (the better-measured
-          // of the two); the longer piece's ends on the shorter's line only when both are long.
-          const Segment& longer = len[i] >= len[j] ? s : t;
-          const Segment& other = len[i] >= len[j] ? t : s;
-          if (dist_to_line(longer, other.a) > o.merge_offset_px ||
-              dist_to_line(longer, other.b) > o.merge_offset_px)
-            continue;
-          if (shorter > both_long && (dist_to_line(other, longer.a) > o.merge_offset_px ||
-                                      dist_to_line(other, longer.b) > o.merge_offset_px))
-            continue;
-          v[i] = Joined(s, t);
+        // Starts with x in [b.x - reach, b.x + reach] and y within y_reach of b.y.
+        const double x_begin = s.b.x() - reach, x_end = s.b.x() + reach, y = s.b.y();
+        // The piece whose start passes every test, first in x order: sorted position and index.
+        int best_k = std::numeric_limits<int>::max(), best = -1;
+        const bool overlaps =
+            y - y_reach <= y_max && y + y_reach >= y_min && x_begin <= x_max && x_end >= x_min;
+        const int r_hi = overlaps ? bin(y + y_reach, y_min, rows) : -1;
+        const int c_lo = bin(x_begin, x_min, cols), c_hi = bin(x_end, x_min, cols);
+        for (int r = bin(y - y_reach, y_min, rows); r <= r_hi; ++r) {
+          for (int g = r * cols + c_lo; g <= r * cols + c_hi; ++g) {
+            for (int e = begin[g]; e < begin[g + 1]; ++e) {
+              const int k = grid_k[e];
+              if (k >= best_k) break;  // this cell has nothing earlier in x order
+              if (grid_x[e] < x_begin || grid_x[e] > x_end) continue;
+              // The start must be near in y as well (the gap along the piece is below reach
+              // and the offset across it below two merge offsets).
+              if (std::abs(grid_y[e] - y) > y_reach) continue;
+              // The gap along the piece, from the start's copy in the grid (the test below with
+              // this piece's length for the shorter one's: a bound that needs no other piece).
+              const double gap = (grid_x[e] - s.b.x()) * di.x() + (grid_y[e] - y) * di.y();
+              if (gap > max_gap_i || gap < -o.merge_gap_px) continue;
+              const int j = order[k];
+              if (j == static_cast<int>(i) || gone[j]) continue;
+              const Segment& t = v[j];
+              const double shorter = std::min(len[i], len[j]);
+              if (gap > std::max(o.merge_gap_px, o.merge_gap_fraction * shorter) ||
+                  gap < -o.merge_gap_px)
+                continue;
+              // A short piece's direction is uncertain: allow it the angle at which its own
+              // length moves its far end by merge_offset_px, cos(atan(offset / shorter)) =
+              // shorter / sqrt(shorter^2 + offset^2), compared squared (this runs for every pair).
+              const double c = di.dot(t.b - t.a) / len[j];
+              if (c < cos_max &&
+                  (c <= 0 || c * c * (shorter * shorter + offset2) < shorter * shorter))
+                continue;
+              // The shorter piece's ends must lie on the longer piece's line (the better-measured
+              // of the two); the longer piece's ends on the shorter's line only when both are
+              // long.
+              const Segment& longer = len[i] >= len[j] ? s : t;
+              const Segment& other = len[i] >= len[j] ? t : s;
+              if (dist_to_line(longer, other.a) > o.merge_offset_px ||
+                  dist_to_line(longer, other.b) > o.merge_offset_px)
+                continue;
+              if (shorter > both_long && (dist_to_line(other, longer.a) > o.merge_offset_px ||
+                                          dist_to_line(other, longer.b) > o.merge_offset_px))
+                continue;
+              best_k = k;
+              best = j;
+              break;
+            }
+          }
+        }
+        if (best >= 0) {
+          v[i] = Joined(s, v[best]);
           len[i] = v[i].length();
-          gone[j] = 1;
+          gone[best] = 1;
           merged = joined = true;
-          break;
         }
       }
     }
@@ -584,19 +663,20 @@ void BridgeKinks(const SegmentOptions& o, std::vector<Segment>* segs) {
   SegmentScratch& sc = Scratch();
   std::vector<Segment>& v = *segs;
   const size_t n = v.size();
-  std::vector<int>& order = sc.order;
-  order.resize(n);
-  for (size_t i = 0; i < n; ++i) order[i] = static_cast<int>(i);
-  std::sort(order.begin(), order.end(), [&](int a, int b) { return v[a].a.x() < v[b].a.x(); });
+  // (start x, piece) in x order, side by side in memory (as in MergeCollinear).
+  std::vector<std::pair<double, int>>& by_x = sc.by_x;
+  by_x.resize(n);
+  for (size_t i = 0; i < n; ++i) by_x[i] = {v[i].a.x(), static_cast<int>(i)};
+  std::sort(by_x.begin(), by_x.end());
   const double cos_max = std::cos(o.bridge_max_turn_deg * M_PI / 180);
   for (size_t i = 0; i < n; ++i) {
     const Segment s = v[i];  // a copy: v grows below
     const Eigen::Vector2d di = (s.b - s.a) / s.length();
-    auto lo = std::lower_bound(order.begin(), order.end(), s.b.x() - o.bridge_gap_px,
-                               [&](int k, double x) { return v[k].a.x() < x; });
-    for (auto it = lo; it != order.end() && v[*it].a.x() <= s.b.x() + o.bridge_gap_px; ++it) {
-      const Segment& t = v[*it];
-      if (*it == static_cast<int>(i) || (t.a - s.b).norm() > o.bridge_gap_px) continue;
+    auto it =
+        std::lower_bound(by_x.begin(), by_x.end(), std::make_pair(s.b.x() - o.bridge_gap_px, -1));
+    for (; it != by_x.end() && it->first <= s.b.x() + o.bridge_gap_px; ++it) {
+      const Segment& t = v[it->second];
+      if (it->second == static_cast<int>(i) || (t.a - s.b).norm() > o.bridge_gap_px) continue;
       const Eigen::Vector2d dj = (t.b - t.a) / t.length();
       const double c = di.dot(dj);
       // A bend either way; corners (>= bridge_max_turn_deg) are left to the quad search.
