@@ -37,10 +37,74 @@ bool Past(Clock::time_point deadline) {
   return deadline != Clock::time_point::max() && Clock::now() >= deadline;
 }
 
-// False when `deadline` (read every 64 rows) passed.
+// The codes of a 16-bit image (a ladder): an 8-bit sRGB or gamma-encoded image turned into
+// linear light takes only the 256 values its codes map to, 20 units apart in the darks and 400
+// in the brights; raw 12-bit data scaled to 16 bits are 16 apart; genuinely 16-bit data use
+// every value. The noise is measured on the codes' ranks, where the rounding is 1/12 of a code
+// squared at every level and the integer quantile below is exact, then brought back to linear
+// units by the ladder's step there. (Measured on the linear values directly, the rounding to
+// 400-unit codes at mid grey reads as half the shot noise it is.)
+struct Ladder {
+  std::vector<uint16_t> code;  // rank of each value among the values seen
+  std::vector<float> step;     // linear units per code at each value seen
+};
+
+// Marks the values of every sample's five pixels (the pixels Sample reads) and ranks them.
+// A value's step is the width of its code's cell, half the distance between its neighbours;
+// where one gap is over 1.5 times the other a code in between was not seen, and the smaller
+// gap is the step.
+template <typename Visit>
+void ForEachSample(const cv::Mat& img, int y, const Visit& visit) {
+  const uint16_t *up = img.ptr<uint16_t>(y - 1), *row = img.ptr<uint16_t>(y),
+                 *down = img.ptr<uint16_t>(y + 1);
+  for (int x = 1 + (y / kStride) % kStride; x + 1 < img.cols; x += kStride)
+    visit(row[x], row[x - 1], row[x + 1], up[x], down[x]);
+}
+
+// False when `deadline` (read every 64 rows) passed. *is_ladder is false where over a tenth
+// of the values seen have their next value seen too: data that use every value where the
+// light is (16 bits of signal), measured on the values themselves; ranks would only compress
+// their sparsely sampled tails. A ladder's codes are 16 or more apart.
+bool MakeLadder(const cv::Mat& img, Ladder* ladder, bool* is_ladder, Clock::time_point deadline) {
+  thread_local std::vector<uint8_t> used;
+  used.assign(65536, 0);
+  uint8_t* u = used.data();
+  for (int y = 1; y + 1 < img.rows; y += kStride) {
+    if ((y / kStride) % 16 == 15 && Past(deadline)) return false;
+    ForEachSample(img, y,
+                  [u](int v, int a, int b, int c, int d) { u[v] = u[a] = u[b] = u[c] = u[d] = 1; });
+  }
+  ladder->code.resize(65536);
+  ladder->step.resize(65536);
+  int rank = 0, adjacent = 0, prev = -1, cur = -1;
+  auto set_step = [&](int value, int lo, int hi) {  // gaps to the neighbours, 0 when none
+    double st = 1;
+    if (lo > 0 && hi > 0)
+      st = std::max(lo, hi) > 1.5 * std::min(lo, hi) ? std::min(lo, hi) : 0.5 * (lo + hi);
+    else if (lo > 0 || hi > 0)
+      st = std::max(lo, hi);
+    ladder->step[static_cast<size_t>(value)] = static_cast<float>(st);
+  };
+  for (int v = 0; v < 65536; ++v) {
+    ladder->code[static_cast<size_t>(v)] = static_cast<uint16_t>(rank);
+    if (!u[v]) continue;
+    ++rank;
+    adjacent += v + 1 < 65536 && u[v + 1];
+    if (cur >= 0) set_step(cur, prev >= 0 ? cur - prev : 0, v - cur);
+    prev = cur;
+    cur = v;
+  }
+  if (cur >= 0) set_step(cur, prev >= 0 ? cur - prev : 0, 0);
+  *is_ladder = 10 * adjacent < rank;
+  return true;
+}
+
+// False when `deadline` (read every 64 rows) passed. With `ladder` (16-bit images), the
+// Laplacian is taken on the codes and each bin's step^2 summed into *step2_sum.
 template <typename T>
-bool Sample(const cv::Mat& img, int full, std::array<std::vector<int>, kBins>* r,
-            std::array<double, kBins>* level_sum, Clock::time_point deadline) {
+bool Sample(const cv::Mat& img, int full, const Ladder* ladder,
+            std::array<std::vector<int>, kBins>* r, std::array<double, kBins>* level_sum,
+            std::array<double, kBins>* step2_sum, Clock::time_point deadline) {
   // The bin of a level, uniform in sqrt(level / full), from a table over level / 16.
   thread_local std::vector<uint8_t> bin_of;
   const int shift = full > 255 ? 4 : 0;
@@ -60,8 +124,15 @@ bool Sample(const cv::Mat& img, int full, std::array<std::vector<int>, kBins>* r
       // would sort each flat patch's samples by their own noise and bias every bin.
       const int sum = v + a + b + c + d;
       const int bin = bin_of[static_cast<size_t>((sum / 5) >> shift)];
-      (*r)[bin].push_back(std::abs(4 * v - a - b - c - d));
       (*level_sum)[bin] += sum / 5.0;
+      if (ladder) {
+        const uint16_t* k = ladder->code.data();
+        (*r)[bin].push_back(std::abs(4 * k[v] - k[a] - k[b] - k[c] - k[d]));
+        const double st = ladder->step[static_cast<size_t>(v)];
+        (*step2_sum)[bin] += st * st;
+      } else {
+        (*r)[bin].push_back(std::abs(4 * v - a - b - c - d));
+      }
     }
   }
   return true;
@@ -83,10 +154,14 @@ bool EstimateNoise(const cv::Mat& img, Clock::time_point deadline, NoiseModel* n
   const bool eight = img.depth() == CV_8U;
   const int full = eight ? 255 : 65535;
   thread_local std::array<std::vector<int>, kBins> r;
-  std::array<double, kBins> level_sum{};
+  thread_local Ladder ladder;
+  std::array<double, kBins> level_sum{}, step2_sum{};
   for (auto& v : r) v.clear();
-  if (!(eight ? Sample<uint8_t>(img, full, &r, &level_sum, deadline)
-              : Sample<uint16_t>(img, full, &r, &level_sum, deadline)))
+  bool is_ladder = false;
+  if (!eight && !MakeLadder(img, &ladder, &is_ladder, deadline)) return false;
+  if (!(eight ? Sample<uint8_t>(img, full, nullptr, &r, &level_sum, &step2_sum, deadline)
+              : Sample<uint16_t>(img, full, is_ladder ? &ladder : nullptr, &r, &level_sum,
+                                 &step2_sum, deadline)))
     return false;
   // Per bin: its mean level and the noise variance from the quantile of |Laplacian|.
   struct Bin {
@@ -103,7 +178,6 @@ bool EstimateNoise(const cv::Mat& img, Clock::time_point deadline, NoiseModel* n
     const Bin* end() const { return b.data() + n; }
   };
   Bins bins;
-  const double quantisation = eight ? 1.0 / 12 : 0.0;
   for (int b = 0; b < kBins; ++b) {
     const int n = static_cast<int>(r[b].size());
     if (n < kMinSamples) continue;
@@ -116,10 +190,17 @@ bool EstimateNoise(const cv::Mat& img, Clock::time_point deadline, NoiseModel* n
     int below = 0, equal = 0;
     for (int v : r[b]) below += v < qv, equal += v == qv;
     const double quantile = qv - 0.5 + (target - below) / std::max(equal, 1);
-    const double sigma = std::max(quantile, 0.0) * kQuantileToSigma;
+    // Sigma in codes (8 bits: levels), and the codes' rounding, 1/12 of a code squared.
+    const double sigma_code = std::max(quantile, 0.0) * kQuantileToSigma;
+    // Where the noise is below about a code's step the codes hide it (a flat patch all one
+    // code reads as noiseless): such a bin says nothing of the noise.
+    if (sigma_code * sigma_code < 2.0 / 12) continue;
+    // Linear units per code squared: 1 for 8 bits, the ladder's step^2 over the bin's samples.
+    const double step2 = is_ladder ? step2_sum[b] / n : 1.0;
+    const double sigma = sigma_code * std::sqrt(step2);
     const double level = level_sum[b] / n;
     if (level < 3 * sigma) continue;  // too near the clip at 0 to show its full spread
-    const double var = std::max(0.0, sigma * sigma - quantisation);
+    const double var = (sigma_code * sigma_code - 1.0 / 12) * step2;
     // A variance estimate from n samples has a relative sigma of about sqrt(2 / n) (more for a
     // quantile); weight by its inverse variance.
     const double s2 = std::max(var, 1e-6 * full);

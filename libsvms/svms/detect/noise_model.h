@@ -11,7 +11,12 @@
 //    spread than its noise; samples touching a clipped value are left out, and a bin is used
 //    only when its level is at least 3 of its own sigmas above 0;
 //  - encoding: estimated on linear values, so a tone curve that stretched the darks has been
-//    undone first (photometric.h); the 8-bit quantisation's 1/12 level^2 is taken out.
+//    undone first (photometric.h). The rounding to the stored codes is taken out code by code:
+//    an 8-bit image's 1/12 level^2; a 16-bit image that takes only some values (an sRGB or
+//    gamma-encoded 8-bit image in linear light, 20 units apart in the darks and 400 in the
+//    brights; 12-bit raw data, 16 apart) is measured on the ranks of its values, where the
+//    rounding is 1/12 of a code^2 everywhere, and brought back by the codes' step.
+//    Bins where the noise is under about a code's step are left out (the codes hide it).
 // Where only one level is seen (a flat scene), the variance cannot be split into read and shot
 // noise: it is all counted as read noise, which never amplifies the dark parts of the image.
 #pragma once
