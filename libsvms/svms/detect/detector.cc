@@ -154,8 +154,14 @@ bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, Detec
   SegmentOptions segment_options = options;
   if (im.measure.depth() == CV_16U) {
     if (!EstimateNoise(im.measure, deadline, &stats->noise)) return false;
-    if (stats->noise.valid() && stats->noise.read_sigma + stats->noise.shot_gain > 0) {
-      const double unit = StabiliseVariance(im.measure, stats->noise, &sc->stabilised, deadline);
+    // An image whose codes hide its noise (a JPEG's flat areas: read and gain 0, valid) is
+    // searched on the shot noise's square-root scale with the thresholds at their floor below:
+    // its edges are as clean as its codes allow.
+    NoiseModel edge_noise = stats->noise;
+    if (edge_noise.valid() && edge_noise.read_sigma + edge_noise.shot_gain == 0)
+      edge_noise.shot_gain = 1;
+    if (edge_noise.valid() && edge_noise.read_sigma + edge_noise.shot_gain > 0) {
+      const double unit = StabiliseVariance(im.measure, edge_noise, &sc->stabilised, deadline);
       if (unit == 0) return false;
       segment_options.stabilise_variance = false;
       // Very clean images would put the thresholds under the 8 bits' own steps.

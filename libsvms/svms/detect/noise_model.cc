@@ -178,6 +178,7 @@ bool EstimateNoise(const cv::Mat& img, Clock::time_point deadline, NoiseModel* n
     const Bin* end() const { return b.data() + n; }
   };
   Bins bins;
+  int hidden_bins = 0, hidden_samples = 0, seen_samples = 0;
   for (int b = 0; b < kBins; ++b) {
     const int n = static_cast<int>(r[b].size());
     if (n < kMinSamples) continue;
@@ -194,7 +195,11 @@ bool EstimateNoise(const cv::Mat& img, Clock::time_point deadline, NoiseModel* n
     const double sigma_code = std::max(quantile, 0.0) * kQuantileToSigma;
     // Where the noise is below about a code's step the codes hide it (a flat patch all one
     // code reads as noiseless): such a bin says nothing of the noise.
-    if (sigma_code * sigma_code < 2.0 / 12) continue;
+    if (sigma_code * sigma_code < 2.0 / 12) {
+      ++hidden_bins;
+      hidden_samples += n;
+      continue;
+    }
     // Linear units per code squared: 1 for 8 bits, the ladder's step^2 over the bin's samples.
     const double step2 = is_ladder ? step2_sum[b] / n : 1.0;
     const double sigma = sigma_code * std::sqrt(step2);
@@ -205,6 +210,15 @@ bool EstimateNoise(const cv::Mat& img, Clock::time_point deadline, NoiseModel* n
     // quantile); weight by its inverse variance.
     const double s2 = std::max(var, 1e-6 * full);
     bins.push_back({level, var, n / (s2 * s2)});
+    seen_samples += n;
+  }
+  // Most samples where the codes hide the noise: the image has less noise than its codes'
+  // steps (a JPEG's codec smooths the flat areas away), and the few bins left are edges and
+  // texture. No noise is reported: read and gain 0 on the hidden bins (valid, nothing to
+  // stabilise).
+  if (hidden_samples > seen_samples) {
+    out.bins = hidden_bins;
+    return true;
   }
   if (bins.empty()) return true;
   // var = a + g L, weighted least squares; a, g >= 0. Bins far above the fit (texture) are

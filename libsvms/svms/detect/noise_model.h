@@ -16,7 +16,10 @@
 //    gamma-encoded 8-bit image in linear light, 20 units apart in the darks and 400 in the
 //    brights; 12-bit raw data, 16 apart) is measured on the ranks of its values, where the
 //    rounding is 1/12 of a code^2 everywhere, and brought back by the codes' step.
-//    Bins where the noise is under about a code's step are left out (the codes hide it).
+//    Bins where the noise is under about a code's step are left out (the codes hide it);
+//    where they hold most samples (a JPEG, whose codec smooths the flat areas' noise away) no
+//    noise is reported: read and gain 0 (the detector then searches the edges on the square-root
+//    scale at its thresholds' floor, detector.cc).
 // Where only one level is seen (a flat scene), the variance cannot be split into read and shot
 // noise: it is all counted as read noise, which never amplifies the dark parts of the image.
 #pragma once

@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <opencv2/imgcodecs.hpp>
 #include <random>
 
 #include "svms/camera/photometric.h"
@@ -119,6 +120,32 @@ TEST(EstimateNoise, TheCodesRoundingIsTakenOutOfAnSrgbImage) {
     EXPECT_NEAR(m.read_sigma, read, 0.25 * read) << "seed " << seed;
     EXPECT_NEAR(m.shot_gain, gain, 0.1 * gain) << "seed " << seed;
   }
+}
+
+// The jpeg_srgb profile's frames: the same sensor, sRGB-encoded and compressed by libjpeg at
+// quality 85, which smooths the flat areas' noise away (under a code's step). No noise is
+// reported rather than what the few edge-laden bins left would say.
+TEST(EstimateNoise, AJpegWhoseCodecRemovedTheNoiseReportsNone) {
+  const double unit = 65535.0 / 15000;
+  const Response srgb = Response::Srgb();
+  PhotometricModel pm;
+  pm.response = srgb;
+  const cv::Mat lin16 =
+      Patches({300, 800, 2000, 5000, 9000, 16000, 26000, 40000}, 4 * unit, unit, 12, 1024);
+  cv::Mat srgb8(lin16.size(), CV_8UC1);
+  for (int y = 0; y < lin16.rows; ++y)
+    for (int x = 0; x < lin16.cols; ++x)
+      srgb8.at<uint8_t>(y, x) = static_cast<uint8_t>(
+          std::lround(255 * srgb.FromLinear(lin16.at<uint16_t>(y, x) / 65535.0)));
+  std::vector<uint8_t> bytes;
+  ASSERT_TRUE(cv::imencode(".jpg", srgb8, bytes, {cv::IMWRITE_JPEG_QUALITY, 85}));
+  const cv::Mat decoded = cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
+  cv::Mat back;
+  ASSERT_TRUE(LinearizeImage(decoded, pm, &back).ok());
+  const NoiseModel m = EstimateNoise(back);
+  EXPECT_TRUE(m.valid());
+  EXPECT_EQ(m.read_sigma, 0);
+  EXPECT_EQ(m.shot_gain, 0);
 }
 
 // The raw12 profile's frames: 12 bits above a black level of 256 in 16-bit words, read noise
