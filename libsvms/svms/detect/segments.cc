@@ -529,16 +529,23 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
     std::vector<double>&xs = sc.start_x, &ys = sc.start_y;
     xs.resize(v.size());
     ys.resize(v.size());
+    // The grid spans the finite starts only (a non-finite one lands in a clamped cell and
+    // passes no window test); with none finite it is one cell.
     double x_min = 0, x_max = 0, y_min = 0, y_max = 0;
+    bool any_finite = false;
     for (size_t k = 0; k < v.size(); ++k) {
       order[k] = by_x[k].second;
       xs[k] = by_x[k].first;
       ys[k] = v[order[k]].a.y();
-      x_min = k == 0 ? xs[k] : std::min(x_min, xs[k]);
-      x_max = k == 0 ? xs[k] : std::max(x_max, xs[k]);
-      y_min = k == 0 ? ys[k] : std::min(y_min, ys[k]);
-      y_max = k == 0 ? ys[k] : std::max(y_max, ys[k]);
+      if (!std::isfinite(xs[k]) || !std::isfinite(ys[k])) continue;
+      x_min = any_finite ? std::min(x_min, xs[k]) : xs[k];
+      x_max = any_finite ? std::max(x_max, xs[k]) : xs[k];
+      y_min = any_finite ? std::min(y_min, ys[k]) : ys[k];
+      y_max = any_finite ? std::max(y_max, ys[k]) : ys[k];
+      any_finite = true;
     }
+    if (!std::isfinite(x_max - x_min) || !std::isfinite(y_max - y_min))
+      x_max = x_min, y_max = y_min;
     // Cells of kCell px, larger where the starts spread far (about 4 cells per piece at most).
     const double spread = std::max(x_max - x_min, y_max - y_min);
     const double cell =

@@ -111,8 +111,8 @@ TEST(Segments, MergeJoinsPiecesOfOneEdgeButNotACorner) {
   EXPECT_EQ(w.size(), 3u);
 }
 
-// The oracle for MergeCollinear's strips: the same tests on every start within reach in x, at
-// any y, first in x order (how the merge searched before its starts were binned by rows). Its
+// The oracle for MergeCollinear's grid: the same tests on every start within reach in x, at
+// any y, first in x order (how the merge searched before its starts were binned in a grid). Its
 // Joined is segments.cc's, copied: the joined line decides later joins, so it must be the same.
 Segment JoinedForOracle(const Segment& s, const Segment& t) {
   Segment m;
@@ -234,6 +234,10 @@ TEST(Segments, MergeFindsWhatAScanOfTheWholeXWindowFinds) {
       ASSERT_EQ(v[i].line, expected[i].line) << "trial " << trial << " segment " << i;
     }
   }
+  // A start that is not a number is left alone, and crashes nothing.
+  std::vector<Segment> odd = {MakeSegment({0, 0}, {10, 0}), MakeSegment({10.5, 0}, {20, 0})};
+  odd[0].a = Eigen::Vector2d(std::nan(""), 0);
+  EXPECT_TRUE(MergeCollinear(SegmentOptions{}, &odd));
   // The trials join pieces (8,206 of them with this seed), or they would test nothing.
   EXPECT_GT(joins, 60u * 100);
 }
