@@ -61,10 +61,11 @@ void ForEachSample(const cv::Mat& img, int y, const Visit& visit) {
     visit(row[x], row[x - 1], row[x + 1], up[x], down[x]);
 }
 
-// False when `deadline` (read every 64 rows) passed. *is_ladder is false where over a tenth
+// False when `deadline` (read every 64 rows) passed. *is_ladder is false where at least a tenth
 // of the values seen have their next value seen too: data that use every value where the
 // light is (16 bits of signal), measured on the values themselves; ranks would only compress
-// their sparsely sampled tails. A ladder's codes are 16 or more apart.
+// their sparsely sampled tails. A ladder's codes are 2 or more apart
+// (16 for 12-bit raw data in 16 bits).
 bool MakeLadder(const cv::Mat& img, Ladder* ladder, bool* is_ladder, Clock::time_point deadline) {
   thread_local std::vector<uint8_t> used;
   used.assign(65536, 0);

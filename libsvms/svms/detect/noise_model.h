@@ -32,7 +32,8 @@ namespace svms {
 struct NoiseModel {
   double read_sigma = 0;  // image units (grey levels of the image given), RMS
   double shot_gain = 0;   // variance per unit of level: variance(L) = read_sigma^2 + shot_gain L
-  int bins = 0;           // brightness bins the fit rests on (0: nothing usable: both 0)
+  int bins = 0;  // brightness bins the fit rests on, or where the codes hid the noise (both
+                 // 0 then); 0: nothing usable
   bool valid() const { return bins > 0; }
   double Sigma(double level) const;  // the noise at `level`, image units
   // The same model for the image scaled by `k` (values k L): read k sigma, gain k shot_gain.

@@ -30,6 +30,17 @@ cv::Mat Patches(const std::vector<double>& levels, double read, double gain, uin
   return img;
 }
 
+// `lin16` sRGB-encoded to 8 bits, as a camera writes it.
+cv::Mat SrgbEncode8(const cv::Mat& lin16) {
+  const Response srgb = Response::Srgb();
+  cv::Mat srgb8(lin16.size(), CV_8UC1);
+  for (int y = 0; y < lin16.rows; ++y)
+    for (int x = 0; x < lin16.cols; ++x)
+      srgb8.at<uint8_t>(y, x) = static_cast<uint8_t>(
+          std::lround(255 * srgb.FromLinear(lin16.at<uint16_t>(y, x) / 65535.0)));
+  return srgb8;
+}
+
 TEST(EstimateNoise, RecoversReadNoiseAndGainOnFlatPatches) {
   const cv::Mat img = Patches({500, 2000, 8000, 20000, 40000}, 30, 2.0, 1);
   const NoiseModel m = EstimateNoise(img);
@@ -77,14 +88,9 @@ TEST(EstimateNoise, SaturatedGlintsAreLeftOut) {
 TEST(EstimateNoise, WorksInLinearLightAfterAToneCurve) {
   // Noise in linear light, 16-bit units: read 150, gain 8 (a noisy small-pixel camera).
   const cv::Mat lin16 = Patches({0, 1500, 6000, 15000, 30000}, 150, 8, 4);
-  cv::Mat srgb8(lin16.size(), CV_8UC1);
-  const Response srgb = Response::Srgb();
-  for (int y = 0; y < lin16.rows; ++y)
-    for (int x = 0; x < lin16.cols; ++x)
-      srgb8.at<uint8_t>(y, x) = static_cast<uint8_t>(
-          std::lround(255 * srgb.FromLinear(lin16.at<uint16_t>(y, x) / 65535.0)));
+  const cv::Mat srgb8 = SrgbEncode8(lin16);
   PhotometricModel pm;
-  pm.response = srgb;
+  pm.response = Response::Srgb();
   cv::Mat back;
   ASSERT_TRUE(LinearizeImage(srgb8, pm, &back).ok());
   const NoiseModel m = EstimateNoise(back);
@@ -102,17 +108,12 @@ TEST(EstimateNoise, WorksInLinearLightAfterAToneCurve) {
 // brights) is more than the read noise at every level: it must be taken out code by code.
 TEST(EstimateNoise, TheCodesRoundingIsTakenOutOfAnSrgbImage) {
   const double unit = 65535.0 / 15000, read = 4 * unit, gain = unit;
-  const Response srgb = Response::Srgb();
   PhotometricModel pm;
-  pm.response = srgb;
+  pm.response = Response::Srgb();
   for (uint32_t seed : {6u, 7u, 8u}) {
     const cv::Mat lin16 =
         Patches({300, 800, 2000, 5000, 9000, 16000, 26000, 40000}, read, gain, seed, 1024);
-    cv::Mat srgb8(lin16.size(), CV_8UC1);
-    for (int y = 0; y < lin16.rows; ++y)
-      for (int x = 0; x < lin16.cols; ++x)
-        srgb8.at<uint8_t>(y, x) = static_cast<uint8_t>(
-            std::lround(255 * srgb.FromLinear(lin16.at<uint16_t>(y, x) / 65535.0)));
+    const cv::Mat srgb8 = SrgbEncode8(lin16);
     cv::Mat back;
     ASSERT_TRUE(LinearizeImage(srgb8, pm, &back).ok());
     const NoiseModel m = EstimateNoise(back);
@@ -127,16 +128,11 @@ TEST(EstimateNoise, TheCodesRoundingIsTakenOutOfAnSrgbImage) {
 // reported rather than what the few edge-laden bins left would say.
 TEST(EstimateNoise, AJpegWhoseCodecRemovedTheNoiseReportsNone) {
   const double unit = 65535.0 / 15000;
-  const Response srgb = Response::Srgb();
   PhotometricModel pm;
-  pm.response = srgb;
+  pm.response = Response::Srgb();
   const cv::Mat lin16 =
       Patches({300, 800, 2000, 5000, 9000, 16000, 26000, 40000}, 4 * unit, unit, 12, 1024);
-  cv::Mat srgb8(lin16.size(), CV_8UC1);
-  for (int y = 0; y < lin16.rows; ++y)
-    for (int x = 0; x < lin16.cols; ++x)
-      srgb8.at<uint8_t>(y, x) = static_cast<uint8_t>(
-          std::lround(255 * srgb.FromLinear(lin16.at<uint16_t>(y, x) / 65535.0)));
+  const cv::Mat srgb8 = SrgbEncode8(lin16);
   std::vector<uint8_t> bytes;
   ASSERT_TRUE(cv::imencode(".jpg", srgb8, bytes, {cv::IMWRITE_JPEG_QUALITY, 85}));
   const cv::Mat decoded = cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);

@@ -329,9 +329,9 @@ bool ReadNoiseInBands(const cv::Mat& gray8, WorkerPool* pool, const Past& past,
   return true;
 }
 
-// The segment from s.a to t.b: its line through the length-weighted middle of both pieces,
-// its contrast their length-weighted mean.
-Segment Joined(const Segment& s, const Segment& t) {
+}  // namespace
+
+Segment JoinSegments(const Segment& s, const Segment& t) {
   Segment m;
   m.a = s.a;
   m.b = t.b;
@@ -342,8 +342,6 @@ Segment Joined(const Segment& s, const Segment& t) {
   m.contrast = (s.contrast * s.length() + t.contrast * t.length()) / (s.length() + t.length());
   return m;
 }
-
-}  // namespace
 
 double EstimateReadNoise(const cv::Mat& gray8) {
   if (gray8.rows < 8 || gray8.cols < 8 || gray8.type() != CV_8UC1) return 0;
@@ -498,7 +496,7 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
   const double offset2 = o.merge_offset_px * o.merge_offset_px;
   bool merged = true;
   // A sweep with a sort on start x to keep the pair search local. A join keeps the first
-  // piece's start (Joined), so the order holds through the sweep, and a piece goes on joining
+  // piece's start (JoinSegments), so the order holds through the sweep, and a piece goes on joining
   // from its new end at once: on a cluttered frame (long grid lines in many pieces) sweeping
   // again after every join takes a fifth of the detector's time. A last sweep finds nothing.
   //
@@ -647,7 +645,7 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
           }
         }
         if (best >= 0) {
-          v[i] = Joined(s, v[best]);
+          v[i] = JoinSegments(s, v[best]);
           len[i] = v[i].length();
           gone[best] = 1;
           merged = joined = true;
@@ -688,7 +686,7 @@ void BridgeKinks(const SegmentOptions& o, std::vector<Segment>* segs) {
       const double c = di.dot(dj);
       // A bend either way; corners (>= bridge_max_turn_deg) are left to the quad search.
       if (c < cos_max) continue;
-      v.push_back(Joined(s, t));
+      v.push_back(JoinSegments(s, t));
     }
   }
 }

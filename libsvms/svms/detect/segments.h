@@ -72,6 +72,10 @@ struct SegmentOptions {
   double bridge_gap_px = 1.5;
 };
 
+// The segment from s.a to t.b: its line through the length-weighted middle of both pieces,
+// its contrast their length-weighted mean (how MergeCollinear and BridgeKinks join pieces).
+Segment JoinSegments(const Segment& s, const Segment& t);
+
 // Step 3b: joins collinear pieces (see SegmentOptions); the result replaces `segments`.
 // `deadline` is read every 256 pieces of each sweep: once it has passed the result is false and
 // *segments a part-merged list fit for nothing but discarding.

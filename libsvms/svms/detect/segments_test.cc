@@ -112,20 +112,8 @@ TEST(Segments, MergeJoinsPiecesOfOneEdgeButNotACorner) {
 }
 
 // The oracle for MergeCollinear's grid: the same tests on every start within reach in x, at
-// any y, first in x order (how the merge searched before its starts were binned in a grid). Its
-// Joined is segments.cc's, copied: the joined line decides later joins, so it must be the same.
-Segment JoinedForOracle(const Segment& s, const Segment& t) {
-  Segment m;
-  m.a = s.a;
-  m.b = t.b;
-  const Eigen::Vector2d mid =
-      (s.length() * 0.5 * (s.a + s.b) + t.length() * 0.5 * (t.a + t.b)) / (s.length() + t.length());
-  const Eigen::Vector2d u = (m.b - m.a).normalized(), n(-u.y(), u.x());
-  m.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(mid));
-  m.contrast = (s.contrast * s.length() + t.contrast * t.length()) / (s.length() + t.length());
-  return m;
-}
-
+// any y, first in x order (how the merge searched before its starts were binned in a grid),
+// joined with the merge's own JoinSegments (the joined line decides later joins).
 void MergeCollinearByXWindow(const SegmentOptions& o, std::vector<Segment>* segs) {
   const double cos_max = std::cos(o.merge_angle_deg * M_PI / 180);
   const double both_long = 4 * o.merge_offset_px / std::tan(o.merge_angle_deg * M_PI / 180);
@@ -176,7 +164,7 @@ void MergeCollinearByXWindow(const SegmentOptions& o, std::vector<Segment>* segs
           if (shorter > both_long && (dist(other, longer.a) > o.merge_offset_px ||
                                       dist(other, longer.b) > o.merge_offset_px))
             continue;
-          v[i] = JoinedForOracle(s, t);
+          v[i] = JoinSegments(s, t);
           len[i] = v[i].length();
           gone[j] = 1;
           merged = joined = true;
