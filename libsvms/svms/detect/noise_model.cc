@@ -50,9 +50,6 @@ struct Ladder {
 };
 
 // Marks the values of every sample's five pixels (the pixels Sample reads) and ranks them.
-// A value's step is the width of its code's cell, half the distance between its neighbours;
-// where one gap is over 1.5 times the other a code in between was not seen, and the smaller
-// gap is the step.
 template <typename Visit>
 void ForEachSample(const cv::Mat& img, int y, const Visit& visit) {
   const uint16_t *up = img.ptr<uint16_t>(y - 1), *row = img.ptr<uint16_t>(y),
@@ -77,25 +74,34 @@ bool MakeLadder(const cv::Mat& img, Ladder* ladder, bool* is_ladder, Clock::time
   }
   ladder->code.resize(65536);
   ladder->step.resize(65536);
-  int rank = 0, adjacent = 0, prev = -1, cur = -1;
-  auto set_step = [&](int value, int lo, int hi) {  // gaps to the neighbours, 0 when none
-    double st = 1;
-    if (lo > 0 && hi > 0)
-      st = std::max(lo, hi) > 1.5 * std::min(lo, hi) ? std::min(lo, hi) : 0.5 * (lo + hi);
-    else if (lo > 0 || hi > 0)
-      st = std::max(lo, hi);
-    ladder->step[static_cast<size_t>(value)] = static_cast<float>(st);
-  };
+  thread_local std::vector<int> seen;
+  seen.clear();
+  int rank = 0, adjacent = 0;
   for (int v = 0; v < 65536; ++v) {
     ladder->code[static_cast<size_t>(v)] = static_cast<uint16_t>(rank);
     if (!u[v]) continue;
     ++rank;
     adjacent += v + 1 < 65536 && u[v + 1];
-    if (cur >= 0) set_step(cur, prev >= 0 ? cur - prev : 0, v - cur);
-    prev = cur;
-    cur = v;
+    seen.push_back(v);
   }
-  if (cur >= 0) set_step(cur, prev >= 0 ? cur - prev : 0, 0);
+  // A value's step: the mean of the gaps between seen values over the kStepRanks ranks either
+  // side, leaving out gaps over 2.5 times the smallest of them (a jump between two separate
+  // brightness levels of the scene, whose codes in between no pixel took). The noise spans
+  // several codes, so what turns it from ranks into linear units is the mean gap there, codes
+  // in reach of the noise that were never used included (a levels stretch's combed histogram:
+  // 1.5 codes per rank); a tone curve's ladder changes slowly over 2 x kStepRanks codes.
+  constexpr int kStepRanks = 2;
+  const int n = static_cast<int>(seen.size());
+  for (int k = 0; k < n; ++k) {
+    const int lo = std::max(0, k - kStepRanks), hi = std::min(n - 1, k + kStepRanks);
+    int smallest = 65536;
+    for (int j = lo; j < hi; ++j) smallest = std::min(smallest, seen[j + 1] - seen[j]);
+    double sum = 0;
+    int count = 0;
+    for (int j = lo; j < hi; ++j)
+      if (const int gap = seen[j + 1] - seen[j]; gap <= 2.5 * smallest) sum += gap, ++count;
+    ladder->step[static_cast<size_t>(seen[k])] = count > 0 ? static_cast<float>(sum / count) : 1.0f;
+  }
   *is_ladder = 10 * adjacent < rank;
   return true;
 }
