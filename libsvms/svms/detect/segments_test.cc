@@ -184,11 +184,14 @@ void MergeCollinearByXWindow(const SegmentOptions& o, std::vector<Segment>* segs
 // Random edges cut into jittered pieces with gaps, crossing one another, plus short clutter
 // pieces (what foliage gives): the merge joins exactly the pieces the x-window oracle joins, in
 // the same order, to the bit.
-TEST(Segments, MergeFindsWhatAScanOfTheWholeXWindowFinds) {
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<double> pos(0, 300), unit(0, 1), jitter(-0.6, 0.6);
+// `trials` random sets of pieces (25 long edges cut into pieces, 300 short clutter pieces) over
+// [0, extent)^2: the merge must give what the old scan of the whole x window gives, to the bit.
+// Returns the number of joins.
+size_t CompareMergeWithXWindowScan(double extent, int trials, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> pos(0, extent), unit(0, 1), jitter(-0.6, 0.6);
   size_t joins = 0;
-  for (int trial = 0; trial < 60; ++trial) {
+  for (int trial = 0; trial < trials; ++trial) {
     std::vector<Segment> v;
     for (int e = 0; e < 25; ++e) {  // long edges in pieces
       const Eigen::Vector2d a(pos(rng), pos(rng));
@@ -213,21 +216,31 @@ TEST(Segments, MergeFindsWhatAScanOfTheWholeXWindowFinds) {
     const size_t pieces = v.size();
     std::vector<Segment> expected = v;
     MergeCollinearByXWindow(SegmentOptions{}, &expected);
-    ASSERT_TRUE(MergeCollinear(SegmentOptions{}, &v));
+    EXPECT_TRUE(MergeCollinear(SegmentOptions{}, &v));
     joins += pieces - v.size();
-    ASSERT_EQ(v.size(), expected.size()) << "trial " << trial;
+    EXPECT_EQ(v.size(), expected.size()) << "extent " << extent << " trial " << trial;
+    if (v.size() != expected.size()) return joins;
     for (size_t i = 0; i < v.size(); ++i) {
-      ASSERT_EQ(v[i].a, expected[i].a) << "trial " << trial << " segment " << i;
-      ASSERT_EQ(v[i].b, expected[i].b) << "trial " << trial << " segment " << i;
-      ASSERT_EQ(v[i].line, expected[i].line) << "trial " << trial << " segment " << i;
+      EXPECT_EQ(v[i].a, expected[i].a) << "extent " << extent << " trial " << trial << " " << i;
+      EXPECT_EQ(v[i].b, expected[i].b) << "extent " << extent << " trial " << trial << " " << i;
+      EXPECT_EQ(v[i].line, expected[i].line) << "extent " << extent << " trial " << trial;
     }
   }
+  return joins;
+}
+
+TEST(Segments, MergeFindsWhatAScanOfTheWholeXWindowFinds) {
+  // 8 px cells: the pieces are dense (300 px, about 550 pieces).
+  const size_t dense = CompareMergeWithXWindowScan(300, 60, 11);
+  // Cells wider than 8 px: the starts spread over 5000 px (about 80 px cells).
+  const size_t sparse = CompareMergeWithXWindowScan(5000, 20, 12);
+  // The trials join pieces (8,206 in the dense ones with this seed), or they would test nothing.
+  EXPECT_GT(dense, 60u * 100);
+  EXPECT_GT(sparse, 20u * 100);
   // A start that is not a number is left alone, and crashes nothing.
   std::vector<Segment> odd = {MakeSegment({0, 0}, {10, 0}), MakeSegment({10.5, 0}, {20, 0})};
   odd[0].a = Eigen::Vector2d(std::nan(""), 0);
   EXPECT_TRUE(MergeCollinear(SegmentOptions{}, &odd));
-  // The trials join pieces (8,206 of them with this seed), or they would test nothing.
-  EXPECT_GT(joins, 60u * 100);
 }
 
 // A side bent halfway by 7-14 degrees (a shadow across a small square's side) gets a segment
