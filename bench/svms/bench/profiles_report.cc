@@ -107,16 +107,25 @@ void AddNoiseFigures(const ProfilesBenchmarkOptions& o, const std::vector<std::s
     ApplySensorProfile(p, &s);
     const double unit = 65535.0 / s.full_well;  // linear units per electron
     std::vector<double> read_ratio, mid_ratio;
+    int hidden = 0;
     for (const ViewTiming& t : timings) {
       if (t.profile != p || !t.noise.valid()) continue;
+      // The codes hid the noise (a JPEG's smoothed flats): no estimate, counted apart.
+      if (t.noise.read_sigma == 0 && t.noise.shot_gain == 0) {
+        ++hidden;
+        continue;
+      }
       const double true_read = s.read_noise * unit;
       const double mid = 0.25 * 65535, true_mid = std::sqrt(true_read * true_read + unit * mid);
       read_ratio.push_back(t.noise.read_sigma / true_read);
       mid_ratio.push_back(t.noise.Sigma(mid) / true_mid);
     }
-    per[p]["noise_read_ratio_median"] = Median(read_ratio);
-    per[p]["noise_mid_ratio_median"] = Median(mid_ratio);
+    if (!read_ratio.empty()) {
+      per[p]["noise_read_ratio_median"] = Median(read_ratio);
+      per[p]["noise_mid_ratio_median"] = Median(mid_ratio);
+    }
     per[p]["noise_views"] = read_ratio.size();
+    per[p]["noise_hidden_views"] = hidden;
   }
 }
 
@@ -166,6 +175,7 @@ void Table(const ProfilesBenchmarkOptions& o, const std::vector<std::string>& pr
   line("detect ms median, textured background", "ms_median_textured", 2);
   line("noise estimate / truth, read (16-bit)", "noise_read_ratio_median", 2);
   line("noise estimate / truth, mid grey (16-bit)", "noise_mid_ratio_median", 2);
+  line("views whose codes hid the noise (no estimate; not in the ratios)", "noise_hidden_views", 0);
 }
 
 // The real-camera targets, where the profiles they name were run, and the notes. Returns
@@ -224,7 +234,8 @@ bool Targets(const std::vector<std::string>& profiles, std::map<std::string, jso
          "averaged (positive: the square found too large). NEES: the single-marker pose's error "
          "against its own 6x6 covariance. The noise rows compare the detector's estimate "
          "(noise_model.h, made only for 16-bit images) with the sensor's read noise and its "
-         "noise at a quarter of full scale, in linear units.\n";
+         "noise at a quarter of full scale, in linear units; a view whose codes hid the noise "
+         "(read and gain 0: a JPEG's smoothed flats) is counted apart.\n";
   return all_met;
 }
 
