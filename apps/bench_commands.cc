@@ -168,6 +168,10 @@ void AddBenchPose(CLI::App& bench, int* exit_code) {
                 "Leave the markers' stripe and decal edges out of the fit "
                 "(ObjectPoseOptions::use_edges); with --no-marker-pose-with-edges the fused pose "
                 "rests on corners and tips only");
+  cmd->add_flag("--rig", o->rig,
+                "Also render the approach through a two-camera rig (narrow 20 deg + wide 60 deg "
+                "1024 x 1024 pinholes, 0.5 m apart; OUT/rig, reused when there) and compare the "
+                "rig's fused pose with each camera's alone, by range");
   cmd->add_option("--object", o->object,
                   "The dataset's object whose pose is the truth (truth.json: the approach's "
                   "'module', the range set's 'plate')")

@@ -34,6 +34,30 @@ sed 's/1024, 1024/640, 480/' "$out/approach/true.cameramodel" > "$out/small.came
 expect 2 "imagersize: the models differ (1024x1024 and 640x480)" "$svms" bench pose --quick \
   --data "$out/approach" --layout "$out/approach/true_layout.json" \
   --camera "$out/small.cameramodel" --out "$out/bp2"
+# A two-camera rig along the quick approach (--rig): every frame pair gets a rig pose that uses
+# both cameras' markers where both see some, consistent with the truth, and as good as the
+# better camera of each frame (the rig's RMS within 1.5 times that of the per-frame better one).
+"$svms" bench pose --quick --rig --data "$out/approach" --layout "$out/approach/true_layout.json" \
+  --out "$out/bprig" > /dev/null 2>&1
+rc=$?
+{ [ $rc -eq 0 ] || [ $rc -eq 3 ]; } || fail "bench pose --rig exited $rc"
+grep -q "^### Two-camera rig" "$out/bprig/report.md" && pass || fail "report.md: no rig section"
+/usr/bin/python3 - "$out/bprig/rig_frames.csv" <<'PY' && pass || fail "rig_frames.csv"
+import csv, math, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+assert len(rows) == 12, len(rows)
+assert all(r["valid"] == "1" for r in rows), rows
+both = [r for r in rows if r["narrow_valid"] == "1" and r["wide_valid"] == "1"]
+assert len(both) >= 6, len(both)
+for r in both:  # the rig's fit takes the markers of both cameras
+    assert int(r["markers"]) > max(int(r["narrow_markers"]), int(r["wide_markers"])), r
+nees = [float(r["nees"]) for r in rows]
+assert sum(nees) / len(nees) < 12, nees
+rms = lambda v: math.sqrt(sum(x * x for x in v) / len(v))
+rig = rms([float(r["position_mm"]) for r in both])
+better = rms([min(float(r["narrow_position_mm"]), float(r["wide_position_mm"])) for r in both])
+assert rig < 1.5 * better, (rig, better)
+PY
 # No true camera in the dataset: the rest of the report, and a row saying why the frame rows are
 # missing (not a silent omission).
 cp -r "$out/approach" "$out/no_true" && rm "$out/no_true/true.cameramodel"

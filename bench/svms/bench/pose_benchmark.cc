@@ -14,6 +14,8 @@
 
 #include "svms/base/format.h"
 #include "svms/bench/pose_benchmark_report.h"
+#include "svms/bench/pose_rig_benchmark.h"
+#include "svms/bench/stored_frames.h"
 #include "svms/bench/truth_poses.h"
 #include "svms/camera/bayer_luminance.h"
 #include "svms/camera/photometric.h"
@@ -37,9 +39,6 @@ double RssMiB() {
   f >> pages >> resident;
   return resident * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
 }
-
-Status ReadStoredPhotometry(const std::string& truth_path, std::optional<PhotometricModel>* model,
-                            PhotometryOptions* options);
 
 // `svms dataset NAME --out DIR`, in-process, with this run's threads and --quick.
 int RenderDataset(const PoseBenchmarkOptions& o, const std::string& name, const std::string& dir) {
@@ -172,68 +171,6 @@ int AlignGivenCamera(const PoseBenchmarkOptions& o, const std::string& D, const 
 // survey, and as the model the estimator linearises with: left unset where the files are
 // linear, full-range and not a mosaic, which the estimator takes as they are (as a
 // machine-vision camera's frames). A dataset without the block gives neither.
-Status ReadStoredPhotometry(const std::string& truth_path, std::optional<PhotometricModel>* model,
-                            PhotometryOptions* options) {
-  model->reset();
-  *options = PhotometryOptions{};
-  nlohmann::json doc;
-  try {
-    std::ifstream in(truth_path);
-    doc = nlohmann::json::parse(in);
-    if (!doc.contains("photometry")) return Status::Ok();
-    const nlohmann::json& ph = doc.at("photometry");
-    options->response = ph.value("response", std::string("linear"));
-    options->bayer = ph.value("bayer", std::string());
-    options->black_level = ph.value("black_level", 0.0);
-    options->white_level = ph.value("white_level", 255.0);
-    const double full = ph.value("bits", 8) > 8 ? 65535.0 : 255.0;
-    nlohmann::json text = {{"type", "svms.photometric"},
-                           {"response", options->response},
-                           {"black_level", *options->black_level},
-                           {"white_level", *options->white_level}};
-    if (!options->bayer.empty()) text["bayer"] = options->bayer;
-    PhotometricModel m;
-    if (Status s = ParsePhotometricJson(text.dump(), truth_path + ": photometry", &m); !s) return s;
-    if (m.response.kind() != Response::Kind::kLinear || m.black_level != 0 ||
-        m.white_level != full || m.bayer != BayerPattern::kNone)
-      *model = m;
-  } catch (const std::exception& e) {
-    return Status::Error(truth_path + ": photometry: expected the renderer's block (response, " +
-                         "black_level, white_level, bits, bayer): " + e.what());
-  }
-  return Status::Ok();
-}
-
-// Each view's image file as the renderer stored it (truth.json: "views"[i]["image"], by view
-// name) into *images, in the order of `truth`.
-int ReadStoredImages(const std::string& D, const std::vector<std::pair<std::string, Pose>>& truth,
-                     std::vector<cv::Mat>* images) {
-  const std::string truth_path = D + "/truth.json";
-  std::map<std::string, std::string> file_of;
-  try {
-    std::ifstream in(truth_path);
-    const nlohmann::json doc = nlohmann::json::parse(in);
-    for (const auto& v : doc.value("views", nlohmann::json::array()))
-      if (v.contains("image") && v["image"].is_string()) {
-        const std::string file = v["image"];
-        file_of[fs::path(file).stem().string()] = file;
-      }
-  } catch (const std::exception& e) {
-    std::cerr << "svms bench pose: " << truth_path << ": views: " << e.what() << "\n";
-    return kExitBadInput;
-  }
-  for (const auto& [name, pose] : truth) {
-    const auto it = file_of.find(name);
-    const std::string path = D + "/" + (it == file_of.end() ? name + ".png" : it->second);
-    images->push_back(cv::imread(path, cv::IMREAD_UNCHANGED));
-    if (images->back().empty()) {
-      std::cerr << "svms bench pose: " << path << ": cannot read\n";
-      return kExitBadInput;
-    }
-  }
-  return kExitOk;
-}
-
 // Every frame once, in order, on this thread: fused pose, truth, best single marker.
 void EstimateFrames(const std::vector<cv::Mat>& images,
                     const std::vector<std::pair<std::string, Pose>>& truth,
@@ -377,6 +314,11 @@ int RunBenchmark(const PoseBenchmarkOptions& o) {
   cv::setNumThreads(1);
   EstimateFrames(images, truth, options, given_from_true, est.get(), &f);
   LongRun(o, images, est.get(), &f);
+  if (o.rig) {
+    images.clear();  // the rig's frames are read next
+    if (const int rc = RunRigApproach(o, D, layout_path, options, truth, &f.rig); rc != kExitOk)
+      return rc;
+  }
   f.calibration_in_covariance =
       !o.no_calibration_covariance && est->camera().intrinsics_covariance_factor().size() > 0;
   f.lensmodel = est->camera().lensmodel();

@@ -45,6 +45,9 @@ struct PoseBenchmarkOptions {
   // Leave every marker's stripe and decal edges out of the fit (ObjectPoseOptions::use_edges);
   // with no_marker_pose_with_edges: the fused pose from corners and tips only.
   bool no_edges = false;
+  // Also render the approach through a two-camera rig (narrow 20 deg + wide 60 deg, 0.5 m
+  // apart; pose_rig_benchmark.h) and compare its fused pose with each camera's alone.
+  bool rig = false;
 };
 
 // Runs the benchmark. Returns an exit code (exit_codes.h): 3 when a target was missed, 2 for

@@ -417,12 +417,14 @@ int WritePoseBenchmarkReport(const PoseBenchmarkOptions& o, const PoseFindings& 
   const Figures g = Summarise(f);
   WriteSummary(o, f, g);
   WritePlots(o);
-  const std::string md = Markdown(o, f, g);
+  bool rig_met = true;
+  const std::string md =
+      Markdown(o, f, g) + (o.rig ? RigReport(o, f.rig, g.lat_median, &rig_met) : std::string());
   OutputFile(fs::path(o.out) / "report.md") << md;
   std::cout << md;
   // A missed target: exit kExitTargetMissed, after writing everything.
   const bool all_met = g.nees_ok && g.lat_median <= 15 && g.no_worse_everywhere &&
-                       (!g.far_target_checked || g.far_target_met);
+                       (!g.far_target_checked || g.far_target_met) && rig_met;
   if (!all_met) std::cerr << "svms bench pose: some targets not met (report.md)\n";
   return all_met ? kExitOk : kExitTargetMissed;
 }

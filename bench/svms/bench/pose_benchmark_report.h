@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "svms/bench/pose_benchmark.h"
+#include "svms/bench/pose_rig_benchmark.h"
 #include "svms/calib/frame_alignment.h"
 
 namespace svms {
@@ -56,6 +57,7 @@ struct PoseFindings {
   std::string lensmodel;                   // of the camera the poses were computed with
   // How the frames were turned into linear light (PhotometricToJson), "" = taken as stored.
   std::string photometry;
+  RigFindings rig;  // with --rig: the two-camera rig along the same approach
 };
 
 // Writes frames.csv, soak.csv, latency.csv, summary.json, the plots and report.md (also on
