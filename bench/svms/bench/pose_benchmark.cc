@@ -166,11 +166,6 @@ int AlignGivenCamera(const PoseBenchmarkOptions& o, const std::string& D, const 
   return kExitOk;
 }
 
-// The photometry a rendered dataset's images were stored with (truth.json's "photometry":
-// response, black and white level, Bayer pattern) as the options a command takes, for the
-// survey, and as the model the estimator linearises with: left unset where the files are
-// linear, full-range and not a mosaic, which the estimator takes as they are (as a
-// machine-vision camera's frames). A dataset without the block gives neither.
 // Every frame once, in order, on this thread: fused pose, truth, best single marker.
 void EstimateFrames(const std::vector<cv::Mat>& images,
                     const std::vector<std::pair<std::string, Pose>>& truth,
@@ -284,6 +279,11 @@ int RunBenchmark(const PoseBenchmarkOptions& o) {
   }
   std::string D, layout_path;
   if (const int rc = PrepareData(o, &D, &layout_path); rc != kExitOk) return rc;
+  // The rig's frames first (rendered with this run's threads), so that nothing measured below is
+  // lost when they cannot be made.
+  RigFindings rig;
+  if (o.rig)
+    if (const int rc = PrepareRigApproach(o, D, &rig); rc != kExitOk) return rc;
   PoseEstimatorOptions options = EstimatorOptions(o);
   std::vector<std::pair<std::string, Pose>> truth_names;
   if (Status s = ReadTruthPoses(D + "/truth.json", o.object, &truth_names); !s) {
@@ -315,9 +315,9 @@ int RunBenchmark(const PoseBenchmarkOptions& o) {
   EstimateFrames(images, truth, options, given_from_true, est.get(), &f);
   LongRun(o, images, est.get(), &f);
   if (o.rig) {
-    images.clear();  // the rig's frames are read next
-    if (const int rc = RunRigApproach(o, D, layout_path, options, truth, &f.rig); rc != kExitOk)
-      return rc;
+    images.clear();
+    f.rig = std::move(rig);
+    RunRigApproach(layout_path, options, truth, &f.rig);
   }
   f.calibration_in_covariance =
       !o.no_calibration_covariance && est->camera().intrinsics_covariance_factor().size() > 0;

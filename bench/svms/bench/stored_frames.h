@@ -15,11 +15,12 @@
 
 namespace svms {
 
-// The photometry truth.json's "photometry" block says the frames were stored with (response,
-// black and white levels, bits, Bayer pattern), as the model that turns them into linear light
-// (*model; left empty where they are linear 8- or 16-bit frames at full scale, taken as stored)
-// and as the equivalent command-line options (*options). No block: both left at their defaults.
-// Errors name the file and the field.
+// The photometry a rendered dataset's images were stored with (truth.json's "photometry":
+// response, black and white level, bits, Bayer pattern) as the options a command takes (for
+// the survey; *options) and as the model an estimator linearises with (*model): left unset where
+// the files are linear, full-range and not a mosaic, which the estimator takes as they are (as a
+// machine-vision camera's frames). A dataset without the block gives neither. Errors name the
+// file and the field.
 Status ReadStoredPhotometry(const std::string& truth_path, std::optional<PhotometricModel>* model,
                             PhotometryOptions* options);
 

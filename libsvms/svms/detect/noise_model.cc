@@ -49,7 +49,8 @@ struct Ladder {
   std::vector<float> step;     // linear units per code at each value seen
 };
 
-// Marks the values of every sample's five pixels (the pixels Sample reads) and ranks them.
+// Calls visit(centre, left, right, up, down) with the values of every sample's five pixels in
+// row y (the pixels Sample reads).
 template <typename Visit>
 void ForEachSample(const cv::Mat& img, int y, const Visit& visit) {
   const uint16_t *up = img.ptr<uint16_t>(y - 1), *row = img.ptr<uint16_t>(y),

@@ -184,10 +184,14 @@ void MergeCollinearByXWindow(const SegmentOptions& o, std::vector<Segment>* segs
 // Random edges cut into jittered pieces with gaps, crossing one another, plus short clutter
 // pieces (what foliage gives): the merge joins exactly the pieces the x-window oracle joins, in
 // the same order, to the bit.
-// `trials` random sets of pieces (25 long edges cut into pieces, 300 short clutter pieces) over
-// [0, extent)^2: the merge must give what the old scan of the whole x window gives, to the bit.
-// Returns the number of joins.
-size_t CompareMergeWithXWindowScan(double extent, int trials, uint32_t seed) {
+// `trials` random sets of pieces (25 long edges cut into pieces, `clutter` short pieces), each
+// starting in [0, extent)^2: the merge must give what a scan of the whole x window gives
+// (MergeCollinearByXWindow), to the bit. Returns the number of joins; *cell_px gets the largest
+// grid cell the merge used over the trials (its rule, restated: 8 px, or the starts' spread over
+// 2 sqrt(n) + 1 where that is more).
+size_t CompareMergeWithXWindowScan(double extent, int clutter, int trials, uint32_t seed,
+                                   double* cell_px) {
+  *cell_px = 0;
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> pos(0, extent), unit(0, 1), jitter(-0.6, 0.6);
   size_t joins = 0;
@@ -206,7 +210,7 @@ size_t CompareMergeWithXWindowScan(double extent, int trials, uint32_t seed) {
         t += piece + 3 * unit(rng);
       }
     }
-    for (int c = 0; c < 300; ++c) {  // clutter
+    for (int c = 0; c < clutter; ++c) {
       const Eigen::Vector2d a(pos(rng), pos(rng));
       const double ang = unit(rng) * 2 * M_PI;
       v.push_back(
@@ -214,6 +218,10 @@ size_t CompareMergeWithXWindowScan(double extent, int trials, uint32_t seed) {
     }
     std::shuffle(v.begin(), v.end(), rng);
     const size_t pieces = v.size();
+    Eigen::Vector2d lo = v[0].a, hi = v[0].a;
+    for (const Segment& s : v) lo = lo.cwiseMin(s.a), hi = hi.cwiseMax(s.a);
+    *cell_px = std::max(*cell_px,
+                        std::max(8.0, (hi - lo).maxCoeff() / (2 * std::sqrt(double(pieces)) + 1)));
     std::vector<Segment> expected = v;
     MergeCollinearByXWindow(SegmentOptions{}, &expected);
     EXPECT_TRUE(MergeCollinear(SegmentOptions{}, &v));
@@ -230,12 +238,19 @@ size_t CompareMergeWithXWindowScan(double extent, int trials, uint32_t seed) {
 }
 
 TEST(Segments, MergeFindsWhatAScanOfTheWholeXWindowFinds) {
-  // 8 px cells: the pieces are dense (300 px, about 550 pieces).
-  const size_t dense = CompareMergeWithXWindowScan(300, 60, 11);
-  // Cells wider than 8 px: the starts spread over 5000 px (about 80 px cells).
-  const size_t sparse = CompareMergeWithXWindowScan(5000, 20, 12);
-  // The trials join pieces (8,206 in the dense ones with this seed), or they would test nothing.
-  EXPECT_GT(dense, 60u * 100);
+  // Every size of the grid's cells: 8 px (about 2,700 pieces starting within about 740 px),
+  // 9-16 px (about 470 pieces there), over 100 px (starts spread over 5000 px).
+  double dense_cell, medium_cell, sparse_cell;
+  const size_t dense = CompareMergeWithXWindowScan(300, 2500, 20, 11, &dense_cell);
+  const size_t medium = CompareMergeWithXWindowScan(300, 300, 30, 12, &medium_cell);
+  const size_t sparse = CompareMergeWithXWindowScan(5000, 300, 20, 13, &sparse_cell);
+  EXPECT_EQ(dense_cell, 8);
+  EXPECT_GT(medium_cell, 8);
+  EXPECT_LT(medium_cell, 20);
+  EXPECT_GT(sparse_cell, 50);
+  // The trials join pieces, or they would test nothing.
+  EXPECT_GT(dense, 20u * 100);
+  EXPECT_GT(medium, 30u * 100);
   EXPECT_GT(sparse, 20u * 100);
   // A start that is not a number is left alone, and crashes nothing.
   std::vector<Segment> odd = {MakeSegment({0, 0}, {10, 0}), MakeSegment({10.5, 0}, {20, 0})};
