@@ -105,46 +105,35 @@ int RunRigSurvey(const RigSurveyRunOptions& o) {
   std::istringstream lines(list);
   std::vector<RigSurveyFrame> frames;
   std::vector<std::string> paths;
-  FrameResult detected;
-  cv::Mat image;
+  std::vector<cv::Mat> images(n);
   size_t line_number = 0;
   for (std::string line; std::getline(lines, line);) {
     ++line_number;
     const size_t start = line.find_first_not_of(" \t\r");
     if (start == std::string::npos || line[start] == '#') continue;
     const std::string where = o.frames_list + ", line " + std::to_string(line_number) + ": ";
-    RigSurveyFrame frame;
-    frame.timestamp = static_cast<double>(frames.size());
+    double timestamp = static_cast<double>(frames.size());
     std::string error;
-    if (!ParseFramesListLine(line, n, base, &frame.timestamp, &paths, &error))
+    if (!ParseFramesListLine(line, n, base, &timestamp, &paths, &error))
       return BadInput(where + error);
     for (size_t c = 0; c < n; ++c) {
+      images[c].release();
       if (paths[c].empty()) continue;
       const CameraModel& camera = est->camera(c).camera();
-      if (Status s = LoadImage(paths[c], max_pixels, &image); !s)
+      if (Status s = LoadImage(paths[c], max_pixels, &images[c]); !s)
         return BadInput(where + s.message());
-      if (image.cols != camera.width() || image.rows != camera.height())
-        return BadInput(where + paths[c] + ": " + std::to_string(image.cols) + "x" +
-                        std::to_string(image.rows) + " pixels, but camera '" + rig.cameras[c].name +
-                        "' is " + std::to_string(camera.width()) + "x" +
+      if (images[c].cols != camera.width() || images[c].rows != camera.height())
+        return BadInput(where + paths[c] + ": " + std::to_string(images[c].cols) + "x" +
+                        std::to_string(images[c].rows) + " pixels, but camera '" +
+                        rig.cameras[c].name + "' is " + std::to_string(camera.width()) + "x" +
                         std::to_string(camera.height()));
-      est->camera(c).Estimate(image, frame.timestamp, &detected);
-      for (MarkerObservation& m :
-           ObservationsFromDetections(detected.detections, est->layouts()[0])) {
-        m.camera = static_cast<int>(c);
-        frame.observations.push_back(std::move(m));
-      }
     }
-    frames.push_back(std::move(frame));
+    frames.push_back(RigSurveyFrameFromImages(*est, images, timestamp));
   }
   if (frames.empty()) return BadInput(o.frames_list + ": no frames (one line per time stamp)");
 
-  std::vector<RigCameraView> views(n);
-  for (size_t c = 0; c < n; ++c)
-    views[c] = {&est->camera(c).camera(), rig.cameras[c].rig_from_cam,
-                rig.cameras[c].rig_from_cam_covariance};
   RigSurveyResult result;
-  if (Status s = SurveyRig(views, frames, survey, &result); !s) {
+  if (Status s = SurveyRig(RigSurveyViews(*est), frames, survey, &result); !s) {
     std::cerr << kProgram << s.message() << "\n";
     return kExitFailed;
   }

@@ -7,9 +7,11 @@
 #include <cmath>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
 
 #include "bindings.h"
 #include "image_array.h"
+#include "svms/bundle/rig_survey.h"
 #include "svms/fusion/rig_pose_estimator.h"
 
 namespace svms::python {
@@ -45,6 +47,102 @@ struct PyRigPoseEstimator {
       std::lock_guard<std::mutex> lock(*mutex);
       estimator->Estimate(frames, timestamp, &out);
     }
+    return out;
+  }
+
+  // The rig's extrinsics surveyed from `frames` (bundle/rig_survey.h; `svms survey rig` on
+  // arrays): each entry (t, [image per camera or None]); `reference` the camera held fixed (its
+  // index or name). Returns a dict (see the binding's docstring).
+  py::dict SurveyExtrinsics(const py::list& frames, const py::object& reference) const {
+    const size_t n = estimator->num_cameras();
+    RigSurveyOptions survey;
+    survey.measurement = estimator->options().fusion;
+    for (const RigCamera& c : estimator->rig().cameras) survey.camera_names.push_back(c.name);
+    if (py::isinstance<py::str>(reference)) {
+      const std::string name = reference.cast<std::string>();
+      survey.reference_camera = -1;
+      for (size_t c = 0; c < n; ++c)
+        if (survey.camera_names[c] == name) survey.reference_camera = static_cast<int>(c);
+      if (survey.reference_camera < 0)
+        throw py::value_error("reference: no camera named '" + name + "' in the rig");
+    } else {
+      survey.reference_camera = reference.cast<int>();
+      if (survey.reference_camera < 0 || survey.reference_camera >= static_cast<int>(n))
+        throw py::value_error("reference: camera index " + std::to_string(survey.reference_camera) +
+                              " is not in the rig (0 to " + std::to_string(n - 1) + ")");
+    }
+    // Every frame checked and converted first (Estimate's checks), then detected without the GIL.
+    std::vector<std::vector<cv::Mat>> images;
+    std::vector<double> timestamps;
+    std::vector<py::array> keep;
+    for (size_t i = 0; i < frames.size(); ++i) {
+      const std::string where = "frames[" + std::to_string(i) + "]";
+      py::tuple entry;
+      try {
+        entry = frames[i].cast<py::tuple>();
+      } catch (const py::cast_error&) {
+        throw py::value_error(where + ": expected a (t, [image per camera]) pair");
+      }
+      if (entry.size() != 2)
+        throw py::value_error(where + ": expected a (t, [image per camera]) pair");
+      const double t = entry[0].cast<double>();
+      if (!std::isfinite(t)) throw py::value_error(where + ": expected a finite time stamp");
+      const py::list list = entry[1].cast<py::list>();
+      if (list.size() != n)
+        throw py::value_error(where + ": " + std::to_string(list.size()) +
+                              " images, expected one per camera of the rig (" + std::to_string(n) +
+                              "; None for no frame)");
+      std::vector<cv::Mat> mats(n);
+      for (size_t c = 0; c < n; ++c) {
+        if (list[c].is_none()) continue;
+        keep.push_back(list[c].cast<py::array>());
+        mats[c] = MatFromArray(keep.back());
+        const CameraModel& cam = estimator->camera(c).camera();
+        if (mats[c].cols != cam.width() || mats[c].rows != cam.height())
+          throw py::value_error(
+              where + "[" + std::to_string(c) + "]: " + std::to_string(mats[c].cols) + "x" +
+              std::to_string(mats[c].rows) + " pixels, but camera '" + survey.camera_names[c] +
+              "' is " + std::to_string(cam.width()) + "x" + std::to_string(cam.height()));
+      }
+      images.push_back(std::move(mats));
+      timestamps.push_back(t);
+    }
+    if (images.empty()) throw py::value_error("frames: expected at least one time stamp, got none");
+    RigSurveyResult result;
+    Status status;
+    {
+      py::gil_scoped_release release;
+      std::lock_guard<std::mutex> lock(*mutex);
+      std::vector<RigSurveyFrame> observed;
+      for (size_t i = 0; i < images.size(); ++i)
+        observed.push_back(RigSurveyFrameFromImages(*estimator, images[i], timestamps[i]));
+      status = SurveyRig(RigSurveyViews(*estimator), observed, survey, &result);
+    }
+    if (!status.ok()) throw std::runtime_error(status.message());
+    py::list cameras;
+    for (size_t c = 0; c < n; ++c) {
+      const RigSurveyCamera& k = result.cameras[c];
+      py::dict d;
+      d["name"] = survey.camera_names[c];
+      d["rig_from_cam"] = k.rig_from_cam;
+      d["covariance"] = k.covariance ? py::cast(Eigen::MatrixXd(*k.covariance)) : py::none();
+      d["reference"] = k.reference;
+      d["frames"] = k.frames;
+      d["markers"] = k.markers;
+      d["points"] = k.points;
+      d["points_rejected"] = k.points_rejected;
+      d["rms_px"] = k.rms_px;
+      d["rms_normalised"] = k.rms_normalised;
+      cameras.append(d);
+    }
+    py::dict out;
+    out["cameras"] = cameras;
+    out["frames_used"] = result.summary.frames_used;
+    out["chi2"] = result.summary.chi2;
+    out["dof"] = result.summary.dof;
+    out["noise_variance_factor"] = result.summary.noise_variance_factor;
+    out["layout_in_covariance"] = result.summary.layout_in_covariance;
+    out["calibration_in_covariance"] = result.summary.calibration_in_covariance;
     return out;
   }
 };
@@ -97,6 +195,18 @@ void BindRigPoseEstimator(py::module_& m) {
       .def("estimate", &PyRigPoseEstimator::Estimate, py::arg("images"), py::arg("t") = 0.0,
            "The fused rig_from_object of one time stamp: `images` one array per camera in the "
            "rig's order (None: no frame), `t` the time stamp. Returns a RigFrameResult.")
+      .def("survey_extrinsics", &PyRigPoseEstimator::SurveyExtrinsics, py::arg("frames"),
+           py::arg("reference") = 0,
+           "The rig's extrinsics surveyed from frames of this estimator's (first) layout, as "
+           "`svms survey rig` does (bundle/rig_survey.h): `frames` a list of (t, [image per "
+           "camera in the rig's order, None for no frame]); `reference` the camera held fixed "
+           "(index or name). Returns a dict: cameras (per camera: name, rig_from_cam (Pose), "
+           "covariance (6 x 6 [rotation about the rig axes, translation], None for a reference "
+           "camera without one), reference, frames, markers, points, points_rejected, rms_px, "
+           "rms_normalised), frames_used, chi2, dof, noise_variance_factor, "
+           "layout_in_covariance, calibration_in_covariance. Raises ValueError naming the frame "
+           "or camera for bad input, RuntimeError when the solve fails (e.g. a camera that "
+           "shares no time stamp with the reference).")
       .def_property_readonly("camera_names", [](const PyRigPoseEstimator& e) {
         std::vector<std::string> names;
         for (const RigCamera& c : e.estimator->rig().cameras) names.push_back(c.name);

@@ -73,6 +73,39 @@ class RigPoseEstimatorTest(unittest.TestCase):
         with self.assertRaisesRegex(ValueError, "one per camera of the rig"):
             rig.estimate([self.frame])
 
+    def test_survey_finds_a_camera_that_is_another_ones_twin(self):
+        # Camera b sees exactly what camera a sees, so it sits where a sits; the rig file puts it
+        # 0.02 rad and 30 mm away. The survey, with a held fixed, must move it back.
+        with tempfile.TemporaryDirectory() as d:
+            b = self.camera_entry("b")
+            b["rig_from_cam"] = {"rvec": [0.12, -0.2, 0.05], "tvec": [0.33, -0.1, 0.2]}
+            rig = svms.RigPoseEstimator.from_files(
+                self.write_rig(d, [self.camera_entry("a"), b]), self.layout_path)
+        r = rig.survey_extrinsics([(0.0, [self.frame, self.frame])], reference="a")
+        a_out, b_out = r["cameras"]
+        self.assertTrue(a_out["reference"])
+        self.assertFalse(b_out["reference"])
+        self.assertEqual(r["frames_used"], 1)
+        self.assertGreater(b_out["markers"], 0)
+        rvec, tvec = self.rig_from_cam
+        np.testing.assert_allclose(a_out["rig_from_cam"].rvec, rvec, atol=1e-12)
+        np.testing.assert_allclose(b_out["rig_from_cam"].rotation, rotation(rvec), atol=1e-6)
+        np.testing.assert_allclose(b_out["rig_from_cam"].tvec, tvec, atol=1e-6)
+        C = b_out["covariance"]
+        self.assertEqual(C.shape, (6, 6))
+        np.testing.assert_allclose(C, C.T, rtol=1e-9, atol=1e-18)
+        self.assertTrue(np.all(np.linalg.eigvalsh(C) > 0))
+        self.assertIsNone(a_out["covariance"])  # the reference had none in the rig file
+        with self.assertRaisesRegex(ValueError, r"frames\[0\]: 1 images, expected one per camera"):
+            rig.survey_extrinsics([(0.0, [self.frame])])
+        with self.assertRaisesRegex(ValueError, "reference: no camera named 'c'"):
+            rig.survey_extrinsics([(0.0, [self.frame, self.frame])], reference="c")
+        with self.assertRaisesRegex(ValueError, "at least one time stamp"):
+            rig.survey_extrinsics([])
+        # b alone at the only time stamp: nothing ties it to a.
+        with self.assertRaises(RuntimeError):
+            rig.survey_extrinsics([(0.0, [None, self.frame])], reference=0)
+
     def test_bad_rig_files_name_the_file_and_field(self):
         with tempfile.TemporaryDirectory() as d:
             entry = self.camera_entry("a")

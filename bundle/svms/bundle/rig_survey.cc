@@ -621,4 +621,30 @@ Status SurveyRig(const std::vector<RigCameraView>& cameras,
   return solver.Run();
 }
 
+RigSurveyFrame RigSurveyFrameFromImages(const RigPoseEstimator& estimator,
+                                        const std::vector<cv::Mat>& images, double timestamp) {
+  RigSurveyFrame frame;
+  frame.timestamp = timestamp;
+  FrameResult detected;
+  for (size_t c = 0; c < images.size() && c < estimator.num_cameras(); ++c) {
+    if (images[c].empty()) continue;
+    estimator.camera(c).Estimate(images[c], timestamp, &detected);
+    for (MarkerObservation& m :
+         ObservationsFromDetections(detected.detections, estimator.layouts()[0])) {
+      m.camera = static_cast<int>(c);
+      frame.observations.push_back(std::move(m));
+    }
+  }
+  return frame;
+}
+
+std::vector<RigCameraView> RigSurveyViews(const RigPoseEstimator& estimator) {
+  std::vector<RigCameraView> views(estimator.num_cameras());
+  for (size_t c = 0; c < views.size(); ++c) {
+    const RigCamera& rc = estimator.rig().cameras[c];
+    views[c] = {&estimator.camera(c).camera(), rc.rig_from_cam, rc.rig_from_cam_covariance};
+  }
+  return views;
+}
+
 }  // namespace svms

@@ -42,6 +42,7 @@
 
 #include "svms/base/status.h"
 #include "svms/fusion/object_pose.h"
+#include "svms/fusion/rig_pose_estimator.h"
 #include "svms/geometry/pose.h"
 
 namespace svms {
@@ -136,5 +137,14 @@ struct RigSurveyResult {
 Status SurveyRig(const std::vector<RigCameraView>& cameras,
                  const std::vector<RigSurveyFrame>& frames, const RigSurveyOptions& options,
                  RigSurveyResult* result);
+
+// The observations of one time stamp from the rig's frames: images[c] (empty: no frame from
+// camera c) detected and fused by `estimator`'s camera c alone (its PoseEstimator), its markers
+// of layout 0 tagged with camera c. `images` holds one entry per camera (checked by the caller).
+RigSurveyFrame RigSurveyFrameFromImages(const RigPoseEstimator& estimator,
+                                        const std::vector<cv::Mat>& images, double timestamp);
+// `estimator`'s cameras as SurveyRig takes them: each one's model (owned by the estimator),
+// rig_from_cam and its covariance from the rig file.
+std::vector<RigCameraView> RigSurveyViews(const RigPoseEstimator& estimator);
 
 }  // namespace svms
