@@ -105,8 +105,10 @@ int Prepare(Batch* b) {
 
 // One linear image (of `name`, frame `frame` of a video or -1) into its JSON line `j`, its
 // detections into *found_out (optional); the first failure in *error.
-void Measure(Batch& b, const cv::Mat& linear, const std::string& name, int frame, nlohmann::json* j,
-             std::string* error, std::vector<Detection>* found_out = nullptr) {
+// `noise`: a raw frame's noise from its stored values (Photometry::Load), when valid.
+void Measure(Batch& b, const cv::Mat& linear, const NoiseModel& noise, const std::string& name,
+             int frame, nlohmann::json* j, std::string* error,
+             std::vector<Detection>* found_out = nullptr) {
   const CameraModel& camera = b.camera;
   if (linear.cols < 16 || linear.rows < 16) {
     *error = name + ": " + std::to_string(linear.cols) + "x" + std::to_string(linear.rows) +
@@ -121,7 +123,9 @@ void Measure(Batch& b, const cv::Mat& linear, const std::string& name, int frame
   }
   const auto t0 = std::chrono::steady_clock::now();
   DetectionStats stats;
-  const std::vector<Detection> found = b.detector->Detect(linear, &stats);
+  std::vector<Detection> found;
+  b.detector->Detect(linear, &stats, std::chrono::steady_clock::time_point::max(), &found,
+                     noise.valid() ? &noise : nullptr);
   (*j)["ms"] =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   nlohmann::json ds = nlohmann::json::array();
@@ -152,13 +156,14 @@ std::string ProcessImage(Batch& b, size_t i) {
   nlohmann::json j;
   SetPath(j, "image", f);
   cv::Mat linear, stored;
+  NoiseModel noise;
   nlohmann::json photometric;
   try {
     std::vector<Detection> found;
-    if (Status s = b.photometry.Load(f, b.max_pixels, &linear, &photometric, &stored); !s)
+    if (Status s = b.photometry.Load(f, b.max_pixels, &linear, &photometric, &stored, &noise); !s)
       b.errors[i] = s.message();
     else
-      Measure(b, linear, f, -1, &j, &b.errors[i], &found);
+      Measure(b, linear, noise, f, -1, &j, &b.errors[i], &found);
     if (!photometric.is_null()) {
       // A response not declared by the file itself is checked against the image's edges, on
       // the first few images of the run (it is a setting of the run, and the check costs a
@@ -206,10 +211,11 @@ int ProcessVideo(Batch& b, size_t i, bool* unopenable) {
     j["frame"] = index;
     j["timestamp"] = t;
     std::string error;
-    if (Status s = b.photometry.LinearizeFrame(frame, "srgb", &linear, &photometric); !s)
+    NoiseModel noise;
+    if (Status s = b.photometry.LinearizeFrame(frame, "srgb", &linear, &photometric, &noise); !s)
       error = file + ", frame " + std::to_string(index) + ": " + s.message();
     else
-      Measure(b, linear, file, index, &j, &error);
+      Measure(b, linear, noise, file, index, &j, &error);
     j["photometry"] = photometric;
     if (!error.empty()) {
       j["error"] = error;

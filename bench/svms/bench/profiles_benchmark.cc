@@ -136,7 +136,14 @@ Status RunSet(const SetRun& run, const ProfilesBenchmarkOptions& o,
           }
           DetectionStats stats;
           const auto t0 = std::chrono::steady_clock::now();
-          const std::vector<Detection> found = detectors[p]->Detect(linear, &stats);
+          // A raw frame's noise from its stored values, as svms detect and PoseEstimator take it.
+          NoiseModel stored_noise;
+          const bool have_noise =
+              EstimateStoredNoise(decoded, readers[p].model(),
+                                  std::chrono::steady_clock::time_point::max(), &stored_noise);
+          std::vector<Detection> found;
+          detectors[p]->Detect(linear, &stats, std::chrono::steady_clock::time_point::max(), &found,
+                               have_noise ? &stored_noise : nullptr);
           ViewTiming t;
           t.profile = profiles[p], t.set = run.name, t.textured = run.textured;
           t.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)

@@ -170,6 +170,12 @@ Status PoseEstimator::CreateFromFiles(const std::string& camera_path,
 
 void PoseEstimator::Estimate(const cv::Mat& image, double timestamp, FrameResult* out) const {
   if (!options_.photometric) return EstimateLinear(image, timestamp, out);
+  // A raw frame's noise from its stored values, below the black level included (the linear
+  // image clips them at 0). A sixteenth of the pixels, read before the frame's time budget
+  // starts, as the conversion to linear light is.
+  NoiseModel stored_noise;
+  const bool have_noise = EstimateStoredNoise(
+      image, *options_.photometric, std::chrono::steady_clock::time_point::max(), &stored_noise);
   thread_local cv::Mat linear;  // reused: no allocation per frame of one size
   if (Status s = linearizer_.Apply(image, &linear); !s) {
     *out = FrameResult();
@@ -181,10 +187,11 @@ void PoseEstimator::Estimate(const cv::Mat& image, double timestamp, FrameResult
     }
     return;
   }
-  EstimateLinear(linear, timestamp, out);
+  EstimateLinear(linear, timestamp, out, have_noise ? &stored_noise : nullptr);
 }
 
-void PoseEstimator::EstimateLinear(const cv::Mat& image, double timestamp, FrameResult* out) const {
+void PoseEstimator::EstimateLinear(const cv::Mat& image, double timestamp, FrameResult* out,
+                                   const NoiseModel* noise) const {
   const auto t0 = Clock::now();
   out->timestamp = timestamp;
   DetectionStats stats;
@@ -194,7 +201,7 @@ void PoseEstimator::EstimateLinear(const cv::Mat& image, double timestamp, Frame
                      std::chrono::duration<double, std::milli>(options_.budget_ms))
           : Clock::time_point::max();
   // One detection pass for every layout: the detector knows the models of all of them.
-  detector_.Detect(image, &stats, deadline, &out->detections);
+  detector_.Detect(image, &stats, deadline, &out->detections, noise);
   out->detection_passes = 1;
   const auto t1 = Clock::now();
   out->detect_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();

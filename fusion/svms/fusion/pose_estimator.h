@@ -96,7 +96,10 @@ class PoseEstimator {
   // options().photometric. `timestamp` is passed through. *out holds one ObjectPose per layout.
   void Estimate(const cv::Mat& image, double timestamp, FrameResult* out) const;
   // One frame already in linear light (LinearizeImage): what Estimate does after converting.
-  void EstimateLinear(const cv::Mat& linear, double timestamp, FrameResult* out) const;
+  // `noise`, when given: the frame's noise in the linear image's units (Detector::Detect); a raw
+  // frame's, measured by Estimate on its stored values (EstimateStoredNoise).
+  void EstimateLinear(const cv::Mat& linear, double timestamp, FrameResult* out,
+                      const NoiseModel* noise = nullptr) const;
 
   const CameraModel& camera() const { return camera_; }
   const Layout& layout() const { return layouts_.front(); }  // layout 0

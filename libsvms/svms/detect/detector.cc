@@ -143,17 +143,21 @@ bool PrepareImages(const cv::Mat& input, DetectScratch* sc, StepImages* im) {
   return gray.cols >= 8 && gray.rows >= 8;
 }
 
-// 1-3. Edges, chains, segments into sc->segments. A 16-bit image's noise is estimated from the
-// image at its full depth (noise_model.h: black backgrounds clipped at 0 and saturated glints
-// left out) and the edges are searched on a scale where it is the same everywhere. False when
-// `deadline` passed before every edge chain was processed (sc->segments then holds a part, or
-// nothing), the noise estimate and the edge map included.
+// 1-3. Edges, chains, segments into sc->segments. A 16-bit image's noise is `given_noise` when
+// valid, else estimated from the image at its full depth (noise_model.h: black backgrounds
+// clipped at 0 and saturated glints left out), and the edges are searched on a scale where it is
+// the same everywhere. False when `deadline` passed before every edge chain was processed
+// (sc->segments then holds a part, or nothing), the noise estimate and the edge map included.
 bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, DetectScratch* sc,
-                      DetectionStats* stats, Clock::time_point deadline, WorkerPool* pool) {
+                      DetectionStats* stats, Clock::time_point deadline, WorkerPool* pool,
+                      const NoiseModel* given_noise) {
   const cv::Mat* edge_image = &im.gray;
   SegmentOptions segment_options = options;
   if (im.measure.depth() == CV_16U) {
-    if (!EstimateNoise(im.measure, deadline, &stats->noise)) return false;
+    if (given_noise && given_noise->valid())
+      stats->noise = *given_noise;
+    else if (!EstimateNoise(im.measure, deadline, &stats->noise))
+      return false;
     // An image whose codes hide its noise (a JPEG's flat areas: read and gain 0, valid) is
     // searched on the shot noise's square-root scale with the thresholds at their floor below:
     // its edges are as clean as its codes allow.
@@ -442,7 +446,7 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
 }
 
 void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::time_point deadline,
-                      std::vector<Detection>* detections) const {
+                      std::vector<Detection>* detections, const NoiseModel* noise) const {
   thread_local DetectScratch sc;
   DetectionStats stats;
   const DetectorOptions& o = options_;
@@ -467,7 +471,8 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   // Past the deadline in steps 1-4 the frame ends there, flagged, with no detections: a part of
   // the edges or quads would find the markers of a part of the image, which a caller could not
   // tell from a frame without the others.
-  const bool edges_complete = FindEdgeSegments(im, o.segments, &sc, &stats, deadline, pool_.get());
+  const bool edges_complete =
+      FindEdgeSegments(im, o.segments, &sc, &stats, deadline, pool_.get(), noise);
   auto t1 = Clock::now();
   stats.ms[0] = Ms(t0, t1);
   if (!edges_complete) {

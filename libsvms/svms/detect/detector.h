@@ -173,9 +173,13 @@ class Detector {
   // the caller, an 8-bit single-channel image and a camera that is pinhole or one of mrcal's
   // models with gradients, a warmed-up call makes no heap allocation (other depths and colour
   // images are converted into a new buffer).
+  // `noise`, when given and valid: the frame's noise in `image`'s units, used instead of the
+  // estimate from `image` (a 16-bit image's): EstimateStoredNoise (noise_model.h) measures a raw
+  // frame's noise on its stored values, below the black level included, which the linear image
+  // has lost.
   void Detect(const cv::Mat& image, DetectionStats* stats,
-              std::chrono::steady_clock::time_point deadline,
-              std::vector<Detection>* detections) const;
+              std::chrono::steady_clock::time_point deadline, std::vector<Detection>* detections,
+              const NoiseModel* noise = nullptr) const;
 
   const DetectorOptions& options() const { return options_; }
 

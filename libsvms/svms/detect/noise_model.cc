@@ -110,16 +110,19 @@ bool MakeLadder(const cv::Mat& img, Ladder* ladder, bool* is_ladder, Clock::time
 // False when `deadline` (read every 64 rows) passed. With `ladder` (16-bit images), the
 // Laplacian is taken on the codes and each bin's step^2 summed into *step2_sum.
 template <typename T>
-bool Sample(const cv::Mat& img, int full, const Ladder* ladder,
+bool Sample(const cv::Mat& img, int black, int full, const Ladder* ladder,
             std::array<std::vector<int>, kBins>* r, std::array<double, kBins>* level_sum,
             std::array<double, kBins>* step2_sum, Clock::time_point deadline) {
-  // The bin of a level, uniform in sqrt(level / full), from a table over level / 16.
+  // The bin of a level, uniform in sqrt((level - black) / (full - black)) (bin 0 below black),
+  // from a table over level / 16.
   thread_local std::vector<uint8_t> bin_of;
   const int shift = full > 255 ? 4 : 0;
   bin_of.resize(static_cast<size_t>((full >> shift) + 1));
-  for (size_t i = 0; i < bin_of.size(); ++i)
-    bin_of[i] = static_cast<uint8_t>(std::min(
-        kBins - 1, static_cast<int>(kBins * std::sqrt(static_cast<double>(i << shift) / full))));
+  for (size_t i = 0; i < bin_of.size(); ++i) {
+    const double above = std::max(0, static_cast<int>(i << shift) - black);
+    bin_of[i] = static_cast<uint8_t>(
+        std::min(kBins - 1, static_cast<int>(kBins * std::sqrt(above / (full - black)))));
+  }
   for (int y = 1; y + 1 < img.rows; y += kStride) {
     if ((y / kStride) % 16 == 15 && Past(deadline)) return false;
     const T *up = img.ptr<T>(y - 1), *row = img.ptr<T>(y), *down = img.ptr<T>(y + 1);
@@ -154,22 +157,33 @@ NoiseModel EstimateNoise(const cv::Mat& img) {
   return out;
 }
 
-bool EstimateNoise(const cv::Mat& img, Clock::time_point deadline, NoiseModel* noise) {
+namespace {
+
+// EstimateNoise, with the levels measured from `black` (the stored frame's zero; 0 for a linear
+// image) and `white` the saturation (0: the depth's largest value), which also sets the bins.
+// The clip at 0 is what it is in either case: a sample with a 0 among its pixels is left out,
+// and so is a bin whose mean is within 3 sigmas of 0.
+bool EstimateNoiseFrom(const cv::Mat& img, double black, double white, Clock::time_point deadline,
+                       NoiseModel* noise) {
   NoiseModel& out = *noise;
   out = NoiseModel();
   if (img.rows < 8 || img.cols < 8 || (img.type() != CV_8UC1 && img.type() != CV_16UC1))
     return true;
   const bool eight = img.depth() == CV_8U;
-  const int full = eight ? 255 : 65535;
+  const int depth_max = eight ? 255 : 65535;
+  const int full =
+      white > 0 ? std::min(depth_max, static_cast<int>(std::lround(white))) : depth_max;
   thread_local std::array<std::vector<int>, kBins> r;
   thread_local Ladder ladder;
   std::array<double, kBins> level_sum{}, step2_sum{};
   for (auto& v : r) v.clear();
   bool is_ladder = false;
   if (!eight && !MakeLadder(img, &ladder, &is_ladder, deadline)) return false;
-  if (!(eight ? Sample<uint8_t>(img, full, nullptr, &r, &level_sum, &step2_sum, deadline)
-              : Sample<uint16_t>(img, full, is_ladder ? &ladder : nullptr, &r, &level_sum,
-                                 &step2_sum, deadline)))
+  const int black_code = std::clamp(static_cast<int>(std::lround(black)), 0, full - 1);
+  if (!(eight
+            ? Sample<uint8_t>(img, black_code, full, nullptr, &r, &level_sum, &step2_sum, deadline)
+            : Sample<uint16_t>(img, black_code, full, is_ladder ? &ladder : nullptr, &r, &level_sum,
+                               &step2_sum, deadline)))
     return false;
   // Per bin: its mean level and the noise variance from the quantile of |Laplacian|.
   struct Bin {
@@ -211,8 +225,9 @@ bool EstimateNoise(const cv::Mat& img, Clock::time_point deadline, NoiseModel* n
     // Linear units per code squared: 1 for 8 bits, the ladder's step^2 over the bin's samples.
     const double step2 = is_ladder ? step2_sum[b] / n : 1.0;
     const double sigma = sigma_code * std::sqrt(step2);
-    const double level = level_sum[b] / n;
-    if (level < 3 * sigma) continue;  // too near the clip at 0 to show its full spread
+    const double stored_level = level_sum[b] / n;
+    if (stored_level < 3 * sigma) continue;  // too near the clip at 0 to show its full spread
+    const double level = stored_level - black;
     const double var = (sigma_code * sigma_code - 1.0 / 12) * step2;
     // A variance estimate from n samples has a relative sigma of about sqrt(2 / n) (more for a
     // quantile); weight by its inverse variance.
@@ -261,6 +276,42 @@ bool EstimateNoise(const cv::Mat& img, Clock::time_point deadline, NoiseModel* n
   out.read_sigma = std::sqrt(a);
   out.shot_gain = g;
   out.bins = static_cast<int>(bins.size());
+  return true;
+}
+
+}  // namespace
+
+bool EstimateNoise(const cv::Mat& img, Clock::time_point deadline, NoiseModel* noise) {
+  return EstimateNoiseFrom(img, 0, 0, deadline, noise);
+}
+
+bool EstimateStoredNoise(const cv::Mat& stored, const PhotometricModel& model,
+                         Clock::time_point deadline, NoiseModel* linear_noise) {
+  if (stored.channels() != 1 || (stored.depth() != CV_8U && stored.depth() != CV_16U) ||
+      model.bayer != BayerPattern::kNone || model.response.kind() != Response::Kind::kLinear ||
+      !(model.black_level > 0))
+    return false;
+  const double white =
+      model.white_level > 0 ? model.white_level : (stored.depth() == CV_8U ? 255.0 : 65535.0);
+  if (!(white > model.black_level)) return false;
+  // A frame with no value below its black level was clipped there (some cameras do): its dark
+  // areas hold less than the noise, as the linear image's do. Every 4th pixel of every 4th row.
+  const int black = static_cast<int>(std::ceil(model.black_level));
+  bool below = false;
+  for (int y = 0; y < stored.rows && !below; y += kStride) {
+    if (stored.depth() == CV_8U) {
+      const uint8_t* p = stored.ptr<uint8_t>(y);
+      for (int x = 0; x < stored.cols && !below; x += kStride) below = p[x] < black;
+    } else {
+      const uint16_t* p = stored.ptr<uint16_t>(y);
+      for (int x = 0; x < stored.cols && !below; x += kStride) below = p[x] < black;
+    }
+  }
+  if (!below) return false;
+  NoiseModel noise;
+  if (!EstimateNoiseFrom(stored, model.black_level, white, deadline, &noise)) return false;
+  // The linear image is (stored - black) 65535 / (white - black) (Linearizer, photometric.h).
+  *linear_noise = noise.Scaled(65535.0 / (white - model.black_level));
   return true;
 }
 

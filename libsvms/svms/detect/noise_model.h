@@ -27,6 +27,8 @@
 #include <chrono>
 #include <opencv2/core.hpp>
 
+#include "svms/camera/photometric.h"
+
 namespace svms {
 
 struct NoiseModel {
@@ -47,6 +49,16 @@ NoiseModel EstimateNoise(const cv::Mat& linear);
 // The same under a deadline, read every 64 rows: false, with *noise invalid, once it has passed.
 bool EstimateNoise(const cv::Mat& linear, std::chrono::steady_clock::time_point deadline,
                    NoiseModel* noise);
+
+// The noise of a frame as the sensor stored it, measured on its own values from the black level
+// up, in the units of the linear image LinearizeImage makes of it (`model`'s): a dark
+// background's values below the black level show the read noise that the linear image, clipped
+// at 0, hides. Applies to one-channel 8- or 16-bit frames of a linear response with a black
+// level above 0 and no Bayer mosaic (raw frames) that hold values below their black level (a
+// frame clipped at black holds no more than its linear image); false where it does not (then
+// estimate on the linear image) or once `deadline` (read every 64 rows) passed.
+bool EstimateStoredNoise(const cv::Mat& stored, const PhotometricModel& model,
+                         std::chrono::steady_clock::time_point deadline, NoiseModel* linear_noise);
 
 // The 16-bit linear image on a scale where `noise` is the same at every brightness (the
 // generalised Anscombe transform T(L) = 2 / g (sqrt(g L + r^2) - r) for read noise r and shot

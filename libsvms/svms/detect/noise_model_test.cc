@@ -211,6 +211,52 @@ TEST(EstimateNoise, ARaw12FrameScaledTo16BitsGivesItsReadNoise) {
 // third output code never used: a combed histogram) and written in 16 bits. Its ranks skip the
 // unused codes everywhere, so a rank is 1.5 codes on average, not the smaller gap: read noise
 // 2 input codes (770 units) and gain 20 must come back within 25 % and 15 %.
+// The same raw12 frames measured as stored (EstimateStoredNoise): the black rows' values around
+// the black level, below it included, give the read noise itself, within 15 % here (35 % from
+// the linear image, where the black is clipped), in the linear image's units.
+TEST(EstimateNoise, ARawFramesOwnValuesBelowBlackGiveItsReadNoise) {
+  const double unit = 65535.0 / 15000, read = 4 * unit, gain = unit;
+  PhotometricModel pm;
+  pm.black_level = 256;
+  pm.white_level = 4095;
+  const double code = 65535.0 / (4095 - 256);  // linear units per stored code
+  for (uint32_t seed : {9u, 10u, 11u}) {
+    const cv::Mat lin16 =
+        Patches({0, 300, 800, 2000, 5000, 9000, 16000, 40000}, read, gain, seed, 1024);
+    cv::Mat raw(lin16.size(), CV_16UC1);
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> n01(0, 1);
+    for (int y = 0; y < lin16.rows; ++y)
+      for (int x = 0; x < lin16.cols; ++x) {
+        const double lin = y < 128 ? read * n01(rng) : lin16.at<uint16_t>(y, x);
+        raw.at<uint16_t>(y, x) =
+            static_cast<uint16_t>(std::clamp(std::lround(256 + lin / code), 0L, 4095L));
+      }
+    NoiseModel m;
+    ASSERT_TRUE(EstimateStoredNoise(raw, pm, std::chrono::steady_clock::time_point::max(), &m));
+    ASSERT_TRUE(m.valid());
+    EXPECT_NEAR(m.read_sigma, read, 0.15 * read) << "seed " << seed;
+    EXPECT_NEAR(m.shot_gain, gain, 0.1 * gain) << "seed " << seed;
+  }
+  // Where the stored values hold nothing the linear image does not: no estimate.
+  const cv::Mat img = Patches({500, 2000}, 30, 2.0, 1);
+  NoiseModel m;
+  const auto forever = std::chrono::steady_clock::time_point::max();
+  PhotometricModel srgb;
+  srgb.response = Response::Srgb();
+  srgb.black_level = 256;
+  PhotometricModel no_black;
+  PhotometricModel mosaic = pm;
+  mosaic.bayer = BayerPattern::kRggb;
+  for (const PhotometricModel& other : {srgb, no_black, mosaic})
+    EXPECT_FALSE(EstimateStoredNoise(img, other, forever, &m));
+  // A frame clipped at its black level (nothing below 256): its dark areas hide the noise.
+  cv::Mat clipped;
+  cv::max(Patches({0, 300, 800, 2000}, 17.5, 4.4, 9, 256), 256, clipped);
+  EXPECT_FALSE(EstimateStoredNoise(clipped, pm, forever, &m));
+  EXPECT_FALSE(EstimateStoredNoise(img, pm, std::chrono::steady_clock::now(), &m));
+}
+
 TEST(EstimateNoise, ALevelsStretchedImageWithACombedHistogramGivesItsNoise) {
   const double read = 2 * 65535.0 / 170, gain = 20;
   for (uint32_t seed : {13u, 14u}) {

@@ -57,7 +57,9 @@ cv::Mat Renderer::Expose(const cv::Mat& radiance, int view, const Sensor& s) con
   }
   const double max_dn = s.bits == 16 ? 65535.0 : 255.0;
   const double black = s.black_level, span = s.white_level() - s.black_level;
-  // Linear: DN = black + electrons * (span / full_well), clipped to [black, white]. Written
+  // Linear: DN = black + electrons * (span / full_well), clipped to [0, white]: as a raw sensor
+  // stores it, the read noise of a dark pixel goes below the black level (down to 0), which is
+  // what the black level is for; a reader's linear image clips it at black. Written
   // with the product first (not s * span) so that the default sensor (black 0, span 2^bits - 1)
   // rounds exactly as round(electrons * (2^bits - 1) / full_well) does, bit for bit: the images
   // the datasets' results were measured on.
@@ -81,7 +83,7 @@ cv::Mat Renderer::Expose(const cv::Mat& radiance, int view, const Sensor& s) con
       }
       if (s.read_noise > 0) electrons += s.read_noise * gauss(rng);
       const double signal =
-          linear ? std::clamp(electrons * dn_per_electron, 0.0, span)
+          linear ? std::clamp(electrons * dn_per_electron, -black, span)
                  : response.FromLinear(std::clamp(electrons / s.full_well, 0.0, 1.0)) * span;
       const double dn = std::clamp(std::round(black + signal), 0.0, max_dn);
       if (s.bits == 16) {

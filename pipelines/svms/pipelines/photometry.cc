@@ -106,16 +106,22 @@ nlohmann::json PhotometryJson(const PhotometricModel& m, double depth_max,
 }  // namespace
 
 Status Photometry::LinearizeFrame(const cv::Mat& frame, const std::string& declared,
-                                  cv::Mat* linear, nlohmann::json* json) const {
+                                  cv::Mat* linear, nlohmann::json* json,
+                                  NoiseModel* stored_noise) const {
   const double depth_max = frame.depth() == CV_16U ? 65535 : 255;
   PhotometrySource source;
   const PhotometricModel m = Resolve(depth_max, declared, &source);
   if (json) *json = PhotometryJson(m, depth_max, source);
+  if (stored_noise) {
+    *stored_noise = NoiseModel();
+    EstimateStoredNoise(frame, m, std::chrono::steady_clock::time_point::max(), stored_noise);
+  }
   return LinearizeImage(frame, m, linear);
 }
 
 Status Photometry::Load(const std::string& path, int64_t max_pixels, cv::Mat* linear,
-                        nlohmann::json* json, cv::Mat* stored_grey) const {
+                        nlohmann::json* json, cv::Mat* stored_grey,
+                        NoiseModel* stored_noise) const {
   cv::Mat stored;
   ImageHeader header;
   if (Status s = LoadStoredImage(path, max_pixels, &stored, &header); !s) return s;
@@ -125,7 +131,7 @@ Status Photometry::Load(const std::string& path, int64_t max_pixels, cv::Mat* li
     else
       *stored_grey = stored;
   }
-  if (Status s = LinearizeFrame(stored, header.declared_response, linear, json); !s)
+  if (Status s = LinearizeFrame(stored, header.declared_response, linear, json, stored_noise); !s)
     return Status::Error(path + ": " + s.message());
   return Status::Ok();
 }

@@ -10,6 +10,7 @@
 
 #include "svms/base/status.h"
 #include "svms/camera/photometric.h"
+#include "svms/detect/noise_model.h"
 
 namespace svms {
 
@@ -59,12 +60,15 @@ class Photometry {
   // Loads an image file (at most `max_pixels`, checked from its header) and linearises it
   // (LoadStoredImage, LinearizeImage). *json gets {"response", "black_level", "white_level",
   // "bayer", "demosaic", "source"}; *stored_grey (optional) the image as stored, one channel
-  // (colour turned to grey on the stored values).
+  // (colour turned to grey on the stored values); *stored_noise (optional) the noise a raw
+  // frame's stored values show, in the linear image's units (EstimateStoredNoise, noise_model.h;
+  // invalid where that does not apply), for Detector::Detect.
   Status Load(const std::string& path, int64_t max_pixels, cv::Mat* linear, nlohmann::json* json,
-              cv::Mat* stored_grey = nullptr) const;
-  // Linearises a decoded frame (a video's: 8-bit BGR, which declares sRGB).
+              cv::Mat* stored_grey = nullptr, NoiseModel* stored_noise = nullptr) const;
+  // Linearises a decoded frame (a video's: 8-bit BGR, which declares sRGB); *stored_noise as
+  // Load's.
   Status LinearizeFrame(const cv::Mat& frame, const std::string& declared, cv::Mat* linear,
-                        nlohmann::json* json) const;
+                        nlohmann::json* json, NoiseModel* stored_noise = nullptr) const;
 
  private:
   PhotometryOptions options_;
