@@ -41,6 +41,24 @@ cv::Mat SrgbEncode8(const cv::Mat& lin16) {
   return srgb8;
 }
 
+// A raw12 frame as a sensor stores it (12 bits above a black level of 256 in 16-bit words) of
+// Patches' levels (the first band black, with its read noise on both sides of the black level,
+// as a raw frame keeps it), in linear 16-bit units `read` and `gain`.
+cv::Mat Raw12Frame(double read, double gain, uint32_t seed) {
+  const cv::Mat lin16 =
+      Patches({0, 300, 800, 2000, 5000, 9000, 16000, 40000}, read, gain, seed, 1024);
+  cv::Mat raw(lin16.size(), CV_16UC1);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n01(0, 1);
+  for (int y = 0; y < lin16.rows; ++y)
+    for (int x = 0; x < lin16.cols; ++x) {
+      const double lin = y < 128 ? read * n01(rng) : lin16.at<uint16_t>(y, x);
+      raw.at<uint16_t>(y, x) = static_cast<uint16_t>(
+          std::clamp(std::lround(256 + lin / 65535.0 * (4095 - 256)), 0L, 4095L));
+    }
+  return raw;
+}
+
 TEST(EstimateNoise, RecoversReadNoiseAndGainOnFlatPatches) {
   const cv::Mat img = Patches({500, 2000, 8000, 20000, 40000}, 30, 2.0, 1);
   const NoiseModel m = EstimateNoise(img);
@@ -186,18 +204,7 @@ TEST(EstimateNoise, ARaw12FrameScaledTo16BitsGivesItsReadNoise) {
   pm.black_level = 256;
   pm.white_level = 4095;
   for (uint32_t seed : {9u, 10u, 11u}) {
-    const cv::Mat lin16 =
-        Patches({0, 300, 800, 2000, 5000, 9000, 16000, 40000}, read, gain, seed, 1024);
-    cv::Mat raw(lin16.size(), CV_16UC1);
-    std::mt19937 rng(seed);
-    std::normal_distribution<double> n01(0, 1);
-    for (int y = 0; y < lin16.rows; ++y)
-      for (int x = 0; x < lin16.cols; ++x) {
-        // The black rows again from the unclipped noise: a raw frame keeps it below black.
-        const double lin = y < 128 ? read * n01(rng) : lin16.at<uint16_t>(y, x);
-        raw.at<uint16_t>(y, x) = static_cast<uint16_t>(
-            std::clamp(std::lround(256 + lin / 65535.0 * (4095 - 256)), 0L, 4095L));
-      }
+    const cv::Mat raw = Raw12Frame(read, gain, seed);
     cv::Mat back;
     ASSERT_TRUE(LinearizeImage(raw, pm, &back).ok());
     const NoiseModel m = EstimateNoise(back);
@@ -207,10 +214,6 @@ TEST(EstimateNoise, ARaw12FrameScaledTo16BitsGivesItsReadNoise) {
   }
 }
 
-// An 8-bit linear capture whose levels were stretched by 1.5 (codes 0-170 to 0-255, every
-// third output code never used: a combed histogram) and written in 16 bits. Its ranks skip the
-// unused codes everywhere, so a rank is 1.5 codes on average, not the smaller gap: read noise
-// 2 input codes (770 units) and gain 20 must come back within 25 % and 15 %.
 // The same raw12 frames measured as stored (EstimateStoredNoise): the black rows' values around
 // the black level, below it included, give the read noise itself, within 15 % here (35 % from
 // the linear image, where the black is clipped), in the linear image's units.
@@ -219,19 +222,8 @@ TEST(EstimateNoise, ARawFramesOwnValuesBelowBlackGiveItsReadNoise) {
   PhotometricModel pm;
   pm.black_level = 256;
   pm.white_level = 4095;
-  const double code = 65535.0 / (4095 - 256);  // linear units per stored code
   for (uint32_t seed : {9u, 10u, 11u}) {
-    const cv::Mat lin16 =
-        Patches({0, 300, 800, 2000, 5000, 9000, 16000, 40000}, read, gain, seed, 1024);
-    cv::Mat raw(lin16.size(), CV_16UC1);
-    std::mt19937 rng(seed);
-    std::normal_distribution<double> n01(0, 1);
-    for (int y = 0; y < lin16.rows; ++y)
-      for (int x = 0; x < lin16.cols; ++x) {
-        const double lin = y < 128 ? read * n01(rng) : lin16.at<uint16_t>(y, x);
-        raw.at<uint16_t>(y, x) =
-            static_cast<uint16_t>(std::clamp(std::lround(256 + lin / code), 0L, 4095L));
-      }
+    const cv::Mat raw = Raw12Frame(read, gain, seed);
     NoiseModel m;
     ASSERT_TRUE(EstimateStoredNoise(raw, pm, std::chrono::steady_clock::time_point::max(), &m));
     ASSERT_TRUE(m.valid());
@@ -257,6 +249,10 @@ TEST(EstimateNoise, ARawFramesOwnValuesBelowBlackGiveItsReadNoise) {
   EXPECT_FALSE(EstimateStoredNoise(img, pm, std::chrono::steady_clock::now(), &m));
 }
 
+// An 8-bit linear capture whose levels were stretched by 1.5 (codes 0-170 to 0-255, every
+// third output code never used: a combed histogram) and written in 16 bits. Its ranks skip the
+// unused codes everywhere, so a rank is 1.5 codes on average, not the smaller gap: read noise
+// 2 input codes (770 units) and gain 20 must come back within 25 % and 15 %.
 TEST(EstimateNoise, ALevelsStretchedImageWithACombedHistogramGivesItsNoise) {
   const double read = 2 * 65535.0 / 170, gain = 20;
   for (uint32_t seed : {13u, 14u}) {
