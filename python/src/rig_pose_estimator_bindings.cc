@@ -22,25 +22,47 @@ struct PyRigPoseEstimator {
   std::unique_ptr<RigPoseEstimator> estimator;
   std::unique_ptr<std::mutex> mutex = std::make_unique<std::mutex>();
 
-  RigFrameResult Estimate(const py::list& images, double timestamp) const {
-    if (!std::isfinite(timestamp))
-      throw py::value_error("t: expected a finite time stamp (seconds)");
-    if (images.size() != estimator->num_cameras())
-      throw py::value_error("images: got " + std::to_string(images.size()) +
-                            ", expected one per camera of the rig (" +
-                            std::to_string(estimator->num_cameras()) + "; None for no frame)");
-    std::vector<cv::Mat> frames(images.size());
-    for (size_t c = 0; c < frames.size(); ++c) {
-      if (images[c].is_none()) continue;
-      frames[c] = MatFromArray(images[c].cast<py::array>());
+  // One time stamp's images, one per camera (None: no frame), as frames for the estimator;
+  // their arrays are appended to *keep, which must outlive the frames (an argument that is not
+  // already an ndarray is converted into a new one). `where` names the list in errors.
+  std::vector<cv::Mat> Frames(const py::handle& images, const std::string& where,
+                              std::vector<py::array>* keep) const {
+    py::list list;
+    try {
+      list = py::reinterpret_borrow<py::object>(images).cast<py::list>();
+    } catch (const py::cast_error&) {
+      throw py::value_error(where + ": expected a list of images, one per camera of the rig");
+    }
+    const size_t n = estimator->num_cameras();
+    if (list.size() != n)
+      throw py::value_error(where + ": " + std::to_string(list.size()) +
+                            " images, expected one per camera of the rig (" + std::to_string(n) +
+                            "; None for no frame)");
+    std::vector<cv::Mat> frames(n);
+    for (size_t c = 0; c < n; ++c) {
+      if (list[c].is_none()) continue;
+      const std::string what = where + "[" + std::to_string(c) + "]";
+      try {
+        keep->push_back(list[c].cast<py::array>());
+      } catch (const py::cast_error&) {
+        throw py::value_error(what + ": expected a numpy array or None");
+      }
+      frames[c] = MatFromArray(keep->back(), what.c_str());
       const CameraModel& cam = estimator->camera(c).camera();
       if (frames[c].cols != cam.width() || frames[c].rows != cam.height())
-        throw py::value_error("images[" + std::to_string(c) +
-                              "]: " + std::to_string(frames[c].cols) + "x" +
+        throw py::value_error(what + ": " + std::to_string(frames[c].cols) + "x" +
                               std::to_string(frames[c].rows) + " pixels, but camera '" +
                               estimator->rig().cameras[c].name + "' is " +
                               std::to_string(cam.width()) + "x" + std::to_string(cam.height()));
     }
+    return frames;
+  }
+
+  RigFrameResult Estimate(const py::list& images, double timestamp) const {
+    if (!std::isfinite(timestamp))
+      throw py::value_error("t: expected a finite time stamp (seconds)");
+    std::vector<py::array> keep;
+    const std::vector<cv::Mat> frames = Frames(images, "images", &keep);
     RigFrameResult out;
     {
       py::gil_scoped_release release;
@@ -66,7 +88,11 @@ struct PyRigPoseEstimator {
       if (survey.reference_camera < 0)
         throw py::value_error("reference: no camera named '" + name + "' in the rig");
     } else {
-      survey.reference_camera = reference.cast<int>();
+      try {
+        survey.reference_camera = reference.cast<int>();
+      } catch (const py::cast_error&) {
+        throw py::value_error("reference: expected a camera's index or name");
+      }
       if (survey.reference_camera < 0 || survey.reference_camera >= static_cast<int>(n))
         throw py::value_error("reference: camera index " + std::to_string(survey.reference_camera) +
                               " is not in the rig (0 to " + std::to_string(n - 1) + ")");
@@ -85,25 +111,14 @@ struct PyRigPoseEstimator {
       }
       if (entry.size() != 2)
         throw py::value_error(where + ": expected a (t, [image per camera]) pair");
-      const double t = entry[0].cast<double>();
-      if (!std::isfinite(t)) throw py::value_error(where + ": expected a finite time stamp");
-      const py::list list = entry[1].cast<py::list>();
-      if (list.size() != n)
-        throw py::value_error(where + ": " + std::to_string(list.size()) +
-                              " images, expected one per camera of the rig (" + std::to_string(n) +
-                              "; None for no frame)");
-      std::vector<cv::Mat> mats(n);
-      for (size_t c = 0; c < n; ++c) {
-        if (list[c].is_none()) continue;
-        keep.push_back(list[c].cast<py::array>());
-        mats[c] = MatFromArray(keep.back());
-        const CameraModel& cam = estimator->camera(c).camera();
-        if (mats[c].cols != cam.width() || mats[c].rows != cam.height())
-          throw py::value_error(
-              where + "[" + std::to_string(c) + "]: " + std::to_string(mats[c].cols) + "x" +
-              std::to_string(mats[c].rows) + " pixels, but camera '" + survey.camera_names[c] +
-              "' is " + std::to_string(cam.width()) + "x" + std::to_string(cam.height()));
+      double t;
+      try {
+        t = entry[0].cast<double>();
+      } catch (const py::cast_error&) {
+        throw py::value_error(where + "[0]: expected a time stamp (seconds)");
       }
+      if (!std::isfinite(t)) throw py::value_error(where + ": expected a finite time stamp");
+      std::vector<cv::Mat> mats = Frames(entry[1], where + "[1]", &keep);
       images.push_back(std::move(mats));
       timestamps.push_back(t);
     }

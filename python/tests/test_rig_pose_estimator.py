@@ -96,12 +96,27 @@ class RigPoseEstimatorTest(unittest.TestCase):
         np.testing.assert_allclose(C, C.T, rtol=1e-9, atol=1e-18)
         self.assertTrue(np.all(np.linalg.eigvalsh(C) > 0))
         self.assertIsNone(a_out["covariance"])  # the reference had none in the rig file
-        with self.assertRaisesRegex(ValueError, r"frames\[0\]: 1 images, expected one per camera"):
+        with self.assertRaisesRegex(ValueError, r"frames\[0\]\[1\]: 1 images, expected one per camera"):
             rig.survey_extrinsics([(0.0, [self.frame])])
         with self.assertRaisesRegex(ValueError, "reference: no camera named 'c'"):
             rig.survey_extrinsics([(0.0, [self.frame, self.frame])], reference="c")
         with self.assertRaisesRegex(ValueError, "at least one time stamp"):
             rig.survey_extrinsics([])
+        with self.assertRaisesRegex(ValueError, r"frames\[0\]\[0\]: expected a time stamp"):
+            rig.survey_extrinsics([("now", [self.frame, self.frame])])
+        with self.assertRaisesRegex(ValueError, "reference: expected a camera's index or name"):
+            rig.survey_extrinsics([(0.0, [self.frame, self.frame])], reference=1.5)
+
+        # An image given as an object with __array__ (converted to a new array) stays alive
+        # until the frame is used.
+        class Wrapped:
+            def __init__(self, a):
+                self.a = a
+
+            def __array__(self, dtype=None):
+                return self.a.copy()
+
+        self.assertTrue(rig.estimate([Wrapped(self.frame), None]).pose.valid)
         # b alone at the only time stamp: nothing ties it to a.
         with self.assertRaises(RuntimeError):
             rig.survey_extrinsics([(0.0, [None, self.frame])], reference=0)

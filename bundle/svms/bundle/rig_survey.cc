@@ -611,7 +611,9 @@ Status SurveyRig(const std::vector<RigCameraView>& cameras,
     return Status::Error(m);
   };
   if (Status s = options.Check(); !s) return fail(s.message());
-  if (cameras.empty()) return fail("the rig has no camera");
+  if (cameras.size() < 2)
+    return fail("the rig has " + std::to_string(cameras.size()) +
+                " camera(s): a survey of its extrinsics needs at least 2 (one is the reference)");
   if (options.reference_camera >= static_cast<int>(cameras.size()))
     return fail("reference_camera " + std::to_string(options.reference_camera) + ": the rig has " +
                 std::to_string(cameras.size()) + " cameras");

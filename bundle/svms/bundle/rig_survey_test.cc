@@ -281,6 +281,12 @@ TEST(SurveyRig, ACameraNeverSeenWithAnotherIsAnErrorNamingIt) {
   ASSERT_FALSE(st.ok());
   EXPECT_NE(st.message().find("camera 1"), std::string::npos) << st.message();
   EXPECT_EQ(r.summary.message, st.message());
+  // A rig of one camera has no extrinsics to survey: an error, not a crash.
+  std::vector<RigCameraView> one = s.Views(s.rig_from_cam[1]);
+  one.resize(1);
+  const Status lone = SurveyRig(one, frames, s.options, &r);
+  EXPECT_FALSE(lone.ok());
+  EXPECT_NE(lone.message().find("at least 2"), std::string::npos) << lone.message();
   // An observation naming a camera the rig does not have.
   frames[0].observations[0].camera = 5;
   EXPECT_NE(
