@@ -107,10 +107,12 @@ void Frame(Stream& s, const std::string& path, double timestamp, std::string err
   std::vector<nlohmann::json> lines(objects);  // one per object
   nlohmann::json photometric;
   cv::Mat img;
+  NoiseModel noise;  // a raw frame's, from its stored values (as PoseEstimator::Estimate)
   if (!error.empty()) {
-  } else if (Status st = video_frame
-                             ? s.photometry.LinearizeFrame(*video_frame, "srgb", &img, &photometric)
-                             : s.photometry.Load(path, s.max_pixels, &img, &photometric);
+  } else if (Status st =
+                 video_frame
+                     ? s.photometry.LinearizeFrame(*video_frame, "srgb", &img, &photometric, &noise)
+                     : s.photometry.Load(path, s.max_pixels, &img, &photometric, nullptr, &noise);
              !st) {
     error = video_frame ? path + ", frame " + std::to_string(frame_index) + ": " + st.message()
                         : st.message();
@@ -121,7 +123,7 @@ void Frame(Stream& s, const std::string& path, double timestamp, std::string err
   }
   if (error.empty()) {
     try {
-      s.est->EstimateLinear(img, timestamp, &s.r);
+      s.est->EstimateLinear(img, timestamp, &s.r, noise.valid() ? &noise : nullptr);
       for (size_t i = 0; i < objects; ++i) {
         lines[i] = FrameJson(s.r, i);
         if (s.o.unknown_ids || objects > 1) lines[i]["unassigned_markers"] = s.r.unassigned_ids;

@@ -20,7 +20,7 @@ NoiseModel NoiseModel::Scaled(double k) const {
 
 namespace {
 
-constexpr int kBins = 24;           // uniform in sqrt(level / full)
+constexpr int kBins = 24;           // uniform in sqrt((level - black) / (full - black))
 constexpr int kMinSamples = 200;    // per bin
 constexpr double kQuantile = 0.25;  // of |Laplacian|: texture and edges sit in the upper tail
 // For white noise sigma, the Laplacian 4 v - (4 neighbours) has sigma sqrt(20) sigma, and the
@@ -291,23 +291,27 @@ bool EstimateStoredNoise(const cv::Mat& stored, const PhotometricModel& model,
       model.bayer != BayerPattern::kNone || model.response.kind() != Response::Kind::kLinear ||
       !(model.black_level > 0))
     return false;
-  const double white =
-      model.white_level > 0 ? model.white_level : (stored.depth() == CV_8U ? 255.0 : 65535.0);
-  if (!(white > model.black_level)) return false;
-  // A frame with no value below its black level was clipped there (some cameras do): its dark
-  // areas hold less than the noise, as the linear image's do. Every 4th pixel of every 4th row.
+  const double depth_max = stored.depth() == CV_8U ? 255.0 : 65535.0;
+  const double white = model.white_level > 0 ? std::floor(model.white_level) : depth_max;
+  if (!(white > model.black_level) || white > depth_max) return false;  // as the Linearizer
+  // The values of every 4th pixel of every 4th row below the black level and at it. A frame
+  // clipped at its black level (some cameras do; a few dead pixels may still lie below) has
+  // its dark values at black and holds no more than its linear image: where fewer than 16 lie
+  // below black, or fewer than half as many as at it, it is not measured here.
   const int black = static_cast<int>(std::ceil(model.black_level));
-  bool below = false;
-  for (int y = 0; y < stored.rows && !below; y += kStride) {
+  int below = 0, at_black = 0;
+  for (int y = 0; y < stored.rows; y += kStride) {
     if (stored.depth() == CV_8U) {
       const uint8_t* p = stored.ptr<uint8_t>(y);
-      for (int x = 0; x < stored.cols && !below; x += kStride) below = p[x] < black;
+      for (int x = 0; x < stored.cols; x += kStride)
+        below += p[x] < black, at_black += p[x] == black;
     } else {
       const uint16_t* p = stored.ptr<uint16_t>(y);
-      for (int x = 0; x < stored.cols && !below; x += kStride) below = p[x] < black;
+      for (int x = 0; x < stored.cols; x += kStride)
+        below += p[x] < black, at_black += p[x] == black;
     }
   }
-  if (!below) return false;
+  if (below < 16 || 2 * below < at_black) return false;
   NoiseModel noise;
   if (!EstimateNoiseFrom(stored, model.black_level, white, deadline, &noise)) return false;
   // The linear image is (stored - black) 65535 / (white - black) (Linearizer, photometric.h).

@@ -50,13 +50,16 @@ NoiseModel EstimateNoise(const cv::Mat& linear);
 bool EstimateNoise(const cv::Mat& linear, std::chrono::steady_clock::time_point deadline,
                    NoiseModel* noise);
 
-// The noise of a frame as the sensor stored it, measured on its own values from the black level
-// up, in the units of the linear image LinearizeImage makes of it (`model`'s): a dark
-// background's values below the black level show the read noise that the linear image, clipped
-// at 0, hides. Applies to one-channel 8- or 16-bit frames of a linear response with a black
-// level above 0 and no Bayer mosaic (raw frames) that hold values below their black level (a
-// frame clipped at black holds no more than its linear image); false where it does not (then
-// estimate on the linear image) or once `deadline` (read every 64 rows) passed.
+// The noise of a frame as the sensor stored it, measured on its own values, levels counted from
+// the black level and values below it included, in the units of the linear image LinearizeImage
+// makes of it (`model`'s): a dark background's values below the black level show the read noise
+// that the linear image, clipped at black, hides. Applies to one-channel 8- or 16-bit frames of
+// a linear response with a black level above 0, a white level within the depth and no Bayer
+// mosaic (raw frames) that hold at least 16 sampled values below black and at least half as
+// many as at black (a frame clipped at black holds no more than its linear image). A camera that
+// clips its raw values a little below black is not told from one that does not. False where it
+// does not apply (then estimate on the linear image) or once `deadline` (read every 64 rows)
+// passed.
 bool EstimateStoredNoise(const cv::Mat& stored, const PhotometricModel& model,
                          std::chrono::steady_clock::time_point deadline, NoiseModel* linear_noise);
 

@@ -86,7 +86,8 @@ class Renderer {
 
   // The sensor and the camera's transfer, in a real camera's order: vignetting, defocus blur;
   // electrons (exposure x radiance, times the pixel's channel_gain under a Bayer filter); shot
-  // and read noise, in electrons; s = electrons / full_well clipped to [0, 1]; the response
+  // and read noise, in electrons; s = electrons / full_well clipped to [0, 1] (a lossless linear
+  // frame with a whole-number black level: below 0 down to -black, docs/simulator.md); the response
   // e = FromLinear(s); DN = black_level + e * (white_level - black_level), rounded and clipped to
   // the container (CV_8UC1 or CV_16UC1, one channel also for a mosaic). The default sensor
   // gives DN = round(electrons * (2^bits - 1) / full_well). Deterministic for a given scene

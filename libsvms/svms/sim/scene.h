@@ -122,9 +122,10 @@ struct Sensor {
   double motion_blur = 0;  // exposure as a fraction of the way to the next view, [0, 1]
 
   // The camera's transfer from electrons to stored values (docs/simulator.md, "Camera pipeline
-  // and sensor profiles"): s = electrons / full_well in [0, 1], e = response(s),
-  // DN = black_level + e * (white - black_level) with white = 2^signal_bits - 1, rounded.
-  // The defaults store linear light in all `bits`, as a grey PNG.
+  // and sensor profiles"): s = electrons / full_well in [0, 1] (below 0 for a lossless linear raw
+  // frame, docs/simulator.md), e = response(s), DN = black_level + e * (white - black_level) with
+  // white = 2^signal_bits - 1, rounded. The defaults store linear light in all `bits`, as a grey
+  // PNG.
   //
   // The response curve as Response::Parse reads it: "linear", "srgb" or "gamma:G" (no tables:
   // a scene carries no side files).

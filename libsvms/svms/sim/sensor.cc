@@ -59,11 +59,15 @@ cv::Mat Renderer::Expose(const cv::Mat& radiance, int view, const Sensor& s) con
   const double black = s.black_level, span = s.white_level() - s.black_level;
   // Linear: DN = black + electrons * (span / full_well), clipped to [0, white]: as a raw sensor
   // stores it, the read noise of a dark pixel goes below the black level (down to 0), which is
-  // what the black level is for; a reader's linear image clips it at black. Written
+  // what the black level is for; a reader's linear image clips it at black, so it is the same
+  // as with the signal clipped at 0. Not so for a JPEG (its codec mixes the values below black
+  // into the others) or a fractional black level (rounding): those keep the signal >= 0. Written
   // with the product first (not s * span) so that the default sensor (black 0, span 2^bits - 1)
   // rounds exactly as round(electrons * (2^bits - 1) / full_well) does, bit for bit: the images
   // the datasets' results were measured on.
   const bool linear = response.kind() == Response::Kind::kLinear;
+  const double lowest_signal =
+      linear && s.format != "jpeg" && black == std::floor(black) ? -black : 0.0;
   const double dn_per_electron = span / s.full_well;
   std::mt19937_64 rng(render::Mix(impl_->scene.seed ^ render::Mix(0x5e55000ULL + view)));
   std::normal_distribution<double> gauss(0, 1);
@@ -83,7 +87,7 @@ cv::Mat Renderer::Expose(const cv::Mat& radiance, int view, const Sensor& s) con
       }
       if (s.read_noise > 0) electrons += s.read_noise * gauss(rng);
       const double signal =
-          linear ? std::clamp(electrons * dn_per_electron, -black, span)
+          linear ? std::clamp(electrons * dn_per_electron, lowest_signal, span)
                  : response.FromLinear(std::clamp(electrons / s.full_well, 0.0, 1.0)) * span;
       const double dn = std::clamp(std::round(black + signal), 0.0, max_dn);
       if (s.bits == 16) {
