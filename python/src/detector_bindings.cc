@@ -45,8 +45,14 @@ struct PyDetector {
       py::gil_scoped_release release;
       if (photometric && !photometric->IsIdentity(mat.depth() == CV_8U ? 255 : 65535)) {
         cv::Mat linear;
+        // A raw frame's noise from its stored values, as svms detect takes it (noise_model.h).
+        NoiseModel noise;
+        const bool have_noise = EstimateStoredNoise(
+            mat, *photometric, std::chrono::steady_clock::time_point::max(), &noise);
         status = LinearizeImage(mat, *photometric, &linear);
-        if (status.ok()) found = detector->Detect(linear);
+        if (status.ok())
+          detector->Detect(linear, nullptr, std::chrono::steady_clock::time_point::max(), &found,
+                           have_noise ? &noise : nullptr);
       } else {
         found = detector->Detect(mat);
       }

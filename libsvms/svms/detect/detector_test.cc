@@ -757,6 +757,37 @@ TEST(Detector, SixteenBitAndColourImagesWork) {
   ASSERT_EQ(det.Detect(colour).size(), 1u);
 }
 
+// A noise model given with a 16-bit frame (a raw frame's, from its stored values) is the one the
+// frame's edges are searched with, in place of the estimate from the image; an invalid one is
+// ignored.
+const NoiseModel kNoNoise;  // invalid (bins 0)
+
+TEST(Detector, AGivenNoiseModelReplacesTheEstimate) {
+  MarkerModel a = MarkerModel::Standard(55, 0.1, 0.025);
+  Scene s =
+      Base(CameraModel::Pinhole(600, 320, 240), {{a, Pose{}}}, Look({0, -0.1, 0.6}, {0, 0, 0}));
+  s.sensor.bits = 16;
+  const Rendered r = Render(s);
+  const Detector det(DetectorOptions{}, CameraModel{}, {});
+  const auto forever = std::chrono::steady_clock::time_point::max();
+  std::vector<Detection> found;
+  DetectionStats estimated, given;
+  det.Detect(r.image, &estimated, forever, &found);
+  ASSERT_EQ(found.size(), 1u);
+  ASSERT_TRUE(estimated.noise.valid());
+  NoiseModel noise;
+  noise.read_sigma = 2 * estimated.noise.read_sigma + 10;
+  noise.shot_gain = 1.5 * estimated.noise.shot_gain;
+  noise.bins = 3;
+  det.Detect(r.image, &given, forever, &found, &noise);
+  EXPECT_EQ(given.noise.read_sigma, noise.read_sigma);
+  EXPECT_EQ(given.noise.shot_gain, noise.shot_gain);
+  EXPECT_EQ(found.size(), 1u);
+  DetectionStats ignored;
+  det.Detect(r.image, &ignored, forever, &found, &kNoNoise);
+  EXPECT_EQ(ignored.noise.read_sigma, estimated.noise.read_sigma);
+}
+
 // Central differences of `residuals(R, t)` (N values, already whitened) with respect to a
 // left rotation of `at` (camera axes, radians) and its translation: the Jacobian RefinePose's
 // covariance (J^T J)^-1 must agree with.

@@ -106,14 +106,17 @@ DetectionPass DetectBoards(const std::vector<std::string>& files, const CameraMo
   auto worker = [&] {
     for (size_t i; (i = next++) < n;) {
       cv::Mat img, stored;
+      NoiseModel noise;  // a raw frame's, from its stored values (noise_model.h)
       try {
         if (Status s = photometry.Load(files[i], kDefaultMaxImagePixels, &img, nullptr,
-                                       photometry.estimating() ? &stored : nullptr);
+                                       photometry.estimating() ? &stored : nullptr, &noise);
             !s) {
           pass.errors[i] = s.message();
         } else {
           pass.sizes[i] = img.size();
-          const std::vector<Detection> found = detector.Detect(img);
+          std::vector<Detection> found;
+          detector.Detect(img, nullptr, std::chrono::steady_clock::time_point::max(), &found,
+                          noise.valid() ? &noise : nullptr);
           pass.views[i] = ObservationsFromDetections(found, o.layout, files[i], corner_sigma);
           if (photometry.estimating())
             CollectEdgeProfiles(stored, found, photometry.black_level(), photometry.white_level(),

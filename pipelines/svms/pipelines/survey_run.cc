@@ -179,15 +179,19 @@ std::vector<SurveyImage> DetectAll(const SurveyRunOptions& o, const std::vector<
       images[i].name = fs::path(files[i]).stem().string();
       std::string& error = (*errors)[i];
       cv::Mat img;
+      NoiseModel noise;  // a raw frame's, from its stored values (noise_model.h)
       try {
-        if (Status s = photometry.Load(files[i], kDefaultMaxImagePixels, &img, nullptr); !s)
+        if (Status s =
+                photometry.Load(files[i], kDefaultMaxImagePixels, &img, nullptr, nullptr, &noise);
+            !s)
           error = s.message();
         else if (img.cols != camera.width() || img.rows != camera.height())
           error = files[i] + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
                   " pixels, but the camera model is " + std::to_string(camera.width()) + "x" +
                   std::to_string(camera.height());
         else
-          images[i].detections = detector.Detect(img);
+          detector.Detect(img, nullptr, std::chrono::steady_clock::time_point::max(),
+                          &images[i].detections, noise.valid() ? &noise : nullptr);
       } catch (...) {
         error = ItemFailure(files[i], std::current_exception());
       }
