@@ -742,12 +742,17 @@ TEST(Detector, OddImagesGiveNoDetectionsAndNoCrash) {
   EXPECT_TRUE(det.Detect(noise).empty());
 }
 
-TEST(Detector, SixteenBitAndColourImagesWork) {
+// One marker (ID 55, 0.1 m) 0.6 m away, rendered as a 16-bit 320 x 240 frame.
+Rendered SixteenBitFrame() {
   MarkerModel a = MarkerModel::Standard(55, 0.1, 0.025);
   Scene s =
       Base(CameraModel::Pinhole(600, 320, 240), {{a, Pose{}}}, Look({0, -0.1, 0.6}, {0, 0, 0}));
   s.sensor.bits = 16;
-  const Rendered r = Render(s);
+  return Render(s);
+}
+
+TEST(Detector, SixteenBitAndColourImagesWork) {
+  const Rendered r = SixteenBitFrame();
   const Detector det(DetectorOptions{}, CameraModel{}, {});
   ASSERT_EQ(det.Detect(r.image).size(), 1u);
   cv::Mat colour;
@@ -757,17 +762,13 @@ TEST(Detector, SixteenBitAndColourImagesWork) {
   ASSERT_EQ(det.Detect(colour).size(), 1u);
 }
 
+const NoiseModel kNoNoise;  // invalid (bins 0)
+
 // A noise model given with a 16-bit frame (a raw frame's, from its stored values) is the one the
 // frame's edges are searched with, in place of the estimate from the image; an invalid one is
 // ignored.
-const NoiseModel kNoNoise;  // invalid (bins 0)
-
 TEST(Detector, AGivenNoiseModelReplacesTheEstimate) {
-  MarkerModel a = MarkerModel::Standard(55, 0.1, 0.025);
-  Scene s =
-      Base(CameraModel::Pinhole(600, 320, 240), {{a, Pose{}}}, Look({0, -0.1, 0.6}, {0, 0, 0}));
-  s.sensor.bits = 16;
-  const Rendered r = Render(s);
+  const Rendered r = SixteenBitFrame();
   const Detector det(DetectorOptions{}, CameraModel{}, {});
   const auto forever = std::chrono::steady_clock::time_point::max();
   std::vector<Detection> found;
