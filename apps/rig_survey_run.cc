@@ -85,17 +85,9 @@ int RunRigSurvey(const RigSurveyRunOptions& o) {
   RigSurveyOptions survey;
   survey.measurement = options.fusion;
   for (const RigCamera& c : rig.cameras) survey.camera_names.push_back(c.name);
-  if (!o.reference.empty()) {
-    survey.reference_camera = -1;
-    std::string names;
-    for (size_t c = 0; c < n; ++c) {
-      if (rig.cameras[c].name == o.reference) survey.reference_camera = static_cast<int>(c);
-      names += (c ? ", " : "") + rig.cameras[c].name;
-    }
-    if (survey.reference_camera < 0)
-      return BadInput("--reference " + o.reference + ": no camera of that name in " + o.rig +
-                      " (it has " + names + ")");
-  }
+  if (!o.reference.empty())
+    if (Status s = FindRigCamera(rig, o.reference, o.rig, &survey.reference_camera); !s)
+      return BadInput("--reference " + o.reference + ": " + s.message());
 
   // The observations of every listed time stamp.
   std::string list;

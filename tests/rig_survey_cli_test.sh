@@ -125,7 +125,7 @@ bad 2 "--out $tmp/port.rig: is the input $tmp/port.rig" \
 printf 'narrow/v5.png\n' > "$tmp/short.txt"
 bad 2 "short.txt, line 1: expected [TIMESTAMP] and 2 images" \
   --rig "$tmp/port.rig" --frames-list "$tmp/short.txt" --out "$tmp/x.rig"
-bad 2 "--reference left: no camera of that name in $tmp/port.rig (it has narrow, wide)" \
+bad 2 "--reference left: no camera named 'left' in $tmp/port.rig (it has narrow, wide)" \
   --rig "$tmp/port.rig" --frames-list "$tmp/frames.txt" --out "$tmp/x.rig" --reference left
 printf '5 narrow/v5.png -\n6 narrow/v6.png -\n7 - wide/v7.png\n8 - wide/v8.png\n' > "$tmp/apart.txt"
 bad 1 "camera 'wide' sees the object in no frame together with the reference camera (camera 'narrow')" \

@@ -64,7 +64,8 @@ typedef enum svms_status {
 
 typedef struct svms_options {
   double corner_sigma_px; /* pixel noise of a detected corner, each axis (default 0.1) */
-  double budget_ms;       /* time budget per frame, milliseconds; 0: none (default 0) */
+  double budget_ms; /* time budget per frame, milliseconds, the conversion to linear light
+                     * included; 0: none (default 0) */
 } svms_options;
 
 typedef struct svms_pose {
@@ -89,7 +90,7 @@ typedef struct svms_pose {
    * marker) - 6 */
   int dof;
   uint32_t flags;    /* SVMS_FLAG_* */
-  double latency_ms; /* detection and fusion, wall clock */
+  double latency_ms; /* the whole frame: conversion to linear light, detection, fusion */
   /* With SVMS_FLAG_AMBIGUOUS, where the one marker's other planar pose is known
    * (has_alternative = 1): cam_from_object under that pose, as rvec, tvec and quaternion above,
    * and its share of the likelihood, in (0.01, 0.5]. A filter can carry both hypotheses until a
@@ -104,7 +105,7 @@ typedef struct svms_pose {
 /* What one frame of svms_process_frame_multi gives besides the objects' poses. */
 typedef struct svms_frame_info {
   double timestamp;  /* as given */
-  double latency_ms; /* the detection and every layout's fusion, wall clock */
+  double latency_ms; /* the whole frame: linear light, the detection, every layout's fusion */
   double detect_ms;  /* the frame's one detection pass (shared by every layout) */
   double fuse_ms;    /* every layout's fusion together */
   uint32_t flags;    /* SVMS_FLAG_BUDGET_EXCEEDED, for the frame */

@@ -81,12 +81,10 @@ struct PyRigPoseEstimator {
     survey.measurement = estimator->options().fusion;
     for (const RigCamera& c : estimator->rig().cameras) survey.camera_names.push_back(c.name);
     if (py::isinstance<py::str>(reference)) {
-      const std::string name = reference.cast<std::string>();
-      survey.reference_camera = -1;
-      for (size_t c = 0; c < n; ++c)
-        if (survey.camera_names[c] == name) survey.reference_camera = static_cast<int>(c);
-      if (survey.reference_camera < 0)
-        throw py::value_error("reference: no camera named '" + name + "' in the rig");
+      if (Status s = FindRigCamera(estimator->rig(), reference.cast<std::string>(), "the rig",
+                                   &survey.reference_camera);
+          !s)
+        throw py::value_error("reference: " + s.message());
     } else {
       try {
         survey.reference_camera = reference.cast<int>();

@@ -170,12 +170,15 @@ Status PoseEstimator::CreateFromFiles(const std::string& camera_path,
 
 void PoseEstimator::Estimate(const cv::Mat& image, double timestamp, FrameResult* out) const {
   if (!options_.photometric) return EstimateLinear(image, timestamp, out);
+  // The budget and the latency start here: the conversion to linear light and the stored-noise
+  // estimate are part of the frame's time (a flight loop's deadline is the whole call's).
+  const auto t0 = Clock::now();
+  const auto deadline = DeadlineFrom(t0);
   // A raw frame's noise from its stored values, below the black level included (the linear
-  // image clips them at 0). A sixteenth of the pixels, read before the frame's time budget
-  // starts, as the conversion to linear light is.
+  // image clips them at 0): a sixteenth of the pixels, under the frame's deadline.
   NoiseModel stored_noise;
-  const bool have_noise = EstimateStoredNoise(
-      image, *options_.photometric, std::chrono::steady_clock::time_point::max(), &stored_noise);
+  const bool have_noise =
+      EstimateStoredNoise(image, *options_.photometric, deadline, &stored_noise);
   thread_local cv::Mat linear;  // reused: no allocation per frame of one size
   if (Status s = linearizer_.Apply(image, &linear); !s) {
     *out = FrameResult();
@@ -187,24 +190,33 @@ void PoseEstimator::Estimate(const cv::Mat& image, double timestamp, FrameResult
     }
     return;
   }
-  EstimateLinear(linear, timestamp, out, have_noise ? &stored_noise : nullptr);
+  EstimateFrom(linear, timestamp, t0, deadline, have_noise ? &stored_noise : nullptr, out);
+}
+
+Clock::time_point PoseEstimator::DeadlineFrom(Clock::time_point t0) const {
+  return options_.budget_ms > 0
+             ? t0 + std::chrono::duration_cast<Clock::duration>(
+                        std::chrono::duration<double, std::milli>(options_.budget_ms))
+             : Clock::time_point::max();
 }
 
 void PoseEstimator::EstimateLinear(const cv::Mat& image, double timestamp, FrameResult* out,
                                    const NoiseModel* noise) const {
   const auto t0 = Clock::now();
+  EstimateFrom(image, timestamp, t0, DeadlineFrom(t0), noise, out);
+}
+
+void PoseEstimator::EstimateFrom(const cv::Mat& image, double timestamp, Clock::time_point t0,
+                                 Clock::time_point deadline, const NoiseModel* noise,
+                                 FrameResult* out) const {
   out->timestamp = timestamp;
   DetectionStats stats;
-  const auto deadline =
-      options_.budget_ms > 0
-          ? t0 + std::chrono::duration_cast<Clock::duration>(
-                     std::chrono::duration<double, std::milli>(options_.budget_ms))
-          : Clock::time_point::max();
   // One detection pass for every layout: the detector knows the models of all of them.
+  const auto t_detect = Clock::now();
   detector_.Detect(image, &stats, deadline, &out->detections, noise);
   out->detection_passes = 1;
   const auto t1 = Clock::now();
-  out->detect_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
+  out->detect_ms = std::chrono::duration<double, std::milli>(t1 - t_detect).count();
   out->budget_exceeded = stats.budget_exceeded;
   // Each layout's object from its own detections, independently of the others (the same call
   // as for a lone layout, so the poses equal those of one estimator per layout).

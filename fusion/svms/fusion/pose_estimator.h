@@ -34,8 +34,9 @@ namespace svms {
 struct PoseEstimatorOptions {
   DetectorOptions detector;
   ObjectPoseOptions fusion;
-  // Time budget per frame, milliseconds (0: none). When detection runs out of it, the markers
-  // found so far are used and ObjectPose is flagged budget_exceeded.
+  // Time budget per frame, milliseconds (0: none), from the call of Estimate (the conversion to
+  // linear light and the stored-noise estimate included). When detection runs out of it, the
+  // markers found so far are used and ObjectPose is flagged budget_exceeded.
   double budget_ms = 0;
   // How the frames' values relate to light (photometric.h): Estimate converts each frame to
   // linear light with it. Unset: frames are linear already (a machine-vision camera's raw
@@ -54,7 +55,9 @@ struct FrameResult {
   // any), one per such detection, in the order of `detections`.
   std::vector<int> unassigned_ids;
   bool budget_exceeded = false;
-  double latency_ms = 0;  // detection + fusion of every layout, wall clock
+  // Wall clock of the whole call: conversion to linear light (Estimate), detection and the
+  // fusion of every layout.
+  double latency_ms = 0;
   double detect_ms = 0;   // the one detection pass
   double fuse_ms = 0;     // the fusion of every layout together
   // How many times the detector ran for this frame: 1 (0 when the frame could not be converted
@@ -114,6 +117,13 @@ class PoseEstimator {
                                const std::vector<std::string>& labels,
                                const PoseEstimatorOptions& options,
                                std::unique_ptr<PoseEstimator>* out);
+  // The frame's deadline for a call that started at t0 (max() without a budget).
+  std::chrono::steady_clock::time_point DeadlineFrom(std::chrono::steady_clock::time_point t0) const;
+  // Detection and fusion of a linear frame whose call started at t0.
+  void EstimateFrom(const cv::Mat& linear, double timestamp,
+                    std::chrono::steady_clock::time_point t0,
+                    std::chrono::steady_clock::time_point deadline, const NoiseModel* noise,
+                    FrameResult* out) const;
   CameraModel camera_;
   std::vector<Layout> layouts_;
   std::vector<int> layout_ids_;  // every layout's IDs, outer and inner, ascending

@@ -150,4 +150,18 @@ Status WriteRigFile(const std::string& path, const CameraRig& rig) {
   return WriteTextFile(path, RigToJson(rig, std::filesystem::path(path).parent_path().string()));
 }
 
+Status FindRigCamera(const CameraRig& rig, const std::string& name, const std::string& rig_label,
+                     int* index) {
+  std::string names;
+  for (size_t c = 0; c < rig.cameras.size(); ++c) {
+    if (rig.cameras[c].name == name) {
+      *index = static_cast<int>(c);
+      return Status::Ok();
+    }
+    names += (c ? ", " : "") + rig.cameras[c].name;
+  }
+  return Status::Error("no camera named '" + name + "' in " + rig_label + " (it has " + names +
+                       ")");
+}
+
 }  // namespace svms

@@ -38,6 +38,12 @@ struct CameraRig {
   std::vector<RigCamera> cameras;  // at least one
 };
 
+// The index of the rig's camera named `name` into *index; where none is, an error "no camera
+// named 'NAME' in RIG (it has a, b)", RIG being `rig_label` (the rig file, or "the rig").
+// Shared by every place a user names a camera.
+Status FindRigCamera(const CameraRig& rig, const std::string& name, const std::string& rig_label,
+                     int* index);
+
 // Parses a rig file's text (`source` names it in errors) without reading the camera models:
 // every camera's name, cameramodel path (resolved against base_dir), pose and covariance.
 // Errors are one line, "<source>: cameras[1].covariance: expected ...".

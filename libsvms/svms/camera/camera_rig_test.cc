@@ -68,6 +68,21 @@ TEST(CameraRig, ReadsCamerasPosesAndCovariances) {
   EXPECT_FALSE(rig.cameras[1].rig_from_cam_covariance);
 }
 
+TEST(CameraRig, ACameraIsFoundByNameAndAnUnknownNameListsTheRigsCameras) {
+  CameraRig rig;
+  ASSERT_TRUE(ReadRigFile(WriteRig("names.rig", RigText()), &rig).ok());
+  int index = -1;
+  ASSERT_TRUE(FindRigCamera(rig, "wide", "port.rig", &index).ok());
+  EXPECT_EQ(index, 1);
+  ASSERT_TRUE(FindRigCamera(rig, "narrow", "port.rig", &index).ok());
+  EXPECT_EQ(index, 0);
+  index = 7;
+  const Status s = FindRigCamera(rig, "tele", "port.rig", &index);
+  EXPECT_FALSE(s.ok());
+  EXPECT_EQ(index, 7);  // untouched
+  EXPECT_EQ(s.message(), "no camera named 'tele' in port.rig (it has narrow, wide)");
+}
+
 // Every bad rig file gives one line naming the file and the field.
 TEST(CameraRig, BadRigFilesGiveOneLineErrorsNamingFileAndField) {
   const struct {
