@@ -107,9 +107,16 @@ void BM_DetectThreads(benchmark::State& state) {
   const svms::Detector det(options, fr.camera, fr.models);
   svms::DetectionStats stats;
   std::vector<svms::Detection> out;
-  for (auto _ : state)
+  std::array<double, svms::DetectionStats::kSteps> ms{};
+  for (auto _ : state) {
     det.Detect(fr.image, &stats, std::chrono::steady_clock::time_point::max(), &out);
+    for (int k = 0; k < svms::DetectionStats::kSteps; ++k) ms[k] += stats.ms[k];
+  }
   state.counters["markers_found"] = static_cast<double>(out.size());
+  // Wall time per step (with 2 threads steps 5-10 are all under "decode").
+  for (int k = 0; k < svms::DetectionStats::kSteps; ++k)
+    state.counters[std::string("ms_") + svms::DetectionStats::kStepNames[k]] =
+        ms[k] / state.iterations();
 }
 BENCHMARK(BM_DetectThreads)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 

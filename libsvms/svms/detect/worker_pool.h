@@ -5,7 +5,9 @@
 // together in a fixed order afterwards: which thread ran which part never shows in a result.
 // The pool only hands the parts out. Its threads live as long as the pool, so whatever they
 // keep per thread (the detector's thread_local scratch buffers) is grown once and reused, and
-// a job allocates nothing on the heap.
+// a job allocates nothing on the heap. An idle worker watches for the next job for half a
+// millisecond before it sleeps (WorkerLoop), so that the short jobs of one frame, a few tenths
+// of a millisecond apart, find it awake.
 #pragma once
 
 #include <atomic>
@@ -50,6 +52,7 @@ class WorkerPool {
   void WorkerLoop();
 
   std::atomic<bool> busy_{false};  // a job is using the workers
+  std::atomic<bool> stopping_{false};
   std::mutex mutex_;
   std::condition_variable wake_, done_;
   // The current job, set under mutex_ by its caller while no worker is inside a job.
@@ -58,6 +61,8 @@ class WorkerPool {
   int n_ = 0;
   std::atomic<int> next_{0};  // the next part to hand out
   uint64_t generation_ = 0;   // counts jobs: a worker joins each job once
+  // generation_, readable without the mutex: what an idle worker spins on (WorkerLoop).
+  std::atomic<uint64_t> announced_{0};
   bool open_ = false;         // workers may still join the current job
   int inside_ = 0;            // workers that joined it and have not finished
   bool stop_ = false;
