@@ -58,8 +58,8 @@ struct FrameResult {
   // Wall clock of the whole call: conversion to linear light (Estimate), detection and the
   // fusion of every layout.
   double latency_ms = 0;
-  double detect_ms = 0;   // the one detection pass
-  double fuse_ms = 0;     // the fusion of every layout together
+  double detect_ms = 0;  // the one detection pass
+  double fuse_ms = 0;    // the fusion of every layout together
   // How many times the detector ran for this frame: 1 (0 when the frame could not be converted
   // to linear light). Shows that several layouts share one detection.
   int detection_passes = 0;
@@ -118,7 +118,8 @@ class PoseEstimator {
                                const PoseEstimatorOptions& options,
                                std::unique_ptr<PoseEstimator>* out);
   // The frame's deadline for a call that started at t0 (max() without a budget).
-  std::chrono::steady_clock::time_point DeadlineFrom(std::chrono::steady_clock::time_point t0) const;
+  std::chrono::steady_clock::time_point DeadlineFrom(
+      std::chrono::steady_clock::time_point t0) const;
   // Detection and fusion of a linear frame whose call started at t0.
   void EstimateFrom(const cv::Mat& linear, double timestamp,
                     std::chrono::steady_clock::time_point t0,

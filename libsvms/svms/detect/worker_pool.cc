@@ -66,8 +66,17 @@ void WorkerPool::Dispatch(int n, Call call, const void* task) {
   if (error) std::rethrow_exception(error);
 }
 
+void WorkerPool::Prewake() {
+  if (workers_.empty()) return;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++prewakes_;
+  }
+  wake_.notify_all();
+}
+
 void WorkerPool::WorkerLoop() {
-  uint64_t seen = 0;
+  uint64_t seen = 0, prewakes_seen = 0;
   for (;;) {
     // Between the jobs of one frame (the edge map's two passes, the chains, the quads) the
     // caller works alone for tenths of a millisecond; a worker asleep on the condition variable
@@ -85,8 +94,18 @@ void WorkerPool::WorkerLoop() {
     }
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [&] { return stop_ || (open_ && generation_ != seen); });
+      wake_.wait(lock, [&] {
+        return stop_ || (open_ && generation_ != seen) || prewakes_ != prewakes_seen;
+      });
       if (stop_) return;
+      if (!(open_ && generation_ != seen)) {
+        // Woken ahead of a job (Prewake), or the job it saw announced while watching has been
+        // handed out already: watch for the next one.
+        prewakes_seen = prewakes_;
+        seen = generation_;
+        continue;
+      }
+      prewakes_seen = prewakes_;
       seen = generation_;
       ++inside_;
     }

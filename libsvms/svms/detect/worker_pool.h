@@ -39,6 +39,11 @@ class WorkerPool {
   // parts are started, the running ones finish, and the first exception is rethrown here, on
   // the caller's thread (never on a worker's, where it would end the program). No heap
   // allocation unless a part throws.
+  // Wakes the workers without a job: they watch for one for half a millisecond (WorkerLoop).
+  // Called where a job is soon to come (the start of a frame), it hides their wake-up behind
+  // the caller's own work instead of the first job's.
+  void Prewake();
+
   template <typename Task>
   void Run(int n, const Task& task) {
     Dispatch(
@@ -63,8 +68,9 @@ class WorkerPool {
   uint64_t generation_ = 0;   // counts jobs: a worker joins each job once
   // generation_, readable without the mutex: what an idle worker spins on (WorkerLoop).
   std::atomic<uint64_t> announced_{0};
-  bool open_ = false;         // workers may still join the current job
-  int inside_ = 0;            // workers that joined it and have not finished
+  bool open_ = false;      // workers may still join the current job
+  uint64_t prewakes_ = 0;  // counts Prewake calls: a sleeping worker wakes for each
+  int inside_ = 0;         // workers that joined it and have not finished
   bool stop_ = false;
   std::exception_ptr error_;  // the current job's first exception, under mutex_
   std::vector<std::thread> workers_;

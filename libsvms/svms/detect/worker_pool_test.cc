@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -32,6 +33,32 @@ TEST(WorkerPool, RunsEveryPartOnceOnSeveralThreads) {
     while (arrived < 2) std::this_thread::yield();
   });
   EXPECT_EQ(arrived, 2);
+}
+
+// Woken ahead of a job (Prewake), a worker joins the next job; woken with no job after, or
+// left to fall asleep again (2 ms idle, past its half millisecond of watching), it still joins
+// the next, and a pool whose workers were woken for nothing stops cleanly.
+TEST(WorkerPool, AWorkerWokenAheadOfAJobJoinsIt) {
+  for (int round = 0; round < 20; ++round) {
+    WorkerPool pool(2);
+    for (int job = 0; job < 5; ++job) {
+      if (job % 2 == 0) pool.Prewake();
+      if (job >= 3) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+      std::atomic<int> arrived{0};
+      pool.Run(2, [&](int) {  // finishes only if the worker runs the other part
+        ++arrived;
+        while (arrived < 2) std::this_thread::yield();
+      });
+      EXPECT_EQ(arrived, 2);
+    }
+    pool.Prewake();
+    pool.Prewake();
+  }
+  WorkerPool alone(1);
+  alone.Prewake();  // no workers: nothing to wake
+  int ran = 0;
+  alone.Run(3, [&](int) { ++ran; });
+  EXPECT_EQ(ran, 3);
 }
 
 TEST(WorkerPool, CallsFromSeveralThreadsAndFromInsideATaskAllRun) {
