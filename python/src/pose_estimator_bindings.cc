@@ -140,7 +140,8 @@ void BindPoseEstimator(py::module_& m) {
                     "detector reports every ID: options.detector.known_ids_only = False)")
       .def_readonly("budget_exceeded", &FrameResult::budget_exceeded)
       .def_readonly("latency_ms", &FrameResult::latency_ms,
-                    "detection + every layout's fusion, wall clock")
+                    "the whole call, wall clock: conversion to linear light (estimate), "
+                    "detection and every layout's fusion")
       .def_readonly("detect_ms", &FrameResult::detect_ms, "the frame's one detection pass")
       .def_readonly("fuse_ms", &FrameResult::fuse_ms, "every layout's fusion together")
       .def_readonly("detection_passes", &FrameResult::detection_passes,

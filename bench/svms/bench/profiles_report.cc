@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <iomanip>
 #include <iostream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -310,6 +311,7 @@ int WriteProfilesReport(const ProfilesBenchmarkOptions& o, const std::vector<std
       !s)
     NoteOutputFailure(s.message());
   OutputFile csv((fs::path(o.out) / "markers.csv").string());
+  csv << std::setprecision(10);  // what the summary is computed from, to be recomputed from it
   csv << "profile,set,view,id,min_side_px,view_angle_deg,fully_visible,found,corner_rms_px,"
          "corner_bias_px,orient_err_deg,range_err_rel,nees\n";
   for (const ProfileRow& r : rows)

@@ -188,6 +188,7 @@ void PoseEstimator::Estimate(const cv::Mat& image, double timestamp, FrameResult
       out->object(i).valid = false;
       out->object(i).message = "the frame cannot be converted to linear light: " + s.message();
     }
+    out->latency_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     return;
   }
   EstimateFrom(linear, timestamp, t0, deadline, have_noise ? &stored_noise : nullptr, out);

@@ -306,10 +306,10 @@ TEST(PoseEstimator, ABudgetTooSmallIsFlaggedAndNeverCrashes) {
   EXPECT_FALSE(r.pose.message.empty());
 }
 
-// A frame stored as a raw sensor's (16 bits, black level 4096): the frame's time, its budget
-// and its latency, start at the call, so the conversion to linear light is inside the latency
-// (not only the detection and fusion), and a budget spent before detection is flagged.
-TEST(PoseEstimator, TheLatencyAndBudgetOfARawFrameIncludeItsConversion) {
+// A frame stored as a raw sensor's (16 bits, black level 4096): its latency starts at the call,
+// before the conversion to linear light and the stored-noise estimate, so it is more than the
+// detection and the fusion (it equalled their sum when the clock started at the detection).
+TEST(PoseEstimator, TheLatencyOfARawFrameIncludesItsConversion) {
   const Approach& a = Shared();
   cv::Mat raw;
   a.Image(11).convertTo(raw, CV_16U, 200, 4096);  // 8-bit linear -> 4096 + 200 v
@@ -323,11 +323,6 @@ TEST(PoseEstimator, TheLatencyAndBudgetOfARawFrameIncludeItsConversion) {
   est->Estimate(raw, 1.1, &r);
   ASSERT_TRUE(r.pose.valid) << r.pose.message;
   EXPECT_GT(r.latency_ms, r.detect_ms + r.fuse_ms);
-  options.budget_ms = 1e-6;
-  ASSERT_TRUE(PoseEstimator::Create(a.camera(), a.layout, options, &est).ok());
-  est->Estimate(raw, 1.2, &r);
-  EXPECT_TRUE(r.budget_exceeded);
-  EXPECT_FALSE(r.pose.valid);
 }
 
 TEST(PoseEstimator, BadInputsAreRejectedWithTheirNames) {

@@ -30,7 +30,9 @@ struct RigFrameResult {
   std::vector<ObjectPose> more_poses;
   // Each camera's own result: its detections and its camera-alone cam_from_object per layout.
   std::vector<FrameResult> cameras;
-  double latency_ms = 0;  // every camera's detection and fusion, then the rig's, wall clock
+  // Every camera's frame (its conversion to linear light, detection and fusion), then the rig's
+  // fusion, wall clock.
+  double latency_ms = 0;
 
   size_t num_objects() const { return 1 + more_poses.size(); }
   const ObjectPose& object(size_t i) const { return i == 0 ? pose : more_poses.at(i - 1); }

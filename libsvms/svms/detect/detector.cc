@@ -270,10 +270,9 @@ void PoseMarker(const StepImages& im, const CameraModel& camera, const MarkerMod
 // quad reached after the deadline is left unfinished (stats->budget_exceeded).
 // Each quad is two parts of one job: steps 5-8 (part i) and 9-10 (part n + i, which waits for
 // part i to end; parts are handed out in order, so part i is already running or done). A frame
-// has a few markers among many quads, and a marker's two halves cost about the same: as one
-// part per quad, three markers on two threads took two markers' time; as two, a thread that has
-// finished one marker's corners poses another's meanwhile (0.55 -> 0.45 ms on the detector
-// benchmark's frame).
+// has a few markers among many quads, and a marker's two halves cost about the same: with two
+// parts per quad a thread that has finished one marker's corners poses another's meanwhile,
+// where with one part per quad three markers on two threads would take two markers' time.
 void MeasureQuadsInParallel(const StepImages& im, const std::vector<Quad>& quads,
                             const DetectorOptions& o, const CameraModel& camera,
                             const std::map<int, MarkerModel>& models,
@@ -327,9 +326,7 @@ void MeasureQuadsInParallel(const StepImages& im, const std::vector<Quad>& quads
     // so that a machine with more threads than cores lets it run.
     for (int k = 0; !measured[part - n].load(std::memory_order_acquire); ++k) {
       if (k % 64 == 63) std::this_thread::yield();
-#if defined(__x86_64__) || defined(__i386__)
-      __builtin_ia32_pause();
-#endif
+      CpuRelax();
     }
     if (slot.state != Slot::kMeasured) return;
     if (past()) {
@@ -504,7 +501,8 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
     return true;
   };
 
-  if (pool_) pool_->Prewake();  // its workers' wake-up behind steps 0-1 (worker_pool.h)
+  // The workers' wake-up behind steps 0-1 (worker_pool.h), where the frame will use them.
+  if (pool_ && input.rows >= 128) pool_->Prewake();
   // 0. The images the steps read.
   StepImages im;
   if (!PrepareImages(input, &sc, &im)) return;

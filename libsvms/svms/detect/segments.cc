@@ -167,8 +167,8 @@ bool LinkChains(cv::Mat& edges, SegmentScratch* sc, const Past& past) {
     sc->chain_begin.push_back(static_cast<int>(points.size()));
   };
   // The second pass looks only at the rows where the first left a pixel (one with more than one
-  // neighbour): no other row holds one afterwards, and scanning the whole map again, mostly
-  // empty, was as long as the first pass (0.1 ms of a 1024 x 1024 frame).
+  // neighbour): the first pass only clears pixels and clears every start it follows, so no
+  // other row holds one afterwards, and the map, mostly empty by then, is not scanned again.
   std::vector<uint8_t>& left = sc->rows_left;
   left.assign(static_cast<size_t>(rows), 0);
   for (int pass = 0; pass < 2; ++pass) {

@@ -2,11 +2,28 @@
 
 #include <algorithm>
 #include <chrono>
+#if defined(__linux__)
+#include <sched.h>
+#endif
 
 namespace svms {
 
+namespace {
+
+// The CPUs this process may run on (its affinity mask; the hardware's count elsewhere).
+int UsableCpus() {
+#if defined(__linux__)
+  cpu_set_t set;
+  if (sched_getaffinity(0, sizeof(set), &set) == 0) return CPU_COUNT(&set);
+#endif
+  return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+}  // namespace
+
 WorkerPool::WorkerPool(int threads) {
   const int workers = std::max(threads, 1) - 1;
+  spin_ = workers > 0 && UsableCpus() >= workers + 1;
   workers_.reserve(workers);
   for (int k = 0; k < workers; ++k) workers_.emplace_back([this] { WorkerLoop(); });
 }
@@ -81,16 +98,20 @@ void WorkerPool::WorkerLoop() {
     // Between the jobs of one frame (the edge map's two passes, the chains, the quads) the
     // caller works alone for tenths of a millisecond; a worker asleep on the condition variable
     // takes about as long to wake (a futex wake-up, more on a virtual machine), and a job that
-    // is handed out before it arrives is done by the caller alone. So an idle worker first
-    // watches for the next job for kSpin, then sleeps. It costs the second core up to kSpin of
-    // spinning after a frame's last job.
+    // is handed out before it arrives is done by the caller alone. So, with a CPU for each
+    // thread (spin_), an idle worker first watches for the next job for kSpin, then sleeps,
+    // yielding its CPU every 64 checks to any other thread that is ready to run there. It costs
+    // the second core up to kSpin of watching after a frame's last job.
     constexpr auto kSpin = std::chrono::microseconds(500);
     const auto spin_end = std::chrono::steady_clock::now() + kSpin;
-    for (int k = 0; announced_.load(std::memory_order_acquire) == seen && !stopping_.load(); ++k) {
-      if (k % 64 == 63 && std::chrono::steady_clock::now() >= spin_end) break;
-#if defined(__x86_64__) || defined(__i386__)
-      __builtin_ia32_pause();
-#endif
+    for (int k = 0; spin_ && announced_.load(std::memory_order_acquire) == seen &&
+                    !stopping_.load(std::memory_order_relaxed);
+         ++k) {
+      if (k % 64 == 63) {
+        if (std::chrono::steady_clock::now() >= spin_end) break;
+        std::this_thread::yield();
+      }
+      CpuRelax();
     }
     {
       std::unique_lock<std::mutex> lock(mutex_);

@@ -20,6 +20,16 @@
 
 namespace svms {
 
+// One step of a busy wait: the CPU's spin-wait hint (x86 pause, ARM yield), so that a waiting
+// thread leaves the core's resources to its sibling and draws less power.
+inline void CpuRelax() {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#elif defined(__aarch64__) || defined(__arm__)
+  __asm__ __volatile__("yield");
+#endif
+}
+
 class WorkerPool {
  public:
   // `threads` (>= 1) threads work on each job: the caller of Run and threads - 1 workers
@@ -39,16 +49,17 @@ class WorkerPool {
   // parts are started, the running ones finish, and the first exception is rethrown here, on
   // the caller's thread (never on a worker's, where it would end the program). No heap
   // allocation unless a part throws.
-  // Wakes the workers without a job: they watch for one for half a millisecond (WorkerLoop).
-  // Called where a job is soon to come (the start of a frame), it hides their wake-up behind
-  // the caller's own work instead of the first job's.
-  void Prewake();
-
   template <typename Task>
   void Run(int n, const Task& task) {
     Dispatch(
         n, [](const void* t, int i) { (*static_cast<const Task*>(t))(i); }, &task);
   }
+
+  // Wakes the workers without a job: they watch for one for half a millisecond (WorkerLoop),
+  // when the pool has a CPU for each of its threads. Called where a job is soon to come (the
+  // start of a frame), it hides their wake-up behind the caller's own work instead of the
+  // first job's. Only a hint: no job waits for it.
+  void Prewake();
 
  private:
   using Call = void (*)(const void* task, int i);
@@ -56,6 +67,9 @@ class WorkerPool {
   void Work();
   void WorkerLoop();
 
+  // Whether idle workers watch for the next job before sleeping: only when this process may
+  // run on at least threads() CPUs, so that a watching worker never takes the caller's CPU.
+  bool spin_ = false;
   std::atomic<bool> busy_{false};  // a job is using the workers
   std::atomic<bool> stopping_{false};
   std::mutex mutex_;

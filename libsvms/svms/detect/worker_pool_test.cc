@@ -35,9 +35,10 @@ TEST(WorkerPool, RunsEveryPartOnceOnSeveralThreads) {
   EXPECT_EQ(arrived, 2);
 }
 
-// Woken ahead of a job (Prewake), a worker joins the next job; woken with no job after, or
-// left to fall asleep again (2 ms idle, past its half millisecond of watching), it still joins
-// the next, and a pool whose workers were woken for nothing stops cleanly.
+// Prewake is a hint: it never keeps a worker from the next job. Woken ahead of a job, woken for
+// nothing, or left to fall asleep again (2 ms idle, past its half millisecond of watching), the
+// worker runs a part of the next job (its two parts wait for each other, so the job ends only
+// if both threads run one), and a pool whose workers were woken for nothing stops cleanly.
 TEST(WorkerPool, AWorkerWokenAheadOfAJobJoinsIt) {
   for (int round = 0; round < 20; ++round) {
     WorkerPool pool(2);
