@@ -29,24 +29,32 @@ void CollectEdgeProfiles(const cv::Mat& stored, const std::vector<Detection>& de
       const Eigen::Vector2d along = (b - a) / length;
       Eigen::Vector2d outward(-along.y(), along.x());
       if (outward.dot(0.5 * (a + b) - centre) < 0) outward = -outward;
+      // The lines of a profile, up to 2 px apart along the side: straight enough over that
+      // stretch, and far enough from the corners (the middle 60 %, +-10 % of the side).
+      const double spacing = std::min(1.0, 0.05 * length);
       for (double u : {0.2, 0.35, 0.5, 0.65, 0.8}) {
         if (out->size() >= max_profiles) return;
-        const Eigen::Vector2d p = a + u * (b - a);
         EdgeProfile prof;
+        prof.black = static_cast<float>(black_level);
+        prof.range = static_cast<float>(range);
         bool inside = true;
-        for (int i = 0; i < kProfileSamples && inside; ++i) {
-          const Eigen::Vector2d q = p + (i - kHalf) * kProfileStep * outward;
-          inside = q.x() >= 0 && q.y() >= 0 && q.x() < stored.cols - 2 && q.y() < stored.rows - 2;
-          if (!inside) break;
-          const int x0 = static_cast<int>(q.x()), y0 = static_cast<int>(q.y());
-          const double fx = q.x() - x0, fy = q.y() - y0;
-          const int xs[4] = {x0, x0 + 1, x0, x0 + 1}, ys[4] = {y0, y0, y0 + 1, y0 + 1};
-          const double ws[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
-          for (int k = 0; k < 4; ++k) {
-            const double v = stored.depth() == CV_8U ? stored.at<uint8_t>(ys[k], xs[k])
-                                                     : stored.at<uint16_t>(ys[k], xs[k]);
-            prof.value[i][k] = static_cast<float>((v - black_level) / range);
-            prof.weight[i][k] = static_cast<float>(ws[k]);
+        for (int line = 0; line < kProfileLines && inside; ++line) {
+          const Eigen::Vector2d p = a + u * (b - a) + (line - kProfileLines / 2) * spacing * along;
+          for (int i = 0; i < kProfileSamples && inside; ++i) {
+            const Eigen::Vector2d q = p + (i - kHalf) * kProfileStep * outward;
+            inside = q.x() >= 0 && q.y() >= 0 && q.x() < stored.cols - 2 && q.y() < stored.rows - 2;
+            if (!inside) break;
+            const int x0 = static_cast<int>(q.x()), y0 = static_cast<int>(q.y());
+            const double fx = q.x() - x0, fy = q.y() - y0;
+            const int xs[4] = {x0, x0 + 1, x0, x0 + 1}, ys[4] = {y0, y0, y0 + 1, y0 + 1};
+            const double ws[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+            for (int k = 0; k < 4; ++k) {
+              const uint16_t v = stored.depth() == CV_8U ? stored.at<uint8_t>(ys[k], xs[k])
+                                                         : stored.at<uint16_t>(ys[k], xs[k]);
+              prof.code[i][4 * line + k] = v;
+              prof.max_code = std::max(prof.max_code, v);
+              prof.weight[i][4 * line + k] = static_cast<float>(ws[k] / kProfileLines);
+            }
           }
         }
         if (inside) out->push_back(prof);
@@ -57,21 +65,44 @@ void CollectEdgeProfiles(const cv::Mat& stored, const std::vector<Detection>& de
 
 namespace {
 
-// The mean skewness of the profiles' line spread functions (the derivative of each profile read
-// through `to_linear`, normalised between its plateaus), over +-2 px about each one's mean:
-// zero for point-symmetric edges. Moments of the sampled derivative are sums over evenly spaced
-// samples, so the place of the edge between samples does not bias them (a symmetry test that
-// interpolates between samples does: its own error is larger than the effect of the curve).
-// Profiles with too little contrast are skipped (*used counts the rest).
-double MeanSkewness(const std::vector<const EdgeProfile*>& profiles,
-                    const std::function<double(double)>& to_linear, int* used) {
+// The skewness of the profiles' line spread functions (the derivative of each profile read
+// through `to_linear`, normalised between its plateaus), over +-2 px about each one's mean,
+// pooled: the sum of their third moments over the sum of their second moments to the power
+// 1.5. Zero for point-symmetric edges. Pooled rather than the mean of each profile's
+// skewness because a ratio of one profile's noisy moments is biased where its third and
+// second moments share noise of one sign (shot noise, larger on the bright side): the pooled
+// sum's sign is that of the summed third moments alone. Moments of the sampled derivative are
+// sums over evenly spaced samples, so the place of the edge between samples does not bias
+// them (a symmetry test that interpolates between samples does: its own error is larger than
+// the effect of the curve). Profiles with too little contrast are skipped (*used counts the
+// rest).
+double PooledSkewness(const std::vector<const EdgeProfile*>& profiles,
+                      const std::function<double(double)>& to_linear, int* used) {
   constexpr int kN = kProfileSamples;
-  double sum = 0;
+  double sum3 = 0, sum2 = 0;
   *used = 0;
   std::array<double, kN> n;
+  // The curve read once per code for the profiles' scale (one in a run; rebuilt when it
+  // changes): a profile reads 500 pixels per candidate curve.
+  std::vector<double> lut;
+  float lut_black = NAN, lut_range = NAN;
   for (const EdgeProfile* p : profiles) {
-    for (int i = 0; i < kN; ++i)
-      n[i] = p->At(i, [&](double v) { return to_linear(std::clamp(v, 0.0, 1.0)); });
+    if (p->black != lut_black || p->range != lut_range ||
+        lut.size() <= static_cast<size_t>(p->max_code)) {
+      lut_black = p->black, lut_range = p->range;
+      size_t size = 0;
+      for (const EdgeProfile* q : profiles)
+        if (q->black == lut_black && q->range == lut_range)
+          size = std::max(size, static_cast<size_t>(q->max_code) + 1);
+      lut.resize(size);
+      for (size_t c = 0; c < size; ++c)
+        lut[c] = to_linear(std::clamp((static_cast<float>(c) - lut_black) / lut_range, 0.0f, 1.0f));
+    }
+    for (int i = 0; i < kN; ++i) {
+      double v = 0;
+      for (int k = 0; k < kProfilePixels; ++k) v += p->weight[i][k] * lut[p->code[i][k]];
+      n[i] = v;
+    }
     double dark = 0, bright = 0;
     for (int i = 0; i < 4; ++i) dark += n[i] / 4, bright += n[kN - 1 - i] / 4;
     if (!(bright - dark > 0.05)) continue;
@@ -103,13 +134,14 @@ double MeanSkewness(const std::vector<const EdgeProfile*>& profiles,
       }
     }
     if (!(m2 > 0)) continue;
-    sum += m3 / std::pow(m2, 1.5);
+    sum3 += m3;
+    sum2 += std::pow(m2, 1.5);
     ++*used;
   }
-  return *used > 0 ? sum / *used : 0;
+  return sum2 > 0 ? sum3 / sum2 : 0;
 }
 
-// The gamma in [0.5, 3.5] at which the mean skewness first crosses zero from above (it falls
+// The gamma in [0.5, 3.5] at which the pooled skewness first crosses zero from above (it falls
 // as gamma grows, a higher gamma darkening the foot of the rise more than its shoulder, until
 // far beyond the truth the plateaus' normalisation turns it again): a scan in steps of 0.05,
 // then bisection to 1e-4. Without a crossing, a small subset's curve may only touch zero
@@ -120,7 +152,7 @@ double MeanSkewness(const std::vector<const EdgeProfile*>& profiles,
 double BestGamma(const std::vector<const EdgeProfile*>& profiles) {
   int used = 0;
   auto skew = [&](double g) {
-    return MeanSkewness(
+    return PooledSkewness(
         profiles, [g](double v) { return std::pow(v, g); }, &used);
   };
   double prev_g = 0.5, prev = skew(prev_g);
@@ -150,7 +182,7 @@ ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgeProfile>& profiles
   std::vector<const EdgeProfile*> all;
   for (const EdgeProfile& p : profiles) all.push_back(&p);
   int used = 0;
-  MeanSkewness(
+  PooledSkewness(
       all, [](double v) { return v; }, &used);
   if (used < 20) return out;
   const double best = BestGamma(all);
@@ -174,12 +206,12 @@ ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgeProfile>& profiles
   // Not below the bisection's and the groups' own resolution.
   out.sigma = std::max(std::sqrt(var / kGroups), 0.01);
   const double g_best = out.gamma;
-  out.asymmetry = std::abs(MeanSkewness(
+  out.asymmetry = std::abs(PooledSkewness(
       all, [g_best](double v) { return std::pow(v, g_best); }, &used));
-  out.asymmetry_linear = std::abs(MeanSkewness(
+  out.asymmetry_linear = std::abs(PooledSkewness(
       all, [](double v) { return v; }, &used));
   const Response srgb = Response::Srgb();
-  out.asymmetry_srgb = std::abs(MeanSkewness(
+  out.asymmetry_srgb = std::abs(PooledSkewness(
       all, [&srgb](double v) { return srgb.ToLinear(v); }, &used));
   return out;
 }

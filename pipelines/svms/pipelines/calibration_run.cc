@@ -99,6 +99,8 @@ DetectionPass DetectBoards(const std::vector<std::string>& files, const CameraMo
   pass.errors.assign(n, "");
   pass.sizes.assign(n, cv::Size());
   pass.profiles.assign(n, {});
+  // At most 25,000 profiles in all (about 3 KB each; more do not sharpen the estimate much).
+  const size_t profiles_per_image = std::max<size_t>(100, 25000 / std::max<size_t>(1, n));
   std::atomic<size_t> next{0};
   size_t done = 0;  // under io
   std::mutex io;
@@ -120,7 +122,7 @@ DetectionPass DetectBoards(const std::vector<std::string>& files, const CameraMo
           pass.views[i] = ObservationsFromDetections(found, o.layout, files[i], corner_sigma);
           if (photometry.estimating())
             CollectEdgeProfiles(stored, found, photometry.black_level(), photometry.white_level(),
-                                &pass.profiles[i]);
+                                &pass.profiles[i], profiles_per_image);
         }
       } catch (...) {
         pass.errors[i] = ItemFailure(files[i], std::current_exception());
