@@ -83,6 +83,7 @@ int RunBenchmark(const CalibrateBenchmarkOptions& o) {
   f.corner_noise = MeasureCornerNoise(data.truth, f.tools[0], svms_outcome.views);
   f.pass1_corner_noise = MeasureCornerNoise(data.truth, f.pass1, svms_outcome.pass1_views);
   f.monte_carlo = RunMonteCarlo(o, data, svms_run.calib, f.tools[0], svms_outcome.views);
+  f.response = RunResponseCheck(o, data);
   return WriteCalibrateReport(o, data, f);
 }
 

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "svms/bench/calibrate_checks.h"
+#include "svms/bench/calibrate_response.h"
 #include "svms/bench/calibrate_tools.h"
 
 namespace svms {
@@ -17,6 +18,7 @@ struct CalibrateFindings {
   ProjectionDiff projection_diff;
   CornerNoise corner_noise, pass1_corner_noise;  // svms's board corners against the truth
   MonteCarlo monte_carlo;
+  ResponseCheck response;  // the board through a gamma-2.2 camera and its linear twin
 };
 
 // Writes calibrate.csv, calibrate_grid.dat, calibrate.json, the plots and report.md to

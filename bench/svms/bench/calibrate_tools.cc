@@ -67,6 +67,14 @@ int ViewIndex(const std::string& image) {
   return idx;
 }
 
+// The true cam_from_board of each view `r` used (a run of svms calibrate, `out`).
+std::vector<Pose> TrueFrames(const CalibrationData& data, const CalibrateRunOutcome& out,
+                             const CalibrationResult& r) {
+  std::vector<Pose> poses;
+  for (int v : r.views) poses.push_back(data.true_cam_from_board[ViewIndex(out.image_of_view[v])]);
+  return poses;
+}
+
 // sqrt(trace) of `r`'s projection covariance at each grid pixel at kCalibrateRange (NaN where
 // there is none, or when `ok` is false).
 std::vector<double> PredictedOverGrid(const CalibrationResult& r, bool ok,
@@ -128,51 +136,59 @@ double Now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
+CalibrateRunOptions SvmsCalibrateOptions(const CalibrateBenchmarkOptions& o,
+                                         const CalibrationData& data, const std::string& subdir,
+                                         const std::string& out_name) {
+  CalibrateRunOptions ro;
+  for (const View& v : data.dataset.scenes[0].second.views)
+    ro.images.push_back((fs::path(o.out) / "data" / subdir / (v.name + ".png")).string());
+  ro.board = "board_layout.json";
+  ModelFile f;
+  for (const auto& [rel, text] : data.dataset.files)
+    if (rel == "board_layout.json") ParseModelJson(text, rel, &f);
+  ro.layout = f.layout;
+  ro.calib.lensmodel = data.truth.lensmodel();
+  ro.out = (fs::path(o.out) / (out_name + ".cameramodel")).string();
+  ro.uncertainty_range = kCalibrateRange;
+  ro.threads = o.threads;
+  return ro;
+}
+
+ToolResult MeasuredSvmsResult(const CalibrationData& data, const std::string& name, int rc,
+                              const CalibrateRunOutcome& out) {
+  ToolResult t;
+  t.name = name;
+  t.ok = rc == kExitOk;
+  if (!t.ok) t.failure = "svms calibrate failed (exit " + std::to_string(rc) + ")";
+  t.r = out.result;
+  t.rms_reproj = t.r.rms_px;
+  t.true_cam_from_frame = TrueFrames(data, out, t.r);
+  t.predicted = PredictedOverGrid(t.r, t.ok, data.grid);
+  return t;
+}
+
 ToolResult RunSvmsCalibrate(const CalibrateBenchmarkOptions& o, CalibrationData* data,
                             CalibrateRunOptions* ro, CalibrateRunOutcome* out, ToolResult* pass1) {
   const CameraModel& truth = data->truth;
   const int W = truth.width(), H = truth.height();
-  ToolResult t;
-  t.name = "svms calibrate (SVMS board)";
-  for (const View& v : data->dataset.scenes[0].second.views)
-    ro->images.push_back((fs::path(o.out) / "data" / "board" / (v.name + ".png")).string());
-  ro->board = "board_layout.json";
-  ModelFile f;
-  for (const auto& [rel, text] : data->dataset.files)
-    if (rel == "board_layout.json") ParseModelJson(text, rel, &f);
-  ro->layout = f.layout;
-  ro->calib.lensmodel = truth.lensmodel();
-  ro->out = (fs::path(o.out) / "svms.cameramodel").string();
+  *ro = SvmsCalibrateOptions(o, *data, "board", "svms");
   ro->report_dir = (fs::path(o.out) / "svms_report").string();
-  ro->uncertainty_range = kCalibrateRange;
-  ro->threads = o.threads;
   const double t0 = Now();
   const int rc = RunCalibration(*ro, out);
+  ToolResult t = MeasuredSvmsResult(*data, "svms calibrate (SVMS board)", rc, *out);
   t.seconds = Now() - t0;
-  t.ok = rc == kExitOk;
-  if (!t.ok) t.failure = "svms calibrate failed (exit " + std::to_string(rc) + ")";
-  t.r = out->result;
-  t.rms_reproj = t.r.rms_px;
-  auto true_poses = [&](const CalibrationResult& r) {
-    std::vector<Pose> poses;
-    for (int v : r.views)
-      poses.push_back(data->true_cam_from_board[ViewIndex(out->image_of_view[v])]);
-    return poses;
-  };
-  t.true_cam_from_frame = true_poses(t.r);
   // The first pass (corners fitted in pixels, before re-detection with its lens model).
   pass1->name = "svms calibrate, pass 1 only (corners fitted in pixels)";
   pass1->ok = t.ok;
   pass1->r = out->pass1;
   pass1->rms_reproj = pass1->r.rms_px;
-  pass1->true_cam_from_frame = true_poses(pass1->r);
+  pass1->true_cam_from_frame = TrueFrames(*data, *out, pass1->r);
   pass1->predicted = PredictedOverGrid(pass1->r, t.ok, data->grid);
   for (size_t v = 0; v < t.r.views.size(); ++v) {
     const auto& pts = out->views[t.r.views[v]].points;
     for (size_t i = 0; i < pts.size(); ++i)
       if (!t.r.outlier[v][i]) data->cells[GridCellOf(pts[i].pixel, W, H)] |= kSvmsBoard;
   }
-  t.predicted = PredictedOverGrid(t.r, t.ok, data->grid);
   return t;
 }
 

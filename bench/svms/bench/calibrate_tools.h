@@ -67,6 +67,17 @@ ToolResult RunSvmsCalibrate(const CalibrateBenchmarkOptions& o, CalibrationData*
                             CalibrateRunOptions* run, CalibrateRunOutcome* outcome,
                             ToolResult* pass1);
 
+// svms calibrate's options for the board images in OUT/data/SUBDIR (the dataset's views),
+// writing OUT/OUT_NAME.cameramodel; no report unless the caller sets one.
+CalibrateRunOptions SvmsCalibrateOptions(const CalibrateBenchmarkOptions& o,
+                                         const CalibrationData& data, const std::string& subdir,
+                                         const std::string& out_name);
+
+// A finished svms calibrate run (its exit code `rc`) as a ToolResult: the true frames of its
+// used views and its prediction over the grid, ready for Measure.
+ToolResult MeasuredSvmsResult(const CalibrationData& data, const std::string& name, int rc,
+                              const CalibrateRunOutcome& out);
+
 // findChessboardCornersSB on the chessboard's images (writes OUT/corners.vnl, mrcal's corner
 // cache). Marks the cells with corners.
 ChessCorners FindChessboards(const CalibrateBenchmarkOptions& o, CalibrationData* data);

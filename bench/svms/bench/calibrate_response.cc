@@ -1,0 +1,70 @@
+#include "svms/bench/calibrate_response.h"
+
+#include <filesystem>
+#include <iostream>
+
+#include "svms/base/format.h"
+#include "svms/pipelines/exit_codes.h"
+#include "svms/pipelines/render_scene.h"
+
+namespace svms {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The board's scene through another camera pipeline, rendered into OUT/data/SUBDIR unless its
+// images are there. kExitOk to go on.
+int RenderBoard(const CalibrateBenchmarkOptions& o, const CalibrationData& data,
+                const std::string& subdir, const std::string& response) {
+  Scene scene = data.dataset.scenes[0].second;
+  scene.sensor.response = response;
+  scene.sensor.defocus_sigma_px = kCheckedDefocusPx;
+  const fs::path dir = fs::path(o.out) / "data" / subdir;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  bool have = true;
+  for (const View& v : scene.views) have &= fs::exists(dir / (v.name + ".png"));
+  if (have) return kExitOk;
+  std::cerr << "svms bench calibrate: rendering " << scene.views.size() << " board views through "
+            << response << " with " << Fixed(kCheckedDefocusPx, 1) << " px of defocus\n";
+  return RenderScene(scene, "calibration/" + subdir, dir.string(), o.threads, false, false);
+}
+
+}  // namespace
+
+ResponseCheck RunResponseCheck(const CalibrateBenchmarkOptions& o, const CalibrationData& data) {
+  ResponseCheck check;
+  const std::string gamma_dir = "board_gamma" + Fixed(kCheckedGamma, 1);
+  const std::string linear_dir = "board_linear_defocus";
+  if (RenderBoard(o, data, gamma_dir, "gamma:" + Fixed(kCheckedGamma, 1)) != kExitOk ||
+      RenderBoard(o, data, linear_dir, "linear") != kExitOk) {
+    check.failure = "rendering the response check's boards failed";
+    return check;
+  }
+  auto calibrate = [&](const std::string& subdir, const std::string& response,
+                       const std::string& name, CalibrateRunOutcome* out) {
+    CalibrateRunOptions ro = SvmsCalibrateOptions(o, data, subdir, subdir);
+    ro.photometry.response = response;
+    ro.quiet = true;
+    ro.mrcal_inputs = false;
+    const double t0 = Now();
+    const int rc = RunCalibration(ro, out);
+    ToolResult t = MeasuredSvmsResult(data, name, rc, *out);
+    t.seconds = Now() - t0;
+    if (t.ok) Measure(data, &t);
+    return t;
+  };
+  CalibrateRunOutcome gamma_out, linear_out;
+  check.gamma =
+      calibrate(gamma_dir, "estimate",
+                "svms calibrate --response estimate (gamma " + Fixed(kCheckedGamma, 1) + " camera)",
+                &gamma_out);
+  check.linear =
+      calibrate(linear_dir, "linear", "svms calibrate --response linear (its twin)", &linear_out);
+  check.estimate = gamma_out.response;
+  check.ok = check.gamma.ok && check.linear.ok;
+  if (!check.ok) check.failure = check.gamma.ok ? check.linear.failure : check.gamma.failure;
+  return check;
+}
+
+}  // namespace svms

@@ -1,0 +1,34 @@
+// The camera's response learned from the calibration board (part of `svms bench calibrate`).
+//
+// A camera that writes gamma-encoded files must be calibrated as well as one that writes
+// linear light, and `svms calibrate --response estimate` must find its curve from the board
+// itself (response_estimate.h). The check renders the calibration dataset's board views twice
+// more, through the same optics with 0.7 px of defocus: once encoded with gamma 2.2 and once
+// linear (its twin: same light, same noise draws before encoding). svms calibrate runs on the
+// gamma views with --response estimate and on the twin with --response linear; both solutions
+// are measured on the benchmark's region against the true camera like the other tools.
+#pragma once
+
+#include <string>
+
+#include "svms/bench/calibrate_tools.h"
+#include "svms/detect/response_estimate.h"
+
+namespace svms {
+
+constexpr double kCheckedGamma = 2.2;
+constexpr double kCheckedDefocusPx = 0.7;
+
+struct ResponseCheck {
+  bool ok = false;            // both calibrations ran
+  std::string failure;        // why not
+  ResponseEstimate estimate;  // from the gamma views
+  ToolResult gamma, linear;   // the two calibrations, measured (Measure)
+};
+
+// Renders OUT/data/board_gamma2.2 and OUT/data/board_linear_defocus unless their images are
+// there, calibrates both and measures them. Needs `data.cells` (the region) filled by the main
+// svms and chessboard runs.
+ResponseCheck RunResponseCheck(const CalibrateBenchmarkOptions& o, const CalibrationData& data);
+
+}  // namespace svms
