@@ -114,6 +114,8 @@ void WriteJson(const CalibrateBenchmarkOptions& o, const CalibrationData& data,
                          {"profiles", r.estimate.profiles},
                          {"gamma_region_error_rms_px", r.gamma.region_err_rms},
                          {"linear_twin_region_error_rms_px", r.linear.region_err_rms},
+                         {"gamma_corner_error_rms_per_axis_px", r.gamma_corners.rms},
+                         {"linear_twin_corner_error_rms_per_axis_px", r.linear_corners.rms},
                          {"gamma_seconds", r.gamma.seconds},
                          {"linear_twin_seconds", r.linear.seconds}};
   OutputFile(fs::path(o.out) / "calibrate.json") << j.dump(2) << "\n";
@@ -237,7 +239,15 @@ void ToolsSection(const CalibrateBenchmarkOptions& o, const CalibrationData& dat
          "estimate`, the second with `--response linear`. ";
   if (r.ok)
     *md << "The response estimated from the board: gamma " << Fixed(r.estimate.gamma, 3) << " +- "
-        << Fixed(r.estimate.sigma, 3) << " from " << r.estimate.profiles << " edge profiles.\n";
+        << Fixed(r.estimate.sigma, 3) << " from " << r.estimate.profiles
+        << " edge profiles. Their corners against the true projections: "
+        << Fixed(r.gamma_corners.rms, 4) << " px RMS per axis, mean ("
+        << SignedFixed(r.gamma_corners.mean_x, 4) << ", " << SignedFixed(r.gamma_corners.mean_y, 4)
+        << ") px, a-posteriori sigma " << Fixed(r.gamma.r.noise_sigma_px, 4) << " px; the twin's "
+        << Fixed(r.linear_corners.rms, 4) << " px, mean ("
+        << SignedFixed(r.linear_corners.mean_x, 4) << ", "
+        << SignedFixed(r.linear_corners.mean_y, 4) << ") px, a-posteriori "
+        << Fixed(r.linear.r.noise_sigma_px, 4) << " px.\n";
   else
     *md << "Not run: " << r.failure << ".\n";
 }

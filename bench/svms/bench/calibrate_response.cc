@@ -62,6 +62,8 @@ ResponseCheck RunResponseCheck(const CalibrateBenchmarkOptions& o, const Calibra
   check.linear =
       calibrate(linear_dir, "linear", "svms calibrate --response linear (its twin)", &linear_out);
   check.estimate = gamma_out.response;
+  check.gamma_corners = MeasureCornerNoise(data.truth, check.gamma, gamma_out.views);
+  check.linear_corners = MeasureCornerNoise(data.truth, check.linear, linear_out.views);
   check.ok = check.gamma.ok && check.linear.ok;
   if (!check.ok) check.failure = check.gamma.ok ? check.linear.failure : check.gamma.failure;
   return check;

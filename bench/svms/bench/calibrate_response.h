@@ -11,6 +11,7 @@
 
 #include <string>
 
+#include "svms/bench/calibrate_checks.h"
 #include "svms/bench/calibrate_tools.h"
 #include "svms/detect/response_estimate.h"
 
@@ -20,10 +21,11 @@ constexpr double kCheckedGamma = 2.2;
 constexpr double kCheckedDefocusPx = 0.7;
 
 struct ResponseCheck {
-  bool ok = false;            // both calibrations ran
-  std::string failure;        // why not
-  ResponseEstimate estimate;  // from the gamma views
-  ToolResult gamma, linear;   // the two calibrations, measured (Measure)
+  bool ok = false;                            // both calibrations ran
+  std::string failure;                        // why not
+  ResponseEstimate estimate;                  // from the gamma views
+  ToolResult gamma, linear;                   // the two calibrations, measured (Measure)
+  CornerNoise gamma_corners, linear_corners;  // their board corners against the truth
 };
 
 // Renders OUT/data/board_gamma2.2 and OUT/data/board_linear_defocus unless their images are
