@@ -39,6 +39,8 @@ void AddBenchCalibrate(CLI::App& bench, int* exit_code) {
   cmd->add_option("--out", o->out, "Output directory (data/, CSV, JSON, plots, report.md)")
       ->required();
   cmd->add_flag("--quick", o->quick, "The first 12 views only (smoke test)");
+  cmd->add_option("--seed", o->seed, "Seed of the dataset's views and of the sensor noise")
+      ->capture_default_str();
   cmd->add_option("--threads", o->threads, "Rendering and detection threads")
       ->check(CLI::Range(1, 256));
   cmd->footer("Example:\n  svms bench calibrate --out out/bench/calibrate");

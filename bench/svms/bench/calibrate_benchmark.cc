@@ -1,6 +1,7 @@
 #include "svms/bench/calibrate_benchmark.h"
 
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 
 #include "svms/base/format.h"
@@ -27,9 +28,10 @@ std::vector<Eigen::Vector2d> GridPixels(int W, int H) {
 }
 
 // The calibration dataset (a subset of its views with --quick), rendered into OUT/data/ unless
-// its images are there, and the evaluation grid (OUT/grid.txt). kExitOk to go on.
+// its images are there from the same seed (OUT/data/seed.txt), and the evaluation grid
+// (OUT/grid.txt). kExitOk to go on.
 int PrepareData(const CalibrateBenchmarkOptions& o, CalibrationData* data) {
-  if (Status s = MakeDataset("calibration", DatasetOptions{1, false}, &data->dataset); !s) {
+  if (Status s = MakeDataset("calibration", DatasetOptions{o.seed, false}, &data->dataset); !s) {
     std::cerr << "svms bench calibrate: " << s.message() << "\n";
     return kExitFailed;
   }
@@ -37,6 +39,20 @@ int PrepareData(const CalibrateBenchmarkOptions& o, CalibrationData* data) {
   data->views = o.quick ? 12 : d.scenes[0].second.views.size();
   data->truth = d.scenes[0].second.camera;
   std::error_code ec;
+  // Images of another seed are rendered again (every subdirectory of data/, the response
+  // check's too).
+  const fs::path seed_file = fs::path(o.out) / "data" / "seed.txt";
+  {
+    std::ifstream in(seed_file);
+    uint64_t seed = 0;
+    if (in >> seed && seed != o.seed) {
+      std::cerr << "svms bench calibrate: " << (fs::path(o.out) / "data").string() << " holds seed "
+                << seed << "'s views: rendering seed " << o.seed << "'s\n";
+      fs::remove_all(fs::path(o.out) / "data", ec);
+    }
+  }
+  fs::create_directories(seed_file.parent_path(), ec);
+  OutputFile(seed_file) << o.seed << "\n";
   for (auto& [sub, scene] : d.scenes) {
     scene.views.resize(data->views);
     const fs::path dir = fs::path(o.out) / "data" / sub;

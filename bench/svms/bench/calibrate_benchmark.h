@@ -8,6 +8,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cstdint>
 #include <string>
 #include <thread>
 
@@ -16,6 +17,7 @@ namespace svms {
 struct CalibrateBenchmarkOptions {
   std::string out;     // the output directory (the rendered views are kept in OUT/data/)
   bool quick = false;  // the first 12 views only (a smoke test)
+  uint64_t seed = 1;   // the calibration dataset's (views and noise)
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 };
 
