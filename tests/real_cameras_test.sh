@@ -72,7 +72,7 @@ PY
 
 # A declared response the edges contradict is a warning, on stderr and in the JSON line. On
 # lossless sRGB files: a JPEG's blocks pull the estimate toward 1 (docs/detector.md).
-"$svms" dataset range --quick --profile srgb8 --out srgb8 --quiet --threads 2 >/dev/null || fail "dataset srgb8"
+"$svms" dataset range --quick --profile srgb8 --out srgb8 --quiet --threads 2 >/dev/null || { echo "dataset srgb8 failed"; exit 1; }
 out=$("$svms" detect srgb8/*.png --response linear --quiet 2>&1 >/dev/null)
 grep -q "warning: the response linear contradicts the image" <<<"$out" && pass || fail "no warning for --response linear on sRGB files: $out"
 # A linear PNG that declares nothing (no gAMA chunk) is taken as sRGB by default: the edges
@@ -105,7 +105,7 @@ out=$("$svms" calibrate "cal_gamma:2.2" --board cal/board_layout.json --lensmode
 import json, sys, mrcal
 s = json.load(open(sys.argv[1]))
 g = s["response_estimate"]["gamma"]
-assert abs(g - 2.2) < 0.15, g  # 4 views: measured 2.15 +- 0.05 (48 views: docs/detector.md)
+assert abs(g - 2.2) < 0.15, g  # 4 views: measured 2.13 +- 0.05 (48 views: docs/detector.md)
 assert s["residuals_px"]["rms"] < 0.15, s["residuals_px"]
 p = json.load(open(sys.argv[3]))
 assert p["response"].startswith("gamma:"), p

@@ -3,13 +3,14 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <sstream>
 
 #include "svms/base/format.h"
 #include "svms/bench/calibrate_checks.h"
 #include "svms/bench/calibrate_report.h"
+#include "svms/bench/calibrate_response.h"
 #include "svms/bench/calibrate_tools.h"
 #include "svms/pipelines/exit_codes.h"
-#include "svms/pipelines/render_scene.h"
 #include "svms/pipelines/report_file.h"
 
 namespace svms {
@@ -27,9 +28,22 @@ std::vector<Eigen::Vector2d> GridPixels(int W, int H) {
   return g;
 }
 
+// What OUT/data/ holds, in OUT/data/stamp.txt: the dataset's seed and the response check's
+// camera pipelines (the views themselves are the seed's, a --quick run's a prefix of them).
+std::string DataStamp(const CalibrateBenchmarkOptions& o) {
+  return "calibration dataset seed " + std::to_string(o.seed) + "; response check gamma " +
+         Fixed(kCheckedGamma, 3) + ", defocus " + Fixed(kCheckedDefocusPx, 3) + " px\n";
+}
+std::string ReadStamp(const CalibrateBenchmarkOptions& o) {
+  std::ifstream in(fs::path(o.out) / "data" / "stamp.txt");
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
 // The calibration dataset (a subset of its views with --quick), rendered into OUT/data/ unless
-// its images are there from the same seed (OUT/data/seed.txt), and the evaluation grid
-// (OUT/grid.txt). kExitOk to go on.
+// its images are there under the same stamp, and the evaluation grid (OUT/grid.txt). kExitOk
+// to go on.
 int PrepareData(const CalibrateBenchmarkOptions& o, CalibrationData* data) {
   if (Status s = MakeDataset("calibration", DatasetOptions{o.seed, false}, &data->dataset); !s) {
     std::cerr << "svms bench calibrate: " << s.message() << "\n";
@@ -39,32 +53,23 @@ int PrepareData(const CalibrateBenchmarkOptions& o, CalibrationData* data) {
   data->views = o.quick ? 12 : d.scenes[0].second.views.size();
   data->truth = d.scenes[0].second.camera;
   std::error_code ec;
-  // Images of another seed are rendered again (every subdirectory of data/, the response
-  // check's too).
-  const fs::path seed_file = fs::path(o.out) / "data" / "seed.txt";
-  {
-    std::ifstream in(seed_file);
-    uint64_t seed = 0;
-    if (in >> seed && seed != o.seed) {
-      std::cerr << "svms bench calibrate: " << (fs::path(o.out) / "data").string() << " holds seed "
-                << seed << "'s views: rendering seed " << o.seed << "'s\n";
-      fs::remove_all(fs::path(o.out) / "data", ec);
+  // Images rendered for another stamp (another seed, or from before stamps), or whose run did
+  // not finish rendering, are rendered again: every subdirectory of data/, the response check's
+  // too. The stamp is written once everything is rendered (RunBenchmark).
+  const fs::path data_dir = fs::path(o.out) / "data";
+  if (fs::exists(data_dir) && ReadStamp(o) != DataStamp(o)) {
+    std::cerr << "svms bench calibrate: " << data_dir.string()
+              << " holds views of another seed or an unfinished run: rendering them again\n";
+    fs::remove_all(data_dir, ec);
+    if (ec) {
+      std::cerr << "svms bench calibrate: " << data_dir.string() << ": cannot remove ("
+                << ec.message() << ")\n";
+      return kExitFailed;
     }
   }
-  fs::create_directories(seed_file.parent_path(), ec);
-  OutputFile(seed_file) << o.seed << "\n";
   for (auto& [sub, scene] : d.scenes) {
     scene.views.resize(data->views);
-    const fs::path dir = fs::path(o.out) / "data" / sub;
-    fs::create_directories(dir, ec);
-    bool have = true;
-    for (const View& v : scene.views) have &= fs::exists(dir / (v.name + ".png"));
-    if (!have) {
-      std::cerr << "svms bench calibrate: rendering " << data->views << " " << sub << " views\n";
-      if (RenderScene(scene, "calibration/" + sub, dir.string(), o.threads, false, false) !=
-          kExitOk)
-        return kExitFailed;
-    }
+    if (RenderUnlessPresent(o, scene, sub, sub) != kExitOk) return kExitFailed;
   }
   for (const View& v : d.scenes[0].second.views)
     data->true_cam_from_board.push_back(v.cam_from_world);
@@ -100,6 +105,7 @@ int RunBenchmark(const CalibrateBenchmarkOptions& o) {
   f.pass1_corner_noise = MeasureCornerNoise(data.truth, f.pass1, svms_outcome.pass1_views);
   f.monte_carlo = RunMonteCarlo(o, data, svms_run.calib, f.tools[0], svms_outcome.views);
   f.response = RunResponseCheck(o, data);
+  if (f.response.rendered) OutputFile(fs::path(o.out) / "data" / "stamp.txt") << DataStamp(o);
   return WriteCalibrateReport(o, data, f);
 }
 

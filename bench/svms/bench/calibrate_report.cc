@@ -43,11 +43,15 @@ void WriteTables(const CalibrateBenchmarkOptions& o, const CalibrationData& data
   csv << "tool,ok,views,reprojection_rms_px,region_error_rms_px,region_error_worst_px,"
          "region_predicted_rms_px,error_rms_px,error_worst_px,direct_error_rms_px,"
          "predicted_rms_px,seconds\n";
-  for (const ToolResult& t : f.tools)
+  for (const ToolResult* tp :
+       {&f.tools[0], &f.tools[1], &f.tools[2], &f.response.gamma, &f.response.linear}) {
+    const ToolResult& t = *tp;
+    if (t.name.empty()) continue;  // a response-check run that did not start
     csv << '"' << t.name << "\"," << t.ok << "," << t.r.cam_from_board.size() << "," << t.rms_reproj
         << "," << t.region_err_rms << "," << t.region_err_worst << "," << t.region_pred_rms << ","
         << t.err_rms << "," << t.err_worst << "," << t.direct_rms << "," << t.pred_rms << ","
         << t.seconds << "\n";
+  }
   // Per grid cell: x y, then |error| and predicted for svms, mrcal, OpenCV, then the cell's
   // data flags (1 SVMS board, 2 chessboard, 3 both = the region).
   OutputFile g(fs::path(o.out) / "calibrate_grid.dat");
@@ -105,19 +109,32 @@ void WriteJson(const CalibrateBenchmarkOptions& o, const CalibrationData& data,
                       {"region_predicted_rms_px", f.monte_carlo.predicted_rms},
                       {"seconds", f.monte_carlo.seconds}};
   const ResponseCheck& r = f.response;
-  j["response_check"] = {{"ok", r.ok},
-                         {"failure", r.failure},
-                         {"true_gamma", kCheckedGamma},
-                         {"defocus_sigma_px", kCheckedDefocusPx},
-                         {"estimated_gamma", r.estimate.gamma},
-                         {"estimated_gamma_sigma", r.estimate.sigma},
-                         {"profiles", r.estimate.profiles},
-                         {"gamma_region_error_rms_px", r.gamma.region_err_rms},
-                         {"linear_twin_region_error_rms_px", r.linear.region_err_rms},
-                         {"gamma_corner_error_rms_per_axis_px", r.gamma_corners.rms},
-                         {"linear_twin_corner_error_rms_per_axis_px", r.linear_corners.rms},
-                         {"gamma_seconds", r.gamma.seconds},
-                         {"linear_twin_seconds", r.linear.seconds}};
+  // A figure of a run that did not happen is null.
+  auto figure = [](bool have, double v) { return have ? nlohmann::json(v) : nlohmann::json(); };
+  j["seed"] = o.seed;
+  j["response_check"] = {
+      {"ok", r.ok},
+      {"failure", r.failure},
+      {"true_gamma", kCheckedGamma},
+      {"defocus_sigma_px", kCheckedDefocusPx},
+      {"estimated_gamma", figure(r.estimate.profiles > 0, r.estimate.gamma)},
+      {"estimated_gamma_sigma", figure(r.estimate.profiles > 0, r.estimate.sigma)},
+      {"profiles", r.estimate.profiles},
+      {"gamma_region_error_rms_px", figure(r.gamma.ok, r.gamma.region_err_rms)},
+      {"gamma_region_predicted_rms_px", figure(r.gamma.ok, r.gamma.region_pred_rms)},
+      {"gamma_a_posteriori_sigma_px", figure(r.gamma.ok, r.gamma.r.noise_sigma_px)},
+      {"gamma_corner_error_rms_per_axis_px", figure(r.gamma.ok, r.gamma_corners.rms)},
+      {"gamma_corner_error_mean_px",
+       {figure(r.gamma.ok, r.gamma_corners.mean_x), figure(r.gamma.ok, r.gamma_corners.mean_y)}},
+      {"linear_twin_region_error_rms_px", figure(r.linear.ok, r.linear.region_err_rms)},
+      {"linear_twin_region_predicted_rms_px", figure(r.linear.ok, r.linear.region_pred_rms)},
+      {"linear_twin_a_posteriori_sigma_px", figure(r.linear.ok, r.linear.r.noise_sigma_px)},
+      {"linear_twin_corner_error_rms_per_axis_px", figure(r.linear.ok, r.linear_corners.rms)},
+      {"linear_twin_corner_error_mean_px",
+       {figure(r.linear.ok, r.linear_corners.mean_x),
+        figure(r.linear.ok, r.linear_corners.mean_y)}},
+      {"gamma_seconds", r.gamma.seconds},
+      {"linear_twin_seconds", r.linear.seconds}};
   OutputFile(fs::path(o.out) / "calibrate.json") << j.dump(2) << "\n";
 }
 
@@ -188,6 +205,7 @@ void ToolsSection(const CalibrateBenchmarkOptions& o, const CalibrationData& dat
                   const CalibrateFindings& f, std::ostream* md) {
   *md << "## Camera calibration\n\n"
       << "`svms bench calibrate" << (o.quick ? " --quick" : "")
+      << (o.seed != 1 ? " --seed " + std::to_string(o.seed) : std::string())
       << "` on the simulator's calibration dataset: " << data.views
       << " views of a 6x5 SVMS marker board and, at the same poses, of a 10x8 chessboard, "
       << "1024x1024 " << data.truth.lensmodel()
@@ -228,16 +246,20 @@ void ToolsSection(const CalibrateBenchmarkOptions& o, const CalibrationData& dat
     *md << ToolRow(t, false);
   }
   if (f.pass1.ok) *md << ToolRow(f.pass1, true);
-  for (const ToolResult* t : {&f.response.gamma, &f.response.linear})
-    if (t->ok) *md << ToolRow(*t, false);
   const ResponseCheck& r = f.response;
-  *md << "\nThe last two rows: the same board views rendered through a camera that encodes "
-         "gamma "
+  for (const ToolResult* t : {&r.gamma, &r.linear}) {
+    if (t->ok)
+      *md << ToolRow(*t, false);
+    else if (!t->name.empty())
+      *md << "| " << t->name << " | failed: " << t->failure << " | | | | | | | | | | |\n";
+  }
+  *md << "\nThe response check (calibrate_response.h): the same board views rendered through a "
+         "camera that encodes gamma "
       << Fixed(kCheckedGamma, 1) << " and through its linear twin, both behind "
       << Fixed(kCheckedDefocusPx, 1)
-      << " px of defocus (calibrate_response.h); the first calibrated with `--response "
-         "estimate`, the second with `--response linear`. ";
-  if (r.ok)
+      << " px of defocus, calibrated with `--response estimate` and `--response linear` (the "
+         "table's last rows). ";
+  if (r.ok) {
     *md << "The response estimated from the board: gamma " << Fixed(r.estimate.gamma, 3) << " +- "
         << Fixed(r.estimate.sigma, 3) << " from " << r.estimate.profiles
         << " edge profiles. Their corners against the true projections: "
@@ -248,8 +270,9 @@ void ToolsSection(const CalibrateBenchmarkOptions& o, const CalibrationData& dat
         << SignedFixed(r.linear_corners.mean_x, 4) << ", "
         << SignedFixed(r.linear_corners.mean_y, 4) << ") px, a-posteriori "
         << Fixed(r.linear.r.noise_sigma_px, 4) << " px.\n";
-  else
-    *md << "Not run: " << r.failure << ".\n";
+  } else {
+    *md << "Failed: " << r.failure << ".\n";
+  }
 }
 
 // The targets, over the region. The region error's predicted/true ratio of one calibration is
@@ -374,6 +397,14 @@ void PrintSummary(const CalibrationData& data, const CalibrateFindings& f) {
               << Fixed(f.pass1.region_pred_rms, 4) << "; corner noise a-posteriori "
               << Fixed(f.pass1.r.noise_sigma_px, 4) << " px, true "
               << Fixed(f.pass1_corner_noise.rms, 4) << " px\n";
+  for (const ToolResult* t : {&f.response.gamma, &f.response.linear})
+    if (t->ok)
+      std::cout << PadRight(t->name, 38) << " region: error RMS " << Fixed(t->region_err_rms, 4)
+                << " px, predicted " << Fixed(t->region_pred_rms, 4) << "\n";
+  if (f.response.ok)
+    std::cout << "response estimated from the gamma " << Fixed(kCheckedGamma, 1)
+              << " boards: gamma " << Fixed(f.response.estimate.gamma, 3) << " +- "
+              << Fixed(f.response.estimate.sigma, 3) << "\n";
   std::cout << "svms corner noise: a-posteriori " << Fixed(f.tools[0].r.noise_sigma_px, 4)
             << " px, true " << Fixed(f.corner_noise.rms, 4) << " px; Monte-Carlo ("
             << f.monte_carlo.solved << "/" << f.monte_carlo.trials << "): error "
@@ -395,7 +426,7 @@ int WriteCalibrateReport(const CalibrateBenchmarkOptions& o, const CalibrationDa
   md.close();
   std::cout << "wrote " << (fs::path(o.out) / "report.md").string() << "\n";
   PrintSummary(data, f);
-  const bool all_ok = f.tools[0].ok && f.tools[1].ok && f.tools[2].ok;
+  const bool all_ok = f.tools[0].ok && f.tools[1].ok && f.tools[2].ok && f.response.ok;
   return all_ok ? targets.ExitCode("svms bench calibrate", kExitOk) : kExitFailed;
 }
 

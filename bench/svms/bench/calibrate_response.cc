@@ -1,16 +1,10 @@
 #include "svms/bench/calibrate_response.h"
 
-#include <filesystem>
-#include <iostream>
-
 #include "svms/base/format.h"
 #include "svms/pipelines/exit_codes.h"
-#include "svms/pipelines/render_scene.h"
 
 namespace svms {
 namespace {
-
-namespace fs = std::filesystem;
 
 // The board's scene through another camera pipeline, rendered into OUT/data/SUBDIR unless its
 // images are there. kExitOk to go on.
@@ -19,15 +13,9 @@ int RenderBoard(const CalibrateBenchmarkOptions& o, const CalibrationData& data,
   Scene scene = data.dataset.scenes[0].second;
   scene.sensor.response = response;
   scene.sensor.defocus_sigma_px = kCheckedDefocusPx;
-  const fs::path dir = fs::path(o.out) / "data" / subdir;
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  bool have = true;
-  for (const View& v : scene.views) have &= fs::exists(dir / (v.name + ".png"));
-  if (have) return kExitOk;
-  std::cerr << "svms bench calibrate: rendering " << scene.views.size() << " board views through "
-            << response << " with " << Fixed(kCheckedDefocusPx, 1) << " px of defocus\n";
-  return RenderScene(scene, "calibration/" + subdir, dir.string(), o.threads, false, false);
+  return RenderUnlessPresent(
+      o, scene, subdir,
+      "board (" + response + ", " + Fixed(kCheckedDefocusPx, 1) + " px of defocus)");
 }
 
 }  // namespace
@@ -41,6 +29,7 @@ ResponseCheck RunResponseCheck(const CalibrateBenchmarkOptions& o, const Calibra
     check.failure = "rendering the response check's boards failed";
     return check;
   }
+  check.rendered = true;
   auto calibrate = [&](const std::string& subdir, const std::string& response,
                        const std::string& name, CalibrateRunOutcome* out) {
     CalibrateRunOptions ro = SvmsCalibrateOptions(o, data, subdir, subdir);
@@ -52,6 +41,7 @@ ResponseCheck RunResponseCheck(const CalibrateBenchmarkOptions& o, const Calibra
     ToolResult t = MeasuredSvmsResult(data, name, rc, *out);
     t.seconds = Now() - t0;
     if (t.ok) Measure(data, &t);
+    if (!t.ok) t.failure = name + ": " + t.failure;
     return t;
   };
   CalibrateRunOutcome gamma_out, linear_out;

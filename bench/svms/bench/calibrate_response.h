@@ -21,6 +21,7 @@ constexpr double kCheckedGamma = 2.2;
 constexpr double kCheckedDefocusPx = 0.7;
 
 struct ResponseCheck {
+  bool rendered = false;                      // both boards' images are there
   bool ok = false;                            // both calibrations ran
   std::string failure;                        // why not
   ResponseEstimate estimate;                  // from the gamma views

@@ -14,6 +14,7 @@
 #include "svms/geometry/alignment.h"
 #include "svms/marker/model_io.h"
 #include "svms/pipelines/exit_codes.h"
+#include "svms/pipelines/render_scene.h"
 #include "svms/pipelines/report_file.h"
 #include "svms/pipelines/run_program.h"
 
@@ -134,6 +135,19 @@ void Measure(const CalibrationData& data, ToolResult* t) {
 
 double Now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+int RenderUnlessPresent(const CalibrateBenchmarkOptions& o, const Scene& scene,
+                        const std::string& subdir, const std::string& what) {
+  const fs::path dir = fs::path(o.out) / "data" / subdir;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  bool have = true;
+  for (const View& v : scene.views) have &= fs::exists(dir / (v.name + ".png"));
+  if (have) return kExitOk;
+  std::cerr << "svms bench calibrate: rendering " << scene.views.size() << " " << what
+            << " views\n";
+  return RenderScene(scene, "calibration/" + subdir, dir.string(), o.threads, false, false);
 }
 
 CalibrateRunOptions SvmsCalibrateOptions(const CalibrateBenchmarkOptions& o,

@@ -67,6 +67,11 @@ ToolResult RunSvmsCalibrate(const CalibrateBenchmarkOptions& o, CalibrationData*
                             CalibrateRunOptions* run, CalibrateRunOutcome* outcome,
                             ToolResult* pass1);
 
+// Renders `scene` into OUT/data/SUBDIR unless every view's image is there; `what` names it on
+// stderr. kExitOk to go on.
+int RenderUnlessPresent(const CalibrateBenchmarkOptions& o, const Scene& scene,
+                        const std::string& subdir, const std::string& what);
+
 // svms calibrate's options for the board images in OUT/data/SUBDIR (the dataset's views),
 // writing OUT/OUT_NAME.cameramodel; no report unless the caller sets one.
 CalibrateRunOptions SvmsCalibrateOptions(const CalibrateBenchmarkOptions& o,

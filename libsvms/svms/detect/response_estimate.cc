@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <map>
+#include <utility>
 
 #include "svms/camera/photometric.h"
 
@@ -29,9 +31,11 @@ void CollectEdgeProfiles(const cv::Mat& stored, const std::vector<Detection>& de
       const Eigen::Vector2d along = (b - a) / length;
       Eigen::Vector2d outward(-along.y(), along.x());
       if (outward.dot(0.5 * (a + b) - centre) < 0) outward = -outward;
-      // The lines of a profile, up to 2 px apart along the side: straight enough over that
-      // stretch, and far enough from the corners (the middle 60 %, +-10 % of the side).
-      const double spacing = std::min(1.0, 0.05 * length);
+      // The lines of a profile, min(1 px, 2.5 % of the side) apart and so spanning at most
+      // 4 px along the side: straight enough over that stretch, and the outer lines at least
+      // 15 % of the side from its corners (the middle 60 %, +-5 %), beyond the other side's
+      // blur.
+      const double spacing = std::min(1.0, 0.025 * length);
       for (double u : {0.2, 0.35, 0.5, 0.65, 0.8}) {
         if (out->size() >= max_profiles) return;
         EdgeProfile prof;
@@ -52,7 +56,6 @@ void CollectEdgeProfiles(const cv::Mat& stored, const std::vector<Detection>& de
               const uint16_t v = stored.depth() == CV_8U ? stored.at<uint8_t>(ys[k], xs[k])
                                                          : stored.at<uint16_t>(ys[k], xs[k]);
               prof.code[i][4 * line + k] = v;
-              prof.max_code = std::max(prof.max_code, v);
               prof.weight[i][4 * line + k] = static_cast<float>(ws[k] / kProfileLines);
             }
           }
@@ -82,22 +85,22 @@ double PooledSkewness(const std::vector<const EdgeProfile*>& profiles,
   double sum3 = 0, sum2 = 0;
   *used = 0;
   std::array<double, kN> n;
-  // The curve read once per code for the profiles' scale (one in a run; rebuilt when it
-  // changes): a profile reads 500 pixels per candidate curve.
-  std::vector<double> lut;
-  float lut_black = NAN, lut_range = NAN;
+  // The curve read once per code for each scale of the profiles (one in a run): a profile
+  // reads 500 pixels per candidate curve. Each table covers the largest code of its scale.
+  std::map<std::pair<float, float>, std::vector<double>> tables;
   for (const EdgeProfile* p : profiles) {
-    if (p->black != lut_black || p->range != lut_range ||
-        lut.size() <= static_cast<size_t>(p->max_code)) {
-      lut_black = p->black, lut_range = p->range;
-      size_t size = 0;
-      for (const EdgeProfile* q : profiles)
-        if (q->black == lut_black && q->range == lut_range)
-          size = std::max(size, static_cast<size_t>(q->max_code) + 1);
-      lut.resize(size);
-      for (size_t c = 0; c < size; ++c)
-        lut[c] = to_linear(std::clamp((static_cast<float>(c) - lut_black) / lut_range, 0.0f, 1.0f));
-    }
+    std::vector<double>& t = tables[{p->black, p->range}];
+    uint16_t top = 0;
+    for (const auto& sample : p->code)
+      top = std::max(top, *std::max_element(sample.begin(), sample.end()));
+    if (t.size() <= top) t.resize(static_cast<size_t>(top) + 1, NAN);
+  }
+  for (auto& [scale, t] : tables)
+    for (size_t c = 0; c < t.size(); ++c)
+      t[c] =
+          to_linear(std::clamp((static_cast<float>(c) - scale.first) / scale.second, 0.0f, 1.0f));
+  for (const EdgeProfile* p : profiles) {
+    const std::vector<double>& lut = tables[{p->black, p->range}];
     for (int i = 0; i < kN; ++i) {
       double v = 0;
       for (int k = 0; k < kProfilePixels; ++k) v += p->weight[i][k] * lut[p->code[i][k]];

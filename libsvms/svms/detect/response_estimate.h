@@ -23,7 +23,7 @@ namespace svms {
 
 // One profile across an edge, from its dark side to its bright side, at kProfileSamples
 // offsets kProfileStep px apart, centred on the edge as found. Each sample is the mean of
-// kProfileLines parallel lines across the edge, up to 2 px apart along it: on each, the four
+// kProfileLines parallel lines across the edge, spanning up to 4 px along it: on each, the four
 // pixels around the point (their stored codes) with their bilinear weights, each line's
 // summing to 1 / kProfileLines. The pixels are kept rather than their interpolation because
 // the candidate response must be applied to each pixel before interpolating: interpolated
@@ -42,14 +42,13 @@ struct EdgeProfile {
   std::array<std::array<float, kProfilePixels>, kProfileSamples> weight{};
   // A code's value on the 0..1 scale the response is applied on: (code - black) / range.
   float black = 0, range = 1;
-  uint16_t max_code = 0;  // the largest of `code`
 };
 
 // Profiles across the sides of `detections` (corners TL, TR, BR, BL as printed, pixels) in
 // `stored` (one channel, 8 or 16 bits, values as stored: not linearised), normalised by
 // `black_level` and `white_level` (0: the depth's largest value). Only sides of markers whose
 // white stripe is at least 4 px wide (the profile's +-3 px must see both plateaus) give
-// profiles: 5 per side, from its middle 60 %, their lines min(1, length / 20) px apart.
+// profiles: 5 per side, from its middle 60 %, their lines min(1, length / 40) px apart.
 // Appended to *out (at most `max_profiles` in all: further ones are dropped).
 
 void CollectEdgeProfiles(const cv::Mat& stored, const std::vector<Detection>& detections,

@@ -85,7 +85,7 @@ struct DetectionPass {
 // board's), so that images of another board are named.
 DetectionPass DetectBoards(const std::vector<std::string>& files, const CameraModel& camera,
                            const char* what, const CalibrateRunOptions& o,
-                           const Photometry& photometry) {
+                           const Photometry& photometry, bool collect_profiles = false) {
   std::vector<MarkerModel> models;
   for (const LayoutEntry& e : o.layout.markers) models.push_back(e.marker);
   DetectorOptions dopt;
@@ -99,8 +99,9 @@ DetectionPass DetectBoards(const std::vector<std::string>& files, const CameraMo
   pass.errors.assign(n, "");
   pass.sizes.assign(n, cv::Size());
   pass.profiles.assign(n, {});
-  // At most 25,000 profiles in all (about 3 KB each; more do not sharpen the estimate much).
-  const size_t profiles_per_image = std::max<size_t>(100, 25000 / std::max<size_t>(1, n));
+  // With collect_profiles: at most 25,000 profiles in all (about 3 KB each; more do not sharpen
+  // the estimate much).
+  const size_t profiles_per_image = std::max<size_t>(1, 25000 / std::max<size_t>(1, n));
   std::atomic<size_t> next{0};
   size_t done = 0;  // under io
   std::mutex io;
@@ -111,7 +112,7 @@ DetectionPass DetectBoards(const std::vector<std::string>& files, const CameraMo
       NoiseModel noise;  // a raw frame's, from its stored values (noise_model.h)
       try {
         if (Status s = photometry.Load(files[i], kDefaultMaxImagePixels, &img, nullptr,
-                                       photometry.estimating() ? &stored : nullptr, &noise);
+                                       collect_profiles ? &stored : nullptr, &noise);
             !s) {
           pass.errors[i] = s.message();
         } else {
@@ -120,9 +121,15 @@ DetectionPass DetectBoards(const std::vector<std::string>& files, const CameraMo
           detector.Detect(img, nullptr, std::chrono::steady_clock::time_point::max(), &found,
                           noise.valid() ? &noise : nullptr);
           pass.views[i] = ObservationsFromDetections(found, o.layout, files[i], corner_sigma);
-          if (photometry.estimating())
+          if (collect_profiles) {
+            // Evenly over the image's markers when there are more than its share.
+            std::vector<EdgeProfile> all;
             CollectEdgeProfiles(stored, found, photometry.black_level(), photometry.white_level(),
-                                &pass.profiles[i], profiles_per_image);
+                                &all);
+            const size_t keep = std::min(all.size(), profiles_per_image);
+            for (size_t k = 0; k < keep; ++k)
+              pass.profiles[i].push_back(all[k * all.size() / keep]);
+          }
         }
       } catch (...) {
         pass.errors[i] = ItemFailure(files[i], std::current_exception());
@@ -323,7 +330,8 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
   *out = CalibrateRunOutcome();
   Photometry photometry;
   if (const int rc = CheckRequest(o, &photometry); rc != kExitOk) return rc;
-  DetectionPass pass = DetectBoards(o.images, CameraModel(), "detected", o, photometry);
+  DetectionPass pass =
+      DetectBoards(o.images, CameraModel(), "detected", o, photometry, photometry.estimating());
   if (photometry.estimating()) {
     // Every image again, with the response the first pass's edges gave.
     if (const int rc = EstimateResponse(pass, o, &photometry, out); rc != kExitOk) return rc;
