@@ -31,12 +31,12 @@ void CollectEdgeProfiles(const cv::Mat& stored, const std::vector<Detection>& de
       const Eigen::Vector2d along = (b - a) / length;
       Eigen::Vector2d outward(-along.y(), along.x());
       if (outward.dot(0.5 * (a + b) - centre) < 0) outward = -outward;
-      // The lines of a profile, min(1 px, 2.5 % of the side) apart and so spanning at most
-      // 4 px along the side: straight enough over that stretch, and the outer lines at least
-      // 15 % of the side from its corners (the middle 60 %, +-5 %), beyond the other side's
-      // blur.
-      const double spacing = std::min(1.0, 0.025 * length);
-      for (double u : {0.2, 0.35, 0.5, 0.65, 0.8}) {
+      // The lines of a profile, min(1 px, 5 % of the side) apart and so spanning at most 4 px
+      // along the side: straight enough over that stretch. The profiles sit in the middle half
+      // of the side, so that the outer lines stay 15 % of the side from its corners, beyond the
+      // other side's blur.
+      const double spacing = std::min(1.0, 0.05 * length);
+      for (double u : {0.25, 0.375, 0.5, 0.625, 0.75}) {
         if (out->size() >= max_profiles) return;
         EdgeProfile prof;
         prof.black = static_cast<float>(black_level);

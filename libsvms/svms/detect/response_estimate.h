@@ -48,7 +48,7 @@ struct EdgeProfile {
 // `stored` (one channel, 8 or 16 bits, values as stored: not linearised), normalised by
 // `black_level` and `white_level` (0: the depth's largest value). Only sides of markers whose
 // white stripe is at least 4 px wide (the profile's +-3 px must see both plateaus) give
-// profiles: 5 per side, from its middle 60 %, their lines min(1, length / 40) px apart.
+// profiles: 5 per side, from its middle half, their lines min(1, length / 20) px apart.
 // Appended to *out (at most `max_profiles` in all: further ones are dropped).
 
 void CollectEdgeProfiles(const cv::Mat& stored, const std::vector<Detection>& detections,
