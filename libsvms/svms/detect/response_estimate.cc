@@ -79,28 +79,50 @@ namespace {
 // them (a symmetry test that interpolates between samples does: its own error is larger than
 // the effect of the curve). Profiles with too little contrast are skipped (*used counts the
 // rest).
-double PooledSkewness(const std::vector<const EdgeProfile*>& profiles,
+// The profiles with the scale each is read on ((code - black) / range), and each scale's
+// largest code: found once for all the candidate curves.
+struct ProfileSet {
+  std::vector<const EdgeProfile*> profile;
+  std::vector<int> scale;                       // per profile, an index into `scales`
+  std::vector<std::pair<float, float>> scales;  // (black, range)
+  std::vector<size_t> codes;                    // per scale, the largest code + 1
+};
+
+ProfileSet Prepare(const std::vector<EdgeProfile>& profiles) {
+  ProfileSet set;
+  std::map<std::pair<float, float>, int> index;
+  for (const EdgeProfile& p : profiles) {
+    const auto [it, added] =
+        index.emplace(std::pair{p.black, p.range}, static_cast<int>(set.scales.size()));
+    if (added) set.scales.push_back(it->first), set.codes.push_back(0);
+    uint16_t top = 0;
+    for (const auto& sample : p.code)
+      top = std::max(top, *std::max_element(sample.begin(), sample.end()));
+    set.codes[it->second] = std::max(set.codes[it->second], static_cast<size_t>(top) + 1);
+    set.profile.push_back(&p);
+    set.scale.push_back(it->second);
+  }
+  return set;
+}
+
+// The profiles of `set` numbered `members`.
+double PooledSkewness(const ProfileSet& set, const std::vector<size_t>& members,
                       const std::function<double(double)>& to_linear, int* used) {
   constexpr int kN = kProfileSamples;
   double sum3 = 0, sum2 = 0;
   *used = 0;
   std::array<double, kN> n;
-  // The curve read once per code for each scale of the profiles (one in a run): a profile
-  // reads 500 pixels per candidate curve. Each table covers the largest code of its scale.
-  std::map<std::pair<float, float>, std::vector<double>> tables;
-  for (const EdgeProfile* p : profiles) {
-    std::vector<double>& t = tables[{p->black, p->range}];
-    uint16_t top = 0;
-    for (const auto& sample : p->code)
-      top = std::max(top, *std::max_element(sample.begin(), sample.end()));
-    if (t.size() <= top) t.resize(static_cast<size_t>(top) + 1, NAN);
+  // The curve read once per code of each scale: a profile reads 500 pixels per curve.
+  std::vector<std::vector<double>> tables(set.scales.size());
+  for (size_t s = 0; s < tables.size(); ++s) {
+    const auto [black, range] = set.scales[s];
+    tables[s].resize(set.codes[s]);
+    for (size_t c = 0; c < tables[s].size(); ++c)
+      tables[s][c] = to_linear(std::clamp((static_cast<float>(c) - black) / range, 0.0f, 1.0f));
   }
-  for (auto& [scale, t] : tables)
-    for (size_t c = 0; c < t.size(); ++c)
-      t[c] =
-          to_linear(std::clamp((static_cast<float>(c) - scale.first) / scale.second, 0.0f, 1.0f));
-  for (const EdgeProfile* p : profiles) {
-    const std::vector<double>& lut = tables[{p->black, p->range}];
+  for (size_t m : members) {
+    const EdgeProfile* p = set.profile[m];
+    const std::vector<double>& lut = tables[static_cast<size_t>(set.scale[m])];
     for (int i = 0; i < kN; ++i) {
       double v = 0;
       for (int k = 0; k < kProfilePixels; ++k) v += p->weight[i][k] * lut[p->code[i][k]];
@@ -152,11 +174,11 @@ double PooledSkewness(const std::vector<const EdgeProfile*>& profiles,
 // inside the scan and the skewness varies along it at least 10 times its least value. NaN
 // otherwise: binary edges (printed artwork at its own resolution) read alike through any
 // gamma, and a curve beyond the scan has its least value at an end.
-double BestGamma(const std::vector<const EdgeProfile*>& profiles) {
+double BestGamma(const ProfileSet& set, const std::vector<size_t>& members) {
   int used = 0;
   auto skew = [&](double g) {
     return PooledSkewness(
-        profiles, [g](double v) { return std::pow(v, g); }, &used);
+        set, members, [g](double v) { return std::pow(v, g); }, &used);
   };
   double prev_g = 0.5, prev = skew(prev_g);
   double least = std::abs(prev), least_g = prev_g, lowest = prev, highest = prev;
@@ -182,13 +204,14 @@ double BestGamma(const std::vector<const EdgeProfile*>& profiles) {
 
 ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgeProfile>& profiles) {
   ResponseEstimate out;
-  std::vector<const EdgeProfile*> all;
-  for (const EdgeProfile& p : profiles) all.push_back(&p);
+  const ProfileSet set = Prepare(profiles);
+  std::vector<size_t> all(profiles.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = i;
   int used = 0;
   PooledSkewness(
-      all, [](double v) { return v; }, &used);
+      set, all, [](double v) { return v; }, &used);
   if (used < 20) return out;
-  const double best = BestGamma(all);
+  const double best = BestGamma(set, all);
   if (!std::isfinite(best)) return out;
   out.gamma = best;
   out.profiles = used;
@@ -196,9 +219,9 @@ ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgeProfile>& profiles
   constexpr int kGroups = 8;
   std::vector<double> g(kGroups);
   for (int k = 0; k < kGroups; ++k) {
-    std::vector<const EdgeProfile*> part;
-    for (size_t i = static_cast<size_t>(k); i < all.size(); i += kGroups) part.push_back(all[i]);
-    g[static_cast<size_t>(k)] = BestGamma(part);
+    std::vector<size_t> part;
+    for (size_t i = static_cast<size_t>(k); i < all.size(); i += kGroups) part.push_back(i);
+    g[static_cast<size_t>(k)] = BestGamma(set, part);
   }
   // A group without an estimate counts as the scan's end it lies beyond.
   double mean = 0, var = 0;
@@ -210,12 +233,12 @@ ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgeProfile>& profiles
   out.sigma = std::max(std::sqrt(var / kGroups), 0.01);
   const double g_best = out.gamma;
   out.asymmetry = std::abs(PooledSkewness(
-      all, [g_best](double v) { return std::pow(v, g_best); }, &used));
+      set, all, [g_best](double v) { return std::pow(v, g_best); }, &used));
   out.asymmetry_linear = std::abs(PooledSkewness(
-      all, [](double v) { return v; }, &used));
+      set, all, [](double v) { return v; }, &used));
   const Response srgb = Response::Srgb();
   out.asymmetry_srgb = std::abs(PooledSkewness(
-      all, [&srgb](double v) { return srgb.ToLinear(v); }, &used));
+      set, all, [&srgb](double v) { return srgb.ToLinear(v); }, &used));
   return out;
 }
 
