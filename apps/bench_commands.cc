@@ -24,7 +24,8 @@ void AddBenchDetect(CLI::App& bench, int* exit_code) {
       "simulator's truth (range, angle, sun, occlusion, clutter and noise-free sets)");
   c->add_option("--out", o->out, "Output directory (report.md, CSV, JSON, plots)")->required();
   c->add_flag("--quick", o->quick, "A few views per set (a smoke test, about a minute)");
-  c->add_option("--seed", o->seed, "Seed of the datasets and of the sensor noise");
+  c->add_option("--seed", o->seed, "Seed of the datasets and of the sensor noise")
+      ->check(CLI::NonNegativeNumber);
   c->add_option("--threads", o->threads, "Views rendered and detected at once")
       ->check(CLI::Range(1, 256));
   c->add_option("--sets", o->sets, "Only these sets (default: all)")->delimiter(',');
@@ -40,7 +41,8 @@ void AddBenchCalibrate(CLI::App& bench, int* exit_code) {
       ->required();
   cmd->add_flag("--quick", o->quick, "The first 12 views only (smoke test)");
   cmd->add_option("--seed", o->seed, "Seed of the dataset's views and of the sensor noise")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--threads", o->threads, "Rendering and detection threads")
       ->check(CLI::Range(1, 256));
   cmd->footer("Example:\n  svms bench calibrate --out out/bench/calibrate");
@@ -53,7 +55,9 @@ void AddBenchCompare(CLI::App& bench, int* exit_code) {
       "compare", "SVMS vs AprilTag 3 (tag36h11) and OpenCV ArUco (6x6) on the same scenes");
   c->add_option("--out", o->out, "Output directory (CSV, JSON, plots, report.md)")->required();
   c->add_flag("--quick", o->quick, "A few views per sweep (smoke test, under 2 minutes)");
-  c->add_option("--seed", o->seed, "Seed of every scene and of the noise")->capture_default_str();
+  c->add_option("--seed", o->seed, "Seed of every scene and of the noise")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   c->add_option("--size-views", o->size_views,
                 "Views per marker size in the size sweep (more to measure rare events, such as "
                 "flips at 8 px)")
@@ -196,7 +200,9 @@ void AddBenchProfiles(CLI::App& bench, int* exit_code) {
   c->add_option("--out", o->out, "Output directory (report.md, summary.json, markers.csv)")
       ->required();
   c->add_flag("--quick", o->quick, "The datasets' quick subsets");
-  c->add_option("--seed", o->seed, "Dataset seed")->capture_default_str();
+  c->add_option("--seed", o->seed, "Dataset seed")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   c->add_option("--threads", o->threads, "Views in parallel")->check(CLI::Range(1, 256));
   c->add_option("--profiles", o->profiles, "Profiles to run (default: all)")->delimiter(',');
   c->footer("Example:\n  svms bench profiles --out out/bench/profiles");
@@ -215,7 +221,8 @@ void AddBenchSpeed(CLI::App& bench, int* exit_code) {
   c->add_flag("--quick", o->quick,
               "Two photographs per source, one crop per size (a smoke test, under a minute)");
   c->add_option("--seed", o->seed, "Seed of the crops, the markers and the noise")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   c->add_option("--crops", o->crops_per_size, "Crops of each size per photograph")
       ->capture_default_str()
       ->check(CLI::Range(1, 100));

@@ -200,7 +200,9 @@ void AddCodecCommands(CLI::App& app, int* exit_code) {
   stats->add_option("--samples", o->samples, "Random words for the false-accept rates")
       ->check(CLI::Range(int64_t{0}, int64_t{1} << 34))
       ->capture_default_str();
-  stats->add_option("--seed", o->seed, "Seed of the random words")->capture_default_str();
+  stats->add_option("--seed", o->seed, "Seed of the random words")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   stats->add_option("--threads", o->threads, "Threads")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();

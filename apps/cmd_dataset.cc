@@ -29,7 +29,8 @@ void AddDatasetCommands(CLI::App& app, int* exit_code) {
                  "range, angle, sun, occlusion, mockup, approach, calibration, clutter or gallery");
   ds->add_option("--out", o->out, "Output directory");
   ds->add_option("--seed", o->seed, "Seed (everything is deterministic from it)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   ds->add_flag("--quick", o->quick, "A small subset of the views (smoke tests)");
   std::string profiles;
   for (const std::string& p : SensorProfileNames()) profiles += (profiles.empty() ? "" : ", ") + p;

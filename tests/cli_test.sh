@@ -31,6 +31,9 @@ flipped=$(python3 -c "import sys; b=list(sys.argv[1]); b[3]='1' if b[3]=='0' els
 expect 0 "id 17 rotation 0 bit_errors 2" "$svms" codec decode "$flipped"
 expect 1 "no codeword" "$svms" codec decode "$flipped" --max-corrections 1
 expect 2 "expected 44 characters of 0/1" "$svms" codec decode 0101
+# A negative seed is refused (an unsigned seed would wrap it to 2^64 - 1 and run on).
+expect 2 "--seed: Value -1 not in range" "$svms" dataset range --quick --seed -1 --out "$tmp/neg"
+expect 2 "--seed: Value -3 not in range" "$svms" bench calibrate --seed -3 --out "$tmp/negb"
 expect 2 "" "$svms" codec encode 32768
 expect 0 '"verdict":"accepted"' "$svms" codec decode "$bits" --json
 "$svms" codec stats --json --samples 20000 > "$tmp/stats.json" 2>/dev/null
