@@ -66,9 +66,9 @@ int RunCalibrate(const CalibrateCliOptions& c) {
       std::printf("wrote %s%s and its intrinsics' covariance %s\n", c.out.c_str(),
                   out.has_optimization_inputs ? " (with mrcal's optimization_inputs)" : "",
                   CovarianceSidecarPath(c.out).c_str());
-    if (out.response.profiles > 0)
-      std::printf("response: gamma %.3f +- %.3f from %d edge profiles (%s)\n", out.response.gamma,
-                  out.response.sigma, out.response.profiles, PhotometricPath(c.out).c_str());
+    if (out.response.patches > 0)
+      std::printf("response: gamma %.3f +- %.3f from %d edge patches (%s)\n", out.response.gamma,
+                  out.response.sigma, out.response.patches, PhotometricPath(c.out).c_str());
     // calib/svms/calib/frame_alignment.h: measured 0.43 deg against the true camera of the
     // simulated calibration set (docs/flight-interface.md, "The camera frame").
     if (r.camera.lensmodel().rfind("LENSMODEL_SPLINED", 0) == 0)

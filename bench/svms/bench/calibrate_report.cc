@@ -117,9 +117,9 @@ void WriteJson(const CalibrateBenchmarkOptions& o, const CalibrationData& data,
       {"failure", r.failure},
       {"true_gamma", kCheckedGamma},
       {"defocus_sigma_px", kCheckedDefocusPx},
-      {"estimated_gamma", figure(r.estimate.profiles > 0, r.estimate.gamma)},
-      {"estimated_gamma_sigma", figure(r.estimate.profiles > 0, r.estimate.sigma)},
-      {"profiles", r.estimate.profiles},
+      {"estimated_gamma", figure(r.estimate.patches > 0, r.estimate.gamma)},
+      {"estimated_gamma_sigma", figure(r.estimate.patches > 0, r.estimate.sigma)},
+      {"patches", r.estimate.patches},
       {"gamma_region_error_rms_px", figure(r.gamma.ok, r.gamma.region_err_rms)},
       {"gamma_region_predicted_rms_px", figure(r.gamma.ok, r.gamma.region_pred_rms)},
       {"gamma_a_posteriori_sigma_px", figure(r.gamma.ok, r.gamma.r.noise_sigma_px)},
@@ -261,8 +261,8 @@ void ToolsSection(const CalibrateBenchmarkOptions& o, const CalibrationData& dat
          "table's last rows). ";
   if (r.ok) {
     *md << "The response estimated from the board: gamma " << Fixed(r.estimate.gamma, 3) << " +- "
-        << Fixed(r.estimate.sigma, 3) << " from " << r.estimate.profiles
-        << " edge profiles. Their corners against the true projections: "
+        << Fixed(r.estimate.sigma, 3) << " from " << r.estimate.patches
+        << " edge patches. Their corners against the true projections: "
         << Fixed(r.gamma_corners.rms, 4) << " px RMS per axis, mean ("
         << SignedFixed(r.gamma_corners.mean_x, 4) << ", " << SignedFixed(r.gamma_corners.mean_y, 4)
         << ") px, a-posteriori sigma " << Fixed(r.gamma.r.noise_sigma_px, 4) << " px; the twin's "

@@ -1,6 +1,7 @@
 #include "svms/detect/response_estimate.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <map>
@@ -10,57 +11,57 @@
 
 namespace svms {
 
-void CollectEdgeProfiles(const cv::Mat& stored, const std::vector<Detection>& detections,
-                         double black_level, double white_level, std::vector<EdgeProfile>* out,
-                         size_t max_profiles) {
+void CollectEdgePatches(const cv::Mat& stored, const std::vector<Detection>& detections,
+                        double black_level, double white_level, std::vector<EdgePatch>* out,
+                        size_t max_patches) {
   if (stored.empty() || stored.channels() != 1 ||
       (stored.depth() != CV_8U && stored.depth() != CV_16U))
     return;
   const double white = white_level > 0 ? white_level : (stored.depth() == CV_8U ? 255 : 65535);
   const double range = white - black_level;
   if (!(range > 0)) return;
-  constexpr int kHalf = kProfileSamples / 2;
+  uint32_t side = out->empty() ? 0 : out->back().side + 1;
   for (const Detection& d : detections) {
     Eigen::Vector2d centre = Eigen::Vector2d::Zero();
     for (const auto& c : d.corners) centre += 0.25 * c;
-    for (int k = 0; k < 4; ++k) {
+    for (int k = 0; k < 4; ++k, ++side) {
       const Eigen::Vector2d a = d.corners[k], b = d.corners[(k + 1) % 4];
       const double length = (b - a).norm();
-      // The white stripe is a third of the square's side wide: at least 4 px for +-3 px.
-      if (!(length / 3 >= 4)) continue;
       const Eigen::Vector2d along = (b - a) / length;
       Eigen::Vector2d outward(-along.y(), along.x());
       if (outward.dot(0.5 * (a + b) - centre) < 0) outward = -outward;
-      // The lines of a profile, min(1 px, 5 % of the side) apart and so spanning at most 4 px
-      // along the side: straight enough over that stretch. The profiles sit in the middle half
-      // of the side, so that the outer lines stay 15 % of the side from its corners, beyond the
-      // other side's blur.
-      const double spacing = std::min(1.0, 0.05 * length);
+      // The white stripe is a third of the square's side wide; across this side, that is a
+      // third of the neighbouring sides as they cross it (the view foreshortens them, not it).
+      const Eigen::Vector2d before = d.corners[(k + 3) % 4] - a, after = d.corners[(k + 2) % 4] - b;
+      const double room = std::min(std::abs(before.dot(outward)), std::abs(after.dot(outward))) / 3;
+      if (!(room >= 4)) continue;
       for (double u : {0.25, 0.375, 0.5, 0.625, 0.75}) {
-        if (out->size() >= max_profiles) return;
-        EdgeProfile prof;
-        prof.black = static_cast<float>(black_level);
-        prof.range = static_cast<float>(range);
-        bool inside = true;
-        for (int line = 0; line < kProfileLines && inside; ++line) {
-          const Eigen::Vector2d p = a + u * (b - a) + (line - kProfileLines / 2) * spacing * along;
-          for (int i = 0; i < kProfileSamples && inside; ++i) {
-            const Eigen::Vector2d q = p + (i - kHalf) * kProfileStep * outward;
-            inside = q.x() >= 0 && q.y() >= 0 && q.x() < stored.cols - 2 && q.y() < stored.rows - 2;
-            if (!inside) break;
-            const int x0 = static_cast<int>(q.x()), y0 = static_cast<int>(q.y());
-            const double fx = q.x() - x0, fy = q.y() - y0;
-            const int xs[4] = {x0, x0 + 1, x0, x0 + 1}, ys[4] = {y0, y0, y0 + 1, y0 + 1};
-            const double ws[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
-            for (int k = 0; k < 4; ++k) {
-              const uint16_t v = stored.depth() == CV_8U ? stored.at<uint8_t>(ys[k], xs[k])
-                                                         : stored.at<uint16_t>(ys[k], xs[k]);
-              prof.code[i][4 * line + k] = v;
-              prof.weight[i][4 * line + k] = static_cast<float>(ws[k] / kProfileLines);
-            }
+        if (out->size() >= max_patches) return;
+        const Eigen::Vector2d p = a + u * (b - a);
+        const double reach = std::hypot(kPatchHalfAcross, kPatchHalfAlong);
+        const int x0 = static_cast<int>(std::floor(p.x() - reach)),
+                  x1 = static_cast<int>(std::ceil(p.x() + reach)),
+                  y0 = static_cast<int>(std::floor(p.y() - reach)),
+                  y1 = static_cast<int>(std::ceil(p.y() + reach));
+        if (x0 < 0 || y0 < 0 || x1 >= stored.cols || y1 >= stored.rows) continue;
+        EdgePatch patch;
+        patch.black = static_cast<float>(black_level);
+        patch.range = static_cast<float>(range);
+        patch.room = static_cast<float>(room);
+        patch.side = side;
+        for (int y = y0; y <= y1; ++y)
+          for (int x = x0; x <= x1; ++x) {
+            const Eigen::Vector2d q(x - p.x(), y - p.y());
+            const double across = q.dot(outward), s = q.dot(along);
+            if (std::abs(across) > kPatchHalfAcross || std::abs(s) > kPatchHalfAlong) continue;
+            patch.code.push_back(stored.depth() == CV_8U ? stored.at<uint8_t>(y, x)
+                                                         : stored.at<uint16_t>(y, x));
+            patch.across.push_back(static_cast<float>(across));
+            patch.along_weight.push_back(
+                static_cast<float>(std::exp(-s * s / (2 * kPatchAlongSigma * kPatchAlongSigma))));
+            patch.half.push_back(s >= 0);
           }
-        }
-        if (inside) out->push_back(prof);
+        out->push_back(std::move(patch));
       }
     }
   }
@@ -68,51 +69,142 @@ void CollectEdgeProfiles(const cv::Mat& stored, const std::vector<Detection>& de
 
 namespace {
 
-// The skewness of the profiles' line spread functions (the derivative of each profile read
-// through `to_linear`, normalised between its plateaus), over +-2 px about each one's mean,
-// pooled: the sum of their third moments over the sum of their second moments to the power
-// 1.5. Zero for point-symmetric edges. Pooled rather than the mean of each profile's
-// skewness because a ratio of one profile's noisy moments is biased where its third and
-// second moments share noise of one sign (shot noise, larger on the bright side): the pooled
-// sum's sign is that of the summed third moments alone. Moments of the sampled derivative are
-// sums over evenly spaced samples, so the place of the edge between samples does not bias
-// them (a symmetry test that interpolates between samples does: its own error is larger than
-// the effect of the curve). Profiles with too little contrast are skipped (*used counts the
-// rest).
-// The profiles with the scale each is read on ((code - black) / range), and each scale's
-// largest code: found once for all the candidate curves.
-struct ProfileSet {
-  std::vector<const EdgeProfile*> profile;
-  std::vector<int> scale;                       // per profile, an index into `scales`
+// The moments of a patch's line spread function E' (E its edge spread function, read through a
+// candidate curve and normalised between its plateaus) about its centre c, under a Gaussian
+// taper T of kTaper px: m_k = integral of t^k T(t) E'(t) dt, t = x - c. Computed by parts,
+//   m_k = -integral of (t^k T)'(t) (E(t) - B(t)) dt  (+ the same moment of B'),
+// with B a symmetric smooth step (a normal CDF of kStep px) about c: E - B vanishes on both
+// plateaus, so the integral stops at +-kWindow px, where the next edge has not begun, and B's
+// own odd moments are zero. Each integral is a sum over the patch's pixels (their area is one
+// px^2; along the edge, the pixels' weights integrate the Gaussian along it).
+constexpr double kTaper = 1.5;                          // px
+constexpr double kStep = 1.0;                           // px
+constexpr double kWindow = 3.0;                         // px
+constexpr double kPlateauFrom = 2.5, kPlateauTo = 3.5;  // px either side of the edge as found
+
+// The weights (t^k T)' for k = 1, 2, 3, the step's shape, and B's own moments, tabulated
+// over +-kTableReach px (read with linear interpolation).
+struct Kernels {
+  static constexpr double kTableReach = 4.5, kTableStep = 1.0 / 128;
+  static constexpr int kSize = static_cast<int>(2 * kTableReach / kTableStep) + 2;
+  std::array<std::array<float, kSize>, 4> table{};  // (t T)', (t^2 T)', (t^3 T)', Phi(t / kStep)
+  double gain = 0;  // d m_1 / d(shift of the edge), for B's shape: the centre's Newton step
+  double b_m2 = 0;  // B's own second moment under the taper
+  // The taper, a Gaussian of kTaper px, and its derivative.
+  static double Taper(double t, double* derivative) {
+    const double g = std::exp(-t * t / (2 * kTaper * kTaper));
+    *derivative = -t / (kTaper * kTaper) * g;
+    return g;
+  }
+  Kernels() {
+    for (int i = 0; i < kSize; ++i) {
+      const double t = -kTableReach + i * kTableStep;
+      double dT = 0;
+      const double T = Taper(t, &dT);
+      table[0][i] = static_cast<float>(T + t * dT);
+      table[1][i] = static_cast<float>(2 * t * T + t * t * dT);
+      table[2][i] = static_cast<float>(3 * t * t * T + t * t * t * dT);
+      table[3][i] = static_cast<float>(0.5 * std::erfc(-t / (kStep * std::sqrt(2.0))));
+    }
+    constexpr int kN = 6000;
+    for (int i = 0; i <= kN; ++i) {
+      const double t = -kWindow + 2 * kWindow * i / kN, dt = 2 * kWindow / kN;
+      double dT = 0;
+      const double T = Taper(t, &dT);
+      const double b = std::exp(-t * t / (2 * kStep * kStep)) / (kStep * std::sqrt(2 * M_PI));
+      gain += (T + t * dT) * b * dt;
+      b_m2 += t * t * T * b * dt;
+    }
+  }
+  float operator()(int k, double t) const {
+    const double f =
+        (std::clamp(t, -kTableReach, kTableReach - kTableStep) + kTableReach) / kTableStep;
+    const int i = static_cast<int>(f);
+    const double w = f - i;
+    return static_cast<float>((1 - w) * table[k][i] + w * table[k][i + 1]);
+  }
+};
+
+const Kernels& TheKernels() {
+  static const Kernels kernels;
+  return kernels;
+}
+
+// The patches with the scale each is read on ((code - black) / range), each scale's largest
+// code, and whether each patch's blur leaves its plateaus clear of the next edge: found once
+// for all the candidate curves.
+struct PatchSet {
+  std::vector<const EdgePatch*> patch;
+  std::vector<int> scale;                       // per patch, an index into `scales`
   std::vector<std::pair<float, float>> scales;  // (black, range)
   std::vector<size_t> codes;                    // per scale, the largest code + 1
 };
 
-ProfileSet Prepare(const std::vector<EdgeProfile>& profiles) {
-  ProfileSet set;
-  std::map<std::pair<float, float>, int> index;
-  for (const EdgeProfile& p : profiles) {
-    const auto [it, added] =
-        index.emplace(std::pair{p.black, p.range}, static_cast<int>(set.scales.size()));
-    if (added) set.scales.push_back(it->first), set.codes.push_back(0);
-    uint16_t top = 0;
-    for (const auto& sample : p.code)
-      top = std::max(top, *std::max_element(sample.begin(), sample.end()));
-    set.codes[it->second] = std::max(set.codes[it->second], static_cast<size_t>(top) + 1);
-    set.profile.push_back(&p);
-    set.scale.push_back(it->second);
+struct Moments {
+  bool ok = false;
+  double m2 = 0, m3 = 0;
+};
+
+// The moments of one patch read through `lut` (see Kernels).
+Moments PatchMoments(const EdgePatch& p, const std::vector<double>& lut, std::vector<double>* v) {
+  const Kernels& K = TheKernels();
+  const size_t n = p.code.size();
+  v->resize(n);
+  double dark = 0, dark_w = 0, bright = 0, bright_w = 0;
+  for (size_t i = 0; i < n; ++i) {
+    (*v)[i] = lut[p.code[i]];
+    const double a = std::abs(p.across[i]);
+    if (a < kPlateauFrom || a > kPlateauTo) continue;
+    if (p.across[i] < 0) {
+      dark += p.along_weight[i] * (*v)[i], dark_w += p.along_weight[i];
+    } else {
+      bright += p.along_weight[i] * (*v)[i], bright_w += p.along_weight[i];
+    }
   }
-  return set;
+  Moments out;
+  if (!(dark_w > 0 && bright_w > 0)) return out;
+  dark /= dark_w, bright /= bright_w;
+  const double contrast = bright - dark;
+  if (!(contrast > 0.05)) return out;
+  // The centre from one half of the patch (along the edge), the moments about it from the other,
+  // and the two ways averaged: a centre found from the same pixels would share their noise, and
+  // under shot noise (the bright side noisier) that biases the third moment.
+  double m2 = 0, m3 = 0;
+  for (int h = 0; h < 2; ++h) {
+    double c = 0;
+    for (int iteration = 0; iteration < 4; ++iteration) {
+      const bool moments = iteration == 3;
+      double s1 = 0, s2 = 0, s3 = 0, length = 0;
+      for (size_t i = 0; i < n; ++i) {
+        if ((p.half[i] == h) == moments) continue;
+        const double t = p.across[i] - c;
+        if (std::abs(t) > kWindow) continue;
+        const double r = ((*v)[i] - dark) / contrast - K(3, t);
+        const double w = p.along_weight[i];
+        length += w;
+        if (moments) {
+          s2 -= w * K(1, t) * r, s3 -= w * K(2, t) * r;
+        } else {
+          s1 -= w * K(0, t) * r;
+        }
+      }
+      length /= 2 * kWindow;  // the along weights' integral
+      if (!(length > 0)) return out;
+      if (moments) {
+        m2 += 0.5 * (s2 / length + K.b_m2);
+        m3 += 0.5 * s3 / length;
+      } else {
+        c += s1 / length / K.gain;
+      }
+    }
+  }
+  out.m2 = m2, out.m3 = m3;
+  out.ok = m2 > 0;
+  return out;
 }
 
-// The profiles of `set` numbered `members`.
-double PooledSkewness(const ProfileSet& set, const std::vector<size_t>& members,
-                      const std::function<double(double)>& to_linear, int* used) {
-  constexpr int kN = kProfileSamples;
-  double sum3 = 0, sum2 = 0;
-  *used = 0;
-  std::array<double, kN> n;
-  // The curve read once per code of each scale: a profile reads 500 pixels per curve.
+std::vector<std::vector<double>> Tables(const PatchSet& set,
+                                        const std::function<double(double)>& to_linear) {
   std::vector<std::vector<double>> tables(set.scales.size());
   for (size_t s = 0; s < tables.size(); ++s) {
     const auto [black, range] = set.scales[s];
@@ -120,47 +212,59 @@ double PooledSkewness(const ProfileSet& set, const std::vector<size_t>& members,
     for (size_t c = 0; c < tables[s].size(); ++c)
       tables[s][c] = to_linear(std::clamp((static_cast<float>(c) - black) / range, 0.0f, 1.0f));
   }
+  return tables;
+}
+
+// The patches whose blur (3 sigma of the line spread function, read as linear) stays inside
+// their room beyond the plateau window.
+PatchSet Prepare(const std::vector<EdgePatch>& patches) {
+  PatchSet all;
+  std::map<std::pair<float, float>, int> index;
+  for (const EdgePatch& p : patches) {
+    // A patch built elsewhere with its per-pixel fields out of step is left out.
+    const size_t n = p.code.size();
+    if (n == 0 || p.across.size() != n || p.along_weight.size() != n || p.half.size() != n ||
+        !(p.range > 0))
+      continue;
+    const auto [it, added] =
+        index.emplace(std::pair{p.black, p.range}, static_cast<int>(all.scales.size()));
+    if (added) all.scales.push_back(it->first), all.codes.push_back(0);
+    const uint16_t top = *std::max_element(p.code.begin(), p.code.end());
+    all.codes[it->second] = std::max(all.codes[it->second], static_cast<size_t>(top) + 1);
+    all.patch.push_back(&p);
+    all.scale.push_back(it->second);
+  }
+  const auto tables = Tables(all, [](double v) { return v; });
+  PatchSet set = all;
+  set.patch.clear(), set.scale.clear();
+  std::vector<double> v;
+  for (size_t m = 0; m < all.patch.size(); ++m) {
+    const Moments mo = PatchMoments(*all.patch[m], tables[static_cast<size_t>(all.scale[m])], &v);
+    if (mo.ok && all.patch[m]->room - kPlateauTo >= 3 * std::sqrt(mo.m2)) {
+      set.patch.push_back(all.patch[m]);
+      set.scale.push_back(all.scale[m]);
+    }
+  }
+  return set;
+}
+
+// The pooled skewness of the patches of `set` numbered `members` read through `to_linear`:
+// the sum of their third moments over the sum of their second moments to the power 1.5. Zero
+// for point-symmetric edges. Pooled rather than the mean of each patch's skewness because a
+// ratio of one patch's noisy moments is biased where its third and second moments share noise
+// of one sign (shot noise, larger on the bright side): the pooled sum's sign is that of the
+// summed third moments alone. *used counts the patches with enough contrast.
+double PooledSkewness(const PatchSet& set, const std::vector<size_t>& members,
+                      const std::function<double(double)>& to_linear, int* used) {
+  const auto tables = Tables(set, to_linear);
+  double sum3 = 0, sum2 = 0;
+  *used = 0;
+  std::vector<double> v;
   for (size_t m : members) {
-    const EdgeProfile* p = set.profile[m];
-    const std::vector<double>& lut = tables[static_cast<size_t>(set.scale[m])];
-    for (int i = 0; i < kN; ++i) {
-      double v = 0;
-      for (int k = 0; k < kProfilePixels; ++k) v += p->weight[i][k] * lut[p->code[i][k]];
-      n[i] = v;
-    }
-    double dark = 0, bright = 0;
-    for (int i = 0; i < 4; ++i) dark += n[i] / 4, bright += n[kN - 1 - i] / 4;
-    if (!(bright - dark > 0.05)) continue;
-    // The derivative's moments under a Gaussian taper of 1.5 px about its mean (iterated):
-    // a hard window would jump as the mean moves and make the skewness a jagged function of
-    // gamma.
-    std::array<double, kN - 1> w;
-    double w0 = 0, mean = 0;
-    for (int i = 0; i + 1 < kN; ++i) {
-      w[i] = (n[i + 1] - n[i]) / (bright - dark);
-      w0 += w[i], mean += w[i] * (i + 0.5);
-    }
-    if (!(w0 > 0.5)) continue;
-    mean /= w0;
-    constexpr double kTaper = 6;  // samples (1.5 px)
-    double m2 = 0, m3 = 0;
-    for (int iteration = 0; iteration < 4; ++iteration) {
-      double g0 = 0, g1 = 0, g2 = 0, g3 = 0;
-      for (int i = 0; i + 1 < kN; ++i) {
-        const double x = i + 0.5 - mean;
-        const double g = w[i] * std::exp(-x * x / (2 * kTaper * kTaper));
-        g0 += g, g1 += g * x, g2 += g * x * x, g3 += g * x * x * x;
-      }
-      if (!(g0 > 0)) break;
-      if (iteration < 3) {
-        mean += g1 / g0;
-      } else {
-        m2 = g2 / g0, m3 = g3 / g0;
-      }
-    }
-    if (!(m2 > 0)) continue;
-    sum3 += m3;
-    sum2 += std::pow(m2, 1.5);
+    const Moments mo = PatchMoments(*set.patch[m], tables[static_cast<size_t>(set.scale[m])], &v);
+    if (!mo.ok) continue;
+    sum3 += mo.m3;
+    sum2 += std::pow(mo.m2, 1.5);
     ++*used;
   }
   return sum2 > 0 ? sum3 / sum2 : 0;
@@ -169,12 +273,12 @@ double PooledSkewness(const ProfileSet& set, const std::vector<size_t>& members,
 // The gamma in [0.5, 3.5] at which the pooled skewness first crosses zero from above (it falls
 // as gamma grows, a higher gamma darkening the foot of the rise more than its shoulder, until
 // far beyond the truth the plateaus' normalisation turns it again): a scan in steps of 0.05,
-// then bisection to 1e-4. Without a crossing, a small subset's curve may only touch zero
-// (noise lifts its minimum a little above): then the gamma of least skewness, if that lies
-// inside the scan and the skewness varies along it at least 10 times its least value. NaN
-// otherwise: binary edges (printed artwork at its own resolution) read alike through any
+// then regula falsi (Illinois) to 1e-4. Without a crossing, a small subset's curve may only
+// touch zero (noise lifts its minimum a little above): then the gamma of least skewness, if
+// that lies inside the scan and the skewness varies along it at least 10 times its least value.
+// NaN otherwise: binary edges (printed artwork at its own resolution) read alike through any
 // gamma, and a curve beyond the scan has its least value at an end.
-double BestGamma(const ProfileSet& set, const std::vector<size_t>& members) {
+double BestGamma(const PatchSet& set, const std::vector<size_t>& members) {
   int used = 0;
   auto skew = [&](double g) {
     return PooledSkewness(
@@ -187,10 +291,21 @@ double BestGamma(const ProfileSet& set, const std::vector<size_t>& members) {
     if (std::abs(s) < least) least = std::abs(s), least_g = g;
     lowest = std::min(lowest, s), highest = std::max(highest, s);
     if (prev > 0 && s <= 0) {
-      double lo = prev_g, hi = g;
-      while (hi - lo > 1e-4) {
-        const double mid = 0.5 * (lo + hi);
-        (skew(mid) > 0 ? lo : hi) = mid;
+      double lo = prev_g, f_lo = prev, hi = g, f_hi = s;
+      int side = 0;
+      for (int iteration = 0; iteration < 40 && hi - lo > 1e-4; ++iteration) {
+        const double mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo);
+        const double f = skew(mid);
+        if (f > 0) {
+          lo = mid, f_lo = f;
+          if (side == 1) f_hi /= 2;
+          side = 1;
+        } else {
+          hi = mid, f_hi = f;
+          if (side == -1) f_lo /= 2;
+          side = -1;
+        }
+        if (f == 0) return mid;
       }
       return 0.5 * (lo + hi);
     }
@@ -202,10 +317,10 @@ double BestGamma(const ProfileSet& set, const std::vector<size_t>& members) {
 
 }  // namespace
 
-ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgeProfile>& profiles) {
+ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgePatch>& patches) {
   ResponseEstimate out;
-  const ProfileSet set = Prepare(profiles);
-  std::vector<size_t> all(profiles.size());
+  const PatchSet set = Prepare(patches);
+  std::vector<size_t> all(set.patch.size());
   for (size_t i = 0; i < all.size(); ++i) all[i] = i;
   int used = 0;
   PooledSkewness(
@@ -214,13 +329,15 @@ ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgeProfile>& profiles
   const double best = BestGamma(set, all);
   if (!std::isfinite(best)) return out;
   out.gamma = best;
-  out.profiles = used;
-  // The standard error: the spread of the estimates over 8 groups of the profiles.
+  out.patches = used;
+  // The standard error: the spread of the estimates over 8 groups of the marker sides (a side's
+  // patches overlap, so they go to one group).
   constexpr int kGroups = 8;
   std::vector<double> g(kGroups);
   for (int k = 0; k < kGroups; ++k) {
     std::vector<size_t> part;
-    for (size_t i = static_cast<size_t>(k); i < all.size(); i += kGroups) part.push_back(i);
+    for (size_t i = 0; i < all.size(); ++i)
+      if (set.patch[i]->side % kGroups == static_cast<uint32_t>(k)) part.push_back(i);
     g[static_cast<size_t>(k)] = BestGamma(set, part);
   }
   // A group without an estimate counts as the scan's end it lies beyond.
@@ -229,8 +346,8 @@ ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgeProfile>& profiles
     if (!std::isfinite(x)) x = best < 2 ? 0.5 : 3.5;
   for (double x : g) mean += x / kGroups;
   for (double x : g) var += (x - mean) * (x - mean) / (kGroups - 1);
-  // Not below the bisection's and the groups' own resolution.
-  out.sigma = std::max(std::sqrt(var / kGroups), 0.01);
+  // Not below the root finding's and the groups' own resolution.
+  out.sigma = std::max(std::sqrt(var / kGroups), 0.001);
   const double g_best = out.gamma;
   out.asymmetry = std::abs(PooledSkewness(
       set, all, [g_best](double v) { return std::pow(v, g_best); }, &used));

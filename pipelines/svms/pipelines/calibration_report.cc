@@ -177,10 +177,10 @@ nlohmann::json Summary(const CalibrateRunOptions& o, const CalibrateRunOutcome& 
                       {"max_px", out.uncertainty_max}};
   if (o.calib.board_warp) j["board_warp_m"] = {r.warp.x(), r.warp.y()};
   j["noise_sigma_px"] = r.noise_sigma_px;
-  if (out.response.profiles > 0)
+  if (out.response.patches > 0)
     j["response_estimate"] = {{"gamma", out.response.gamma},
                               {"sigma", out.response.sigma},
-                              {"edge_profiles", out.response.profiles},
+                              {"edge_patches", out.response.patches},
                               {"asymmetry", out.response.asymmetry},
                               {"asymmetry_as_linear", out.response.asymmetry_linear},
                               {"asymmetry_as_srgb", out.response.asymmetry_srgb}};

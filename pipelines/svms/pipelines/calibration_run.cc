@@ -76,8 +76,8 @@ struct DetectionPass {
   std::vector<ViewObservations> views;  // the board's points seen (none when unreadable)
   std::vector<cv::Size> sizes;
   std::vector<std::string> errors;  // "" when the image was read
-  // With --response estimate: profiles across the markers' sides (response_estimate.h).
-  std::vector<std::vector<EdgeProfile>> profiles;
+  // With --response estimate: patches across the markers' sides (response_estimate.h).
+  std::vector<std::vector<EdgePatch>> patches;
 };
 
 // Detects on every image in `files`, on o.threads threads, with `camera` (empty: corners fitted
@@ -85,7 +85,7 @@ struct DetectionPass {
 // board's), so that images of another board are named.
 DetectionPass DetectBoards(const std::vector<std::string>& files, const CameraModel& camera,
                            const char* what, const CalibrateRunOptions& o,
-                           const Photometry& photometry, bool collect_profiles = false) {
+                           const Photometry& photometry, bool collect_patches = false) {
   std::vector<MarkerModel> models;
   for (const LayoutEntry& e : o.layout.markers) models.push_back(e.marker);
   DetectorOptions dopt;
@@ -98,10 +98,10 @@ DetectionPass DetectBoards(const std::vector<std::string>& files, const CameraMo
   pass.views.resize(n);
   pass.errors.assign(n, "");
   pass.sizes.assign(n, cv::Size());
-  pass.profiles.assign(n, {});
-  // With collect_profiles: at most 25,000 profiles in all (about 3 KB each; more do not sharpen
+  pass.patches.assign(n, {});
+  // With collect_patches: at most 25,000 patches in all (about 1 KB each; more do not sharpen
   // the estimate much).
-  const size_t profiles_per_image = std::max<size_t>(1, 25000 / std::max<size_t>(1, n));
+  const size_t patches_per_image = std::max<size_t>(1, 25000 / std::max<size_t>(1, n));
   std::atomic<size_t> next{0};
   size_t done = 0;  // under io
   std::mutex io;
@@ -112,7 +112,7 @@ DetectionPass DetectBoards(const std::vector<std::string>& files, const CameraMo
       NoiseModel noise;  // a raw frame's, from its stored values (noise_model.h)
       try {
         if (Status s = photometry.Load(files[i], kDefaultMaxImagePixels, &img, nullptr,
-                                       collect_profiles ? &stored : nullptr, &noise);
+                                       collect_patches ? &stored : nullptr, &noise);
             !s) {
           pass.errors[i] = s.message();
         } else {
@@ -121,14 +121,13 @@ DetectionPass DetectBoards(const std::vector<std::string>& files, const CameraMo
           detector.Detect(img, nullptr, std::chrono::steady_clock::time_point::max(), &found,
                           noise.valid() ? &noise : nullptr);
           pass.views[i] = ObservationsFromDetections(found, o.layout, files[i], corner_sigma);
-          if (collect_profiles) {
+          if (collect_patches) {
             // Evenly over the image's markers when there are more than its share.
-            std::vector<EdgeProfile> all;
-            CollectEdgeProfiles(stored, found, photometry.black_level(), photometry.white_level(),
-                                &all);
-            const size_t keep = std::min(all.size(), profiles_per_image);
-            for (size_t k = 0; k < keep; ++k)
-              pass.profiles[i].push_back(all[k * all.size() / keep]);
+            std::vector<EdgePatch> all;
+            CollectEdgePatches(stored, found, photometry.black_level(), photometry.white_level(),
+                               &all);
+            const size_t keep = std::min(all.size(), patches_per_image);
+            for (size_t k = 0; k < keep; ++k) pass.patches[i].push_back(all[k * all.size() / keep]);
           }
         }
       } catch (...) {
@@ -149,18 +148,18 @@ DetectionPass DetectBoards(const std::vector<std::string>& files, const CameraMo
 // kExitOk to go on.
 int EstimateResponse(const DetectionPass& pass, const CalibrateRunOptions& o,
                      Photometry* photometry, CalibrateRunOutcome* out) {
-  std::vector<EdgeProfile> edges;
-  for (const auto& p : pass.profiles) edges.insert(edges.end(), p.begin(), p.end());
+  std::vector<EdgePatch> edges;
+  for (const auto& p : pass.patches) edges.insert(edges.end(), p.begin(), p.end());
   out->response = EstimateGammaFromEdges(edges);
-  if (out->response.profiles == 0) {
+  if (out->response.patches == 0) {
     std::cerr << kProg << "--response estimate: too few marker sides of 12 px or more ("
-              << edges.size() << " edge profiles); expected images with larger markers, or "
+              << edges.size() << " edge patches); expected images with larger markers, or "
               << "give --response\n";
     return kExitFailed;
   }
   if (!o.quiet)
-    std::cerr << kProg << "response estimated from " << out->response.profiles
-              << " edge profiles: gamma " << Fixed(out->response.gamma, 3) << " +- "
+    std::cerr << kProg << "response estimated from " << out->response.patches
+              << " edge patches: gamma " << Fixed(out->response.gamma, 3) << " +- "
               << Fixed(out->response.sigma, 3) << " (asymmetry "
               << Scientific(out->response.asymmetry, 2) << "; read as linear "
               << Scientific(out->response.asymmetry_linear, 2) << ", as sRGB "

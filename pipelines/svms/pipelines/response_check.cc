@@ -12,11 +12,11 @@ namespace svms {
 std::string CheckDeclaredResponse(const cv::Mat& stored, const std::vector<Detection>& found,
                                   const nlohmann::json& photometric) {
   if (photometric.contains("bayer")) return "";  // a mosaic's edges are the demosaic's
-  std::vector<EdgeProfile> profiles;
-  CollectEdgeProfiles(stored, found, photometric["black_level"].get<double>(),
-                      photometric["white_level"].get<double>(), &profiles, 80);
-  const ResponseEstimate e = EstimateGammaFromEdges(profiles);
-  if (e.profiles == 0) return "";
+  std::vector<EdgePatch> patches;
+  CollectEdgePatches(stored, found, photometric["black_level"].get<double>(),
+                     photometric["white_level"].get<double>(), &patches, 80);
+  const ResponseEstimate e = EstimateGammaFromEdges(patches);
+  if (e.patches == 0) return "";
   Response declared;
   if (!Response::Parse(photometric["response"].get<std::string>(), &declared).ok()) return "";
   // The declared curve's gamma: sRGB is close to 2.2; a table is not checked.
@@ -26,8 +26,8 @@ std::string CheckDeclaredResponse(const cv::Mat& stored, const std::vector<Detec
   if (declared.kind() == Response::Kind::kTable) return "";
   if (std::abs(e.gamma - g) <= std::max(0.4, 4 * e.sigma)) return "";
   return "the response " + photometric["response"].get<std::string>() +
-         " contradicts the image: the markers' edges (" + std::to_string(e.profiles) +
-         " profiles) say gamma " + Fixed(e.gamma, 2) + " +- " + Fixed(e.sigma, 2) +
+         " contradicts the image: the markers' edges (" + std::to_string(e.patches) +
+         " patches) say gamma " + Fixed(e.gamma, 2) + " +- " + Fixed(e.sigma, 2) +
          "; expected --response gamma:" + Fixed(e.gamma, 1) +
          ", or srgb for a camera's JPEG (docs/detector.md)";
 }
