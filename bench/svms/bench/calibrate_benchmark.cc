@@ -10,6 +10,7 @@
 #include "svms/bench/calibrate_report.h"
 #include "svms/bench/calibrate_response.h"
 #include "svms/bench/calibrate_tools.h"
+#include "svms/sim/render.h"
 #include "svms/pipelines/exit_codes.h"
 #include "svms/pipelines/report_file.h"
 
@@ -29,10 +30,13 @@ std::vector<Eigen::Vector2d> GridPixels(int W, int H) {
 }
 
 // What OUT/data/ holds, in OUT/data/stamp.txt: the dataset's seed and the response check's
-// camera pipelines (the views themselves are the seed's, a --quick run's a prefix of them).
+// camera pipelines, the renderer's defocus grid included (the views themselves are the seed's,
+// a --quick run's a prefix of them).
 std::string DataStamp(const CalibrateBenchmarkOptions& o) {
   return "calibration dataset seed " + std::to_string(o.seed) + "; response check gamma " +
-         Fixed(kCheckedGamma, 3) + ", defocus " + Fixed(kCheckedDefocusPx, 3) + " px\n";
+         Fixed(kCheckedGamma, 3) + ", defocus " + Fixed(kCheckedDefocusPx, 3) +
+         " px, blurred on a grid " + std::to_string(kRadianceSupersample) +
+         " times finer than the pixels\n";
 }
 std::string ReadStamp(const CalibrateBenchmarkOptions& o) {
   std::ifstream in(fs::path(o.out) / "data" / "stamp.txt");

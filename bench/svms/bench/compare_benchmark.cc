@@ -67,7 +67,8 @@ std::vector<cv::Mat> RenderBatch(const Renderer& r, int begin, int end, int thre
   std::atomic<int> next{begin};
   for (int t = 0; t < std::max(1, threads); ++t)
     pool.emplace_back([&] {
-      for (int v; (v = next++) < end;) imgs[v - begin] = r.Expose(r.RenderRadiance(v), v);
+      for (int v; (v = next++) < end;)
+        imgs[v - begin] = r.Expose(r.RenderRadianceFor(v, r.scene().sensor), v);
     });
   for (auto& t : pool) t.join();
   return imgs;

@@ -95,7 +95,8 @@ Status RunSet(const SetSpec& spec, const DetectBenchmarkOptions& o, SetResult* r
     const fs::path miss_dir = fs::path(o.out) / "misses";
     auto worker = [&] {
       for (int v; (v = next++) < n;) {
-        const cv::Mat image = renderer->Expose(renderer->RenderRadiance(v), v);
+        const cv::Mat image =
+            renderer->Expose(renderer->RenderRadianceFor(v, renderer->scene().sensor), v);
         const ViewTruth truth = ComputeTruth(*renderer, v);
         const auto t0 = std::chrono::steady_clock::now();
         const std::vector<Detection> found = detector.Detect(image);

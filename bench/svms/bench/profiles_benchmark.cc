@@ -112,6 +112,8 @@ Status RunSet(const SetRun& run, const ProfilesBenchmarkOptions& o,
       options.refine.max_row_window_px = CornerRowWindowPx(readers.back().model());
       detectors.push_back(std::make_unique<Detector>(options, scene.camera, models));
     }
+    bool any_defocus = false;
+    for (const Sensor& s : sensors) any_defocus = any_defocus || s.defocus_sigma_px > 0;
     const int n = static_cast<int>(scene.views.size());
     std::vector<std::vector<ProfileRow>> view_rows(n);
     std::vector<std::vector<ViewTiming>> view_timings(n);
@@ -122,7 +124,10 @@ Status RunSet(const SetRun& run, const ProfilesBenchmarkOptions& o,
     Progress progress("svms bench profiles: " + run.name, n);
     auto worker = [&] {
       for (int v; (v = next++) < n;) {
-        const cv::Mat radiance = renderer->RenderRadiance(v);
+        // The light on the finer grid where any profile's lens blurs (render.h); the others'
+        // pixels integrate it unblurred.
+        const cv::Mat radiance =
+            any_defocus ? renderer->RenderRadianceFine(v) : renderer->RenderRadiance(v);
         const ViewTruth truth = ComputeTruth(*renderer, v);
         for (size_t p = 0; p < profiles.size(); ++p) {
           const cv::Mat exposed = renderer->Expose(radiance, v, sensors[p]);

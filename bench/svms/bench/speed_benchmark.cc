@@ -139,7 +139,7 @@ Rendered RenderFamilies(const Scene& scene, int threads, std::string* error) {
           errors[k] = s.message();
           continue;
         }
-        out.image[k] = r->Expose(r->RenderRadiance(0), 0);
+        out.image[k] = r->Expose(r->RenderRadianceFor(0, r->scene().sensor), 0);
         out.truth[k] = ComputeTruth(*r, 0);
       }
     });

@@ -215,7 +215,7 @@ std::vector<std::vector<double>> Tables(const PatchSet& set,
   return tables;
 }
 
-// The patches whose blur (3 sigma of the line spread function, read as linear) stays inside
+// The patches whose blur (4 sigma of the line spread function, read as linear) stays inside
 // their room beyond the plateau window.
 PatchSet Prepare(const std::vector<EdgePatch>& patches) {
   PatchSet all;
@@ -240,7 +240,7 @@ PatchSet Prepare(const std::vector<EdgePatch>& patches) {
   std::vector<double> v;
   for (size_t m = 0; m < all.patch.size(); ++m) {
     const Moments mo = PatchMoments(*all.patch[m], tables[static_cast<size_t>(all.scale[m])], &v);
-    if (mo.ok && all.patch[m]->room - kPlateauTo >= 3 * std::sqrt(mo.m2)) {
+    if (mo.ok && all.patch[m]->room - kPlateauTo >= 4 * std::sqrt(mo.m2)) {
       set.patch.push_back(all.patch[m]);
       set.scale.push_back(all.scale[m]);
     }

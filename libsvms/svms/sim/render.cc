@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 
 #include "svms/codec/svms44.h"
 #include "svms/sim/render_impl.h"
@@ -207,8 +208,49 @@ Renderer::Impl::Frame Renderer::Impl::MakeFrame(int view) const {
 // caster no sun ray can reach): the images are the same to the bit as the straightforward
 // per-sample renderer's. The one exception is the earth's longitude and latitude, computed
 // within a few ulp of libm's (EarthRef), which moves a radiance by float rounding at most.
-cv::Mat Renderer::RenderRadiance(int view) const {
-  const Impl& I = *impl_;
+cv::Mat Renderer::RenderRadiance(int view) const { return impl_->Render(view); }
+
+cv::Mat Renderer::RenderRadianceFine(int view) const {
+  std::call_once(fine_once_, [this] { fine_ = impl_->Finer(kRadianceSupersample); });
+  return fine_->Render(view);
+}
+
+cv::Mat Renderer::RenderRadianceFor(int view, const Sensor& sensor) const {
+  return sensor.defocus_sigma_px > 0 ? RenderRadianceFine(view) : RenderRadiance(view);
+}
+
+std::unique_ptr<Renderer::Impl> Renderer::Impl::Finer(int factor) const {
+  auto fine = std::make_unique<Impl>(*this);
+  fine->W = W * factor;
+  fine->H = H * factor;
+  // Fine corner (i, j) is the point (i / factor, j / factor) of this grid's corner lattice.
+  fine->corner_dirs.assign(static_cast<size_t>(fine->W + 1) * (fine->H + 1),
+                           Eigen::Vector3f::Constant(NAN));
+  auto at = [&](int i, int j) { return corner_dirs[static_cast<size_t>(j) * (W + 1) + i]; };
+  for (int j = 0; j <= fine->H; ++j)
+    for (int i = 0; i <= fine->W; ++i) {
+      const int x = std::min(i / factor, W - 1), y = std::min(j / factor, H - 1);
+      const float fx = static_cast<float>(i - x * factor) / factor,
+                  fy = static_cast<float>(j - y * factor) / factor;
+      const Eigen::Vector3f d = (1 - fy) * ((1 - fx) * at(x, y) + fx * at(x + 1, y)) +
+                                fy * ((1 - fx) * at(x, y + 1) + fx * at(x + 1, y + 1));
+      if (d.allFinite())
+        fine->corner_dirs[static_cast<size_t>(j) * (fine->W + 1) + i] = d.normalized();
+    }
+  auto fewer = [factor](int rays) {
+    if (rays <= 0) return rays;
+    const int n = static_cast<int>(std::lround(std::sqrt(rays))) / factor;
+    return std::max(1, n) * std::max(1, n);
+  };
+  fine->scene.sensor.rays_per_pixel = fewer(scene.sensor.rays_per_pixel);
+  fine->scene.sensor.edge_rays_per_pixel = fewer(scene.sensor.edge_rays_per_pixel);
+  if (!backdrop.empty())
+    cv::resize(backdrop, fine->backdrop, cv::Size(fine->W, fine->H), 0, 0, cv::INTER_LINEAR);
+  return fine;
+}
+
+cv::Mat Renderer::Impl::Render(int view) const {
+  const Impl& I = *this;
   cv::Mat out(I.H, I.W, CV_32F, cv::Scalar(0));
   const Impl::Frame f = I.MakeFrame(view);
   const bool moving = f.moving;
@@ -254,7 +296,13 @@ double RenderMemoryBytes(const Scene& scene, int threads) {
   // 4, 9 and 16 megapixels, the same with 1, 2 and 4 threads (the renderer's per-pixel state,
   // built by Create, dominates: the pixel-corner rays and their unprojection). Counted as 56
   // per pixel, plus 16 per pixel for each view in flight (radiance, edges, exposure, encoding).
-  return 56 * pixels + 16 * pixels * std::max(threads, 1) + 100e6;
+  // Behind a defocus (RenderRadianceFine), the fine grid's corner rays (12 bytes per fine
+  // corner) and, per view in flight, its radiance, blur and edge map (9 bytes per fine pixel),
+  // counted from the arrays' sizes, not measured.
+  const double fine =
+      scene.sensor.defocus_sigma_px > 0 ? kRadianceSupersample * kRadianceSupersample * pixels : 0;
+  return 56 * pixels + 16 * pixels * std::max(threads, 1) + 12 * fine +
+         9 * fine * std::max(threads, 1) + 100e6;
 }
 
 }  // namespace svms

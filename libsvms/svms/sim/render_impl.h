@@ -242,6 +242,11 @@ struct Renderer::Impl {
 
   // render.cc: setting up, and a view's frame.
   Status Build();
+  // The radiance of a view on this Impl's grid (RenderRadiance's body).
+  cv::Mat Render(int view) const;
+  // A copy on a grid `factor` times finer: corner rays blended from this one's, the samples per
+  // pixel divided by factor^2 (at least 1), the backdrop resampled.
+  std::unique_ptr<Impl> Finer(int factor) const;
   Status NormaliseSunDirections();
   Status UnprojectCorners();
   void AddSceneObjects();

@@ -37,6 +37,11 @@ cv::Mat Renderer::Expose(const cv::Mat& radiance, int view, const Sensor& s) con
   Response response;  // linear unless the sensor says otherwise; a table is never read here
   if (s.response.rfind("table:", 0) != 0) Response::Parse(s.response, &response);
   cv::Mat e = radiance.clone();
+  // A radiance from RenderRadianceFine: the light on a grid `fine` times finer than the pixels.
+  const int width = impl_->scene.camera.width(), height = impl_->scene.camera.height();
+  const int fine = e.cols == width * kRadianceSupersample && e.rows == height * kRadianceSupersample
+                       ? kRadianceSupersample
+                       : 1;
   if (s.vignetting > 0) {
     const double cx = 0.5 * (e.cols - 1), cy = 0.5 * (e.rows - 1), r2max = cx * cx + cy * cy;
     for (int y = 0; y < e.rows; ++y) {
@@ -47,7 +52,9 @@ cv::Mat Renderer::Expose(const cv::Mat& radiance, int view, const Sensor& s) con
     }
   }
   if (s.defocus_sigma_px > 0)
-    cv::GaussianBlur(e, e, cv::Size(0, 0), s.defocus_sigma_px, 0, cv::BORDER_REFLECT);
+    cv::GaussianBlur(e, e, cv::Size(0, 0), s.defocus_sigma_px * fine, 0, cv::BORDER_REFLECT);
+  // Each pixel integrates the (blurred) light over its area: the mean of its fine pixels.
+  if (fine > 1) cv::resize(e, e, cv::Size(width, height), 0, 0, cv::INTER_AREA);
   // Per pixel of a 2x2 cell: the electrons a grey pixel's are multiplied by (1 without a
   // colour filter array).
   std::array<double, 4> gain = {1, 1, 1, 1};

@@ -6,6 +6,7 @@
 #include <iostream>
 #include <memory>
 #include <mutex>
+#include <opencv2/imgproc.hpp>
 #include <thread>
 
 #include "svms/base/memory_limit.h"
@@ -57,14 +58,19 @@ int RenderScene(const Scene& scene, const std::string& source, const std::string
               .string();
       Status written;
       try {
-        const cv::Mat radiance = renderer->RenderRadiance(v);
+        // Behind a defocus, the light on the finer grid the lens blurs (render.h).
+        const cv::Mat radiance = renderer->RenderRadianceFor(v, scene.sensor);
         const cv::Mat image = renderer->Expose(radiance, v);
         truth[v] = ComputeTruth(*renderer, v);
         written = AddImage(file, image, &files, ViewImageEncoding(scene.sensor));
         if (written && write_radiance) {
+          // At the camera's size: each pixel the mean of its fine pixels.
+          cv::Mat pixels = radiance;
+          if (radiance.cols != image.cols)
+            cv::resize(radiance, pixels, image.size(), 0, 0, cv::INTER_AREA);
           written =
               AddImage((std::filesystem::path(out_dir) / (scene.views[v].name + ".exr")).string(),
-                       radiance, &files);
+                       pixels, &files);
         }
       } catch (...) {
         written = Status::Error(ItemFailure(file, std::current_exception()));
