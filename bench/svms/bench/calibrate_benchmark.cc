@@ -10,9 +10,9 @@
 #include "svms/bench/calibrate_report.h"
 #include "svms/bench/calibrate_response.h"
 #include "svms/bench/calibrate_tools.h"
-#include "svms/sim/render.h"
 #include "svms/pipelines/exit_codes.h"
 #include "svms/pipelines/report_file.h"
+#include "svms/sim/render.h"
 
 namespace svms {
 namespace {

@@ -35,10 +35,17 @@ void CollectEdgePatches(const cv::Mat& stored, const std::vector<Detection>& det
       const Eigen::Vector2d before = d.corners[(k + 3) % 4] - a, after = d.corners[(k + 2) % 4] - b;
       const double room = std::min(std::abs(before.dot(outward)), std::abs(after.dot(outward))) / 3;
       if (!(room >= 4)) continue;
+      // Along the side, the patches stop 3 px short of the corners, beyond the neighbouring
+      // sides' blur.
+      const double half_along = std::min(kPatchHalfAlong, 0.25 * length - 3);
+      if (!(half_along >= 2)) continue;
       for (double u : {0.25, 0.375, 0.5, 0.625, 0.75}) {
         if (out->size() >= max_patches) return;
         const Eigen::Vector2d p = a + u * (b - a);
-        const double reach = std::hypot(kPatchHalfAcross, kPatchHalfAlong);
+        const double reach = std::hypot(kPatchHalfAcross, half_along);
+        if (!(p.x() - reach >= 0 && p.y() - reach >= 0 && p.x() + reach < stored.cols - 1 &&
+              p.y() + reach < stored.rows - 1))
+          continue;
         const int x0 = static_cast<int>(std::floor(p.x() - reach)),
                   x1 = static_cast<int>(std::ceil(p.x() + reach)),
                   y0 = static_cast<int>(std::floor(p.y() - reach)),
@@ -53,7 +60,7 @@ void CollectEdgePatches(const cv::Mat& stored, const std::vector<Detection>& det
           for (int x = x0; x <= x1; ++x) {
             const Eigen::Vector2d q(x - p.x(), y - p.y());
             const double across = q.dot(outward), s = q.dot(along);
-            if (std::abs(across) > kPatchHalfAcross || std::abs(s) > kPatchHalfAlong) continue;
+            if (std::abs(across) > kPatchHalfAcross || std::abs(s) > half_along) continue;
             patch.code.push_back(stored.depth() == CV_8U ? stored.at<uint8_t>(y, x)
                                                          : stored.at<uint16_t>(y, x));
             patch.across.push_back(static_cast<float>(across));
@@ -150,53 +157,67 @@ Moments PatchMoments(const EdgePatch& p, const std::vector<double>& lut, std::ve
   const Kernels& K = TheKernels();
   const size_t n = p.code.size();
   v->resize(n);
-  double dark = 0, dark_w = 0, bright = 0, bright_w = 0;
-  for (size_t i = 0; i < n; ++i) {
-    (*v)[i] = lut[p.code[i]];
-    const double a = std::abs(p.across[i]);
-    if (a < kPlateauFrom || a > kPlateauTo) continue;
-    if (p.across[i] < 0) {
-      dark += p.along_weight[i] * (*v)[i], dark_w += p.along_weight[i];
-    } else {
-      bright += p.along_weight[i] * (*v)[i], bright_w += p.along_weight[i];
-    }
-  }
+  for (size_t i = 0; i < n; ++i) (*v)[i] = lut[p.code[i]];
   Moments out;
-  if (!(dark_w > 0 && bright_w > 0)) return out;
-  dark /= dark_w, bright /= bright_w;
-  const double contrast = bright - dark;
-  if (!(contrast > 0.05)) return out;
+  // The plateaus' levels, from the pixels kPlateauFrom..kPlateauTo px either side of `c`: taken
+  // about the centre rather than the edge as found, since the weights at the window's end
+  // (where (t^3 T) is near its peak) carry any error of those levels into the third moment.
+  double dark = 0, contrast = 0;
+  auto plateaus = [&](double c) {
+    double d = 0, d_w = 0, b = 0, b_w = 0;
+    for (size_t i = 0; i < n; ++i) {
+      const double t = p.across[i] - c, a = std::abs(t);
+      if (a < kPlateauFrom || a > kPlateauTo) continue;
+      (t < 0 ? d : b) += p.along_weight[i] * (*v)[i];
+      (t < 0 ? d_w : b_w) += p.along_weight[i];
+    }
+    if (!(d_w > 0 && b_w > 0)) return false;
+    dark = d / d_w, contrast = b / b_w - dark;
+    return contrast > 0.05;
+  };
   // The centre from one half of the patch (along the edge), the moments about it from the other,
   // and the two ways averaged: a centre found from the same pixels would share their noise, and
-  // under shot noise (the bright side noisier) that biases the third moment.
+  // under shot noise (the bright side noisier) that biases the third moment. The centre is
+  // iterated to 1e-4 px: the Newton step's gain is B's, which differs from a sharper or blurrier
+  // edge's, and an unconverged centre leaves part of the offset of the edge as found, which
+  // skews the moments. A centre over 1 px from the edge as found leaves the patch out.
   double m2 = 0, m3 = 0;
   for (int h = 0; h < 2; ++h) {
     double c = 0;
-    for (int iteration = 0; iteration < 4; ++iteration) {
-      const bool moments = iteration == 3;
-      double s1 = 0, s2 = 0, s3 = 0, length = 0;
+    bool converged = false;
+    for (int iteration = 0; iteration < 30 && !converged; ++iteration) {
+      if (!plateaus(c)) return out;
+      double s1 = 0, length = 0;
       for (size_t i = 0; i < n; ++i) {
-        if ((p.half[i] == h) == moments) continue;
+        if (p.half[i] != h) continue;
         const double t = p.across[i] - c;
         if (std::abs(t) > kWindow) continue;
-        const double r = ((*v)[i] - dark) / contrast - K(3, t);
         const double w = p.along_weight[i];
         length += w;
-        if (moments) {
-          s2 -= w * K(1, t) * r, s3 -= w * K(2, t) * r;
-        } else {
-          s1 -= w * K(0, t) * r;
-        }
+        s1 -= w * K(0, t) * (((*v)[i] - dark) / contrast - K(3, t));
       }
       length /= 2 * kWindow;  // the along weights' integral
       if (!(length > 0)) return out;
-      if (moments) {
-        m2 += 0.5 * (s2 / length + K.b_m2);
-        m3 += 0.5 * s3 / length;
-      } else {
-        c += s1 / length / K.gain;
-      }
+      const double step = s1 / length / K.gain;
+      c += step;
+      if (!(std::abs(c) <= 1)) return out;
+      converged = std::abs(step) < 1e-4;
     }
+    if (!converged || !plateaus(c)) return out;
+    double s2 = 0, s3 = 0, length = 0;
+    for (size_t i = 0; i < n; ++i) {
+      if (p.half[i] == h) continue;
+      const double t = p.across[i] - c;
+      if (std::abs(t) > kWindow) continue;
+      const double r = ((*v)[i] - dark) / contrast - K(3, t);
+      const double w = p.along_weight[i];
+      length += w;
+      s2 -= w * K(1, t) * r, s3 -= w * K(2, t) * r;
+    }
+    length /= 2 * kWindow;
+    if (!(length > 0)) return out;
+    m2 += 0.5 * (s2 / length + K.b_m2);
+    m3 += 0.5 * s3 / length;
   }
   out.m2 = m2, out.m3 = m3;
   out.ok = m2 > 0;
@@ -224,8 +245,14 @@ PatchSet Prepare(const std::vector<EdgePatch>& patches) {
     // A patch built elsewhere with its per-pixel fields out of step is left out.
     const size_t n = p.code.size();
     if (n == 0 || p.across.size() != n || p.along_weight.size() != n || p.half.size() != n ||
-        !(p.range > 0))
+        !(p.range > 0) || !std::isfinite(p.range) || !std::isfinite(p.black) ||
+        !std::isfinite(p.room))
       continue;
+    bool finite = true;
+    for (size_t i = 0; i < n && finite; ++i)
+      finite = std::isfinite(p.across[i]) && std::isfinite(p.along_weight[i]) &&
+               p.along_weight[i] >= 0 && p.half[i] <= 1;
+    if (!finite) continue;
     const auto [it, added] =
         index.emplace(std::pair{p.black, p.range}, static_cast<int>(all.scales.size()));
     if (added) all.scales.push_back(it->first), all.codes.push_back(0);
@@ -330,14 +357,15 @@ ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgePatch>& patches) {
   if (!std::isfinite(best)) return out;
   out.gamma = best;
   out.patches = used;
-  // The standard error: the spread of the estimates over 8 groups of the marker sides (a side's
-  // patches overlap, so they go to one group).
+  // The standard error: the spread of the estimates over 8 groups of the markers (a side's
+  // patches overlap, so they go to one group; a marker's four sides, each printed side in every
+  // group, too).
   constexpr int kGroups = 8;
   std::vector<double> g(kGroups);
   for (int k = 0; k < kGroups; ++k) {
     std::vector<size_t> part;
     for (size_t i = 0; i < all.size(); ++i)
-      if (set.patch[i]->side % kGroups == static_cast<uint32_t>(k)) part.push_back(i);
+      if (set.patch[i]->side / 4 % kGroups == static_cast<uint32_t>(k)) part.push_back(i);
     g[static_cast<size_t>(k)] = BestGamma(set, part);
   }
   // A group without an estimate counts as the scan's end it lies beyond.

@@ -20,7 +20,8 @@
 namespace svms {
 
 // A patch of pixels across an edge: every pixel whose centre lies within kPatchHalfAcross px of
-// the edge as found and within kPatchHalfAlong px along it of the patch's centre, with its stored
+// the edge as found and within kPatchHalfAlong px along it of the patch's centre (less on sides
+// under 32 px, so as to stop 3 px short of the corners), with its stored
 // code, its signed distance across the edge (px; positive on the bright side) and its weight
 // along the edge (a Gaussian of kPatchAlongSigma px about the patch's centre).
 //
@@ -60,7 +61,7 @@ void CollectEdgePatches(const cv::Mat& stored, const std::vector<Detection>& det
 
 struct ResponseEstimate {
   double gamma = 1;  // linear = stored^gamma
-  double sigma = 0;  // its standard error (from the spread of estimates over groups of sides)
+  double sigma = 0;  // its standard error (from the spread of estimates over groups of markers)
   int patches = 0;   // patches it rests on (0: none usable; gamma 1)
   // Asymmetry of the edges (the absolute pooled skewness of their line spread functions) at
   // `gamma`, and read as linear (gamma 1) and as sRGB: compared with `sigma`'s scale it says
@@ -70,7 +71,7 @@ struct ResponseEstimate {
 
 // The gamma in [0.5, 3.5] that makes the patches' edges point-symmetric: where the pooled
 // skewness of their line spread functions crosses zero, with its standard error from 8 groups
-// of the marker sides. Needs at least 20 usable patches with a crossing (else patches = 0 and
+// of the markers. Needs at least 20 usable patches with a crossing (else patches = 0 and
 // gamma 1: binary edges, as on printed artwork, read the same through any curve and say
 // nothing).
 ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgePatch>& patches);

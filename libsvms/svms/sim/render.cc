@@ -232,15 +232,20 @@ std::unique_ptr<Renderer::Impl> Renderer::Impl::Finer(int factor) const {
       const int x = std::min(i / factor, W - 1), y = std::min(j / factor, H - 1);
       const float fx = static_cast<float>(i - x * factor) / factor,
                   fy = static_cast<float>(j - y * factor) / factor;
-      const Eigen::Vector3f d = (1 - fy) * ((1 - fx) * at(x, y) + fx * at(x + 1, y)) +
-                                fy * ((1 - fx) * at(x, y + 1) + fx * at(x + 1, y + 1));
+      // Only the corners with weight: an exact coarse corner next to an invalid one stays valid.
+      Eigen::Vector3f d = Eigen::Vector3f::Zero();
+      const float w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+      const Eigen::Vector3f c[4] = {at(x, y), at(x + 1, y), at(x, y + 1), at(x + 1, y + 1)};
+      for (int k = 0; k < 4; ++k)
+        if (w[k] > 0) d += w[k] * c[k];
       if (d.allFinite())
         fine->corner_dirs[static_cast<size_t>(j) * (fine->W + 1) + i] = d.normalized();
     }
+  // Samples per fine pixel side: the pixel's, divided by the factor and rounded up.
   auto fewer = [factor](int rays) {
     if (rays <= 0) return rays;
-    const int n = static_cast<int>(std::lround(std::sqrt(rays))) / factor;
-    return std::max(1, n) * std::max(1, n);
+    const int n = (static_cast<int>(std::lround(std::sqrt(rays))) + factor - 1) / factor;
+    return n * n;
   };
   fine->scene.sensor.rays_per_pixel = fewer(scene.sensor.rays_per_pixel);
   fine->scene.sensor.edge_rays_per_pixel = fewer(scene.sensor.edge_rays_per_pixel);
@@ -297,11 +302,14 @@ double RenderMemoryBytes(const Scene& scene, int threads) {
   // built by Create, dominates: the pixel-corner rays and their unprojection). Counted as 56
   // per pixel, plus 16 per pixel for each view in flight (radiance, edges, exposure, encoding).
   // Behind a defocus (RenderRadianceFine), the fine grid's corner rays (12 bytes per fine
-  // corner) and, per view in flight, its radiance, blur and edge map (9 bytes per fine pixel),
-  // counted from the arrays' sizes, not measured.
+  // corner; about 200 MB for a 1024 x 1024 camera) and, per view in flight, its radiance, blur
+  // and edge map (9 bytes per fine pixel, about 150 MB), counted from the arrays' sizes, not
+  // measured.
   const double fine =
       scene.sensor.defocus_sigma_px > 0 ? kRadianceSupersample * kRadianceSupersample * pixels : 0;
-  return 56 * pixels + 16 * pixels * std::max(threads, 1) + 12 * fine +
+  // An image background is resampled onto the fine grid too (4 bytes per fine pixel).
+  const double backdrop = scene.background.kind == Background::Kind::kImage ? 4 * fine : 0;
+  return 56 * pixels + 16 * pixels * std::max(threads, 1) + 12 * fine + backdrop +
          9 * fine * std::max(threads, 1) + 100e6;
 }
 

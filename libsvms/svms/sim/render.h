@@ -91,10 +91,11 @@ class Renderer {
   cv::Mat RenderRadiance(int view) const;
   // The radiance of view `view` on a grid kRadianceSupersample times finer in each direction
   // (CV_32FC1, that many times the camera's width and height): each fine pixel the mean of
-  // rays_per_pixel / kRadianceSupersample^2 samples (at least 1; edge pixels likewise), so
-  // the same rays as RenderRadiance, kept apart. It is the light before the pixels integrate
-  // it, which a lens's defocus acts on: Expose blurs it there and then integrates the pixels.
-  // The fine camera rays are the bilinear blend of the pixel-corner rays (as within a pixel).
+  // rays_per_pixel / kRadianceSupersample^2 samples (its square root rounded up; edge pixels
+  // likewise): as many rays as RenderRadiance casts, or a few more, kept apart. It is the light
+  // before the pixels integrate it, which a lens's defocus acts on: Expose blurs it there and then
+  // integrates the pixels. The fine camera rays are the bilinear blend of the pixel-corner rays (as
+  // within a pixel).
   cv::Mat RenderRadianceFine(int view) const;
   // RenderRadianceFine where `sensor` blurs (defocus_sigma_px > 0), else RenderRadiance: what
   // Expose needs for it.
@@ -135,7 +136,9 @@ class Renderer {
   Renderer();
   struct Impl;
   std::unique_ptr<Impl> impl_;
-  mutable std::unique_ptr<Impl> fine_;  // the fine grid's (RenderRadianceFine), built once
+  // The fine grid's (RenderRadianceFine), built once from impl_, whose scene its primitives
+  // point into: declared after impl_, so destroyed before it.
+  mutable std::unique_ptr<Impl> fine_;
   mutable std::once_flag fine_once_;
 };
 

@@ -602,7 +602,7 @@ Scene FlatWall(double reflectance, int w = 16, int h = 12) {
 cv::Mat Exposed(const Scene& s) {
   auto r = Make(s);
   if (!r) return cv::Mat();
-  return r->Expose(r->RenderRadiance(0), 0);
+  return r->Expose(r->RenderRadianceFor(0, s.sensor), 0);
 }
 
 TEST(CameraPipeline, FlatPatchesFollowTheResponseCurve) {
