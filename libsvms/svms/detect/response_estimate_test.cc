@@ -11,6 +11,17 @@
 namespace svms {
 namespace {
 
+// A square of half side `h` px about (cx, cy), turned by `a` radians: its exact corners.
+Detection Square(double cx, double cy, double h, double a) {
+  Detection d;
+  for (int c = 0; c < 4; ++c) {
+    const double t = a + M_PI / 4 + c * M_PI / 2;
+    d.corners[c] =
+        Eigen::Vector2d(cx + h * std::sqrt(2) * std::cos(t), cy + h * std::sqrt(2) * std::sin(t));
+  }
+  return d;
+}
+
 // Black squares (reflectance 0.05) in white (0.9) surrounds at several angles, rendered in
 // linear light (exact pixel coverage, then a Gaussian blur of `blur` px), encoded through
 // `response` into 8 bits with noise of sigma 0.004 in linear units plus, with `shot` > 0,
@@ -26,13 +37,7 @@ void Squares(const Response& response, double blur, uint32_t seed, cv::Mat* img,
   for (int k = 0; k < 24; ++k) {
     const double cx = 80 + 160 * (k % 6) + 0.37 * k, cy = 80 + 160 * (k / 6), h = 30;
     const double a = angle(rng), ca = std::cos(a), sa = std::sin(a);
-    Detection d;
-    for (int c = 0; c < 4; ++c) {
-      const double t = a + M_PI / 4 + c * M_PI / 2;
-      d.corners[c] =
-          Eigen::Vector2d(cx + h * std::sqrt(2) * std::cos(t), cy + h * std::sqrt(2) * std::sin(t));
-    }
-    dets->push_back(d);
+    dets->push_back(Square(cx, cy, h, a));
     // Each pixel's covered fraction, from 16 x 16 point samples over its area (pixel centres
     // at integers): exact to 1/256, with nothing of an anti-aliasing filter's own shape.
     for (int y = static_cast<int>(cy - 1.5 * h); y <= cy + 1.5 * h; ++y)
@@ -78,13 +83,7 @@ void ExactSquares(const Response& response, double blur, uint32_t seed, cv::Mat*
   for (int k = 0; k < 24; ++k) {
     const double cx = 80 + 160 * (k % 6) + 0.37 * k, cy = 80 + 160 * (k / 6) + 0.21 * k, h = 30;
     const double a = angle(rng), ca = std::cos(a), sa = std::sin(a);
-    Detection d;
-    for (int c = 0; c < 4; ++c) {
-      const double t = a + M_PI / 4 + c * M_PI / 2;
-      d.corners[c] =
-          Eigen::Vector2d(cx + h * std::sqrt(2) * std::cos(t), cy + h * std::sqrt(2) * std::sin(t));
-    }
-    dets->push_back(d);
+    dets->push_back(Square(cx, cy, h, a));
     for (int y = static_cast<int>(cy - 1.6 * h); y <= cy + 1.6 * h; ++y)
       for (int x = static_cast<int>(cx - 1.6 * h); x <= cx + 1.6 * h; ++x) {
         double dark = 0;
