@@ -5,10 +5,10 @@
 // light, whatever the blur, as long as the blur is symmetric. A response curve bends it: in
 // gamma-encoded values the bright half is stretched and the dark half squeezed. So the gamma G
 // that makes many edges symmetric (their line spread functions unskewed) when the stored values
-// are raised to it is the camera's (linear = stored^G; sRGB is close to G = 2.2). The sides of
-// the markers a detector finds are such edges: a black square in a white stripe. `svms calibrate
-// --response estimate` measures it on every board image; `svms detect` checks a declared
-// response against it.
+// are raised to it is the camera's (linear = stored^G; sRGB reads as G = 2.5 or so across a
+// black/white edge, response_check.cc). The sides of the markers a detector finds are such
+// edges: a black square in a white stripe. `svms calibrate --response estimate` measures it on
+// every board image; `svms detect` checks a declared response against it.
 #pragma once
 
 #include <cstdint>
