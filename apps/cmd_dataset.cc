@@ -25,8 +25,9 @@ void AddDatasetCommands(CLI::App& app, int* exit_code) {
   auto o = std::make_shared<DatasetRunOptions>();
   auto list = std::make_shared<bool>(false);
   CLI::App* ds = app.add_subcommand("dataset", "Write and render a standard simulated dataset");
-  ds->add_option("NAME", o->name,
-                 "range, angle, sun, occlusion, mockup, approach, calibration, clutter or gallery");
+  ds->add_option(
+      "NAME", o->name,
+      "range, angle, small, sun, occlusion, mockup, approach, calibration, clutter or gallery");
   ds->add_option("--out", o->out, "Output directory");
   ds->add_option("--seed", o->seed, "Seed (everything is deterministic from it)")
       ->capture_default_str()

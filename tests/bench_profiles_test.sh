@@ -2,7 +2,9 @@
 # `svms bench profiles --quick` on two profiles: its report, summary and per-marker table agree.
 # Known answers recomputed from markers.csv: each profile's NEES mean and median, and the NEES
 # by size, whose poses add up to all the poses and whose mean / median are those of the
-# markers in that size range; the report's median row shows the summary's medians. And a profile that does not exist ends with one line, exit 2.
+# markers in that size range (the well-exposed sets; the dim set apart); the dim set's found
+# count and the corner RMS over the markers every profile found; the report's median row shows
+# the summary's medians. And a profile that does not exist ends with one line, exit 2.
 set -euo pipefail
 svms="$1"
 py=/usr/bin/python3
@@ -36,7 +38,7 @@ close = lambda a, b: math.isclose(a, b, rel_tol=1e-8)  # markers.csv holds 10 di
 def nees(p, keep=lambda r: True):
     out = []
     for r in rows:
-        if r["profile"] != p or r["found"] != "1":
+        if r["profile"] != p or r["found"] != "1" or r["set"] == "small_dim":
             continue
         x = float(r["nees"])
         if math.isfinite(x) and keep(r):
@@ -65,6 +67,25 @@ for p in ("linear", "jpeg_srgb"):
     g = nees(p, lambda r: float(r["view_angle_deg"]) >= 60)
     if fig["nees_grazing"]["poses"] != len(g):
         print(p, "grazing", fig["nees_grazing"], len(g)); bad += 1
+# The dim set: its found count, and the corner RMS at 14-18 px over the markers both found.
+found = {}
+for r in rows:
+    if r["found"] == "1":
+        found.setdefault((r["set"], r["view"], r["id"]), set()).add(r["profile"])
+for p in ("linear", "jpeg_srgb"):
+    dim = [r for r in rows if r["profile"] == p and r["set"] == "small_dim"]
+    got = s["per_profile"][p]["dim"]
+    n = sum(r["found"] == "1" for r in dim if r["fully_visible"] == "1")
+    if got["found"] != n or got["total"] != sum(r["fully_visible"] == "1" for r in dim):
+        print(p, "dim found", got, n); bad += 1
+    for key, sets in (("corner_rms_px_16_common", lambda x: x != "small_dim"),):
+        e = [float(r["corner_rms_px"]) for r in rows if r["profile"] == p and sets(r["set"])
+             and r["found"] == "1" and 14 <= float(r["min_side_px"]) < 18
+             and len(found[(r["set"], r["view"], r["id"])]) == 2]
+        want = math.sqrt(statistics.fmean(x * x for x in e)) if e else None
+        v = s["per_profile"][p][key]
+        if (want is None) != (v is None) or (want is not None and not close(v, want)):
+            print(p, key, v, "csv", want); bad += 1
 # The report's median row shows the summary's medians (2 decimals), in the profiles' order.
 row = [l for l in report.splitlines() if l.startswith("| pose NEES median")][0]
 cells = [c.strip() for c in row.split("|")[2:-1]]

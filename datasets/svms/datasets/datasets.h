@@ -26,7 +26,7 @@ struct Dataset {
   std::vector<std::pair<std::string, std::string>> files;
 };
 
-// The names of the standard datasets, in order: range, angle, sun, occlusion, mockup, approach,
+// The names of the standard datasets, in order: range, angle, small, sun, occlusion, mockup, approach,
 // calibration, clutter; and gallery (the documentation's pictures).
 std::vector<std::string> DatasetNames();
 std::string DatasetDescription(const std::string& name);

@@ -161,5 +161,37 @@ TEST(Datasets, RangeCameraMakesTheOuterSquare30PixelsAt16Metres) {
   EXPECT_NEAR((b - a).norm(), 30.0, 1e-9);
 }
 
+// The small set is there to put hundreds of markers into the size buckets below 30 px: every
+// marker of every view in the image, and most of them between 8 and 24 px.
+TEST(Datasets, TheSmallSetsMarkersAreSmallAndInTheImage) {
+  Dataset d;
+  ASSERT_TRUE(MakeDataset("small", DatasetOptions{1, false}, &d).ok());
+  const Scene& s = d.scenes.at(0).second;
+  ASSERT_EQ(s.objects.size(), 1u);
+  ASSERT_EQ(s.objects[0].markers.size(), 25u);
+  EXPECT_EQ(s.views.size(), 24u);
+  int total = 0, in_band = 0;
+  double smallest = 1e9, largest = 0;
+  for (const View& v : s.views)
+    for (const SceneMarker& m : s.objects[0].markers) {
+      const Pose cam_from_marker =
+          v.cam_from_world * s.objects[0].world_from_object * m.object_from_marker;
+      std::array<Eigen::Vector2d, 4> px;
+      for (int k = 0; k < 4; ++k) {
+        ASSERT_TRUE(s.camera.Project(cam_from_marker * m.model.Corners()[k], &px[k]));
+        EXPECT_TRUE(px[k].x() > 10 && px[k].y() > 10 && px[k].x() < s.camera.width() - 10 &&
+                    px[k].y() < s.camera.height() - 10)
+            << v.name << " marker " << m.model.id;
+      }
+      double side = 1e9;
+      for (int k = 0; k < 4; ++k) side = std::min(side, (px[(k + 1) % 4] - px[k]).norm());
+      smallest = std::min(smallest, side), largest = std::max(largest, side);
+      ++total, in_band += side >= 8 && side < 24;
+    }
+  EXPECT_GT(smallest, 5.0);
+  EXPECT_LT(largest, 30.0);
+  EXPECT_GE(in_band, 0.75 * total) << in_band << " of " << total;
+}
+
 }  // namespace
 }  // namespace svms
