@@ -34,6 +34,12 @@ static_assert(2 * (static_cast<int>(kMaxDiscFitRadiusPx) + 2) + 1 <= 16);
 // (0.13 px RMS at a radius of 1.2 px, 0.05 at 2, 0.03 at 3.5: FindTip's tests).
 constexpr double kCentroidLockingPxPx = 0.15;
 
+// Ring pixels of a sub-pixel top closer than this to a side of the square, or outside it, are
+// not held dark (FindTip's `square`): a blurred edge's light at a pixel centre d px inside
+// falls below a tenth of the contrast (where a top's ring test starts) beyond d = 1.3 sigma,
+// and 1.5 px covers a lens blur of up to 1 px with the pixel's own width.
+constexpr double kTipRingEdgeMarginPx = 1.5;
+
 // Adds one residual row J = [jr^T, jt^T] (rotation, translation), weight w, residual r to the
 // upper triangle of JtWJ and to JtWr. Written out: Eigen's rankUpdate and comma initialiser
 // on 6-vectors are not inlined and cost more than the projection.
@@ -167,15 +173,72 @@ void StartMemo(TipSearchMemo* memo, const cv::Mat& img, double radius, double bl
   memo->blob.clear();
 }
 
+// How far `p` lies inside the quadrilateral `square` (pixels; corners in order around it,
+// either way round): the distance to its nearest side, negative outside.
+double DepthInSquare(const std::array<Eigen::Vector2d, 4>& square, const Eigen::Vector2d& p) {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector2d& c : square) centre += 0.25 * c;
+  double depth = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d a = square[k], d = square[(k + 1) % 4] - a;
+    Eigen::Vector2d inward(-d.y(), d.x());
+    inward.normalize();
+    if (inward.dot(centre - a) < 0) inward = -inward;
+    depth = std::min(depth, inward.dot(p - a));
+  }
+  return depth;
+}
+
+// Whether a top below a pixel, seeded at (bx, by), holds the light a white top of radius
+// tip_radius_px gives, behind any blur: the sum over the 3 x 3 about the seed above the level
+// of the 16 pixels 2 px out (their median) is at least min_contrast x pi r^2 x (white - black),
+// and stands 5 sigmas clear of the noise those 16 show (their median absolute deviation). Why
+// a sum: a lens spreads the top's light over more pixels and lowers its peak (behind a blur of
+// 0.7 px, a top of 0.7 px radius peaks at about a third of what it would), but keeps its total;
+// the 3 x 3 holds nine tenths of it up to a blur of 0.8 px. The peak test alone then turns
+// away the tops of 10-14 px markers seen through an ordinary camera's optics, and the pose is
+// left to the corners, whose two planar solutions are hard to tell apart at that size. The
+// median keeps a part of the stripe or a bright bit in a few of the 16 from raising the level.
+bool BlurredTopStandsOut(const cv::Mat& img, int bx, int by, double black, double white,
+                         double min_contrast, double tip_radius_px) {
+  if (bx < 2 || by < 2 || bx > img.cols - 3 || by > img.rows - 3) return false;
+  std::array<double, 16> ring;
+  int n = 0;
+  for (int dy = -2; dy <= 2; ++dy)
+    for (int dx = -2; dx <= 2; ++dx)
+      if (std::abs(dx) == 2 || std::abs(dy) == 2) ring[n++] = Grey(img, by + dy, bx + dx);
+  auto median = [](std::array<double, 16> v) {
+    std::nth_element(v.begin(), v.begin() + 7, v.end());
+    const double lo = v[7];
+    return 0.5 * (lo + *std::min_element(v.begin() + 8, v.end()));
+  };
+  const double level = median(ring);
+  std::array<double, 16> dev;
+  for (int i = 0; i < 16; ++i) dev[i] = std::abs(ring[i] - level);
+  // At least the rounding of an 8-bit code at this contrast (a flat black of equal codes shows
+  // no spread at all): 0.3 % of white - black.
+  const double sigma = std::max(1.4826 * median(dev), 0.003 * (white - black));
+  double sum = 0;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) sum += Grey(img, by + dy, bx + dx) - level;
+  return sum >= min_contrast * M_PI * tip_radius_px * tip_radius_px * (white - black) &&
+         sum >= 5 * 3 * sigma;  // nine pixels' noise: 3 sigma
+}
+
 // A top below a pixel (radius tip_radius_px) seeded at (bx, by): the 3 x 3 around the seed
 // hold its light; the ring around them must be dark (a bright ring means the stripe, a bit
 // cell or a glint, not an isolated top). Its place is the disc fit's, not the centroid (which
 // locks to pixel centres: disc_fit.h).
 std::optional<TipObservation> SubPixelTip(const cv::Mat& img, int bx, int by, double black,
-                                          double tip_radius_px) {
+                                          double tip_radius_px,
+                                          const std::array<Eigen::Vector2d, 4>* square) {
   if (bx < 2 || by < 2 || bx > img.cols - 3 || by > img.rows - 3) return std::nullopt;
+  // A seed that near a side may be the stripe's own light: no top there.
+  const bool seed_clear =
+      !square || DepthInSquare(*square, Eigen::Vector2d(bx, by)) >= kTipRingEdgeMarginPx;
   const double ring_max = black + 0.5 * (Grey(img, by, bx) - black);
   std::array<double, 25> window;
+  bool stripe_in_ring = false;  // a ring pixel near a side was bright: fit the 3 x 3 only
   for (int dy = -2; dy <= 2; ++dy)
     for (int dx = -2; dx <= 2; ++dx) {
       const double v = Grey(img, by + dy, bx + dx);
@@ -183,13 +246,18 @@ std::optional<TipObservation> SubPixelTip(const cv::Mat& img, int bx, int by, do
       // 15-20 degrees off-axis the top sits that close to a corner of the white stripe.
       const bool ring = std::abs(dx) == 2 || std::abs(dy) == 2;
       const bool ring_corner = std::abs(dx) == 2 && std::abs(dy) == 2;
-      if (ring && !ring_corner && v > ring_max) return std::nullopt;
+      if (ring && !ring_corner && v > ring_max) {
+        if (!seed_clear || !square ||
+            DepthInSquare(*square, Eigen::Vector2d(bx + dx, by + dy)) >= kTipRingEdgeMarginPx)
+          return std::nullopt;
+        stripe_in_ring = true;
+      }
       window[(dy + 2) * 5 + dx + 2] = v;
     }
   // A top of at most half a pixel centred in the seed lies within its 3 x 3, and the ring is
   // then left out of the fit: on a small marker it may already hold a bit of the stripe.
   std::optional<DiscFit> fit;
-  if (tip_radius_px <= 0.5) {
+  if (tip_radius_px <= 0.5 || stripe_in_ring) {
     std::array<double, 9> inner;
     for (int k = 0; k < 9; ++k) inner[k] = window[(k / 3 + 1) * 5 + k % 3 + 1];
     fit = FitDisc(inner.data(), 3, bx - 1, by - 1, tip_radius_px);
@@ -311,7 +379,8 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
 std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d& pred,
                                       double radius, double black, double white,
                                       double min_contrast, double tip_radius_px,
-                                      TipSearchMemo* memo) {
+                                      TipSearchMemo* memo,
+                                      const std::array<Eigen::Vector2d, 4>* square) {
   const double thr = black + 0.5 * (white - black);
   // The brightest pixel nearest the prediction seeds the blob.
   TipWindow w;
@@ -320,7 +389,9 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
   const bool sub_pixel = tip_radius_px < 1;
   const double peak_fraction =
       sub_pixel ? std::min(1.0, 0.5 * M_PI * tip_radius_px * tip_radius_px) : 1.0;
-  if (bx < 0 || Grey(img, by, bx) - black < min_contrast * peak_fraction * (white - black))
+  if (bx < 0) return std::nullopt;
+  if (Grey(img, by, bx) - black < min_contrast * peak_fraction * (white - black) &&
+      !(sub_pixel && BlurredTopStandsOut(img, bx, by, black, white, min_contrast, tip_radius_px)))
     return std::nullopt;
   // The blob's threshold (a top of a pixel or more): halfway to white, or to the seed if that
   // is dimmer.
@@ -346,7 +417,7 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
     }
     return t;
   };
-  if (sub_pixel) return answer(SubPixelTip(img, bx, by, black, tip_radius_px));
+  if (sub_pixel) return answer(SubPixelTip(img, bx, by, black, tip_radius_px, square));
   PoseScratch& sc = Scratch();
   TipWindow bounds;
   if (!FloodBlob(img, w, bx, by, local_thr, &sc, &bounds)) return std::nullopt;
@@ -734,7 +805,7 @@ void FindCandidateTips(const cv::Mat& image, const std::array<Eigen::Vector2d, 4
       Eigen::Vector2d pred;
       if (fraction >= 0.25 && camera.Project(c.pose * tip3, &pred)) {
         c.tip = FindTip(image, pred, search, black, white, o.tip_min_contrast,
-                        model.post->tip_radius * px_per_m, &tip_memo);
+                        model.post->tip_radius * px_per_m, &tip_memo, &corners);
         if (c.tip) c.tip_error = (c.tip->pixel - pred).norm();
       }
     }

@@ -161,10 +161,16 @@ struct TipSearchMemo {
   int blob_x0 = 0, blob_x1 = -1, blob_y0 = 0, blob_y1 = -1;  // bounding box, inclusive
   std::optional<TipObservation> tip;
 };
+// `square` (may be null): the black square's corners in the image (pixels). A top below a
+// pixel must be ringed by dark pixels except, there, where the ring lies outside the square or
+// within kTipRingEdgeMarginPx of its sides: behind a lens's blur the stripe's light reaches
+// them when the top stands near a side (an oblique view of a small marker), and the top is
+// then fitted from the 3 x 3 about it. The memo's answer holds for the same `square` only.
 std::optional<TipObservation> FindTip(const cv::Mat& image, const Eigen::Vector2d& predicted,
                                       double radius, double black, double white,
                                       double min_contrast, double tip_radius_px,
-                                      TipSearchMemo* memo);
+                                      TipSearchMemo* memo,
+                                      const std::array<Eigen::Vector2d, 4>* square = nullptr);
 
 // Pose of a marker from its corners (marker order: TL, TR, BR, BL as printed, pixels), each
 // with its sigma from the side fits (pixels; 0: not known, see MarkerPoseOptions).
