@@ -143,19 +143,27 @@ std::map<std::string, json> ProfileFigures(const std::vector<std::string>& profi
   return per;
 }
 
+// The sensor of the dataset `name` through `profile`, exposed `scale` as long.
+Sensor DatasetSensor(const ProfilesBenchmarkOptions& o, const std::string& name,
+                     const std::string& profile, double scale = 1) {
+  Dataset d;
+  DatasetOptions dopt;
+  dopt.seed = o.seed;
+  dopt.quick = true;
+  MakeDataset(name, dopt, &d);
+  Sensor s = d.scenes.front().second.sensor;
+  ApplySensorProfile(profile, &s);
+  s.exposure *= scale;
+  return s;
+}
+
 // The noise the detector estimated on 16-bit images against the sensor's, in linear 16-bit
 // units: read sigma and the sigma at mid-grey, per profile into *per.
 void AddNoiseFigures(const ProfilesBenchmarkOptions& o, const std::vector<std::string>& profiles,
                      const std::vector<ViewTiming>& timings, std::map<std::string, json>* per_out) {
   std::map<std::string, json>& per = *per_out;
   for (const std::string& p : profiles) {
-    Dataset d;
-    DatasetOptions dopt;
-    dopt.seed = o.seed;
-    dopt.quick = true;
-    MakeDataset("angle", dopt, &d);
-    Sensor s = d.scenes.front().second.sensor;
-    ApplySensorProfile(p, &s);
+    const Sensor s = DatasetSensor(o, "angle", p);
     const double unit = 65535.0 / s.full_well;  // linear units per electron
     std::vector<double> read_ratio, mid_ratio;
     int hidden = 0;
@@ -178,19 +186,6 @@ void AddNoiseFigures(const ProfilesBenchmarkOptions& o, const std::vector<std::s
     per[p]["noise_views"] = read_ratio.size();
     per[p]["noise_hidden_views"] = hidden;
   }
-}
-
-// The sensor of the small set through `profile`, exposed `scale` as long.
-Sensor SmallSetSensor(const ProfilesBenchmarkOptions& o, const std::string& profile, double scale) {
-  Dataset d;
-  DatasetOptions dopt;
-  dopt.seed = o.seed;
-  dopt.quick = true;
-  MakeDataset("small", dopt, &d);
-  Sensor s = d.scenes.front().second.sensor;
-  ApplySensorProfile(profile, &s);
-  s.exposure *= scale;
-  return s;
 }
 
 // What `raw`'s extra bits can give over `eight`'s codes, from the noise budget of a pixel half
@@ -360,15 +355,16 @@ bool Targets(const ProfilesBenchmarkOptions& o, const std::vector<std::string>& 
       return v.is_number() ? v.get<double>() : kNaN;
     };
     const double gain_dim = 1 - rms("raw12", true) / rms("linear", true);
-    const double budget_dim = BitsGainBudget(SmallSetSensor(o, "raw12", kDimExposureScale),
-                                             SmallSetSensor(o, "linear", kDimExposureScale));
+    const double budget_dim =
+        BitsGainBudget(DatasetSensor(o, "small", "raw12", kDimExposureScale),
+                       DatasetSensor(o, "small", "linear", kDimExposureScale));
     *md << "- raw12 corner RMS at 14-18 px at least 20 % better than 8 bits, dim set (markers "
            "every profile found): "
         << verdict(gain_dim >= 0.2) << " (" << Cell(100 * gain_dim, 0)
         << " %; the noise budget allows about " << Cell(100 * budget_dim, 0) << " %)\n";
     const double gain = 1 - rms("raw12", false) / rms("linear", false);
     const double budget =
-        BitsGainBudget(SmallSetSensor(o, "raw12", 1), SmallSetSensor(o, "linear", 1));
+        BitsGainBudget(DatasetSensor(o, "small", "raw12"), DatasetSensor(o, "small", "linear"));
     *md << "- (not a target) the same on the well-exposed sets: " << Cell(100 * gain, 0)
         << " %; the noise budget allows about " << Cell(100 * budget, 0)
         << " %: there 8-bit codes round less than the shot noise spreads\n";
