@@ -78,14 +78,17 @@ for p in ("linear", "jpeg_srgb"):
     n = sum(r["found"] == "1" for r in dim if r["fully_visible"] == "1")
     if got["found"] != n or got["total"] != sum(r["fully_visible"] == "1" for r in dim):
         print(p, "dim found", got, n); bad += 1
-    for key, sets in (("corner_rms_px_16_common", lambda x: x != "small_dim"),):
+    for fig, sets in ((s["per_profile"][p], lambda x: x != "small_dim"),
+                      (s["per_profile"][p]["dim"], lambda x: x == "small_dim")):
         e = [float(r["corner_rms_px"]) for r in rows if r["profile"] == p and sets(r["set"])
              and r["found"] == "1" and 14 <= float(r["min_side_px"]) < 18
              and len(found[(r["set"], r["view"], r["id"])]) == 2]
         want = math.sqrt(statistics.fmean(x * x for x in e)) if e else None
-        v = s["per_profile"][p][key]
-        if (want is None) != (v is None) or (want is not None and not close(v, want)):
-            print(p, key, v, "csv", want); bad += 1
+        v = fig["corner_rms_px_16_common"]
+        if (want is None) != (v is None) or (want is not None and not close(v, want)) or \
+                fig["corner_rms_px_16_common_markers"] != len(e):
+            print(p, "common RMS", v, fig["corner_rms_px_16_common_markers"], "csv", want,
+                  len(e)); bad += 1
 # The report's median row shows the summary's medians (2 decimals), in the profiles' order.
 row = [l for l in report.splitlines() if l.startswith("| pose NEES median")][0]
 cells = [c.strip() for c in row.split("|")[2:-1]]

@@ -11,9 +11,10 @@
 
 namespace svms {
 
-// The small set again, exposed this much shorter (the marker's white at about 1/16 of full
-// scale, as in a frame exposed for a sun glint or the sunlit Earth): where a raw frame's extra
-// bits carry signal that 8-bit codes round away. Its rows are scored apart (set "small_dim").
+// The small set again, exposed this much shorter (the marker's white at about 1/24 of full
+// scale instead of 2/3, as in a frame exposed for a sun glint or the sunlit Earth): where a raw
+// frame's extra bits carry signal that 8-bit codes round away. Its rows are scored apart (set
+// "small_dim").
 inline constexpr double kDimExposureScale = 1.0 / 16;
 inline constexpr const char* kDimSet = "small_dim";
 

@@ -68,6 +68,9 @@ struct CornerRefineOptions {
   // too narrow for the edge profile's +-2 px window plus the pixels' blur: its edges are placed
   // as LocateEdge's narrow_band says.
   double narrow_stripe_side_px = 13.5;
+  // On such quads behind a blur, the stripe's brightest point falls short of its white and the
+  // sides are placed inward (RefinedCorners::band_bias_px): carried in the corners' sigmas.
+  bool blurred_band_sigma = true;
   // A shadow's penumbra on the white stripe along a side rises more steeply than the black
   // square's own edge into the shadowed stripe (a few grey levels), and the edge locator takes
   // it: the side came out 2.9 px outside the truth with a sigma of 0.14 px (compare view
@@ -118,6 +121,10 @@ struct RefinedCorners {
   // RefineCorners.
   double correlation = 0;
   int excluded_points = 0;  // edge points left out because they fell in an ExcludedRegion
+  // On a quad under narrow_stripe_side_px: how far inward its sides are placed because the
+  // stripe's blurred peak falls short of its white (pixels, from the stripe profiles' own
+  // steepness; 0 for a sharp image), added to each corner_sigma in quadrature.
+  double band_bias_px = 0;
   // Sides whose edge was taken from under a shadow's penumbra (see penumbra_dark_fraction).
   std::array<bool, 4> penumbra_sides{};
   bool ok = false;

@@ -188,7 +188,8 @@ bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, Detec
 }
 
 // 5-7 for one quad: the homography from its corners, its bits, their decoding. A small square
-// whose bits do not decode gets its corners refined once and is read again (7b). The
+// whose bits do not decode, or decode only with more corrections than a decode may have without
+// evidence, gets its corners refined once and is read again (7b). The
 // detection (ID, rotation, corners in the marker's order, grey levels), or nullopt.
 std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorOptions& o,
                                     const CameraModel* cam) {
@@ -203,7 +204,8 @@ std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorO
   // segments' square is smaller than the marker's (1.4 px on an 18 px marker behind 0.7 px,
   // where the edges are searched on the noise's square-root scale), its outer bit cells are
   // read toward the stripe, and 3-5 of them flip; the marker would then be turned away for
-  // want of a tip. The reading with fewer corrections is kept.
+  // want of a tip. The re-read replaces a decode that failed, or the same ID and rotation read
+  // with fewer corrections.
   const bool weak = !m.accepted() || m.bit_errors > o.max_unsupported_corrections;
   if (weak && o.refine_corners && q.min_side() < o.small_quad_refine_px &&
       bits.white - bits.black >= o.small_quad_min_contrast &&
@@ -216,7 +218,11 @@ std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorO
       const BitReading again = SampleBits(gray, UnitHomography(r.corners), unit);
       if (again.samples_outside == 0 && again.white - again.black >= o.min_contrast) {
         const CodeMatch m2 = Svms44::Decode(again.word, o.max_corrections, o.id_count);
-        if (m2.accepted() && (!m.accepted() || m2.bit_errors < m.bit_errors)) {
+        // A decode is replaced only by the same ID in the same rotation with fewer
+        // corrections: two readings of one square that name two codewords (9 or more bits
+        // apart) cannot both be right, and the weak one still needs its evidence.
+        if (m2.accepted() && (!m.accepted() || (m2.id == m.id && m2.rotation == m.rotation &&
+                                                m2.bit_errors < m.bit_errors))) {
           q.corners = r.corners;
           bits = again;
           m = m2;

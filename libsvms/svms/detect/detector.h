@@ -90,12 +90,13 @@ struct DetectorOptions {
   // A quad whose shortest side is below small_quad_refine_px (pixels), whose stripe and square
   // differ by small_quad_min_contrast grey levels at least, with at least
   // small_quad_min_separated_refs of its 44 cells' own stripe and square references apart by
-  // half that contrast (BitReading::separated_refs), and whose bits do not decode gets its
-  // corners refined (step 8's fit) and is read again (step 7b). The two bars keep the retry
-  // off most of a busy background's small quads: on the detector benchmark's 640 x 480 frame
-  // 4 of its 6 such texture quads score 28-38, while all 13 markers of 8-12 px retried in the
-  // comparison's size sweep score 44. The segments' corners are only whole-pixel accurate
-  // (their edge points are pixels): 0.6-1.0 px off on a 16 px marker behind 0.7 px of blur
+  // half that contrast (BitReading::separated_refs), and whose bits do not decode, or decode
+  // only with more than max_unsupported_corrections, gets its corners refined (step 8's fit)
+  // and is read again (step 7b; a decode is replaced only by the same ID and rotation). The two
+  // bars keep the retry off most of a busy background's small quads: on the detector benchmark's
+  // 640 x 480 frame 4 of its 6 such texture quads score 28-38, while all 13 markers of 8-12 px
+  // retried in the comparison's size sweep score 44. The segments' corners are only whole-pixel
+  // accurate (their edge points are pixels): 0.6-1.0 px off on a 16 px marker behind 0.7 px of blur
   // (sRGB renders), a third of a bit cell (a sixth of the side); 32 px keeps that under a
   // fifth.
   double small_quad_refine_px = 32;

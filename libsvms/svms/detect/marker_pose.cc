@@ -39,6 +39,10 @@ constexpr double kCentroidLockingPxPx = 0.15;
 // falls below a tenth of the contrast (where a top's ring test starts) beyond d = 1.3 sigma,
 // and 1.5 px covers a lens blur of up to 1 px with the pixel's own width.
 constexpr double kTipRingEdgeMarginPx = 1.5;
+// ... and only where the seed is at least this far from the second-nearest side: the ring
+// reaches 2 px from the seed, and a blurred edge's light half a pixel beyond it (1.3 sigma
+// behind a blur of up to 0.4 px with the pixel's width) stays under the ring test.
+constexpr double kTipCornerReachPx = 2.5;
 
 // Adds one residual row J = [jr^T, jt^T] (rotation, translation), weight w, residual r to the
 // upper triangle of JtWJ and to JtWr. Written out: Eigen's rankUpdate and comma initialiser
@@ -139,11 +143,13 @@ bool TipSeed(const cv::Mat& img, const Eigen::Vector2d& pred, double radius, dou
 // (bx, by) with threshold local_thr in window w (TipSearchMemo, marker_pose.h).
 bool MemoAnswers(const TipSearchMemo& memo, const cv::Mat& img, double radius, double black,
                  double white, double min_contrast, double tip_radius_px, bool sub_pixel,
-                 const TipWindow& w, int bx, int by, double local_thr) {
+                 const TipWindow& w, int bx, int by, double local_thr,
+                 const std::array<Eigen::Vector2d, 4>* square) {
   const int x0 = w.x0, x1 = w.x1, y0 = w.y0, y1 = w.y1;
-  return memo.valid && memo.data == img.data && memo.rows == img.rows && memo.cols == img.cols &&
-         memo.type == img.type() && memo.radius == radius && memo.black == black &&
-         memo.white == white && memo.min_contrast == min_contrast &&
+  return memo.valid && memo.has_square == (square != nullptr) &&
+         (!square || memo.square == *square) && memo.data == img.data && memo.rows == img.rows &&
+         memo.cols == img.cols && memo.type == img.type() && memo.radius == radius &&
+         memo.black == black && memo.white == white && memo.min_contrast == min_contrast &&
          memo.tip_radius_px == tip_radius_px &&
          (sub_pixel
               ? memo.seed_x == bx && memo.seed_y == by
@@ -156,8 +162,11 @@ bool MemoAnswers(const TipSearchMemo& memo, const cv::Mat& img, double radius, d
 
 // Sets `memo` to this FindTip call's arguments, seed and threshold (not yet valid: no answer).
 void StartMemo(TipSearchMemo* memo, const cv::Mat& img, double radius, double black, double white,
-               double min_contrast, double tip_radius_px, int bx, int by, double local_thr) {
+               double min_contrast, double tip_radius_px, int bx, int by, double local_thr,
+               const std::array<Eigen::Vector2d, 4>* square) {
   memo->valid = false;
+  memo->has_square = square != nullptr;
+  if (square) memo->square = *square;
   memo->data = img.data;
   memo->rows = img.rows;
   memo->cols = img.cols;
@@ -174,19 +183,36 @@ void StartMemo(TipSearchMemo* memo, const cv::Mat& img, double radius, double bl
 }
 
 // How far `p` lies inside the quadrilateral `square` (pixels; corners in order around it,
-// either way round): the distance to its nearest side, negative outside.
-double DepthInSquare(const std::array<Eigen::Vector2d, 4>& square, const Eigen::Vector2d& p) {
+// either way round) from its side k (from corner k to k + 1), negative outside it; and from
+// its nearest side.
+double SideDepth(const std::array<Eigen::Vector2d, 4>& square, int k, const Eigen::Vector2d& p) {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
   for (const Eigen::Vector2d& c : square) centre += 0.25 * c;
+  const Eigen::Vector2d a = square[k], d = square[(k + 1) % 4] - a;
+  Eigen::Vector2d inward(-d.y(), d.x());
+  inward.normalize();
+  if (inward.dot(centre - a) < 0) inward = -inward;
+  return inward.dot(p - a);
+}
+
+double DepthInSquare(const std::array<Eigen::Vector2d, 4>& square, const Eigen::Vector2d& p) {
   double depth = std::numeric_limits<double>::infinity();
-  for (int k = 0; k < 4; ++k) {
-    const Eigen::Vector2d a = square[k], d = square[(k + 1) % 4] - a;
-    Eigen::Vector2d inward(-d.y(), d.x());
-    inward.normalize();
-    if (inward.dot(centre - a) < 0) inward = -inward;
-    depth = std::min(depth, inward.dot(p - a));
-  }
+  for (int k = 0; k < 4; ++k) depth = std::min(depth, SideDepth(square, k, p));
   return depth;
+}
+
+// Whether a seed at `p` may have the stripe's blurred light in its ring from one side only
+// (FindTip's `square`): at least kTipRingEdgeMarginPx inside every side, and kTipCornerReachPx
+// from all but the nearest. By a corner the light of two sides reaches the ring and the 3 x 3,
+// and the blurred corner of the stripe was taken for a top (a review's probe: 2-7 in 3000
+// searches of 10-12 px squares without a top).
+bool SeedClearOfTheStripe(const std::array<Eigen::Vector2d, 4>& square, const Eigen::Vector2d& p) {
+  std::array<double, 4> depth;
+  for (int k = 0; k < 4; ++k) {
+    depth[k] = SideDepth(square, k, p);
+  }
+  std::sort(depth.begin(), depth.end());
+  return depth[0] >= kTipRingEdgeMarginPx && depth[1] >= kTipCornerReachPx;
 }
 
 // Whether a top below a pixel, seeded at (bx, by), holds the light a white top of radius
@@ -215,8 +241,8 @@ bool BlurredTopStandsOut(const cv::Mat& img, int bx, int by, double black, doubl
   const double level = median(ring);
   std::array<double, 16> dev;
   for (int i = 0; i < 16; ++i) dev[i] = std::abs(ring[i] - level);
-  // At least the rounding of an 8-bit code at this contrast (a flat black of equal codes shows
-  // no spread at all): 0.3 % of white - black.
+  // At least 0.3 % of white - black: a flat black of equal codes shows no spread at all (the
+  // rounding of an 8-bit code where the contrast is about 100 codes).
   const double sigma = std::max(1.4826 * median(dev), 0.003 * (white - black));
   double sum = 0;
   for (int dy = -1; dy <= 1; ++dy)
@@ -233,9 +259,9 @@ std::optional<TipObservation> SubPixelTip(const cv::Mat& img, int bx, int by, do
                                           double tip_radius_px,
                                           const std::array<Eigen::Vector2d, 4>* square) {
   if (bx < 2 || by < 2 || bx > img.cols - 3 || by > img.rows - 3) return std::nullopt;
-  // A seed that near a side may be the stripe's own light: no top there.
-  const bool seed_clear =
-      !square || DepthInSquare(*square, Eigen::Vector2d(bx, by)) >= kTipRingEdgeMarginPx;
+  // A seed that near a side may be the stripe's own light, and one near two sides (by a
+  // corner) has the stripe's light on two sides of its ring: no exemption there.
+  const bool seed_clear = !square || SeedClearOfTheStripe(*square, Eigen::Vector2d(bx, by));
   const double ring_max = black + 0.5 * (Grey(img, by, bx) - black);
   std::array<double, 25> window;
   bool stripe_in_ring = false;  // a ring pixel near a side was bright: fit the 3 x 3 only
@@ -390,7 +416,10 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
   const double peak_fraction =
       sub_pixel ? std::min(1.0, 0.5 * M_PI * tip_radius_px * tip_radius_px) : 1.0;
   if (bx < 0) return std::nullopt;
-  if (Grey(img, by, bx) - black < min_contrast * peak_fraction * (white - black) &&
+  // A top that stands out by its light only (not its peak) must be ringed by dark all round:
+  // by a side, the stripe's blurred light in its 3 x 3 would pass for a top's (FindTip tests).
+  const bool by_peak = Grey(img, by, bx) - black >= min_contrast * peak_fraction * (white - black);
+  if (!by_peak &&
       !(sub_pixel && BlurredTopStandsOut(img, bx, by, black, white, min_contrast, tip_radius_px)))
     return std::nullopt;
   // The blob's threshold (a top of a pixel or more): halfway to white, or to the seed if that
@@ -402,12 +431,13 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
   // the same threshold when the whole blob lies strictly inside this window (or at the image's
   // border).
   if (memo && MemoAnswers(*memo, img, radius, black, white, min_contrast, tip_radius_px, sub_pixel,
-                          w, bx, by, local_thr)) {
+                          w, bx, by, local_thr, square)) {
     ++memo->reused;
     return memo->tip;
   }
   if (memo)
-    StartMemo(memo, img, radius, black, white, min_contrast, tip_radius_px, bx, by, local_thr);
+    StartMemo(memo, img, radius, black, white, min_contrast, tip_radius_px, bx, by, local_thr,
+              square);
   // The answer, kept in the memo: every answer below but a blob's that reaches the window's
   // edge (which depends on the window).
   auto answer = [&](const std::optional<TipObservation>& t) {
@@ -417,7 +447,8 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
     }
     return t;
   };
-  if (sub_pixel) return answer(SubPixelTip(img, bx, by, black, tip_radius_px, square));
+  if (sub_pixel)
+    return answer(SubPixelTip(img, bx, by, black, tip_radius_px, by_peak ? square : nullptr));
   PoseScratch& sc = Scratch();
   TipWindow bounds;
   if (!FloodBlob(img, w, bx, by, local_thr, &sc, &bounds)) return std::nullopt;

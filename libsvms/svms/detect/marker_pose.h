@@ -157,6 +157,8 @@ struct TipSearchMemo {
   double radius = 0, black = 0, white = 0, min_contrast = 0, tip_radius_px = 0;
   int seed_x = -1, seed_y = -1;
   double local_thr = 0;
+  bool has_square = false;  // FindTip's `square`, and its corners
+  std::array<Eigen::Vector2d, 4> square;
   std::vector<std::pair<int, int>> blob;                     // pixels (x, y)
   int blob_x0 = 0, blob_x1 = -1, blob_y0 = 0, blob_y1 = -1;  // bounding box, inclusive
   std::optional<TipObservation> tip;
@@ -165,7 +167,9 @@ struct TipSearchMemo {
 // pixel must be ringed by dark pixels except, there, where the ring lies outside the square or
 // within kTipRingEdgeMarginPx of its sides: behind a lens's blur the stripe's light reaches
 // them when the top stands near a side (an oblique view of a small marker), and the top is
-// then fitted from the 3 x 3 about it. The memo's answer holds for the same `square` only.
+// then fitted from the 3 x 3 about it; not where the seed lies within kTipCornerReachPx of two
+// sides (by a corner, where the stripe's blurred light is all around). The memo answers only a
+// call with the same `square`.
 std::optional<TipObservation> FindTip(const cv::Mat& image, const Eigen::Vector2d& predicted,
                                       double radius, double black, double white,
                                       double min_contrast, double tip_radius_px,
