@@ -252,7 +252,7 @@ TEST(FindTip, ABlurredTopBelowAPixelIsFoundFromItsLight) {
         const Eigen::Vector2d predicted = c + 0.8 * Eigen::Vector2d(off(rng), off(rng));
         const std::optional<TipObservation> t = FindTip(img, predicted, 3, black, white, 0.35, r);
         // The peak test alone (a top as bright as the sharp disc's brightest pixel would have
-        // to be): what FindTip asked before a blurred top's light was summed.
+        // to be), without the sum of its light.
         double peak = 0;
         for (int y = 21; y <= 25; ++y)
           for (int x = 22; x <= 26; ++x) peak = std::max<double>(peak, img.at<uint16_t>(y, x));
