@@ -202,6 +202,25 @@ TEST(FindTip, NothingBrightNearThePredictionIsNoTop) {
   EXPECT_FALSE(FindTip(img, Eigen::Vector2d(35, 35), 5, kBlack, kWhite, 0.35, 2.0));
 }
 
+// `fine` (8 times finer than a 48 x 48 image, values 0 black to 1 white) through a lens that
+// blurs by `blur` px before square pixels integrate the light: blurred on the fine grid, each
+// pixel the mean of its 64; as 16-bit grey (kBlack to kWhite, x 256) with Gaussian noise of
+// `noise` grey levels, rounded.
+cv::Mat ThroughALens(cv::Mat fine, double blur, double noise, std::mt19937* rng) {
+  constexpr int k = 8;
+  if (blur > 0)
+    cv::GaussianBlur(fine, fine, cv::Size(0, 0), blur * k, blur * k, cv::BORDER_REFLECT);
+  cv::Mat coarse;
+  cv::resize(fine, coarse, cv::Size(48, 48), 0, 0, cv::INTER_AREA);
+  std::normal_distribution<double> g(0, noise * 256);
+  cv::Mat img(48, 48, CV_16UC1);
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 48; ++x)
+      img.at<uint16_t>(y, x) = cv::saturate_cast<uint16_t>(
+          256 * (kBlack + (kWhite - kBlack) * coarse.at<double>(y, x)) + g(*rng));
+  return img;
+}
+
 // A 16-bit 48 x 48 black image with a white disc of radius r at `centre` seen through a lens
 // that blurs by `blur` px (Gaussian) before the pixels integrate the light: the disc drawn
 // exactly on a grid 8 times finer, blurred there, each pixel the mean of its 64; Gaussian
@@ -217,17 +236,7 @@ cv::Mat BlurredDiscImage(double r, const Eigen::Vector2d& centre, double blur, d
       const double v0 = static_cast<double>(y) / k - 0.5 - centre.y();
       fine.at<double>(y, x) = DiscRectangleArea(r, u0, u0 + 1.0 / k, v0, v0 + 1.0 / k) * k * k;
     }
-  if (blur > 0)
-    cv::GaussianBlur(fine, fine, cv::Size(0, 0), blur * k, blur * k, cv::BORDER_REFLECT);
-  cv::Mat coarse;
-  cv::resize(fine, coarse, cv::Size(48, 48), 0, 0, cv::INTER_AREA);
-  std::normal_distribution<double> g(0, noise * 256);
-  cv::Mat img(48, 48, CV_16UC1);
-  for (int y = 0; y < 48; ++y)
-    for (int x = 0; x < 48; ++x)
-      img.at<uint16_t>(y, x) = cv::saturate_cast<uint16_t>(
-          256 * (kBlack + (kWhite - kBlack) * coarse.at<double>(y, x)) + g(*rng));
-  return img;
+  return ThroughALens(fine, blur, noise, rng);
 }
 
 // Behind an ordinary camera's blur (0.7 px) the top of a 10-14 px marker (radius 0.5-0.7 px)
@@ -295,15 +304,7 @@ cv::Mat BlurredSquareImage(const Eigen::Vector2d& c, double side, double angle, 
           to_square * (Eigen::Vector2d((x + 0.5) / k - 0.5, (y + 0.5) / k - 0.5) - c);
       fine.at<double>(y, x) = std::max(std::abs(q.x()), std::abs(q.y())) < 0.5 * side ? 0 : 1;
     }
-  cv::GaussianBlur(fine, fine, cv::Size(0, 0), 0.7 * k, 0.7 * k);
-  cv::Mat coarse;
-  cv::resize(fine, coarse, cv::Size(48, 48), 0, 0, cv::INTER_AREA);
-  std::normal_distribution<double> g(0, noise * 256);
-  cv::Mat img(48, 48, CV_16UC1);
-  for (int y = 0; y < 48; ++y)
-    for (int x = 0; x < 48; ++x)
-      img.at<uint16_t>(y, x) = cv::saturate_cast<uint16_t>(
-          256 * (kBlack + (kWhite - kBlack) * coarse.at<double>(y, x)) + g(*rng));
+  const cv::Mat img = ThroughALens(fine, 0.7, noise, rng);
   const double h = 0.5 * side;
   const Eigen::Vector2d local[4] = {{-h, -h}, {h, -h}, {h, h}, {-h, h}};
   for (int i = 0; i < 4; ++i) (*corners)[i] = c + from_square * local[i];
