@@ -366,15 +366,21 @@ struct RefineScratch {
 // bands' readings (LocateEdgeWith): the stripe (`band_px` wide between the square and a black
 // bit cell) never reaches its white there. A band of width w between two edges blurred by a
 // Gaussian of sigma peaks at P = erf(w / (2 sqrt(2) sigma)) of the contrast; an edge placed by
-// the area A under a profile normalised by that peak lies inward by (1 - P) A, less the far
-// edge's own fall within the area, int_{-inf}^{-w/2} Phi(u / sigma) du (3 px behind 0.7 px of
-// blur: P = 0.97, 0.05 px; sharp, P = 1 and nothing). The sigma (the lens's and the sampling's
-// together) from the median of the points' steepest 1 px rise r, r P = erf(0.5 / (sqrt(2)
-// sigma)), and P from the sigma: three rounds; A the points' median. Pooled over the marker
-// because one point's rise scatters with its pixel phase and noise. Not subtracted from the
-// edges (beside a white cell the band is half as wide again, and a correction that ignores
-// that made the corners worse: docs/benchmarks.md, Sensor profiles) but carried in their
-// sigma. 0 with fewer than 4 readings.
+// the area A under a profile normalised by that peak lies inward by (1 - P) A for a window
+// reaching far into the dark side (3 px behind 0.7 px of blur: P = 0.97, 0.05 px; sharp, P = 1
+// and nothing). Less `tail`, int_{-inf}^{-w/2} Phi(u / sigma) du, 8-12 % of it: not part of
+// that ideal (there the far edge's fall and the near edge's unreached part cancel), it offsets
+// the dark level read 1.5-2 px in, which the ideal leaves out; not calibrated. The sigma (the
+// lens's and the sampling's together) from the median of the points' steepest 1 px rise r,
+// r P = erf(0.5 / (sqrt(2) sigma)), and P from the sigma: three rounds; A the points' median.
+// Pooled over the marker because one point's rise scatters with its pixel phase and noise.
+// Not subtracted from the edges (beside a white cell the band is half as wide again, and a
+// correction that ignores that made the corners worse: docs/benchmarks.md, Sensor profiles)
+// but carried in their sigma. 0 with fewer than 4 readings. Known to be right on average over
+// 9-12.5 px but not by size (a review's probe, half the cells black, 0.7 px of blur): at 8-10
+// px it says 0.11 px where the sides lie 0.05 px inward; from about 10.5 px the stripe's peak
+// lies beyond the profile's +2 px window, no reading is taken and it says 0 where they lie
+// 0.015-0.036 px inward.
 double BlurredBandBias(double band_px, const std::vector<BandReading>& bands, RefineScratch* sc) {
   if (bands.size() < 4) return 0;
   sc->rises.clear();

@@ -39,9 +39,11 @@ constexpr double kCentroidLockingPxPx = 0.15;
 // falls below a tenth of the contrast (where a top's ring test starts) beyond d = 1.3 sigma,
 // and 1.5 px covers a lens blur of up to 1 px with the pixel's own width.
 constexpr double kTipRingEdgeMarginPx = 1.5;
-// ... and only where the seed is at least this far from the second-nearest side: the ring
-// reaches 2 px from the seed, and a blurred edge's light half a pixel beyond it (1.3 sigma
-// behind a blur of up to 0.4 px with the pixel's width) stays under the ring test.
+// ... and only where the seed is at least this far from the second-nearest side: the ring's
+// reach (2 px) and half a pixel, so that by a corner, where two sides' light meets, the ring
+// test applies. Geometry, not fitted; behind 0.7 px of blur a side's light half a pixel beyond
+// the ring is about a quarter of the contrast, and it is the ring test, not this margin, that
+// keeps the stripe's corner from passing for a top (FindTip's tests).
 constexpr double kTipCornerReachPx = 2.5;
 
 // Adds one residual row J = [jr^T, jt^T] (rotation, translation), weight w, residual r to the
