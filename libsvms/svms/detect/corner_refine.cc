@@ -386,7 +386,16 @@ double BlurredBandBias(double band_px, const std::vector<BandReading>& bands, Re
   sc->rises.clear();
   sc->areas.clear();
   for (const BandReading& b : bands) sc->rises.push_back(b.rise), sc->areas.push_back(b.area_px);
-  const double rise = Median(sc->rises), area = Median(sc->areas);
+  // Medians in place, in the scratch vectors (statistics.h's Median copies: an allocation per
+  // call, and the C API promises none after warm-up).
+  auto median = [](std::vector<double>* v) {
+    const size_t h = v->size() / 2;
+    std::nth_element(v->begin(), v->begin() + h, v->end());
+    const double upper = (*v)[h];
+    if (v->size() % 2) return upper;
+    return 0.5 * (upper + *std::max_element(v->begin(), v->begin() + h));
+  };
+  const double rise = median(&sc->rises), area = median(&sc->areas);
   double P = 1, sigma = 0;
   for (int round = 0; round < 3; ++round) {
     sigma = 0.5 / NormalQuantile(0.5 * (1 + std::clamp(rise * P, 1e-3, 1 - 1e-9)));
