@@ -26,8 +26,8 @@ struct Dataset {
   std::vector<std::pair<std::string, std::string>> files;
 };
 
-// The names of the standard datasets, in order: range, angle, small, sun, occlusion, mockup, approach,
-// calibration, clutter; and gallery (the documentation's pictures).
+// The names of the standard datasets, in order: range, angle, small, sun, occlusion, mockup,
+// approach, calibration, clutter; and gallery (the documentation's pictures).
 std::vector<std::string> DatasetNames();
 std::string DatasetDescription(const std::string& name);
 
