@@ -90,6 +90,7 @@ struct StepImages {
   cv::Mat gray;      // 8-bit grey: steps 1-7 (edges, quads, bits)
   cv::Mat measure;   // the image at its full depth: steps 8-10 (corners, tip, pose)
   double level = 1;  // one grey level of `gray` in `measure`'s units
+  NoiseModel noise;  // `measure`'s noise (step 1's estimate or the caller's); invalid if unknown
 };
 
 // Step 8 for one decoded marker: its corners, their sigmas and joint covariance, and its
@@ -245,9 +246,11 @@ std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorO
 // Without a pose, d->pose_error says why.
 void PoseMarker(const StepImages& im, const CameraModel& camera, const MarkerModel& model,
                 const DetectorOptions& o, std::vector<ExcludedRegion>* excluded, Detection* d) {
+  MarkerPoseOptions pose_options = o.pose;
+  if (im.noise.valid()) pose_options.black_noise_sigma = im.noise.Sigma(d->black * im.level);
   MarkerPose mp;
   const bool posed = EstimateMarkerPose(im.measure, d->corners, model, camera, d->black * im.level,
-                                        d->white * im.level, o.pose, &mp, d->corner_sigma);
+                                        d->white * im.level, pose_options, &mp, d->corner_sigma);
   if (!posed) {
     d->pose_error = mp.failure;
     return;
@@ -271,7 +274,7 @@ void PoseMarker(const StepImages& im, const CameraModel& camera, const MarkerMod
   };
   if (r.ok && r.excluded_points > 0 && sum2(r.corner_sigma) < sum2(d->corner_sigma) &&
       EstimateMarkerPose(im.measure, r.corners, model, camera, d->black * im.level,
-                         d->white * im.level, o.pose, &again, r.corner_sigma)) {
+                         d->white * im.level, pose_options, &again, r.corner_sigma)) {
     d->corners = r.corners;
     d->corner_sigma = r.corner_sigma;
     d->corner_covariance = r.corner_covariance;
@@ -532,6 +535,7 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   // tell from a frame without the others.
   const bool edges_complete =
       FindEdgeSegments(im, o.segments, &sc, &stats, deadline, pool_.get(), noise);
+  im.noise = stats.noise;
   auto t1 = Clock::now();
   stats.ms[0] = Ms(t0, t1);
   if (!edges_complete) {

@@ -45,6 +45,10 @@ constexpr double kTipRingEdgeMarginPx = 1.5;
 // the ring is about a quarter of the contrast, and it is the ring test, not this margin, that
 // keeps the stripe's corner from passing for a top (FindTip's tests).
 constexpr double kTipCornerReachPx = 2.5;
+// A top below a pixel that stands out by its light alone (not its peak) must hold this many
+// standard deviations of its own noise: a one-sided 5 sigma (3 x 10^-7) before the search's
+// look-elsewhere of some 30 seeds and the noise scale's own spread over 16 pixels.
+constexpr double kBlurredTopSigmas = 5;
 
 // Adds one residual row J = [jr^T, jt^T] (rotation, translation), weight w, residual r to the
 // upper triangle of JtWJ and to JtWr. Written out: Eigen's rankUpdate and comma initialiser
@@ -146,9 +150,9 @@ bool TipSeed(const cv::Mat& img, const Eigen::Vector2d& pred, double radius, dou
 bool MemoAnswers(const TipSearchMemo& memo, const cv::Mat& img, double radius, double black,
                  double white, double min_contrast, double tip_radius_px, bool sub_pixel,
                  const TipWindow& w, int bx, int by, double local_thr,
-                 const std::array<Eigen::Vector2d, 4>* square) {
+                 const std::array<Eigen::Vector2d, 4>* square, double noise_sigma) {
   const int x0 = w.x0, x1 = w.x1, y0 = w.y0, y1 = w.y1;
-  return memo.valid && memo.has_square == (square != nullptr) &&
+  return memo.valid && memo.has_square == (square != nullptr) && memo.noise_sigma == noise_sigma &&
          (!square || memo.square == *square) && memo.data == img.data && memo.rows == img.rows &&
          memo.cols == img.cols && memo.type == img.type() && memo.radius == radius &&
          memo.black == black && memo.white == white && memo.min_contrast == min_contrast &&
@@ -165,8 +169,9 @@ bool MemoAnswers(const TipSearchMemo& memo, const cv::Mat& img, double radius, d
 // Sets `memo` to this FindTip call's arguments, seed and threshold (not yet valid: no answer).
 void StartMemo(TipSearchMemo* memo, const cv::Mat& img, double radius, double black, double white,
                double min_contrast, double tip_radius_px, int bx, int by, double local_thr,
-               const std::array<Eigen::Vector2d, 4>* square) {
+               const std::array<Eigen::Vector2d, 4>* square, double noise_sigma) {
   memo->valid = false;
+  memo->noise_sigma = noise_sigma;
   memo->has_square = square != nullptr;
   if (square) memo->square = *square;
   memo->data = img.data;
@@ -220,7 +225,8 @@ bool SeedClearOfTheStripe(const std::array<Eigen::Vector2d, 4>& square, const Ei
 // Whether a top below a pixel, seeded at (bx, by), holds the light a white top of radius
 // tip_radius_px gives, behind any blur: the sum over the 3 x 3 about the seed above the level
 // of the 16 pixels 2 px out (their median) is at least min_contrast x pi r^2 x (white - black),
-// and stands 5 sigmas clear of the noise those 16 show (their median absolute deviation). Why
+// and stands kBlurredTopSigmas clear of its own noise, that of the nine pixels and of the
+// level, from the noise those 16 show (their median absolute deviation). Why
 // a sum: a lens spreads the top's light over more pixels and lowers its peak (behind a blur of
 // 0.7 px, a top of 0.7 px radius peaks at about a third of what it would), but keeps its total;
 // the 3 x 3 holds nine tenths of it up to a blur of 0.8 px. The peak test alone then turns
@@ -228,7 +234,7 @@ bool SeedClearOfTheStripe(const std::array<Eigen::Vector2d, 4>& square, const Ei
 // left to the corners, whose two planar solutions are hard to tell apart at that size. The
 // median keeps a part of the stripe or a bright bit in a few of the 16 from raising the level.
 bool BlurredTopStandsOut(const cv::Mat& img, int bx, int by, double black, double white,
-                         double min_contrast, double tip_radius_px) {
+                         double min_contrast, double tip_radius_px, double noise_sigma) {
   if (bx < 2 || by < 2 || bx > img.cols - 3 || by > img.rows - 3) return false;
   std::array<double, 16> ring;
   int n = 0;
@@ -245,12 +251,17 @@ bool BlurredTopStandsOut(const cv::Mat& img, int bx, int by, double black, doubl
   for (int i = 0; i < 16; ++i) dev[i] = std::abs(ring[i] - level);
   // At least 0.3 % of white - black: a flat black of equal codes shows no spread at all (the
   // rounding of an 8-bit code where the contrast is about 100 codes).
-  const double sigma = std::max(1.4826 * median(dev), 0.003 * (white - black));
+  // Where the caller knows the image's noise (noise_sigma: the frame's noise model), the larger
+  // of the two: 16 pixels read it 30 % low one time in six.
+  const double sigma = std::max({1.4826 * median(dev), noise_sigma, 0.003 * (white - black)});
   double sum = 0;
   for (int dy = -1; dy <= 1; ++dy)
     for (int dx = -1; dx <= 1; ++dx) sum += Grey(img, by + dy, bx + dx) - level;
+  // The sum's standard deviation: nine pixels' noise, and nine times the level's, a median of
+  // 16 (variance pi sigma^2 / (2 x 16) for Gaussian noise): 4.1 sigma in all, not 3.
+  const double sum_sigma = sigma * std::sqrt(9 + 81 * M_PI / (2 * 16));
   return sum >= min_contrast * M_PI * tip_radius_px * tip_radius_px * (white - black) &&
-         sum >= 5 * 3 * sigma;  // nine pixels' noise: 3 sigma
+         sum >= kBlurredTopSigmas * sum_sigma;
 }
 
 // A top below a pixel (radius tip_radius_px) seeded at (bx, by): the 3 x 3 around the seed
@@ -408,7 +419,8 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
                                       double radius, double black, double white,
                                       double min_contrast, double tip_radius_px,
                                       TipSearchMemo* memo,
-                                      const std::array<Eigen::Vector2d, 4>* square) {
+                                      const std::array<Eigen::Vector2d, 4>* square,
+                                      double noise_sigma) {
   const double thr = black + 0.5 * (white - black);
   // The brightest pixel nearest the prediction seeds the blob.
   TipWindow w;
@@ -421,8 +433,8 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
   // A top that stands out by its light only (not its peak) must be ringed by dark all round:
   // by a side, the stripe's blurred light in its 3 x 3 would pass for a top's (FindTip tests).
   const bool by_peak = Grey(img, by, bx) - black >= min_contrast * peak_fraction * (white - black);
-  if (!by_peak &&
-      !(sub_pixel && BlurredTopStandsOut(img, bx, by, black, white, min_contrast, tip_radius_px)))
+  if (!by_peak && !(sub_pixel && BlurredTopStandsOut(img, bx, by, black, white, min_contrast,
+                                                     tip_radius_px, noise_sigma)))
     return std::nullopt;
   // The blob's threshold (a top of a pixel or more): halfway to white, or to the seed if that
   // is dimmer.
@@ -433,13 +445,13 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
   // the same threshold when the whole blob lies strictly inside this window (or at the image's
   // border).
   if (memo && MemoAnswers(*memo, img, radius, black, white, min_contrast, tip_radius_px, sub_pixel,
-                          w, bx, by, local_thr, square)) {
+                          w, bx, by, local_thr, square, noise_sigma)) {
     ++memo->reused;
     return memo->tip;
   }
   if (memo)
     StartMemo(memo, img, radius, black, white, min_contrast, tip_radius_px, bx, by, local_thr,
-              square);
+              square, noise_sigma);
   // The answer, kept in the memo: every answer below but a blob's that reaches the window's
   // edge (which depends on the window).
   auto answer = [&](const std::optional<TipObservation>& t) {
@@ -837,8 +849,9 @@ void FindCandidateTips(const cv::Mat& image, const std::array<Eigen::Vector2d, 4
       const Eigen::Vector3d tip3 = VisibleTipPoint(model, c.pose.Inverse().tvec, &fraction);
       Eigen::Vector2d pred;
       if (fraction >= 0.25 && camera.Project(c.pose * tip3, &pred)) {
-        c.tip = FindTip(image, pred, search, black, white, o.tip_min_contrast,
-                        model.post->tip_radius * px_per_m, &tip_memo, &corners);
+        c.tip =
+            FindTip(image, pred, search, black, white, o.tip_min_contrast,
+                    model.post->tip_radius * px_per_m, &tip_memo, &corners, o.black_noise_sigma);
         if (c.tip) c.tip_error = (c.tip->pixel - pred).norm();
       }
     }

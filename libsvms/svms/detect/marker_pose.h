@@ -61,6 +61,11 @@ struct MarkerPoseOptions {
   double min_corner_sigma_px = 0.002;
   double tip_search_fraction = 0.25;  // search radius, as a fraction of the square's side
   double tip_min_contrast = 0.35;     // tip brighter than black by this fraction of white - black
+  // The image's noise at the square's black (standard deviation, image units), where the caller
+  // knows it (the detector: its frame's noise model, noise_model.h); 0 if not known. A top
+  // below a pixel that stands out by its light alone is held to the larger of this and what
+  // the pixels about it show (FindTip).
+  double black_noise_sigma = 0;
   // A white top smaller than this in the image (radius, pixels) is not looked for. Down to a
   // third of a pixel the top still shows in the square's black (on a 10 px marker at 8-bit:
   // two pixels 35 and 42 levels above black, with white 143 above) and tells the two planar
@@ -132,10 +137,12 @@ struct MarkerPose {
 // the pixels around it as a disc of that radius (FitDisc, disc_fit.h: a centroid would lock
 // to the pixel centres), with the fit's own sigma; below a pixel its light is spread over two
 // to four pixels and no pixel reaches the midpoint, so the brightest must stand out by
-// min_contrast x min(1, pi r^2 / 2) only and be ringed by dark pixels (nothing else bright
-// within 2 px). Larger tops, and a top with something else bright next to it or too near the
-// image's border for the fit's window, give the blob's centroid weighted by brightness (with a
-// sigma that counts its pixel locking, for a top of at most 5 px).
+// min_contrast x min(1, pi r^2 / 2) only, or (behind a lens's blur, which lowers the peak) the
+// 3 x 3 about it hold min_contrast x pi r^2 x (white - black) of light, 5 sigmas of its noise
+// clear, and be ringed by dark pixels (nothing else bright within 2 px). Larger tops, and a top
+// with something else bright next to it or too near the image's border for the fit's window, give
+// the blob's centroid weighted by brightness (with a sigma that counts its pixel locking, for a top
+// of at most 5 px).
 std::optional<TipObservation> FindTip(const cv::Mat& image, const Eigen::Vector2d& predicted,
                                       double radius, double black, double white,
                                       double min_contrast, double tip_radius_px = 1e9);
@@ -157,6 +164,7 @@ struct TipSearchMemo {
   double radius = 0, black = 0, white = 0, min_contrast = 0, tip_radius_px = 0;
   int seed_x = -1, seed_y = -1;
   double local_thr = 0;
+  double noise_sigma = 0;
   bool has_square = false;  // FindTip's `square`, and its corners
   std::array<Eigen::Vector2d, 4> square;
   std::vector<std::pair<int, int>> blob;                     // pixels (x, y)
@@ -168,13 +176,16 @@ struct TipSearchMemo {
 // within kTipRingEdgeMarginPx of its sides: behind a lens's blur the stripe's light reaches
 // them when the top stands near a side (an oblique view of a small marker), and the top is
 // then fitted from the 3 x 3 about it; not where the seed lies within kTipCornerReachPx of two
-// sides (by a corner, where the stripe's blurred light is all around). The memo answers only a
-// call with the same `square`.
+// sides (by a corner, where the stripe's blurred light is all around). `noise_sigma`: the
+// image's noise at `black` (standard deviation, image units) where the caller knows it, else
+// 0; the noise of the light test above is the larger of it and what the 16 pixels 2 px about
+// the top show. The memo answers only a call with the same `square` and `noise_sigma`.
 std::optional<TipObservation> FindTip(const cv::Mat& image, const Eigen::Vector2d& predicted,
                                       double radius, double black, double white,
                                       double min_contrast, double tip_radius_px,
                                       TipSearchMemo* memo,
-                                      const std::array<Eigen::Vector2d, 4>* square = nullptr);
+                                      const std::array<Eigen::Vector2d, 4>* square = nullptr,
+                                      double noise_sigma = 0);
 
 // Pose of a marker from its corners (marker order: TL, TR, BR, BL as printed, pixels), each
 // with its sigma from the side fits (pixels; 0: not known, see MarkerPoseOptions).

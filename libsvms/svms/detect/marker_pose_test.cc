@@ -290,6 +290,39 @@ TEST(FindTip, ABlurredTopBelowAPixelIsFoundFromItsLight) {
   EXPECT_EQ(false_tops, 0);
 }
 
+// Where the caller gives the image's noise, a blurred top that stands out by its light alone
+// is held to it: the same tops with the true noise given (1 grey level) are all found, with
+// 8 grey levels given only those that pass by their peak; and the memo does not answer a call
+// with another noise.
+TEST(FindTip, AGivenNoiseHoldsABlurredTopsLightToIt) {
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> off(-0.5, 0.5);
+  const double r = 0.5, black = 256 * (kBlack + 0.05 * (kWhite - kBlack)), white = 256 * kWhite;
+  int quiet = 0, loud = 0, peak_only = 0, reused = 0;
+  for (int k = 0; k < 30; ++k) {
+    const double cx = 24 + off(rng);
+    const double cy = 23 + off(rng);
+    const cv::Mat img = BlurredDiscImage(r, Eigen::Vector2d(cx, cy), 0.7, 1.0, &rng);
+    const Eigen::Vector2d predicted(cx, cy);
+    TipSearchMemo memo;
+    quiet +=
+        FindTip(img, predicted, 3, black, white, 0.35, r, &memo, nullptr, 1.0 * 256).has_value();
+    loud +=
+        FindTip(img, predicted, 3, black, white, 0.35, r, &memo, nullptr, 8.0 * 256).has_value();
+    reused += memo.reused;
+    double peak = 0;
+    for (int y = 21; y <= 25; ++y)
+      for (int x = 22; x <= 26; ++x) peak = std::max<double>(peak, img.at<uint16_t>(y, x));
+    peak_only += peak - black >= 0.35 * 0.5 * M_PI * r * r * (white - black);
+  }
+  std::printf("found %d with the true noise given, %d with 8 times it (peak test alone %d)\n",
+              quiet, loud, peak_only);
+  EXPECT_EQ(quiet, 30);
+  EXPECT_LE(loud, peak_only);
+  EXPECT_LT(loud, 15);
+  EXPECT_EQ(reused, 0);
+}
+
 // A black square of side `side` px (no top) turned by `angle` in a white surround, blurred by
 // 0.7 px before the pixels integrate it (drawn 8 times finer), 16-bit (grey x 256), Gaussian
 // noise of `noise` grey levels; its corners into *corners, clockwise on screen.
@@ -318,20 +351,26 @@ cv::Mat BlurredSquareImage(const Eigen::Vector2d& c, double side, double angle, 
 // stripe in its ring, a review's probe (90,000 searches of 9-13 px squares behind 0.5-1 px of
 // blur) found 12; this test's draw happened to find none, so it guards rather than proves.
 TEST(FindTip, NoTopIsFoundInABlurredSquareWithoutOneNearItsSidesOrCorners) {
+  constexpr double kNoiseGrey = 2.0;
   std::mt19937 rng(17);
   std::uniform_real_distribution<double> u(-1, 1), u01(0, 1), size(10, 12), angle(0, M_PI / 2);
   int false_tops = 0, searches = 0;
   for (int image = 0; image < 1000; ++image) {
-    const Eigen::Vector2d c(24 + 0.5 * u(rng), 24 + 0.5 * u(rng));
+    // One draw per statement: the order in which a call's arguments are evaluated is the
+    // compiler's (GCC and Clang differ), and the sanitizer build must see the same images.
+    const double cx = 24 + 0.5 * u(rng);
+    const double cy = 24 + 0.5 * u(rng);
+    const Eigen::Vector2d c(cx, cy);
     const double side = size(rng);
     std::array<Eigen::Vector2d, 4> square;
-    const cv::Mat img = BlurredSquareImage(c, side, angle(rng), 2.0, &rng, &square);
+    const cv::Mat img = BlurredSquareImage(c, side, angle(rng), kNoiseGrey, &rng, &square);
     const double black = 256 * (kBlack + 0.05 * (kWhite - kBlack)), white = 256 * kWhite;
     const Eigen::Vector2d pred = c + (0.15 + 0.2 * u01(rng)) * (square[image % 4] - c);
     for (double r : {0.45, 0.6, 0.8}) {
       TipSearchMemo memo;
       false_tops +=
-          FindTip(img, pred, 0.25 * side, black, white, 0.35, r, &memo, &square).has_value();
+          FindTip(img, pred, 0.25 * side, black, white, 0.35, r, &memo, &square, kNoiseGrey * 256)
+              .has_value();
       ++searches;
     }
   }
