@@ -90,7 +90,9 @@ struct StepImages {
   cv::Mat gray;      // 8-bit grey: steps 1-7 (edges, quads, bits)
   cv::Mat measure;   // the image at its full depth: steps 8-10 (corners, tip, pose)
   double level = 1;  // one grey level of `gray` in `measure`'s units
-  NoiseModel noise;  // `measure`'s noise (step 1's estimate or the caller's); invalid if unknown
+  // `measure`'s noise where it is 16-bit: step 1's estimate or the caller's (read and gain 0
+  // where the codes hide it, a JPEG's); invalid for an 8-bit `measure`.
+  NoiseModel noise;
 };
 
 // Step 8 for one decoded marker: its corners, their sigmas and joint covariance, and its

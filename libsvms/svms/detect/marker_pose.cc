@@ -46,8 +46,10 @@ constexpr double kTipRingEdgeMarginPx = 1.5;
 // keeps the stripe's corner from passing for a top (FindTip's tests).
 constexpr double kTipCornerReachPx = 2.5;
 // A top below a pixel that stands out by its light alone (not its peak) must hold this many
-// standard deviations of its own noise: a one-sided 5 sigma (3 x 10^-7) before the search's
-// look-elsewhere of some 30 seeds and the noise scale's own spread over 16 pixels.
+// standard deviations of its own noise: a one-sided 5 sigma (3 x 10^-7) for a known noise,
+// before the choice of the seed (the brightest of some 30 pixels) and the spread of a noise
+// read from 16 pixels, which raise the chance of a flat patch passing by orders of magnitude
+// (BlurredTopStandsOut).
 constexpr double kBlurredTopSigmas = 5;
 
 // Adds one residual row J = [jr^T, jt^T] (rotation, translation), weight w, residual r to the
@@ -226,7 +228,9 @@ bool SeedClearOfTheStripe(const std::array<Eigen::Vector2d, 4>& square, const Ei
 // tip_radius_px gives, behind any blur: the sum over the 3 x 3 about the seed above the level
 // of the 16 pixels 2 px out (their median) is at least min_contrast x pi r^2 x (white - black),
 // and stands kBlurredTopSigmas clear of its own noise, that of the nine pixels and of the
-// level, from the noise those 16 show (their median absolute deviation). Why
+// level, from the largest of: the noise those 16 show (their median absolute deviation), the
+// caller's `noise_sigma` (the frame's noise model at the square's black; 0 if not known) and a
+// floor. Why
 // a sum: a lens spreads the top's light over more pixels and lowers its peak (behind a blur of
 // 0.7 px, a top of 0.7 px radius peaks at about a third of what it would), but keeps its total;
 // the 3 x 3 holds nine tenths of it up to a blur of 0.8 px. The peak test alone then turns
@@ -249,16 +253,20 @@ bool BlurredTopStandsOut(const cv::Mat& img, int bx, int by, double black, doubl
   const double level = median(ring);
   std::array<double, 16> dev;
   for (int i = 0; i < 16; ++i) dev[i] = std::abs(ring[i] - level);
-  // At least 0.3 % of white - black: a flat black of equal codes shows no spread at all (the
-  // rounding of an 8-bit code where the contrast is about 100 codes).
-  // Where the caller knows the image's noise (noise_sigma: the frame's noise model), the larger
-  // of the two: 16 pixels read it 30 % low one time in six.
+  // The 16 pixels' median absolute deviation reads the noise 30 % low one time in five, and a
+  // flat black patch then passes for a top's light: on flat Gaussian noise, with the seed the
+  // brightest pixel of a 3 px search, the noise clause passes one search in 500 on it alone,
+  // one in 2 x 10^6 with the frame's noise given. Their standard deviation would err less, but
+  // the blurred stripe's light in a small square's ring raises it (a 10 px marker's tops were
+  // lost). At least 0.3 % of white - black: a flat black of equal codes shows no spread at all
+  // (the rounding of an 8-bit code where the contrast is about 100 codes).
   const double sigma = std::max({1.4826 * median(dev), noise_sigma, 0.003 * (white - black)});
   double sum = 0;
   for (int dy = -1; dy <= 1; ++dy)
     for (int dx = -1; dx <= 1; ++dx) sum += Grey(img, by + dy, bx + dx) - level;
   // The sum's standard deviation: nine pixels' noise, and nine times the level's, a median of
-  // 16 (variance pi sigma^2 / (2 x 16) for Gaussian noise): 4.1 sigma in all, not 3.
+  // 16 (variance about pi sigma^2 / (2 x 16) for Gaussian noise): 4.1 sigma in all. Pixels
+  // whose noise is shared (a demosaic, a JPEG's blocks) make it larger still.
   const double sum_sigma = sigma * std::sqrt(9 + 81 * M_PI / (2 * 16));
   return sum >= min_contrast * M_PI * tip_radius_px * tip_radius_px * (white - black) &&
          sum >= kBlurredTopSigmas * sum_sigma;

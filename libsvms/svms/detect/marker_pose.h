@@ -62,9 +62,10 @@ struct MarkerPoseOptions {
   double tip_search_fraction = 0.25;  // search radius, as a fraction of the square's side
   double tip_min_contrast = 0.35;     // tip brighter than black by this fraction of white - black
   // The image's noise at the square's black (standard deviation, image units), where the caller
-  // knows it (the detector: its frame's noise model, noise_model.h); 0 if not known. A top
-  // below a pixel that stands out by its light alone is held to the larger of this and what
-  // the pixels about it show (FindTip).
+  // knows it; 0 if not known. A top below a pixel that stands out by its light alone is held
+  // to the larger of this and what the pixels about it show (FindTip). The detector sets it
+  // from its frame's noise model where it has one (16-bit and linearised frames; 0 where the
+  // codes hide the noise, as in a JPEG), over the value given here.
   double black_noise_sigma = 0;
   // A white top smaller than this in the image (radius, pixels) is not looked for. Down to a
   // third of a pixel the top still shows in the square's black (on a 10 px marker at 8-bit:
@@ -148,10 +149,10 @@ std::optional<TipObservation> FindTip(const cv::Mat& image, const Eigen::Vector2
                                       double min_contrast, double tip_radius_px = 1e9);
 
 // What one FindTip call found, for a later call on the same image with the same radius, black,
-// white, min_contrast and tip_radius_px but another `predicted`: when that search starts in
-// the same top (from the same pixel, for a top below a pixel; else from a pixel of the same
-// blob, at the same threshold) and its window holds that whole blob, the answer is the same,
-// and it is returned without flooding and fitting again (EstimateMarkerPose's two planar
+// white, min_contrast, tip_radius_px, square and noise_sigma but another `predicted`: when that
+// search starts in the same top (from the same pixel, for a top below a pixel; else from a pixel of
+// the same blob, at the same threshold) and its window holds that whole blob, the answer is the
+// same, and it is returned without flooding and fitting again (EstimateMarkerPose's two planar
 // candidates usually predict the tip within a pixel or two of each other). Any other call
 // searches afresh and keeps its own answer. The memo holds no pixel values: it must not
 // outlive the image's contents.

@@ -15,6 +15,14 @@ namespace {
 
 constexpr double kBlack = 20, kWhite = 180;
 
+// Two draws of `d`, x first: written as Vector2d(d(rng), d(rng)) the order is the compiler's
+// (GCC and Clang differ), and the sanitizer build would test other images.
+Eigen::Vector2d Draw2(std::uniform_real_distribution<double>& d, std::mt19937& rng) {
+  const double x = d(rng);
+  const double y = d(rng);
+  return Eigen::Vector2d(x, y);
+}
+
 // An 8-bit 48 x 48 black image with a white disc of radius r at `centre` (exact pixel
 // coverage), Gaussian noise of `noise` grey levels, rounded as a sensor would.
 cv::Mat DiscImage(double r, const Eigen::Vector2d& centre, double noise, std::mt19937* rng) {
@@ -41,9 +49,9 @@ TEST(FindTip, FindsTopsOfEverySizeWhereTheyAreWithAnHonestSigma) {
     double err2 = 0, nees = 0, centroid_err2 = 0;
     int n = 0;
     for (int k = 0; k < 150; ++k) {
-      const Eigen::Vector2d c(24 + off(rng), 23 + off(rng));
+      const Eigen::Vector2d c = Eigen::Vector2d(24, 23) + Draw2(off, rng);
       const cv::Mat img = DiscImage(r, c, 0.5, &rng);
-      const Eigen::Vector2d predicted = c + Eigen::Vector2d(off(rng), off(rng));
+      const Eigen::Vector2d predicted = c + Draw2(off, rng);
       const std::optional<TipObservation> t =
           FindTip(img, predicted, r + 4, kBlack, kWhite, 0.35, r);
       ASSERT_TRUE(t) << c.transpose();
@@ -104,7 +112,7 @@ TEST(FindTip, ABrightNeighbourLeavesTheTopToItsCentroid) {
   std::uniform_real_distribution<double> off(-0.5, 0.5);
   const double r = 2.0;
   for (int k = 0; k < 20; ++k) {
-    const Eigen::Vector2d c(24 + off(rng), 23.5 + off(rng));
+    const Eigen::Vector2d c = Eigen::Vector2d(24, 23.5) + Draw2(off, rng);
     cv::Mat img = DiscImage(r, c, 0.5, &rng);
     img(cv::Rect(28, 19, 4, 3)).setTo(kWhite);  // a pixel or two clear of the top
     const std::optional<TipObservation> t = FindTip(img, c, 6, kBlack, kWhite, 0.35, r);
@@ -256,9 +264,9 @@ TEST(FindTip, ABlurredTopBelowAPixelIsFoundFromItsLight) {
       double nees = 0;
       const double black = 256 * (kBlack + 0.05 * (kWhite - kBlack)), white = 256 * kWhite;
       for (int k = 0; k < 60; ++k, ++n) {
-        const Eigen::Vector2d c(24 + off(rng), 23 + off(rng));
+        const Eigen::Vector2d c = Eigen::Vector2d(24, 23) + Draw2(off, rng);
         const cv::Mat img = BlurredDiscImage(r, c, blur, 1.0, &rng);
-        const Eigen::Vector2d predicted = c + 0.8 * Eigen::Vector2d(off(rng), off(rng));
+        const Eigen::Vector2d predicted = c + 0.8 * Draw2(off, rng);
         const std::optional<TipObservation> t = FindTip(img, predicted, 3, black, white, 0.35, r);
         // The peak test alone (a top as bright as the sharp disc's brightest pixel would have
         // to be), without the sum of its light.
@@ -283,7 +291,7 @@ TEST(FindTip, ABlurredTopBelowAPixelIsFoundFromItsLight) {
   int false_tops = 0;
   for (int k = 0; k < 200; ++k) {
     const cv::Mat img = BlurredDiscImage(0, Eigen::Vector2d(24, 23), 0.7, 1.0, &rng);
-    false_tops += FindTip(img, Eigen::Vector2d(24 + off(rng), 23 + off(rng)), 3,
+    false_tops += FindTip(img, Eigen::Vector2d(24, 23) + Draw2(off, rng), 3,
                           256 * (kBlack + 0.05 * (kWhite - kBlack)), 256 * kWhite, 0.35, 0.5)
                       .has_value();
   }
@@ -300,10 +308,8 @@ TEST(FindTip, AGivenNoiseHoldsABlurredTopsLightToIt) {
   const double r = 0.5, black = 256 * (kBlack + 0.05 * (kWhite - kBlack)), white = 256 * kWhite;
   int quiet = 0, loud = 0, peak_only = 0, reused = 0;
   for (int k = 0; k < 30; ++k) {
-    const double cx = 24 + off(rng);
-    const double cy = 23 + off(rng);
-    const cv::Mat img = BlurredDiscImage(r, Eigen::Vector2d(cx, cy), 0.7, 1.0, &rng);
-    const Eigen::Vector2d predicted(cx, cy);
+    const Eigen::Vector2d predicted = Eigen::Vector2d(24, 23) + Draw2(off, rng);
+    const cv::Mat img = BlurredDiscImage(r, predicted, 0.7, 1.0, &rng);
     TipSearchMemo memo;
     quiet +=
         FindTip(img, predicted, 3, black, white, 0.35, r, &memo, nullptr, 1.0 * 256).has_value();
@@ -347,34 +353,39 @@ cv::Mat BlurredSquareImage(const Eigen::Vector2d& c, double side, double angle, 
 // With the square given, a blurred stripe's light in a top's ring is allowed near one side; but
 // nothing in a blurred 10-12 px square without a top is taken for one where an oblique view
 // predicts it, a sixth to a third of the way from the centre to a corner, with 2 grey levels of
-// noise (3000 searches). Where a top standing out by its light alone could also have the
-// stripe in its ring, a review's probe (90,000 searches of 9-13 px squares behind 0.5-1 px of
-// blur) found 12; this test's draw happened to find none, so it guards rather than proves.
+// noise, in 3000 searches with that noise given (as the detector gives its frame's noise
+// model). Read from the 16 pixels about the seed alone (8-bit and JPEG frames) the noise is
+// weaker evidence: this draw holds, at image 5 (an 11.8 px square), a flat patch whose 3 x 3
+// has the light of a 0.45 px top and whose 16 ring pixels read the noise 27 % low, taken for a
+// top there; at most 3 such in 3000 is the guard. A review's probe found 12 in 90,000 searches
+// of 9-13 px squares behind 0.5-1 px of blur when a top that stands out by its light alone
+// could also have the stripe in its ring.
 TEST(FindTip, NoTopIsFoundInABlurredSquareWithoutOneNearItsSidesOrCorners) {
   constexpr double kNoiseGrey = 2.0;
   std::mt19937 rng(17);
   std::uniform_real_distribution<double> u(-1, 1), u01(0, 1), size(10, 12), angle(0, M_PI / 2);
-  int false_tops = 0, searches = 0;
+  int false_given = 0, false_read = 0, searches = 0;
   for (int image = 0; image < 1000; ++image) {
-    // One draw per statement: the order in which a call's arguments are evaluated is the
-    // compiler's (GCC and Clang differ), and the sanitizer build must see the same images.
-    const double cx = 24 + 0.5 * u(rng);
-    const double cy = 24 + 0.5 * u(rng);
-    const Eigen::Vector2d c(cx, cy);
+    const Eigen::Vector2d c = Eigen::Vector2d(24, 24) + 0.5 * Draw2(u, rng);
     const double side = size(rng);
     std::array<Eigen::Vector2d, 4> square;
     const cv::Mat img = BlurredSquareImage(c, side, angle(rng), kNoiseGrey, &rng, &square);
     const double black = 256 * (kBlack + 0.05 * (kWhite - kBlack)), white = 256 * kWhite;
     const Eigen::Vector2d pred = c + (0.15 + 0.2 * u01(rng)) * (square[image % 4] - c);
     for (double r : {0.45, 0.6, 0.8}) {
-      TipSearchMemo memo;
-      false_tops +=
-          FindTip(img, pred, 0.25 * side, black, white, 0.35, r, &memo, &square, kNoiseGrey * 256)
+      TipSearchMemo given, read;
+      false_given +=
+          FindTip(img, pred, 0.25 * side, black, white, 0.35, r, &given, &square, kNoiseGrey * 256)
               .has_value();
+      false_read +=
+          FindTip(img, pred, 0.25 * side, black, white, 0.35, r, &read, &square).has_value();
       ++searches;
     }
   }
-  EXPECT_EQ(false_tops, 0) << "of " << searches;
+  std::printf("false tops in %d searches: %d with the noise given, %d with it read\n", searches,
+              false_given, false_read);
+  EXPECT_EQ(false_given, 0);
+  EXPECT_LE(false_read, 3);
 }
 
 // The edge residual's row against central differences of the residual itself, through a
