@@ -154,12 +154,22 @@ double RowWindow(const std::array<double, 17>& prof, double h, double max_window
 // `along_rows`: across a wide band, the area is taken again along the pixel row through the
 // point found (AreaAlongPixelRow), over +-2 px across the edge, or up to +-max_row_window px
 // where the edge is blurred (RowWindow).
-// What LocateEdgeWith read where it normalised a narrow band's profile by its brightest point:
-// the area under the normalised profile up to that point (pixels) and the steepest 1 px rise
-// as a fraction of that point's height above the dark side (BlurredBandBias).
+// What LocateEdgeWith read across a narrow band (a small marker's stripe): the steepest 1 px
+// rise as a fraction of the bright level it normalised the profile by (BlurredBandBias).
 struct BandReading {
-  double area_px = 0, rise = 0;
+  double rise = 0;
 };
+
+// The median of the readings' rises, reordering them in place (statistics.h's Median copies
+// its vector: an allocation per call, and the C API promises none after warm-up).
+double MedianInPlace(std::vector<BandReading>* v) {
+  const auto by_rise = [](const BandReading& a, const BandReading& b) { return a.rise < b.rise; };
+  const size_t h = v->size() / 2;
+  std::nth_element(v->begin(), v->begin() + h, v->end(), by_rise);
+  const double upper = (*v)[h].rise;
+  if (v->size() % 2) return upper;
+  return 0.5 * (upper + std::max_element(v->begin(), v->begin() + h, by_rise)->rise);
+}
 
 bool LocateEdgeWith(const Sampler& sample, double* line, int steps, const Eigen::Vector2d& p,
                     const Eigen::Vector2d& outward, bool narrow_band, Eigen::Vector2d* edge_out,
@@ -239,7 +249,7 @@ bool LocateEdgeWith(const Sampler& sample, double* line, int steps, const Eigen:
   for (int i = 0; i < top; ++i)
     area += 0.5 * (prof[i] + prof[i + 1] - 2 * dark) / (bright - dark) * h;
   const double offset = top * h - area - W;  // from the centre: -W + (top h - area)
-  if (bands && top < ns) bands->push_back({area, best / (bright - dark)});
+  if (bands && narrow_band) bands->push_back({best / (bright - dark)});
   const Eigen::Vector2d edge = centre + std::clamp(offset, -W, W) * outward;
   if (!narrow_band && along_rows) {
     // Along the row, the window widens with the edge's blur (RowWindow) up to max_row_window.
@@ -358,53 +368,120 @@ struct RefineScratch {
   std::vector<double> line, weights, residual, abs_inliers;
   std::vector<Eigen::Vector2d> pts, edges, past_end;
   std::vector<char> use;
-  std::vector<BandReading> bands;
-  std::vector<double> rises, areas;
+  std::vector<BandReading> bands, model_bands;
 };
 
-// How far inward a small marker's sides are placed behind a blur, in pixels, from its narrow
-// bands' readings (LocateEdgeWith): the stripe (`band_px` wide between the square and a black
-// bit cell) never reaches its white there. A band of width w between two edges blurred by a
-// Gaussian of sigma peaks at P = erf(w / (2 sqrt(2) sigma)) of the contrast; an edge placed by
-// the area A under a profile normalised by that peak lies inward by (1 - P) A for a window
-// reaching far into the dark side (3 px behind 0.7 px of blur: P = 0.97, 0.05 px; sharp, P = 1
-// and nothing). Less `tail`, int_{-inf}^{-w/2} Phi(u / sigma) du, 8-12 % of it: not part of
-// that ideal (there the far edge's fall and the near edge's unreached part cancel), it offsets
-// the dark level read 1.5-2 px in, which the ideal leaves out; not calibrated. The sigma (the
-// lens's and the sampling's together) from the median of the points' steepest 1 px rise r,
-// r P = erf(0.5 / (sqrt(2) sigma)), and P from the sigma: three rounds; A the points' median.
-// Pooled over the marker because one point's rise scatters with its pixel phase and noise.
-// Not subtracted from the edges (beside a white cell the band is half as wide again, and a
-// correction that ignores that made the corners worse: docs/benchmarks.md, Sensor profiles)
-// but carried in their sigma. 0 with fewer than 4 readings. Known to be right on average over
-// 9-12.5 px but not by size (a review's probe, half the cells black, 0.7 px of blur): at 8-10
-// px it says 0.11 px where the sides lie 0.05 px inward; from about 10.5 px the stripe's peak
-// lies beyond the profile's +2 px window, no reading is taken and it says 0 where they lie
-// 0.015-0.036 px inward.
-double BlurredBandBias(double band_px, const std::vector<BandReading>& bands, RefineScratch* sc) {
-  if (bands.size() < 4) return 0;
-  sc->rises.clear();
-  sc->areas.clear();
-  for (const BandReading& b : bands) sc->rises.push_back(b.rise), sc->areas.push_back(b.area_px);
-  // Medians in place, in the scratch vectors (statistics.h's Median copies: an allocation per
-  // call, and the C API promises none after warm-up).
-  auto median = [](std::vector<double>* v) {
-    const size_t h = v->size() / 2;
-    std::nth_element(v->begin(), v->begin() + h, v->end());
-    const double upper = (*v)[h];
-    if (v->size() % 2) return upper;
-    return 0.5 * (upper + *std::max_element(v->begin(), v->begin() + h));
+// A bright band `w` px wide between two dark sides, blurred by a Gaussian of `sigma` px and
+// integrated over square pixels, as LocateEdgeWith reads its near edge: *inward, how far
+// inward of the true edge it places it (pixels), the mean over kBandPhases pixel phases, and
+// *rise, the median of the rises it reads there (BandReading). The band is drawn exactly (the
+// closed-form integral of the blurred profile over each pixel) into a 2 x kBandPixels 16-bit
+// strip on the stack, the edge across its columns; `readings` is scratch.
+constexpr int kBandPhases = 8, kBandPixels = 16;
+void ModelBand(double sigma, double w, std::vector<BandReading>* readings, double* inward,
+               double* rise) {
+  // The integral of Phi(t / sigma) from -inf to x.
+  auto G = [sigma](double x) {
+    const double z = x / sigma;
+    return x * 0.5 * std::erfc(-z / std::sqrt(2.0)) +
+           sigma * std::exp(-0.5 * z * z) / std::sqrt(2 * M_PI);
   };
-  const double rise = median(&sc->rises), area = median(&sc->areas);
-  double P = 1, sigma = 0;
-  for (int round = 0; round < 3; ++round) {
-    sigma = 0.5 / NormalQuantile(0.5 * (1 + std::clamp(rise * P, 1e-3, 1 - 1e-9)));
-    P = std::erf(band_px / (2 * std::sqrt(2.0) * sigma));
+  std::array<uint16_t, 2 * kBandPixels> pixels;
+  const cv::Mat strip(2, kBandPixels, CV_16UC1, pixels.data());
+  const Sampler sample(strip);
+  constexpr int kSteps = 4;
+  std::array<double, 2 * kSteps + 3> line;
+  readings->clear();
+  double sum = 0;
+  int located = 0;
+  // The pixels' borders' integrals, each shared by two pixels.
+  std::array<double, kBandPixels + 1> near_edge, far_edge;
+  for (int phase = 0; phase < kBandPhases; ++phase) {
+    // The true edge, pixel coordinates: the search below reads pixels 2-12 about it.
+    const double e = 6 + (phase + 0.5) / kBandPhases;
+    for (int x = 0; x <= kBandPixels; ++x) {
+      near_edge[x] = G(x - 0.5 - e);
+      far_edge[x] = G(x - 0.5 - e - w);
+    }
+    for (int x = 0; x < kBandPixels; ++x) {
+      const double v = (near_edge[x + 1] - near_edge[x]) - (far_edge[x + 1] - far_edge[x]);
+      pixels[x] = pixels[kBandPixels + x] = static_cast<uint16_t>(std::lround(1000 + 50000 * v));
+    }
+    Eigen::Vector2d edge;
+    double best;
+    if (!LocateEdgeWith(sample, line.data(), kSteps, Eigen::Vector2d(e + 0.3, 0.5),
+                        Eigen::Vector2d(1, 0), true, &edge, &best, nullptr, false, 2.0, readings))
+      continue;
+    sum += e - edge.x();
+    ++located;
   }
-  const double a = -0.5 * band_px;  // the peak's place past the far edge
-  const double tail = a * 0.5 * std::erfc(-a / (sigma * std::sqrt(2.0))) +
-                      sigma * std::exp(-0.5 * a * a / (sigma * sigma)) / std::sqrt(2 * M_PI);
-  return std::max(0.0, (1 - P) * area - tail);
+  *inward = located ? sum / located : 0;
+  *rise = readings->empty() ? 0 : MedianInPlace(readings);
+}
+
+// ModelBand over a grid of blurs (kBandTableBlurs, evenly in their logarithm over
+// kBandSigmaRange) and band widths (kBandTableWidths from kBandTableWidth0 px in steps of
+// kBandTableWidthStep: the stripes of 6-14 px markers), built once, on first use (2.5 ms):
+// ModelBand costs about 10 us, and a marker's bisection over the blur would take a dozen.
+constexpr int kBandTableBlurs = 24, kBandTableWidths = 14;
+constexpr double kBandSigmaRange[2] = {0.15, 3.0};
+constexpr double kBandTableWidth0 = 2.0, kBandTableWidthStep = 0.2;
+struct BandTable {
+  std::array<std::array<double, kBandTableWidths>, kBandTableBlurs> rise, inward;
+};
+BandTable BuildBandTable(std::vector<BandReading>* scratch) {
+  BandTable t;
+  for (int i = 0; i < kBandTableBlurs; ++i) {
+    const double sigma = kBandSigmaRange[0] * std::pow(kBandSigmaRange[1] / kBandSigmaRange[0],
+                                                       i / (kBandTableBlurs - 1.0));
+    for (int j = 0; j < kBandTableWidths; ++j)
+      ModelBand(sigma, kBandTableWidth0 + j * kBandTableWidthStep, scratch, &t.inward[i][j],
+                &t.rise[i][j]);
+  }
+  return t;
+}
+
+// How far inward a small marker's sides are placed behind a blur, in pixels, from the rises
+// its stripe's profiles showed (`bands`, LocateEdgeWith): the stripe, `band_px` wide between
+// the square and a black bit cell, never reaches its white there, and each profile is
+// normalised by a bright level below it. The blur is the one whose ideal band (ModelBand: the
+// same edge locator on an exactly drawn, noise-free band, over eight pixel phases) gives the
+// median rise the marker's profiles gave; the answer is the inward offset of that ideal band's
+// edge, where it is inward (>= 0). Both from BandTable, linear between its widths and, along
+// the blur, between the two entries whose rises bracket the median (the first such pair from
+// the sharpest; the rise falls as the blur grows). Pooled over the marker because one
+// profile's rise scatters with its pixel phase and noise; the rises beside white bit cells
+// (where the band is twice as wide) read the same edge and count alike, but their sides do
+// not lie inward: the answer is what a side beside black cells does, an upper bound for the
+// side, and carried in the corner sigmas, not subtracted (a correction that ignored the white
+// cells made the corners worse: docs/benchmarks.md, Sensor profiles). 0 with fewer than 4
+// readings. The model leaves out the other edges' light in the 2-D profile and the noise,
+// which raises the steepest rise a little (the blur then reads smaller).
+double BlurredBandBias(double band_px, std::vector<BandReading>* bands, RefineScratch* sc) {
+  if (bands->size() < 4) return 0;
+  static const BandTable table = BuildBandTable(&sc->model_bands);
+  const double rise = MedianInPlace(bands);
+  const double wf =
+      std::clamp((band_px - kBandTableWidth0) / kBandTableWidthStep, 0.0, kBandTableWidths - 1.0);
+  const int j = std::min(static_cast<int>(wf), kBandTableWidths - 2);
+  const double f = wf - j;
+  auto at = [&](const std::array<std::array<double, kBandTableWidths>, kBandTableBlurs>& v, int i) {
+    return (1 - f) * v[i][j] + f * v[i][j + 1];
+  };
+  double inward = at(table.inward, kBandTableBlurs - 1);  // blurrier than the table
+  if (rise >= at(table.rise, 0)) {
+    inward = at(table.inward, 0);  // sharper than the table
+  } else {
+    for (int i = 0; i + 1 < kBandTableBlurs; ++i) {
+      const double r0 = at(table.rise, i), r1 = at(table.rise, i + 1);
+      if (r0 >= rise && rise >= r1) {
+        const double g = r0 > r1 ? (r0 - rise) / (r0 - r1) : 0;
+        inward = (1 - g) * at(table.inward, i) + g * at(table.inward, i + 1);
+        break;
+      }
+    }
+  }
+  return std::max(0.0, inward);
 }
 RefineScratch& Scratch() {
   thread_local RefineScratch scratch;
@@ -735,8 +812,10 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
     CornerSigmas(lines, end_margin, lag1_products, lag1_squares, lag1_pairs, o, &out, &perp);
     // A small marker's sides behind a blur lie inward by about band_bias_px, which their
     // scatter does not show: in each corner's sigma (and, through it, the joint covariance).
-    out.band_bias_px =
-        narrow_band && o.blurred_band_sigma ? BlurredBandBias(min_side / 3, bands, &sc) : 0;
+    // On the last iteration only, whose sigmas are kept (the model costs about 0.1 ms).
+    out.band_bias_px = narrow_band && o.blurred_band_sigma && it == o.iterations - 1
+                           ? BlurredBandBias(min_side / 3, &bands, &sc)
+                           : 0;
     if (out.band_bias_px > 0)
       for (double& sigma : out.corner_sigma) sigma = std::hypot(sigma, out.band_bias_px);
     for (int k = 0; k < 4; ++k) {
