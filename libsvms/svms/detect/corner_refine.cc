@@ -7,8 +7,6 @@
 #include <cmath>
 #include <vector>
 
-#include "svms/base/statistics.h"
-
 namespace svms {
 
 namespace {
@@ -155,13 +153,14 @@ double RowWindow(const std::array<double, 17>& prof, double h, double max_window
 // point found (AreaAlongPixelRow), over +-2 px across the edge, or up to +-max_row_window px
 // where the edge is blurred (RowWindow).
 // What LocateEdgeWith read across a narrow band (a small marker's stripe): the steepest 1 px
-// rise as a fraction of the bright level it normalised the profile by (BlurredBandBias).
+// rise over the height of the bright level it normalised the profile by above the dark side
+// (bright - dark; BlurredBandBias).
 struct BandReading {
   double rise = 0;
 };
 
-// The median of the readings' rises, reordering them in place (statistics.h's Median copies
-// its vector: an allocation per call, and the C API promises none after warm-up).
+// The median of the readings' rises, reordering them in place (svms/base/statistics.h's Median
+// copies its vector: an allocation per call, and the C API promises none after warm-up).
 double MedianInPlace(std::vector<BandReading>* v) {
   const auto by_rise = [](const BandReading& a, const BandReading& b) { return a.rise < b.rise; };
   const size_t h = v->size() / 2;
@@ -368,17 +367,25 @@ struct RefineScratch {
   std::vector<double> line, weights, residual, abs_inliers;
   std::vector<Eigen::Vector2d> pts, edges, past_end;
   std::vector<char> use;
-  std::vector<BandReading> bands, model_bands;
+  std::vector<BandReading> bands;
 };
 
 // A bright band `w` px wide between two dark sides, blurred by a Gaussian of `sigma` px and
 // integrated over square pixels, as LocateEdgeWith reads its near edge: *inward, how far
-// inward of the true edge it places it (pixels), the mean over kBandPhases pixel phases, and
-// *rise, the median of the rises it reads there (BandReading). The band is drawn exactly (the
-// closed-form integral of the blurred profile over each pixel) into a 2 x kBandPixels 16-bit
-// strip on the stack, the edge across its columns; `readings` is scratch.
+// inward of the true edge (toward the dark side) it places it, pixels, the mean over
+// kBandPhases pixel phases, and *rise, the median of the rises it reads there (BandReading).
+// The search is RefineCorners' at its default search_px (2.5 px: 5 half-pixel steps). Its
+// half-pixel grid is laid from its start, and the answer depends on where that lies against
+// the edge. Started at places spread over half a pixel about the edge, as here, it says 0.029 px
+// on the 10.5-12.5 px squares behind 0.7 px of RefineCorners' test, where their sides lie
+// 0.017 px inward; started twice, the second time from the first's mean place (as
+// RefineCorners' last iteration starts on the line the one before fitted), 0.010. The spread
+// start, the larger, is kept: the answer is a sigma term. False unless every phase located the
+// edge. The band is drawn exactly (the closed-form integral of the blurred profile over each
+// pixel) into a 2 x kBandPixels 16-bit strip;
+// `readings` is scratch.
 constexpr int kBandPhases = 8, kBandPixels = 16;
-void ModelBand(double sigma, double w, std::vector<BandReading>* readings, double* inward,
+bool ModelBand(double sigma, double w, std::vector<BandReading>* readings, double* inward,
                double* rise) {
   // The integral of Phi(t / sigma) from -inf to x.
   auto G = [sigma](double x) {
@@ -386,30 +393,37 @@ void ModelBand(double sigma, double w, std::vector<BandReading>* readings, doubl
     return x * 0.5 * std::erfc(-z / std::sqrt(2.0)) +
            sigma * std::exp(-0.5 * z * z) / std::sqrt(2 * M_PI);
   };
-  std::array<uint16_t, 2 * kBandPixels> pixels;
-  const cv::Mat strip(2, kBandPixels, CV_16UC1, pixels.data());
-  const Sampler sample(strip);
-  constexpr int kSteps = 4;
-  std::array<double, 2 * kSteps + 3> line;
-  readings->clear();
-  double sum = 0;
-  int located = 0;
-  // The pixels' borders' integrals, each shared by two pixels.
+  // Phase k's strip, its true edge at 6 + (k + 1/2) / kBandPhases (the search reads pixels
+  // 1-12 about it); the pixels' borders' integrals are each shared by two pixels.
+  std::array<std::array<uint16_t, 2 * kBandPixels>, kBandPhases> strips;
+  auto edge_of = [](int phase) { return 6 + (phase + 0.5) / kBandPhases; };
   std::array<double, kBandPixels + 1> near_edge, far_edge;
   for (int phase = 0; phase < kBandPhases; ++phase) {
-    // The true edge, pixel coordinates: the search below reads pixels 2-12 about it.
-    const double e = 6 + (phase + 0.5) / kBandPhases;
+    const double e = edge_of(phase);
     for (int x = 0; x <= kBandPixels; ++x) {
       near_edge[x] = G(x - 0.5 - e);
       far_edge[x] = G(x - 0.5 - e - w);
     }
     for (int x = 0; x < kBandPixels; ++x) {
       const double v = (near_edge[x + 1] - near_edge[x]) - (far_edge[x + 1] - far_edge[x]);
-      pixels[x] = pixels[kBandPixels + x] = static_cast<uint16_t>(std::lround(1000 + 50000 * v));
+      strips[phase][x] = strips[phase][kBandPixels + x] =
+          static_cast<uint16_t>(std::lround(1000 + 50000 * v));
     }
+  }
+  constexpr int kSteps = 5;
+  std::array<double, 2 * kSteps + 3> line;
+  readings->clear();
+  double sum = 0;
+  int located = 0;
+  for (int phase = 0; phase < kBandPhases; ++phase) {
+    const cv::Mat strip(2, kBandPixels, CV_16UC1, strips[phase].data());
+    const double e = edge_of(phase);
+    // The search's start within a quarter pixel of the edge, spread over half a pixel in
+    // another order than the edge's phase.
+    const double start = e - 0.25 + ((3 * phase) % kBandPhases + 0.5) / (2 * kBandPhases);
     Eigen::Vector2d edge;
     double best;
-    if (!LocateEdgeWith(sample, line.data(), kSteps, Eigen::Vector2d(e + 0.3, 0.5),
+    if (!LocateEdgeWith(Sampler(strip), line.data(), kSteps, Eigen::Vector2d(start, 0.5),
                         Eigen::Vector2d(1, 0), true, &edge, &best, nullptr, false, 2.0, readings))
       continue;
     sum += e - edge.x();
@@ -417,71 +431,78 @@ void ModelBand(double sigma, double w, std::vector<BandReading>* readings, doubl
   }
   *inward = located ? sum / located : 0;
   *rise = readings->empty() ? 0 : MedianInPlace(readings);
+  return located == kBandPhases;
 }
 
 // ModelBand over a grid of blurs (kBandTableBlurs, evenly in their logarithm over
 // kBandSigmaRange) and band widths (kBandTableWidths from kBandTableWidth0 px in steps of
-// kBandTableWidthStep: the stripes of 6-14 px markers), built once, on first use (2.5 ms):
-// ModelBand costs about 10 us, and a marker's bisection over the blur would take a dozen.
+// kBandTableWidthStep: the stripes of 6-14 px markers). A cell is valid where every phase
+// located the edge (not so beyond a blur of about 2 px on the narrowest bands).
 constexpr int kBandTableBlurs = 24, kBandTableWidths = 14;
 constexpr double kBandSigmaRange[2] = {0.15, 3.0};
 constexpr double kBandTableWidth0 = 2.0, kBandTableWidthStep = 0.2;
 struct BandTable {
   std::array<std::array<double, kBandTableWidths>, kBandTableBlurs> rise, inward;
+  std::array<std::array<bool, kBandTableWidths>, kBandTableBlurs> valid;
 };
-BandTable BuildBandTable(std::vector<BandReading>* scratch) {
+BandTable BuildBandTable() {
   BandTable t;
+  std::vector<BandReading> readings;
   for (int i = 0; i < kBandTableBlurs; ++i) {
     const double sigma = kBandSigmaRange[0] * std::pow(kBandSigmaRange[1] / kBandSigmaRange[0],
                                                        i / (kBandTableBlurs - 1.0));
     for (int j = 0; j < kBandTableWidths; ++j)
-      ModelBand(sigma, kBandTableWidth0 + j * kBandTableWidthStep, scratch, &t.inward[i][j],
-                &t.rise[i][j]);
+      t.valid[i][j] = ModelBand(sigma, kBandTableWidth0 + j * kBandTableWidthStep, &readings,
+                                &t.inward[i][j], &t.rise[i][j]);
   }
   return t;
 }
+// Built when the library is loaded (about 3 ms), not on first use: the first small marker of a
+// flight program's run would otherwise stall its frame and allocate after warm-up.
+const BandTable kBandTable = BuildBandTable();
 
 // How far inward a small marker's sides are placed behind a blur, in pixels, from the rises
 // its stripe's profiles showed (`bands`, LocateEdgeWith): the stripe, `band_px` wide between
 // the square and a black bit cell, never reaches its white there, and each profile is
 // normalised by a bright level below it. The blur is the one whose ideal band (ModelBand: the
-// same edge locator on an exactly drawn, noise-free band, over eight pixel phases) gives the
-// median rise the marker's profiles gave; the answer is the inward offset of that ideal band's
-// edge, where it is inward (>= 0). Both from BandTable, linear between its widths and, along
-// the blur, between the two entries whose rises bracket the median (the first such pair from
-// the sharpest; the rise falls as the blur grows). Pooled over the marker because one
-// profile's rise scatters with its pixel phase and noise; the rises beside white bit cells
-// (where the band is twice as wide) read the same edge and count alike, but their sides do
-// not lie inward: the answer is what a side beside black cells does, an upper bound for the
-// side, and carried in the corner sigmas, not subtracted (a correction that ignored the white
-// cells made the corners worse: docs/benchmarks.md, Sensor profiles). 0 with fewer than 4
-// readings. The model leaves out the other edges' light in the 2-D profile and the noise,
-// which raises the steepest rise a little (the blur then reads smaller).
-double BlurredBandBias(double band_px, std::vector<BandReading>* bands, RefineScratch* sc) {
+// same edge locator on an exactly drawn, noise-free band) gives the median rise the marker's
+// profiles gave; the answer is the inward offset of that ideal band's edge, where it is inward
+// (>= 0). Both from kBandTable, linear between its widths and, along the blur, between the
+// two valid entries whose rises bracket the median (the first such pair from the sharpest;
+// the rise falls as the blur grows); blurrier than the table's last valid entry, that entry's
+// (an underestimate). Pooled over the marker because one profile's rise scatters with its
+// pixel phase and noise. Beside a white bit cell the band is half as wide again and its
+// profile is normalised by a brighter level: its rise reads lower, the blur larger, and on a
+// stripe bordered mostly by white cells the answer is 1.5-2 times what a side beside black
+// cells does (a review's model: 0.165 px for 0.103 at 0.7 px of blur on a 2.7 px stripe),
+// while those sides do not lie inward at all. So the answer is an upper bound, carried in the
+// corner sigmas and not subtracted (a correction that ignored the white cells made the
+// corners worse: docs/benchmarks.md, Sensor profiles). 0 with fewer than 4 readings. The
+// model leaves out the other edges' light in the 2-D profile and the noise, which raises the
+// steepest rise a little (the blur then reads smaller).
+double BlurredBandBias(double band_px, std::vector<BandReading>* bands) {
   if (bands->size() < 4) return 0;
-  static const BandTable table = BuildBandTable(&sc->model_bands);
   const double rise = MedianInPlace(bands);
   const double wf =
       std::clamp((band_px - kBandTableWidth0) / kBandTableWidthStep, 0.0, kBandTableWidths - 1.0);
   const int j = std::min(static_cast<int>(wf), kBandTableWidths - 2);
   const double f = wf - j;
+  const BandTable& t = kBandTable;
   auto at = [&](const std::array<std::array<double, kBandTableWidths>, kBandTableBlurs>& v, int i) {
     return (1 - f) * v[i][j] + f * v[i][j + 1];
   };
-  double inward = at(table.inward, kBandTableBlurs - 1);  // blurrier than the table
-  if (rise >= at(table.rise, 0)) {
-    inward = at(table.inward, 0);  // sharper than the table
-  } else {
-    for (int i = 0; i + 1 < kBandTableBlurs; ++i) {
-      const double r0 = at(table.rise, i), r1 = at(table.rise, i + 1);
-      if (r0 >= rise && rise >= r1) {
-        const double g = r0 > r1 ? (r0 - rise) / (r0 - r1) : 0;
-        inward = (1 - g) * at(table.inward, i) + g * at(table.inward, i + 1);
-        break;
-      }
+  auto valid = [&](int i) { return t.valid[i][j] && t.valid[i][j + 1]; };
+  if (!valid(0)) return 0;
+  if (rise >= at(t.rise, 0)) return std::max(0.0, at(t.inward, 0));  // sharper than the table
+  int i = 0;
+  for (; i + 1 < kBandTableBlurs && valid(i + 1); ++i) {
+    const double r0 = at(t.rise, i), r1 = at(t.rise, i + 1);
+    if (r0 >= rise && rise >= r1) {
+      const double g = r0 > r1 ? (r0 - rise) / (r0 - r1) : 0;
+      return std::max(0.0, (1 - g) * at(t.inward, i) + g * at(t.inward, i + 1));
     }
   }
-  return std::max(0.0, inward);
+  return std::max(0.0, at(t.inward, i));  // blurrier than the last valid entry
 }
 RefineScratch& Scratch() {
   thread_local RefineScratch scratch;
@@ -812,9 +833,9 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
     CornerSigmas(lines, end_margin, lag1_products, lag1_squares, lag1_pairs, o, &out, &perp);
     // A small marker's sides behind a blur lie inward by about band_bias_px, which their
     // scatter does not show: in each corner's sigma (and, through it, the joint covariance).
-    // On the last iteration only, whose sigmas are kept (the model costs about 0.1 ms).
+    // On the last iteration, whose sigmas are kept.
     out.band_bias_px = narrow_band && o.blurred_band_sigma && it == o.iterations - 1
-                           ? BlurredBandBias(min_side / 3, &bands, &sc)
+                           ? BlurredBandBias(min_side / 3, &bands)
                            : 0;
     if (out.band_bias_px > 0)
       for (double& sigma : out.corner_sigma) sigma = std::hypot(sigma, out.band_bias_px);

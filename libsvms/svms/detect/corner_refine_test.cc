@@ -552,8 +552,9 @@ cv::Mat BlurredSmallMarker(const Eigen::Vector2d& centre, double side, double an
 // Behind a blur a small marker's stripe never reaches its white, and its sides are placed
 // inward (behind 0.7 px, with 3 grey levels of noise: by about 0.05 px at 9-10.5 px and 0.02 px
 // at 10.5-12.5 px): RefineCorners says by how much (band_bias_px, from the stripe profiles'
-// own steepness), at each size within half of it, and carries it in the corner sigmas, which
-// come nearer honest; sharp, it says nothing.
+// own steepness), at each size at least 0.7 and at most twice of it (a sigma term, which errs
+// high: BlurredBandBias), and carries it in the corner sigmas, which come nearer honest; sharp,
+// it says nothing.
 TEST(RefineCorners, ASmallBlurredMarkersInwardBiasIsInItsCornerSigmas) {
   std::mt19937 rng(9);
   std::uniform_real_distribution<double> place(-0.5, 0.5), angle(0, M_PI / 2);
@@ -611,7 +612,8 @@ TEST(RefineCorners, ASmallBlurredMarkersInwardBiasIsInItsCornerSigmas) {
         EXPECT_NEAR(z2, z2_without, 0.05);
       } else {
         EXPECT_GT(inward, 0.01);
-        EXPECT_NEAR(said, inward, 0.5 * inward);
+        EXPECT_GT(said, 0.7 * inward);
+        EXPECT_LT(said, 2 * inward);
         EXPECT_LT(z2, z2_without - 0.3);
         EXPECT_LT(z2, 2.0);
       }
