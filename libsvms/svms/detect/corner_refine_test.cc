@@ -14,6 +14,14 @@ namespace {
 
 constexpr int kSuper = 16;  // supersampling of the synthetic images
 
+// Two draws of `d`, x first: written as Vector2d(d(rng), d(rng)) the order is the compiler's
+// (GCC and Clang differ), and the sanitizer build would test other images.
+Eigen::Vector2d Draw2(std::uniform_real_distribution<double>& d, std::mt19937& rng) {
+  const double x = d(rng);
+  const double y = d(rng);
+  return Eigen::Vector2d(x, y);
+}
+
 // A 120 x 120 image, each pixel the mean of grey(p) over its kSuper x kSuper sub-pixel centres
 // p (pixel-centre coordinates): what the scene gives through square pixels.
 template <typename Grey>
@@ -353,14 +361,14 @@ TEST(RefineCorners, ASmallQuadsCornerSigmasAreHonest) {
   double sum_z2 = 0, own_sum_z2 = 0;
   int n = 0;
   for (int trial = 0; trial < 300; ++trial) {
-    const Eigen::Vector2d centre(60 + place(rng), 60 + place(rng));
+    const Eigen::Vector2d centre = Eigen::Vector2d(60, 60) + Draw2(place, rng);
     const double a = angle(rng);
     std::array<Eigen::Vector2d, 4> truth, guess;
     for (int k = 0; k < 4; ++k) {
       // Clockwise on screen (y down), from the top left.
       const double t = a + M_PI * (1.25 + 0.5 * k);
       truth[k] = centre + 4 * std::sqrt(2.0) * Eigen::Vector2d(std::cos(t), std::sin(t));
-      guess[k] = truth[k] + Eigen::Vector2d(0.3 * place(rng), 0.3 * place(rng));
+      guess[k] = truth[k] + 0.3 * Draw2(place, rng);
     }
     cv::Mat img = Draw(truth);
     for (int y = 45; y < 75; ++y)
@@ -396,13 +404,13 @@ TEST(RefineCorners, CorrelatedEdgePointsWidenTheCornerSigmas) {
   double z2_white = 0, z2_smooth = 0, rho_white = 0, rho_smooth = 0;
   int n = 0, trials = 0;
   for (int trial = 0; trial < 120; ++trial) {
-    const Eigen::Vector2d centre(60 + place(rng), 60 + place(rng));
+    const Eigen::Vector2d centre = Eigen::Vector2d(60, 60) + Draw2(place, rng);
     const double a = angle(rng);
     std::array<Eigen::Vector2d, 4> truth, guess;
     for (int k = 0; k < 4; ++k) {
       const double t = a + M_PI * (1.25 + 0.5 * k);
       truth[k] = centre + 20 * std::sqrt(2.0) * Eigen::Vector2d(std::cos(t), std::sin(t));
-      guess[k] = truth[k] + Eigen::Vector2d(0.3 * place(rng), 0.3 * place(rng));
+      guess[k] = truth[k] + 0.3 * Draw2(place, rng);
     }
     const cv::Mat clean = Draw(truth);
     cv::Mat white(clean.size(), CV_32F), smooth;
@@ -451,13 +459,13 @@ TEST(RefineCorners, TheCornersJointCovarianceCarriesTheSidesSlopes) {
   double across_ab = 0, across_aa = 0, across_bb = 0, predicted_correlation = 0;
   int trials = 0;
   for (int trial = 0; trial < 150; ++trial) {
-    const Eigen::Vector2d centre(60 + place(rng), 60 + place(rng));
+    const Eigen::Vector2d centre = Eigen::Vector2d(60, 60) + Draw2(place, rng);
     const double a = angle(rng);
     std::array<Eigen::Vector2d, 4> truth, guess;
     for (int k = 0; k < 4; ++k) {
       const double t = a + M_PI * (1.25 + 0.5 * k);
       truth[k] = centre + 18 * std::sqrt(2.0) * Eigen::Vector2d(std::cos(t), std::sin(t));
-      guess[k] = truth[k] + Eigen::Vector2d(0.3 * place(rng), 0.3 * place(rng));
+      guess[k] = truth[k] + 0.3 * Draw2(place, rng);
     }
     cv::Mat img;
     Draw(truth).convertTo(img, CV_32F);
@@ -568,19 +576,14 @@ TEST(RefineCorners, ASmallBlurredMarkersInwardBiasIsInItsCornerSigmas) {
       double inward = 0, said = 0, z2 = 0, z2_without = 0;
       int n = 0, markers = 0;
       for (int trial = 0; trial < 60; ++trial) {
-        // One draw per statement: GCC and Clang evaluate a call's arguments in other orders.
-        const double cx = 60 + place(rng);
-        const double cy = 60 + place(rng);
-        const Eigen::Vector2d centre(cx, cy);
+        const Eigen::Vector2d centre = Eigen::Vector2d(60, 60) + Draw2(place, rng);
         const double a = angle(rng);
         const double side = size(rng);
         std::array<Eigen::Vector2d, 4> truth, guess;
         for (int k = 0; k < 4; ++k) {
           const double t = a + M_PI * (1.25 + 0.5 * k);
           truth[k] = centre + side / std::sqrt(2.0) * Eigen::Vector2d(std::cos(t), std::sin(t));
-          const double gx = 0.3 * place(rng);
-          const double gy = 0.3 * place(rng);
-          guess[k] = truth[k] + Eigen::Vector2d(gx, gy);
+          guess[k] = truth[k] + 0.3 * Draw2(place, rng);
         }
         const cv::Mat img = BlurredSmallMarker(centre, side, a, blur, 3.0, &rng);
         const RefinedCorners r = RefineCorners(img, guess, nullptr, {});
