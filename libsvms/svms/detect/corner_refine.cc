@@ -382,8 +382,8 @@ struct RefineScratch {
 // RefineCorners' last iteration starts on the line the one before fitted), 0.010. The spread
 // start, the larger, is kept: the answer is a sigma term. False unless every phase located the
 // edge. The band is drawn exactly (the closed-form integral of the blurred profile over each
-// pixel) into a 2 x kBandPixels 16-bit strip;
-// `readings` is scratch.
+// pixel) into a 2 x kBandPixels 16-bit strip; `readings` is scratch. The model's edge lies
+// along the pixel columns; a real side lies at any angle.
 constexpr int kBandPhases = 8, kBandPixels = 16;
 bool ModelBand(double sigma, double w, std::vector<BandReading>* readings, double* inward,
                double* rise) {
@@ -437,7 +437,7 @@ bool ModelBand(double sigma, double w, std::vector<BandReading>* readings, doubl
 // ModelBand over a grid of blurs (kBandTableBlurs, evenly in their logarithm over
 // kBandSigmaRange) and band widths (kBandTableWidths from kBandTableWidth0 px in steps of
 // kBandTableWidthStep: the stripes of 6-14 px markers). A cell is valid where every phase
-// located the edge (not so beyond a blur of about 2 px on the narrowest bands).
+// located the edge (not so from a blur of 2.3 px on the narrowest bands).
 constexpr int kBandTableBlurs = 24, kBandTableWidths = 14;
 constexpr double kBandSigmaRange[2] = {0.15, 3.0};
 constexpr double kBandTableWidth0 = 2.0, kBandTableWidthStep = 0.2;
@@ -457,8 +457,9 @@ BandTable BuildBandTable() {
   }
   return t;
 }
-// Built when the library is loaded (about 3 ms), not on first use: the first small marker of a
-// flight program's run would otherwise stall its frame and allocate after warm-up.
+// Built when the library is loaded, in every program that loads svms_detect (the CLI, the
+// Python module, the C API; about 3 ms), not on first use: the first small marker of a flight
+// program's run would otherwise stall its frame and allocate after warm-up.
 const BandTable kBandTable = BuildBandTable();
 
 // How far inward a small marker's sides are placed behind a blur, in pixels, from the rises
@@ -474,7 +475,8 @@ const BandTable kBandTable = BuildBandTable();
 // pixel phase and noise. Beside a white bit cell the band is half as wide again and its
 // profile is normalised by a brighter level: its rise reads lower, the blur larger, and on a
 // stripe bordered mostly by white cells the answer is 1.5-2 times what a side beside black
-// cells does (a review's model: 0.165 px for 0.103 at 0.7 px of blur on a 2.7 px stripe),
+// cells does (ModelBand on a band 1.5 times as wide, whose rise enters the median: 0.165 px
+// for 0.103 at 0.7 px of blur on a 2.7 px stripe),
 // while those sides do not lie inward at all. So the answer is an upper bound, carried in the
 // corner sigmas and not subtracted (a correction that ignored the white cells made the
 // corners worse: docs/benchmarks.md, Sensor profiles). 0 with fewer than 4 readings. The

@@ -121,9 +121,10 @@ struct RefinedCorners {
   // RefineCorners.
   double correlation = 0;
   int excluded_points = 0;  // edge points left out because they fell in an ExcludedRegion
-  // On a quad under narrow_stripe_side_px: how far inward its sides are placed because the
-  // stripe's blurred peak falls short of its white (pixels, from the stripe profiles' own
-  // steepness; near 0 for a sharp image), added to each corner_sigma in quadrature.
+  // On a quad under narrow_stripe_side_px: an upper bound on how far inward its sides are
+  // placed because the stripe's blurred peak falls short of its white (pixels, from the stripe
+  // profiles' own steepness; near 0 for a sharp image), added to each corner_sigma in
+  // quadrature; not to be subtracted from the corners.
   double band_bias_px = 0;
   // Sides whose edge was taken from under a shadow's penumbra (see penumbra_dark_fraction).
   std::array<bool, 4> penumbra_sides{};

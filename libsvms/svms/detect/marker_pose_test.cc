@@ -9,19 +9,14 @@
 #include <random>
 
 #include "svms/detect/disc_fit.h"
+#include "svms_testing/draws.h"
 
 namespace svms {
 namespace {
 
 constexpr double kBlack = 20, kWhite = 180;
 
-// Two draws of `d`, x first: written as Vector2d(d(rng), d(rng)) the order is the compiler's
-// (GCC and Clang differ), and the sanitizer build would test other images.
-Eigen::Vector2d Draw2(std::uniform_real_distribution<double>& d, std::mt19937& rng) {
-  const double x = d(rng);
-  const double y = d(rng);
-  return Eigen::Vector2d(x, y);
-}
+using svms_testing::Draw2;
 
 // An 8-bit 48 x 48 black image with a white disc of radius r at `centre` (exact pixel
 // coverage), Gaussian noise of `noise` grey levels, rounded as a sensor would.
