@@ -39,8 +39,9 @@ struct SyntheticRig {
     std::uniform_real_distribution<double> u(-1, 1);
     for (int f = 0; f < frames; ++f) {
       // The rig sits at `eye` in the object frame, looking at the box's front.
-      const Vec3 eye(0.8 * u(rng), 0.6 * u(rng), 3.0 + 0.5 * u(rng));
-      const Vec3 target(0.2 + 0.1 * u(rng), 0.1 * u(rng), 0.5);
+      const Vec3 eye = Vec3(0.8, 0.6, 0.5).cwiseProduct(DrawVector3(u, rng)) + Vec3(0, 0, 3);
+      const Eigen::Vector2d aim = DrawVector2(u, rng);
+      const Vec3 target(0.2 + 0.1 * aim.x(), 0.1 * aim.y(), 0.5);
       rig_from_object.push_back(LookAtPose(eye, target, Vec3(0, 1, 0.1 * u(rng))));
     }
     // The fused pose's measurement model with the synthetic noise: every corner 0.1 px.

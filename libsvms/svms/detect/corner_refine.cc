@@ -376,7 +376,7 @@ struct RefineScratch {
 // kBandPhases pixel phases, and *rise, the median of the rises it reads there (BandReading).
 // The search is RefineCorners' at its default search_px (2.5 px: 5 half-pixel steps). Its
 // half-pixel grid is laid from its start, and the answer depends on where that lies against
-// the edge. Started at places spread over half a pixel about the edge, as here, it says 0.029 px
+// the edge. Started at places spread over half a pixel about the edge, as here, it says 0.028 px
 // on the 10.5-12.5 px squares behind 0.7 px of RefineCorners' test, where their sides lie
 // 0.017 px inward; started twice, the second time from the first's mean place (as
 // RefineCorners' last iteration starts on the line the one before fitted), 0.010. The spread

@@ -8,6 +8,7 @@
 #include <random>
 #include <string>
 
+#include "svms/base/random_draws.h"
 #include "svms/camera/photometric.h"
 #include "svms/detect/canny.h"
 #include "svms/detect/noise_model.h"
@@ -963,7 +964,7 @@ TEST(RefinePose, CalibrationCovarianceMatchesMonteCarlo) {
     for (const auto& x : X) {
       Eigen::Vector2d q;
       ASSERT_TRUE(truth_camera.Project(truth * x, &q));
-      px.push_back(q + 0.1 * Eigen::Vector2d(g(rng), g(rng)));
+      px.push_back(q + 0.1 * DrawVector2(g, rng));
     }
     Pose pose = truth;
     PoseCovariance cov, calibration;

@@ -6,6 +6,8 @@
 #include <random>
 #include <vector>
 
+#include "svms/base/random_draws.h"
+
 namespace svms {
 namespace {
 
@@ -73,7 +75,7 @@ TEST(FitDisc, FindsTheCentreOfASubPixelDiscOrSaysWhereItMayBe) {
   std::uniform_real_distribution<double> off(-0.5, 0.5), rr(0.3, 1.0);
   for (int k = 0; k < 60; ++k) {
     const double r = rr(rng);
-    const Eigen::Vector2d c(102 + off(rng), 37 + off(rng));
+    const Eigen::Vector2d c = Eigen::Vector2d(102, 37) + DrawVector2(off, rng);
     const std::vector<double> v = Window(5, r, c, 100, 35, 140, 11, 0, &rng);
     const auto fit = FitDisc(v.data(), 5, 100, 35, r);
     ASSERT_TRUE(fit) << "r " << r << " c " << c.transpose();
@@ -111,7 +113,7 @@ TEST(FitDisc, SigmaMatchesTheScatterAndTheCentroidLocksToThePixel) {
     double err2 = 0, sigma2 = 0, centroid_err2 = 0;
     int n = 0;
     for (int k = 0; k < 400; ++k) {
-      const Eigen::Vector2d c(12 + off(rng), 20 + off(rng));
+      const Eigen::Vector2d c = Eigen::Vector2d(12, 20) + DrawVector2(off, rng);
       const std::vector<double> v = Window(5, r, c, 10, 18, 140, 10, noise, &rng);
       const auto fit = FitDisc(v.data(), 5, 10, 18, r);
       ASSERT_TRUE(fit);
@@ -147,7 +149,7 @@ TEST(FitDisc, ASearchNearTheMiddleFindsWhatTheWholeWindowsDoes) {
   for (double r : {1.2, 2.5, 4.0}) {
     const int h = static_cast<int>(std::ceil(r + 1.5)), size = 2 * h + 1;
     for (int k = 0; k < 10; ++k) {
-      const Eigen::Vector2d c(30 + off(rng), 40 + off(rng));
+      const Eigen::Vector2d c = Eigen::Vector2d(30, 40) + DrawVector2(off, rng);
       const std::vector<double> v = Window(size, r, c, 30 - h, 40 - h, 150, 12, 0.5, &rng);
       const auto whole = FitDisc(v.data(), size, 30 - h, 40 - h, r);
       const auto near = FitDisc(v.data(), size, 30 - h, 40 - h, r, 1.0);
@@ -186,7 +188,7 @@ TEST(FitDisc, SigmaOfLargerDiscsMatchesTheScatter) {
       double err2 = 0, sigma2 = 0;
       const int n = 200;
       for (int k = 0; k < n; ++k) {
-        const Eigen::Vector2d c(50 + off(rng), 60 + off(rng));
+        const Eigen::Vector2d c = Eigen::Vector2d(50, 60) + DrawVector2(off, rng);
         const auto fit = FitDisc(Window(size, r, c, 50 - h, 60 - h, 150, 12, noise, &rng).data(),
                                  size, 50 - h, 60 - h, r, 1.0);
         ASSERT_TRUE(fit);

@@ -10,6 +10,7 @@
 #include <random>
 #include <vector>
 
+#include "svms/base/random_draws.h"
 #include "svms/geometry/pose.h"
 
 namespace svms {
@@ -135,7 +136,7 @@ Sample RandomSample(std::mt19937_64& rng, double noise, double tilt = -1) {
     if ((o.p[k] - o.p[(k + 1) % 4]).norm() < 0.01) o.visible = false;
   std::normal_distribution<double> g(0, noise > 0 ? noise : 1);
   if (noise > 0)
-    for (auto& q : o.p) q += Eigen::Vector2d(g(rng), g(rng));
+    for (auto& q : o.p) q += DrawVector2(g, rng);
   return o;
 }
 
@@ -457,7 +458,7 @@ TEST(IppeSquare, BothSolutionsReprojectTheCorners) {
   const Eigen::Vector3d t(0.3, -0.2, 4);
   for (int trial = 0; trial < 20; ++trial) {
     Corners p = Project(R, t, 0.05);
-    for (auto& q : p) q += Eigen::Vector2d(g(rng), g(rng));
+    for (auto& q : p) q += DrawVector2(g, rng);
     std::array<PlanarPoseCandidate, 2> o;
     ASSERT_TRUE(SolveSquareIppe(p, 0.05, &o));
     EXPECT_LE(o[0].reprojection_error, o[1].reprojection_error);

@@ -58,9 +58,10 @@ void Squares(const Response& response, double blur, uint32_t seed, cv::Mat* img,
   for (int y = 0; y < kH; ++y)
     for (int x = 0; x < kW; ++x) {
       const double l = lin.at<float>(y, x);
+      const double read = noise(rng);  // two statements: one fixed order of the draws
+      const double photon = shot * std::sqrt(std::max(l, 0.0)) * unit(rng);
       img->at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(
-          255 * response.FromLinear(std::clamp(
-                    l + noise(rng) + shot * std::sqrt(std::max(l, 0.0)) * unit(rng), 0.0, 1.0)));
+          255 * response.FromLinear(std::clamp(l + read + photon, 0.0, 1.0)));
     }
 }
 

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "svms/base/random_draws.h"
 #include "svms/detect/quads.h"
 #include "svms/detect/worker_pool.h"
 
@@ -200,20 +201,20 @@ size_t CompareMergeWithXWindowScan(double extent, int clutter, int trials, uint3
   for (int trial = 0; trial < trials; ++trial) {
     std::vector<Segment> v;
     for (int e = 0; e < 25; ++e) {  // long edges in pieces
-      const Eigen::Vector2d a(pos(rng), pos(rng));
+      const Eigen::Vector2d a = DrawVector2(pos, rng);
       const double ang = unit(rng) * 2 * M_PI;
       const Eigen::Vector2d u(std::cos(ang), std::sin(ang)), n(-u.y(), u.x());
       double t = 0;
       const double total = 20 + 200 * unit(rng);
       while (t < total) {
         const double piece = 3 + 30 * unit(rng);
-        v.push_back(
-            MakeSegment(a + t * u + jitter(rng) * n, a + (t + piece) * u + jitter(rng) * n));
+        const Eigen::Vector2d across = DrawVector2(jitter, rng);  // the start's, the end's
+        v.push_back(MakeSegment(a + t * u + across.x() * n, a + (t + piece) * u + across.y() * n));
         t += piece + 3 * unit(rng);
       }
     }
     for (int c = 0; c < clutter; ++c) {
-      const Eigen::Vector2d a(pos(rng), pos(rng));
+      const Eigen::Vector2d a = DrawVector2(pos, rng);
       const double ang = unit(rng) * 2 * M_PI;
       v.push_back(
           MakeSegment(a, a + (4 + 8 * unit(rng)) * Eigen::Vector2d(std::cos(ang), std::sin(ang))));
@@ -363,9 +364,11 @@ TEST(Segments, SeveralThreadsFindTheSameSegmentsInTheSameOrder) {
   cv::Mat img(512, 640, CV_8U, cv::Scalar(128));
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(0, 1);
-  for (int i = 0; i < 60; ++i)
-    DrawSquare(img, 640 * u(rng), 512 * u(rng), 10 + 60 * u(rng), 90 * u(rng),
-               static_cast<uint8_t>(255 * u(rng)));
+  for (int i = 0; i < 60; ++i) {
+    const double grey = 255 * u(rng), deg = 90 * u(rng), side = 10 + 60 * u(rng), y = 512 * u(rng),
+                 x = 640 * u(rng);
+    DrawSquare(img, x, y, side, deg, static_cast<uint8_t>(grey));
+  }
   for (int i = 0; i < 2000; ++i) {
     const double cx = 640 * u(rng), cy = 512 * u(rng), r = 2 + 18 * u(rng), a = 6.3 * u(rng);
     std::vector<cv::Point> q;

@@ -6,6 +6,7 @@
 #include <random>
 #include <vector>
 
+#include "svms/base/random_draws.h"
 #include "svms/geometry/so3.h"
 
 namespace svms {
@@ -74,9 +75,9 @@ TEST(FitRigidTransform, RecoversAKnownTransform) {
   const int n = 200;
   std::vector<Eigen::Vector3d> in_a, in_b, noisy_b;
   for (int k = 0; k < n; ++k) {
-    in_a.emplace_back(u(rng), u(rng), u(rng));
+    in_a.push_back(DrawVector3(u, rng));
     in_b.push_back(b_from_a * in_a.back());
-    noisy_b.push_back(in_b.back() + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)));
+    noisy_b.push_back(in_b.back() + DrawVector3(noise, rng));
   }
   // Exact points: exact to rounding.
   const Pose exact = FitRigidTransform(in_a, in_b);
