@@ -89,6 +89,17 @@ for p in ("linear", "jpeg_srgb"):
                 fig["corner_rms_px_16_common_markers"] != len(e):
             print(p, "common RMS", v, fig["corner_rms_px_16_common_markers"], "csv", want,
                   len(e)); bad += 1
+# The diagnostics: a marginal NEES never exceeds the whole one (Schur complement), the corners'
+# Z^2 is a mean of squares (NaN where a sigma is unknown), a side's angle to the pixel axes
+# is within [0, 45].
+for r in rows:
+    if r["found"] != "1":
+        continue
+    n, nr, z2, ax = (float(r[k]) for k in ("nees", "nees_rotation", "corner_z2", "side_axis_deg"))
+    if math.isfinite(n) and not (0 <= nr <= n * (1 + 1e-9) + 1e-12):
+        print("nees_rotation", nr, "above nees", n, r["view"], r["id"]); bad += 1
+    if not ((z2 >= 0 or math.isnan(z2)) and 0 <= ax <= 45):
+        print("corner_z2", z2, "side_axis_deg", ax, r["view"], r["id"]); bad += 1
 # The report's median row shows the summary's medians (2 decimals), in the profiles' order.
 row = [l for l in report.splitlines() if l.startswith("| pose NEES median")][0]
 cells = [c.strip() for c in row.split("|")[2:-1]]

@@ -62,10 +62,26 @@ void Score(const std::string& profile, const std::string& set, const ViewTruth& 
       r.found = true;
       r.corner_rms_px = std::sqrt(sum2 / 4);
       r.corner_bias_px = bias;
+      double z2 = 0, axis_deg = 45;
+      for (int k = 0; k < 4; ++k) {
+        if (d.corner_sigma[k] > 0)
+          z2 += (d.corners[k] - m.corners[k].pixel).squaredNorm() /
+                (d.corner_sigma[k] * d.corner_sigma[k]) / 8;
+        else
+          z2 = ProfileRow::kNaN;
+        const Eigen::Vector2d side = m.corners[(k + 1) % 4].pixel - m.corners[k].pixel;
+        const double deg = std::atan2(std::abs(side.y()), std::abs(side.x())) * 180 / M_PI;
+        axis_deg = std::min(axis_deg, std::min(deg, 90 - deg));
+      }
+      r.corner_z2 = z2;
+      r.side_axis_deg = axis_deg;
       if (d.cam_from_marker) {
         r.orient_err_deg = AngleBetweenDeg(*d.cam_from_marker, m.cam_from_marker);
         r.range_err_rel = d.cam_from_marker->tvec.norm() / m.cam_from_marker.tvec.norm() - 1;
         r.nees = Nees(m.cam_from_marker, *d.cam_from_marker, d.covariance);
+        const Eigen::Vector3d e = PoseError(m.cam_from_marker, *d.cam_from_marker).head<3>();
+        const Eigen::LDLT<Eigen::Matrix3d> rot(d.covariance.topLeftCorner<3, 3>());
+        if (rot.info() == Eigen::Success && rot.isPositive()) r.nees_rotation = e.dot(rot.solve(e));
       }
       break;
     }

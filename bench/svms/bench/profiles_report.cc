@@ -426,12 +426,13 @@ int WriteProfilesReport(const ProfilesBenchmarkOptions& o, const std::vector<std
   OutputFile csv((fs::path(o.out) / "markers.csv").string());
   csv << std::setprecision(10);  // what the summary is computed from, to be recomputed from it
   csv << "profile,set,view,id,min_side_px,view_angle_deg,fully_visible,found,corner_rms_px,"
-         "corner_bias_px,orient_err_deg,range_err_rel,nees\n";
+         "corner_bias_px,orient_err_deg,range_err_rel,nees,corner_z2,nees_rotation,"
+         "side_axis_deg\n";
   for (const ProfileRow& r : rows)
     csv << r.profile << "," << r.set << "," << r.view << "," << r.id << "," << r.min_side_px << ","
         << r.view_angle_deg << "," << r.fully_visible << "," << r.found << "," << r.corner_rms_px
         << "," << r.corner_bias_px << "," << r.orient_err_deg << "," << r.range_err_rel << ","
-        << r.nees << "\n";
+        << r.nees << "," << r.corner_z2 << "," << r.nees_rotation << "," << r.side_axis_deg << "\n";
   csv.close();
   std::cout << md.str();
   if (!all_met) std::cerr << "svms bench profiles: some targets not met (report.md)\n";

@@ -27,6 +27,11 @@ struct ProfileRow {
   bool fully_visible = false, found = false;
   double corner_rms_px = kNaN, corner_bias_px = kNaN;  // bias: mean outward error of the 4
   double orient_err_deg = kNaN, range_err_rel = kNaN, nees = kNaN;
+  // Diagnostics in markers.csv: the corners' errors against their own sigmas (sum of the 8
+  // squared components over corner_sigma^2, / 8: 1 when honest); the NEES of the orientation
+  // alone (3 dof: mean 3 when honest); the smallest angle between a true side and the pixel
+  // rows or columns (degrees, 0-45), where a side's sub-pixel phase is the same all along it.
+  double corner_z2 = kNaN, nees_rotation = kNaN, side_axis_deg = kNaN;
 };
 
 // One detection of one view through one profile: its time and the noise it estimated.
