@@ -646,10 +646,10 @@ bool EdgesUnderPenumbra(const Sampler& sample, const CornerRefineOptions& o, dou
 }
 
 // Each corner's sigma (out->corner_sigma) from the four sides' line fits (out->side_points,
-// ->side_rms; the lines in the fitting plane), their points spread over a fraction
-// 1 - 2 end_margin of each side, and the lag-1 sums of their residuals.
+// ->side_rms; the lines in the fitting plane), side k's points spread over a fraction
+// 1 - 2 margins[k] of it, and the lag-1 sums of their residuals.
 // *perp: each side's perpendicular sigma at its ends (pixels), for CornerCovariance.
-void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, double end_margin,
+void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, const std::array<double, 4>& margins,
                   double lag1_products, double lag1_squares, int lag1_pairs,
                   const CornerRefineOptions& o, RefinedCorners* out_io,
                   std::array<double, 4>* perp_out) {
@@ -667,7 +667,6 @@ void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, double end_margin
   // A line fitted to n points spread evenly over a fraction f of a side, residual RMS s: its
   // offset at the middle has variance s^2 / n and its slope s^2 / (n (f L)^2 / 12); at the
   // side's end (L / 2 away) the perpendicular variance is s^2 / n (1 + 3 / f^2).
-  const double f = 1 - 2 * end_margin;
   double pooled_ss = 0, pooled_dof = 0;
   for (int k = 0; k < 4; ++k) {
     const double dof = std::max(1, out.side_points[k] - 2);
@@ -680,6 +679,7 @@ void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, double end_margin
     const double dof = std::max(1, out.side_points[k] - 2);
     const double var = (out.side_rms[k] * out.side_rms[k] * dof + o.pooled_prior_dof * pooled_var) /
                        (dof + o.pooled_prior_dof);
+    const double f = 1 - 2 * margins[k];
     perp[k] = std::sqrt(correlated * var * (1 + 3 / (f * f)) / std::max(1, out.side_points[k]));
   }
   for (int k = 0; k < 4; ++k) {
@@ -693,7 +693,7 @@ void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, double end_margin
 
 // The corners' joint covariance (RefinedCorners::corner_covariance) from each side's
 // perpendicular sigma at its ends, `perp` (pixels), the edge points spread over the middle
-// fraction f = 1 - 2 end_margin of each side. A side's line moves across itself by
+// fraction f = 1 - 2 margins[k] of side k. A side's line moves across itself by
 // a + s b at the signed distance s from its middle (offset a, slope b independent for points
 // centred on the middle): at its two ends, var(a) + (L/2)^2 var(b) each and
 // var(a) - (L/2)^2 var(b) between them, with (L/2)^2 var(b) = 3 var(a) / f^2 for evenly spread
@@ -706,14 +706,14 @@ void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, double end_margin
 Eigen::Matrix<double, 8, 8> CornerCovariance(const std::array<Eigen::Vector2d, 4>& corners,
                                              const std::array<double, 4>& perp,
                                              const std::array<double, 4>& corner_sigma,
-                                             double end_margin) {
-  const double f = 1 - 2 * end_margin;
-  const double end_correlation = (1 - 3 / (f * f)) / (1 + 3 / (f * f));
+                                             const std::array<double, 4>& margins) {
   // Moves across the sides: side k's at its start (corner k) is 2k, at its end 2k + 1.
   Eigen::Matrix<double, 8, 8> moves = Eigen::Matrix<double, 8, 8>::Zero();
   std::array<Eigen::Vector2d, 4> normal;
   for (int k = 0; k < 4; ++k) {
     const double v = perp[k] * perp[k];
+    const double f = 1 - 2 * margins[k];
+    const double end_correlation = (1 - 3 / (f * f)) / (1 + 3 / (f * f));
     moves(2 * k, 2 * k) = moves(2 * k + 1, 2 * k + 1) = v;
     moves(2 * k, 2 * k + 1) = moves(2 * k + 1, 2 * k) = end_correlation * v;
     const Eigen::Vector2d u = (corners[(k + 1) % 4] - corners[k]).normalized();
@@ -740,6 +740,35 @@ Eigen::Matrix<double, 8, 8> CornerCovariance(const std::array<Eigen::Vector2d, 4
   }
   C = scale.asDiagonal() * C * scale.asDiagonal();
   return 0.5 * (C + C.transpose());  // exactly symmetric, whichever order it is read in
+}
+
+// Where a side's edge points are taken along the pixel rows (AreaAlongPixelRow), a point's
+// window spans w px (2, up to the widened row window) either side across the edge, along a row
+// at the angle phi between the side's normal and the nearer pixel axis: its ends lie w tan(phi)
+// px along the side from the point. Next to a corner the dark end then crosses the next side
+// into the white stripe, and the edge moves: on 14-16 px markers with sides 35-45 degrees off
+// the axes, 0.12 of each side left out (1.7-1.9 px) and windows of 2 px, the corners came out
+// 0.083 px off RMS per axis behind 0.7 px of blur and 0.053 sharp
+// (RefineCorners.NoRowWindowReachesPastACorner). So no window may reach nearer a corner than
+// kRowWindowCornerClearPx (the corner's blur and the pixel). RowReach: tan(phi) for `outward`.
+// AlongRowsMargin: the fraction of a side `len` px long left out next to each corner, at least
+// `end_margin` and enough for 2 px windows (3 px at 45 degrees), at most kMaxAlongRowsMargin so
+// that most of a short side is kept. PointRowWindow: the widest window, at most `row_window`,
+// that a point `from_corner` px from the nearer corner may use (at least 2: the margin keeps
+// that clear). Fewer points on short slanted sides, and narrower windows beside the corners,
+// rather than a margin for the widest window (which on Bayer frames, 3.5 px, left too few).
+constexpr double kRowWindowCornerClearPx = 1.0, kMaxAlongRowsMargin = 0.3;
+double RowReach(const Eigen::Vector2d& outward) {
+  const double big = std::max(std::abs(outward.x()), std::abs(outward.y()));
+  return big > 0 ? std::min(std::abs(outward.x()), std::abs(outward.y())) / big : 1;
+}
+double AlongRowsMargin(double end_margin, double len, double reach) {
+  const double px = 2 * reach + kRowWindowCornerClearPx;
+  return std::clamp(px / len, end_margin, std::max(end_margin, kMaxAlongRowsMargin));
+}
+double PointRowWindow(double row_window, double from_corner, double reach) {
+  if (row_window <= 2 || reach <= 0) return row_window;
+  return std::clamp((from_corner - kRowWindowCornerClearPx) / reach, 2.0, row_window);
 }
 
 }  // namespace
@@ -779,19 +808,24 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
     const bool narrow_band = min_side < o.narrow_stripe_side_px;
     const double end_margin = narrow_band ? o.narrow_end_margin : o.end_margin;
     const double max_row_window = std::min(o.max_row_window_px, min_side / 3 - 2);
+    const bool along_rows = o.edges_along_rows && !narrow_band;
+    std::array<double, 4> margins;
     std::vector<BandReading>& bands = sc.bands;
     bands.clear();
     for (int k = 0; k < 4; ++k) {
       const Eigen::Vector2d a = out.corners[k], b = out.corners[(k + 1) % 4];
       const double len = (b - a).norm();
       const Eigen::Vector2d u = (b - a) / len, outward(u.y(), -u.x());  // dark is screen-right
+      const double reach = RowReach(outward);
+      margins[k] = along_rows ? AlongRowsMargin(end_margin, len, reach) : end_margin;
+      const double margin = margins[k];
       const int m = std::clamp(static_cast<int>(len / 1.5), 4, o.max_points);
       pts.clear();
       edges.clear();
       past_end.clear();
       weights.clear();
       for (int i = 0; i < m; ++i) {
-        const double t = end_margin + (1 - 2 * end_margin) * (i + 0.5) / m;
+        const double t = margin + (1 - 2 * margin) * (i + 0.5) / m;
         const Eigen::Vector2d p = a + t * (b - a);
         if (std::any_of(excluded.begin(), excluded.end(),
                         [&](const ExcludedRegion& e) { return e.Contains(p); })) {
@@ -802,7 +836,9 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
         double best;
         bool rises_on;
         if (!LocateEdgeWith(sample, line.data(), steps, p, outward, narrow_band, &edge, &best,
-                            &rises_on, o.edges_along_rows, max_row_window, &bands)) {
+                            &rises_on, o.edges_along_rows,
+                            PointRowWindow(max_row_window, std::min(t, 1 - t) * len, reach),
+                            &bands)) {
           if (rises_on) past_end.push_back(p + 0.5 * steps * outward);
           continue;
         }
@@ -832,7 +868,7 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       lag1_pairs += fit.lag1_pairs;
     }
     std::array<double, 4> perp;
-    CornerSigmas(lines, end_margin, lag1_products, lag1_squares, lag1_pairs, o, &out, &perp);
+    CornerSigmas(lines, margins, lag1_products, lag1_squares, lag1_pairs, o, &out, &perp);
     // A small marker's sides behind a blur lie inward by about band_bias_px, which their
     // scatter does not show: in each corner's sigma (and, through it, the joint covariance).
     // On the last iteration, whose sigmas are kept.
@@ -854,9 +890,9 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
     // is not known: they are left as independent (zero covariance).
     // Only the last iteration's lines are kept, so only their covariance is computed.
     if (it == o.iterations - 1)
-      out.corner_covariance =
-          out.correlation > 0 ? Eigen::Matrix<double, 8, 8>::Zero()
-                              : CornerCovariance(out.corners, perp, out.corner_sigma, end_margin);
+      out.corner_covariance = out.correlation > 0
+                                  ? Eigen::Matrix<double, 8, 8>::Zero()
+                                  : CornerCovariance(out.corners, perp, out.corner_sigma, margins);
   }
   out.ok = true;
   return out;

@@ -20,8 +20,10 @@ namespace svms {
 
 struct CornerRefineOptions {
   int iterations = 2;
-  double search_px = 2.5;    // half-width of the search across each side, pixels
-  double end_margin = 0.12;  // fraction of each side left out next to the corners
+  double search_px = 2.5;  // half-width of the search across each side, pixels
+  // Fraction of each side left out next to the corners; where the edge points are taken along
+  // the pixel rows, more on a short slanted side, so that no row window reaches past a corner.
+  double end_margin = 0.12;
   // Take each edge point's area again along the pixel row through it (LocateEdge's along_rows;
   // quads of narrow_stripe_side_px or more). Exact whatever the edge's angle and pixel phase,
   // where the bilinear profile across the pixels is not: corners of 60 px markers without

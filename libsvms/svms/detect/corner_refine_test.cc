@@ -558,6 +558,50 @@ cv::Mat BlurredSmallMarker(const Eigen::Vector2d& centre, double side, double an
   return img;
 }
 
+// Where a quad's edge points are taken along the pixel rows (14 px and more), a row window
+// reaches row_window tan(phi) px along the side from its point, phi the side's angle to the
+// pixel axes: next to a corner its dark end crosses the next side into the stripe. On these
+// 14-16 px markers with sides 35-45 degrees off the axes, with 0.12 of each side left out, the
+// corners were 0.053 px off RMS per axis sharp and 0.083 behind 0.7 px of blur with 2 px
+// windows, 0.216 with windows widened up to 3.5 px (as on Bayer frames). Keeping every window
+// clear of the corners (AlongRowsMargin, PointRowWindow): 0.030, 0.039 and 0.101 (printed).
+// The widened windows stay worse here: at 14-16 px they reach 2.7-3.3 px across the edge,
+// toward the blurred far edge of a stripe 4.7-5.3 px wide.
+TEST(RefineCorners, NoRowWindowReachesPastACorner) {
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> place(-0.5, 0.5), size(14, 16),
+      angle(35 * M_PI / 180, 45 * M_PI / 180);
+  for (const auto& [blur, window] :
+       {std::pair(0.0, 2.0), std::pair(0.7, 2.0), std::pair(0.7, 3.5)}) {
+    CornerRefineOptions o;
+    o.max_row_window_px = window;
+    double e2 = 0;
+    int n = 0;
+    for (int trial = 0; trial < 40; ++trial) {
+      const Eigen::Vector2d centre = Eigen::Vector2d(60, 60) + DrawVector2(place, rng);
+      const double a = angle(rng), side = size(rng);
+      std::array<Eigen::Vector2d, 4> truth, guess;
+      for (int k = 0; k < 4; ++k) {
+        const double t = a + M_PI * (1.25 + 0.5 * k);
+        truth[k] = centre + side / std::sqrt(2.0) * Eigen::Vector2d(std::cos(t), std::sin(t));
+        guess[k] = truth[k] + 0.3 * DrawVector2(place, rng);
+      }
+      const cv::Mat img = BlurredSmallMarker(centre, side, a, blur, 2.0, &rng);
+      const RefinedCorners r = RefineCorners(img, guess, nullptr, o);
+      if (!r.ok) continue;
+      for (int k = 0; k < 4; ++k) e2 += 0.5 * (r.corners[k] - truth[k]).squaredNorm();
+      n += 4;
+    }
+    ASSERT_GT(n, 4 * 36);
+    const double rms = std::sqrt(e2 / n);
+    std::printf(
+        "blur %.1f, row window %.1f px, 14-16 px at 35-45 degrees: corners %.4f px RMS "
+        "per axis\n",
+        blur, window, rms);
+    EXPECT_LT(rms, window > 2 ? 0.15 : blur > 0 ? 0.055 : 0.04);
+  }
+}
+
 // Behind a blur a small marker's stripe never reaches its white, and its sides are placed
 // inward (behind 0.7 px, with 3 grey levels of noise: by about 0.05 px at 9-10.5 px and 0.02 px
 // at 10.5-12.5 px): RefineCorners says by how much (band_bias_px, from the stripe profiles'
