@@ -28,7 +28,8 @@ void BM_DecodeMarker(benchmark::State& state) {
   std::mt19937_64 rng(2);
   std::vector<uint64_t> words(1 << 16);
   for (auto& w : words) {
-    w = svms::Svms44::Rotate(svms::Svms44::Codeword(rng() % svms::Svms44::kNumIds), rng() % 4);
+    const int turns = static_cast<int>(rng() % 4);  // drawn first, GCC's order: same words
+    w = svms::Svms44::Rotate(svms::Svms44::Codeword(rng() % svms::Svms44::kNumIds), turns);
     uint64_t e = 0;
     while (svms::Weight(e) < flips) e |= uint64_t{1} << (rng() % 44);
     w ^= e;

@@ -193,7 +193,8 @@ cv::Mat Cluttered(const cv::Mat& base) {
   cv::Mat img = base.clone();
   cv::RNG rng(7);
   for (int i = 0; i < 6000; ++i) {
-    const cv::Point2f c(rng.uniform(0.f, 1024.f), rng.uniform(0.f, 1024.f));
+    const float cy = rng.uniform(0.f, 1024.f);  // y first, GCC's order: one frame everywhere
+    const cv::Point2f c(rng.uniform(0.f, 1024.f), cy);
     const float r = rng.uniform(2.f, 20.f), a = rng.uniform(0.f, 6.3f);
     std::vector<cv::Point> q;
     for (int k = 0; k < 4; ++k) {

@@ -82,8 +82,11 @@ cv::Mat Squares(cv::Size size, uint64_t seed) {
   cv::Mat img(size, CV_8U, cv::Scalar(200));
   const int count = std::max(1, size.area() / 4000);
   for (int k = 0; k < count; ++k) {
-    const cv::Point2f centre(rng.uniform(0.f, static_cast<float>(size.width)),
-                             rng.uniform(0.f, static_cast<float>(size.height)));
+    // One draw per statement, y first (GCC's order for the two-argument form): the same images
+    // under every compiler.
+    const float cy = rng.uniform(0.f, static_cast<float>(size.height));
+    const float cx = rng.uniform(0.f, static_cast<float>(size.width));
+    const cv::Point2f centre(cx, cy);
     const float side = rng.uniform(6.f, 80.f), angle = rng.uniform(0.f, 90.f);
     cv::Point2f corners[4];
     cv::RotatedRect(centre, cv::Size2f(side, side), angle).points(corners);
