@@ -50,8 +50,9 @@ class Sampler {
 };
 
 // The widest window AreaAlongPixelRow takes (half-width across the edge, pixels): what its
-// buffer holds at 45 degrees.
-constexpr double kMaxRowWindowPx = 4.0;
+// buffer holds at 45 degrees. The narrowest, on sharp edges: the +-2 px of LocateEdgeWith's
+// profile.
+constexpr double kMaxRowWindowPx = 4.0, kMinRowWindowPx = 2.0;
 
 // The edge through `centre` (pixels; within a few tenths of a pixel of the edge) across which
 // the intensity rises along `outward`, from the pixels' own values along the pixel row (or
@@ -140,9 +141,10 @@ double RowWindow(const std::array<double, 17>& prof, double h, double max_window
     sx += rise * x;
     sxx += rise * x * x;
   }
-  if (!(sw > 0)) return 2.0;
+  if (!(sw > 0)) return kMinRowWindowPx;
   const double spread = std::sqrt(std::max(0.0, sxx / sw - (sx / sw) * (sx / sw)));
-  return std::clamp(2.0 + 6.0 * (spread - 0.55), 2.0, std::clamp(max_window, 2.0, kMaxRowWindowPx));
+  return std::clamp(kMinRowWindowPx + 6.0 * (spread - 0.55), kMinRowWindowPx,
+                    std::clamp(max_window, kMinRowWindowPx, kMaxRowWindowPx));
 }
 
 // The edge crossing `p` where the intensity rises along `outward` (unit, pixels), searched
@@ -743,32 +745,38 @@ Eigen::Matrix<double, 8, 8> CornerCovariance(const std::array<Eigen::Vector2d, 4
 }
 
 // Where a side's edge points are taken along the pixel rows (AreaAlongPixelRow), a point's
-// window spans w px (2, up to the widened row window) either side across the edge, along a row
-// at the angle phi between the side's normal and the nearer pixel axis: its ends lie w tan(phi)
-// px along the side from the point. Next to a corner the dark end then crosses the next side
-// into the white stripe, and the edge moves: on 14-16 px markers with sides 35-45 degrees off
-// the axes, 0.12 of each side left out (1.7-1.9 px) and windows of 2 px, the corners came out
-// 0.083 px off RMS per axis behind 0.7 px of blur and 0.053 sharp
-// (RefineCorners.NoRowWindowReachesPastACorner). So no window may reach nearer a corner than
-// kRowWindowCornerClearPx (the corner's blur and the pixel). RowReach: tan(phi) for `outward`.
-// AlongRowsMargin: the fraction of a side `len` px long left out next to each corner, at least
-// `end_margin` and enough for 2 px windows (3 px at 45 degrees), at most kMaxAlongRowsMargin so
-// that most of a short side is kept. PointRowWindow: the widest window, at most `row_window`,
-// that a point `from_corner` px from the nearer corner may use (at least 2: the margin keeps
-// that clear). Fewer points on short slanted sides, and narrower windows beside the corners,
-// rather than a margin for the widest window (which on Bayer frames, 3.5 px, left too few).
+// window spans w px (kMinRowWindowPx, up to the widened row window) either side across the
+// edge, along a row at the angle phi between the side's normal and the nearer pixel axis: its
+// ends lie w tan(phi) px along the side from the point, and AreaAlongPixelRow first moves the
+// point along the side onto a whole row, by up to 0.5 / cos(phi) px. Next to a corner the
+// dark end then crosses the next side into the white stripe, and the edge moves: on 14-16 px
+// markers with sides 35-45 degrees off the axes, 0.12 of each side left out (1.7-1.9 px) and
+// windows of 2 px, the corners came out 0.083 px off RMS per axis behind 0.7 px of blur and
+// 0.053 sharp (RefineCorners.NoRowWindowReachesPastACorner).
+// AlongRowsMargin: the fraction of a side `len_px` long left out next to each corner: at least
+// `end_margin`, and w tan(phi) + kRowWindowCornerClearPx (the corner's blur and the pixel) for
+// the narrowest window (3 px at 45 degrees), at most kMaxAlongRowsMargin (which only a
+// narrow_stripe_side_px under 10 px would reach). The row snap is left out of it: allowing for
+// it there too cost sharp edges more than it gained on blurred ones (0.024 -> 0.030 px against
+// 0.040 -> 0.036 on the test's markers), so a 2 px window's dark end may come within 0.76 px
+// of a corner. PointRowWindow: the widest window, at most `row_window`, that a point
+// `from_corner_px` from the nearer corner may use with its row snap allowed for and the same
+// clearance (at least kMinRowWindowPx). Narrower windows beside the corners rather than a
+// margin for the widest window (which on Bayer frames, 3.5 px, left too few points).
 constexpr double kRowWindowCornerClearPx = 1.0, kMaxAlongRowsMargin = 0.3;
-double RowReach(const Eigen::Vector2d& outward) {
+double TanToRows(const Eigen::Vector2d& outward) {
   const double big = std::max(std::abs(outward.x()), std::abs(outward.y()));
   return big > 0 ? std::min(std::abs(outward.x()), std::abs(outward.y())) / big : 1;
 }
-double AlongRowsMargin(double end_margin, double len, double reach) {
-  const double px = 2 * reach + kRowWindowCornerClearPx;
-  return std::clamp(px / len, end_margin, std::max(end_margin, kMaxAlongRowsMargin));
+double AlongRowsMargin(double end_margin, double len_px, double tan_phi) {
+  const double px = kMinRowWindowPx * tan_phi + kRowWindowCornerClearPx;
+  return std::clamp(px / len_px, end_margin, std::max(end_margin, kMaxAlongRowsMargin));
 }
-double PointRowWindow(double row_window, double from_corner, double reach) {
-  if (row_window <= 2 || reach <= 0) return row_window;
-  return std::clamp((from_corner - kRowWindowCornerClearPx) / reach, 2.0, row_window);
+double PointRowWindow(double row_window, double from_corner_px, double tan_phi) {
+  if (row_window <= kMinRowWindowPx || tan_phi <= 0) return row_window;
+  const double snap_px = 0.5 * std::sqrt(1 + tan_phi * tan_phi);  // 0.5 / cos(phi)
+  return std::clamp((from_corner_px - kRowWindowCornerClearPx - snap_px) / tan_phi, kMinRowWindowPx,
+                    row_window);
 }
 
 }  // namespace
@@ -816,8 +824,8 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       const Eigen::Vector2d a = out.corners[k], b = out.corners[(k + 1) % 4];
       const double len = (b - a).norm();
       const Eigen::Vector2d u = (b - a) / len, outward(u.y(), -u.x());  // dark is screen-right
-      const double reach = RowReach(outward);
-      margins[k] = along_rows ? AlongRowsMargin(end_margin, len, reach) : end_margin;
+      const double tan_phi = TanToRows(outward);
+      margins[k] = along_rows ? AlongRowsMargin(end_margin, len, tan_phi) : end_margin;
       const double margin = margins[k];
       const int m = std::clamp(static_cast<int>(len / 1.5), 4, o.max_points);
       pts.clear();
@@ -837,7 +845,7 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
         bool rises_on;
         if (!LocateEdgeWith(sample, line.data(), steps, p, outward, narrow_band, &edge, &best,
                             &rises_on, o.edges_along_rows,
-                            PointRowWindow(max_row_window, std::min(t, 1 - t) * len, reach),
+                            PointRowWindow(max_row_window, std::min(t, 1 - t) * len, tan_phi),
                             &bands)) {
           if (rises_on) past_end.push_back(p + 0.5 * steps * outward);
           continue;
