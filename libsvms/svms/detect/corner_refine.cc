@@ -758,8 +758,10 @@ Eigen::Matrix<double, 8, 8> CornerCovariance(const std::array<Eigen::Vector2d, 4
 // the narrowest window (3 px at 45 degrees), at most kMaxAlongRowsMargin (which only a
 // narrow_stripe_side_px under 10 px would reach). The row snap is left out of it: allowing for
 // it there too cost sharp edges more than it gained on blurred ones (0.024 -> 0.030 px against
-// 0.040 -> 0.036 on the test's markers), so a 2 px window's dark end may come within 0.76 px
-// of a corner. PointRowWindow: the widest window, at most `row_window`, that a point
+// 0.040 -> 0.036 on the test's markers), so a 2 px window's dark end may come within about
+// 0.7 px of a corner (the margin leaves 1 - 0.5 / cos(phi), 0.29 px at 45 degrees, and the
+// first point lies half a point spacing inside it: 0.71 px at worst, on 13.5 px sides at 45
+// degrees). PointRowWindow: the widest window, at most `row_window`, that a point
 // `from_corner_px` from the nearer corner may use with its row snap allowed for and the same
 // clearance (at least kMinRowWindowPx). Narrower windows beside the corners rather than a
 // margin for the widest window (which on Bayer frames, 3.5 px, left too few points).
