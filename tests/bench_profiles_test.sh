@@ -108,4 +108,29 @@ if cells != want:
     print("report median row", cells, "summary", want); bad += 1
 sys.exit(1 if bad else 0)
 PY
+
+# scripts/profiles_by_size on the same run: its NEES mean / median where its size ranges are
+# the summary's (8-12, 20-30, 30-60 px); a file that is not markers.csv: one line, exit 2.
+root="$(cd "$(dirname "$0")/.." && pwd)"
+"$root/scripts/profiles_by_size" "$out/run/markers.csv" > "$out/by_size.md" ||
+  fail "profiles_by_size: exit code $?"
+"$py" - "$out/run" "$out/by_size.md" <<'PY' || fail "profiles_by_size disagrees with summary.json"
+import json, sys
+s = json.load(open(f"{sys.argv[1]}/summary.json"))
+rows = [l.split("|")[1:-1] for l in open(sys.argv[2]) if l.startswith("| ") and "---" not in l]
+table = {(c[0].strip(), c[1].strip()): c[6].strip() for c in rows[1:]}
+checked = 0
+for p in ("linear", "jpeg_srgb"):
+    for b in s["per_profile"][p]["nees_by_size"]:
+        key = (p, f'{b["lo"]:g}-{b["hi"]:g}')
+        if key in table and b["poses"]:
+            want = f'{b["mean"]:.2f} / {b["median"]:.2f}'
+            assert table[key] == want, (key, table[key], want)
+            checked += 1
+assert checked >= 2, checked
+PY
+rc=0
+"$root/scripts/profiles_by_size" "$out/run/report.md" > /dev/null 2> "$out/by_size_bad.txt" || rc=$?
+[[ $rc -eq 2 && $(wc -l < "$out/by_size_bad.txt") -eq 1 ]] && grep -q 'report.md' "$out/by_size_bad.txt" ||
+  fail "profiles_by_size on report.md: exit $rc, $(cat "$out/by_size_bad.txt")"
 echo PASS
