@@ -97,6 +97,7 @@ struct SegmentScratch {
   std::vector<std::pair<double, int>> by_x;        // (start x, piece) in x order
   std::vector<int> grid_begin, grid_fill, grid_k;  // the starts by cells of a grid
   std::vector<double> grid_x, grid_y;
+  std::vector<int> start_cell, changed, changed_next;  // a piece's start's cell; joins by cell
   // With a worker pool: the edge map's bands, the read noise's sums by band, and the
   // segments of each part of the chains.
   EdgeBandsScratch bands;
@@ -504,94 +505,110 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
     return std::abs(s.line.head<2>().dot(p) + s.line.z());
   };
   const double offset2 = o.merge_offset_px * o.merge_offset_px;
-  bool merged = true;
-  // A sweep with a sort on start x to keep the pair search local. A join keeps the first
-  // piece's start (JoinSegments), so the order holds through the sweep, and a piece goes on joining
-  // from its new end at once: on a cluttered frame (long grid lines in many pieces) sweeping
-  // again after every join takes a fifth of the detector's time. A last sweep finds nothing.
+  // Sweeps over the pieces in index order, each piece joining the first start in x order that
+  // passes every test, and joining on from its new end at once; sweeps repeat until one joins
+  // nothing (a join lengthens a piece and moves its line, so a pair refused earlier may pass
+  // later).
   //
-  // The starts are also binned into a grid of cells kCell px wide, each cell in x order: a
-  // piece looks only at the cells its window covers. Scanning the whole x window instead
-  // (every start within reach in x, at any y) took a quarter of the detector's time on dense
-  // texture (foliage: 17,000 pieces in a 1024 x 1024 frame, long ones reaching 100 px either
-  // way). Of the starts that pass every test the first in x order is joined, as a scan of the
-  // x window would: the grid changes the cost, not the result.
+  // A join keeps the first piece's start (JoinSegments) and a joined piece is only marked gone,
+  // so the starts, their x order and the grid below are built once for all sweeps. The starts
+  // are binned into a grid of cells kCell px wide, each cell in x order: a piece looks only at
+  // the cells its window covers. Scanning the whole x window instead (every start within reach
+  // in x, at any y) took a quarter of the detector's time on dense texture (foliage: 17,000
+  // pieces in a 1024 x 1024 frame, long ones reaching 100 px either way). Of the starts that
+  // pass every test the first in x order is joined, as a scan of the x window would: the grid
+  // changes the cost, not the result.
+  //
+  // After the first sweep a piece is searched again only where its window's cells hold the
+  // start of a piece joined to since the piece was last searched (counted per cell in
+  // `changed`: the joins of the sweep before and of this one so far): against pieces that have
+  // not changed it would fail as it failed before. On textured photographs this makes the
+  // repeated sweeps (2-5 of them) nearly free; the result is that of full sweeps to the bit
+  // (segments_test.cc checks it against full sweeps of the whole x window).
   constexpr double kCell = 8;
-  while (merged) {
+  std::vector<Segment>& v = *segs;
+  const size_t n = v.size();
+  std::vector<int>& order = sc.order;
+  std::vector<double>& len = sc.length;
+  order.resize(n);
+  len.resize(n);
+  // Sorted as (start x, index) pairs: the comparisons then read contiguous memory instead of
+  // the pieces, and ties in x keep index order.
+  std::vector<std::pair<double, int>>& by_x = sc.by_x;
+  by_x.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    by_x[i] = {v[i].a.x(), static_cast<int>(i)};
+    len[i] = v[i].length();
+  }
+  std::sort(by_x.begin(), by_x.end());
+  // The starts in that order, side by side in memory: the window scans below read them.
+  std::vector<double>&xs = sc.start_x, &ys = sc.start_y;
+  xs.resize(n);
+  ys.resize(n);
+  // The grid spans the finite starts only (a non-finite one lands in a clamped cell and passes
+  // no window test); with none finite it is one cell.
+  double x_min = 0, x_max = 0, y_min = 0, y_max = 0;
+  bool any_finite = false;
+  for (size_t k = 0; k < n; ++k) {
+    order[k] = by_x[k].second;
+    xs[k] = by_x[k].first;
+    ys[k] = v[order[k]].a.y();
+    if (!std::isfinite(xs[k]) || !std::isfinite(ys[k])) continue;
+    x_min = any_finite ? std::min(x_min, xs[k]) : xs[k];
+    x_max = any_finite ? std::max(x_max, xs[k]) : xs[k];
+    y_min = any_finite ? std::min(y_min, ys[k]) : ys[k];
+    y_max = any_finite ? std::max(y_max, ys[k]) : ys[k];
+    any_finite = true;
+  }
+  if (!std::isfinite(x_max - x_min) || !std::isfinite(y_max - y_min)) x_max = x_min, y_max = y_min;
+  // Cells of kCell px, larger where the starts spread far (about 4 cells per piece at most).
+  const double spread = std::max(x_max - x_min, y_max - y_min);
+  const double cell = std::max(kCell, spread / (2 * std::sqrt(static_cast<double>(n)) + 1));
+  const int cols = n == 0 ? 0 : static_cast<int>((x_max - x_min) / cell) + 1;
+  const int rows = n == 0 ? 0 : static_cast<int>((y_max - y_min) / cell) + 1;
+  // Clamped to the grid (and 0 for a NaN) so that no value is cast out of range.
+  auto bin = [cell](double u, double u_min, int count) {
+    const double r = (u - u_min) / cell;
+    return r >= 0 ? (r < count ? static_cast<int>(r) : count - 1) : 0;
+  };
+  // Counting sort of the sorted positions k by cell: cell c holds grid_k[grid_begin[c],
+  // grid_begin[c + 1]) in increasing k (so increasing x).
+  const int cells = cols * rows;
+  auto cell_of = [&](size_t k) { return bin(ys[k], y_min, rows) * cols + bin(xs[k], x_min, cols); };
+  std::vector<int>& begin = sc.grid_begin;
+  begin.assign(cells + 1, 0);
+  for (size_t k = 0; k < n; ++k) ++begin[cell_of(k) + 1];
+  for (int c = 0; c < cells; ++c) begin[c + 1] += begin[c];
+  std::vector<int>& fill = sc.grid_fill;
+  fill.assign(begin.begin(), begin.end());
+  // The starts again, in cell order: a window's cells are read from contiguous memory.
+  std::vector<int>& grid_k = sc.grid_k;
+  std::vector<double>&grid_x = sc.grid_x, &grid_y = sc.grid_y;
+  std::vector<int>& start_cell = sc.start_cell;  // by piece
+  grid_k.resize(n);
+  grid_x.resize(n);
+  grid_y.resize(n);
+  start_cell.resize(n);
+  for (size_t k = 0; k < n; ++k) {
+    const int c = cell_of(k);
+    const int at = fill[c]++;
+    grid_k[at] = static_cast<int>(k);
+    grid_x[at] = xs[k];
+    grid_y[at] = ys[k];
+    start_cell[order[k]] = c;
+  }
+  std::vector<char>& gone = sc.gone;
+  gone.assign(n, 0);
+  // Joins by the cell of the joining piece's start: since the sweep before began (`changed`),
+  // and since this sweep began (`changed_next`, the next sweep's `changed`).
+  std::vector<int>&changed = sc.changed, &changed_next = sc.changed_next;
+  changed.assign(cells, 0);
+  bool merged = true;
+  for (bool first = true; merged; first = false) {
     merged = false;
-    std::vector<Segment>& v = *segs;
-    std::vector<int>& order = sc.order;
-    std::vector<double>& len = sc.length;
-    order.resize(v.size());
-    len.resize(v.size());
-    // Sorted as (start x, index) pairs: the comparisons then read contiguous memory instead of
-    // the pieces, and ties in x keep index order.
-    std::vector<std::pair<double, int>>& by_x = sc.by_x;
-    by_x.resize(v.size());
-    for (size_t i = 0; i < v.size(); ++i) {
-      by_x[i] = {v[i].a.x(), static_cast<int>(i)};
-      len[i] = v[i].length();
-    }
-    std::sort(by_x.begin(), by_x.end());
-    // The starts in that order, side by side in memory: the window scans below read them.
-    std::vector<double>&xs = sc.start_x, &ys = sc.start_y;
-    xs.resize(v.size());
-    ys.resize(v.size());
-    // The grid spans the finite starts only (a non-finite one lands in a clamped cell and
-    // passes no window test); with none finite it is one cell.
-    double x_min = 0, x_max = 0, y_min = 0, y_max = 0;
-    bool any_finite = false;
-    for (size_t k = 0; k < v.size(); ++k) {
-      order[k] = by_x[k].second;
-      xs[k] = by_x[k].first;
-      ys[k] = v[order[k]].a.y();
-      if (!std::isfinite(xs[k]) || !std::isfinite(ys[k])) continue;
-      x_min = any_finite ? std::min(x_min, xs[k]) : xs[k];
-      x_max = any_finite ? std::max(x_max, xs[k]) : xs[k];
-      y_min = any_finite ? std::min(y_min, ys[k]) : ys[k];
-      y_max = any_finite ? std::max(y_max, ys[k]) : ys[k];
-      any_finite = true;
-    }
-    if (!std::isfinite(x_max - x_min) || !std::isfinite(y_max - y_min))
-      x_max = x_min, y_max = y_min;
-    // Cells of kCell px, larger where the starts spread far (about 4 cells per piece at most).
-    const double spread = std::max(x_max - x_min, y_max - y_min);
-    const double cell =
-        std::max(kCell, spread / (2 * std::sqrt(static_cast<double>(v.size())) + 1));
-    const int cols = v.empty() ? 0 : static_cast<int>((x_max - x_min) / cell) + 1;
-    const int rows = v.empty() ? 0 : static_cast<int>((y_max - y_min) / cell) + 1;
-    // Clamped to the grid (and 0 for a NaN) so that no value is cast out of range.
-    auto bin = [cell](double u, double u_min, int n) {
-      const double r = (u - u_min) / cell;
-      return r >= 0 ? (r < n ? static_cast<int>(r) : n - 1) : 0;
-    };
-    // Counting sort of the sorted positions k by cell: cell c holds grid_k[grid_begin[c],
-    // grid_begin[c + 1]) in increasing k (so increasing x).
-    const int cells = cols * rows;
-    auto cell_of = [&](size_t k) {
-      return bin(ys[k], y_min, rows) * cols + bin(xs[k], x_min, cols);
-    };
-    std::vector<int>& begin = sc.grid_begin;
-    begin.assign(cells + 1, 0);
-    for (size_t k = 0; k < v.size(); ++k) ++begin[cell_of(k) + 1];
-    for (int c = 0; c < cells; ++c) begin[c + 1] += begin[c];
-    std::vector<int>& fill = sc.grid_fill;
-    fill.assign(begin.begin(), begin.end());
-    // The starts again, in cell order: a window's cells are read from contiguous memory.
-    std::vector<int>& grid_k = sc.grid_k;
-    std::vector<double>&grid_x = sc.grid_x, &grid_y = sc.grid_y;
-    grid_k.resize(v.size());
-    grid_x.resize(v.size());
-    grid_y.resize(v.size());
-    for (size_t k = 0; k < v.size(); ++k) {
-      const int at = fill[cell_of(k)]++;
-      grid_k[at] = static_cast<int>(k);
-      grid_x[at] = xs[k];
-      grid_y[at] = ys[k];
-    }
-    std::vector<char>& gone = sc.gone;
-    gone.assign(v.size(), 0);
-    for (size_t i = 0; i < v.size(); ++i) {
+    if (!first) changed.swap(changed_next);
+    changed_next.assign(cells, 0);
+    for (size_t i = 0; i < n; ++i) {
       if (i % 256 == 255 && has_deadline && std::chrono::steady_clock::now() >= deadline)
         return false;
       if (gone[i]) continue;
@@ -604,13 +621,21 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
         const double y_reach = reach + 2 * o.merge_offset_px;
         // Starts with x in [b.x - reach, b.x + reach] and y within y_reach of b.y.
         const double x_begin = s.b.x() - reach, x_end = s.b.x() + reach, y = s.b.y();
-        // The piece whose start passes every test, first in x order: sorted position and index.
-        int best_k = std::numeric_limits<int>::max(), best = -1;
         const bool overlaps =
             y - y_reach <= y_max && y + y_reach >= y_min && x_begin <= x_max && x_end >= x_min;
+        const int r_lo = bin(y - y_reach, y_min, rows);
         const int r_hi = overlaps ? bin(y + y_reach, y_min, rows) : -1;
         const int c_lo = bin(x_begin, x_min, cols), c_hi = bin(x_end, x_min, cols);
-        for (int r = bin(y - y_reach, y_min, rows); r <= r_hi; ++r) {
+        if (!first) {
+          bool any_changed = false;
+          for (int r = r_lo; r <= r_hi && !any_changed; ++r)
+            for (int g = r * cols + c_lo; g <= r * cols + c_hi && !any_changed; ++g)
+              any_changed = changed[g] > 0;
+          if (!any_changed) break;
+        }
+        // The piece whose start passes every test, first in x order: sorted position and index.
+        int best_k = std::numeric_limits<int>::max(), best = -1;
+        for (int r = r_lo; r <= r_hi; ++r) {
           for (int g = r * cols + c_lo; g <= r * cols + c_hi; ++g) {
             for (int e = begin[g]; e < begin[g + 1]; ++e) {
               const int k = grid_k[e];
@@ -658,18 +683,18 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
           v[i] = JoinSegments(s, v[best]);
           len[i] = v[i].length();
           gone[best] = 1;
+          ++changed[start_cell[i]];
+          ++changed_next[start_cell[i]];
           merged = joined = true;
         }
       }
     }
-    if (merged) {
-      std::vector<Segment>& kept = sc.kept;
-      kept.clear();
-      for (size_t i = 0; i < v.size(); ++i)
-        if (!gone[i]) kept.push_back(v[i]);
-      segs->swap(kept);
-    }
   }
+  std::vector<Segment>& kept = sc.kept;
+  kept.clear();
+  for (size_t i = 0; i < n; ++i)
+    if (!gone[i]) kept.push_back(v[i]);
+  segs->swap(kept);
   return true;
 }
 
