@@ -81,6 +81,97 @@ struct ReadNoiseTally {
 
 // Buffers of FindSegments, kept per thread between calls so that a thread's detector
 // allocates nothing once they have grown to its largest frame (the C API's promise).
+// The pieces' starts (Segment::a) binned on a grid of square cells, for the searches of
+// MergeCollinear and BridgeKinks: each looks at the starts near a piece's end, and scanning a
+// window of x alone (every start within reach in x, at any y) took a quarter of the detector's
+// time on dense texture (foliage: 17,000 pieces in a 1024 x 1024 frame, long ones reaching
+// 100 px either way). A search reads the cells its window covers; each cell holds its starts in
+// (x, index) order, the order the searches take them in.
+struct StartGrid {
+  // Sorted positions k: the pieces in (start x, index) order, order[k] the piece, xs[k], ys[k]
+  // its start.
+  std::vector<std::pair<double, int>> by_x;
+  std::vector<int> order;
+  std::vector<double> xs, ys;
+  // The grid spans the finite starts: [x_min, x_max] x [y_min, y_max] in cols x rows cells of
+  // `cell` px. Cell c holds sorted positions k[begin[c], begin[c + 1]) in increasing k, with
+  // copies of their starts in x[], y[] beside them; cell_of_piece[i] is piece i's cell.
+  double x_min = 0, x_max = 0, y_min = 0, y_max = 0, cell = 1;
+  int cols = 0, rows = 0;
+  std::vector<int> begin, fill, k, cell_of_piece;
+  std::vector<double> x, y;
+
+  // Bins the starts of `v` in cells of at least `min_cell` px, larger where the starts spread
+  // far (about 4 cells per piece at most). A non-finite start lands in a clamped cell (and
+  // passes no window test); with no finite start the grid is one cell.
+  void Build(const std::vector<Segment>& v, double min_cell) {
+    const size_t n = v.size();
+    by_x.resize(n);
+    for (size_t i = 0; i < n; ++i) by_x[i] = {v[i].a.x(), static_cast<int>(i)};
+    // Sorted as (start x, index) pairs: comparisons read contiguous memory instead of the
+    // pieces, and ties in x keep index order.
+    std::sort(by_x.begin(), by_x.end());
+    order.resize(n);
+    xs.resize(n);
+    ys.resize(n);
+    x_min = x_max = y_min = y_max = 0;
+    bool any_finite = false;
+    for (size_t q = 0; q < n; ++q) {
+      order[q] = by_x[q].second;
+      xs[q] = by_x[q].first;
+      ys[q] = v[order[q]].a.y();
+      if (!std::isfinite(xs[q]) || !std::isfinite(ys[q])) continue;
+      x_min = any_finite ? std::min(x_min, xs[q]) : xs[q];
+      x_max = any_finite ? std::max(x_max, xs[q]) : xs[q];
+      y_min = any_finite ? std::min(y_min, ys[q]) : ys[q];
+      y_max = any_finite ? std::max(y_max, ys[q]) : ys[q];
+      any_finite = true;
+    }
+    if (!std::isfinite(x_max - x_min) || !std::isfinite(y_max - y_min))
+      x_max = x_min, y_max = y_min;
+    const double spread = std::max(x_max - x_min, y_max - y_min);
+    cell = std::max(min_cell, spread / (2 * std::sqrt(static_cast<double>(n)) + 1));
+    cols = n == 0 ? 0 : static_cast<int>((x_max - x_min) / cell) + 1;
+    rows = n == 0 ? 0 : static_cast<int>((y_max - y_min) / cell) + 1;
+    // Counting sort of the sorted positions by cell.
+    const int cells = cols * rows;
+    begin.assign(cells + 1, 0);
+    for (size_t q = 0; q < n; ++q) ++begin[CellOf(xs[q], ys[q]) + 1];
+    for (int c = 0; c < cells; ++c) begin[c + 1] += begin[c];
+    fill.assign(begin.begin(), begin.end());
+    k.resize(n);
+    x.resize(n);
+    y.resize(n);
+    cell_of_piece.resize(n);
+    for (size_t q = 0; q < n; ++q) {
+      const int c = CellOf(xs[q], ys[q]);
+      const int at = fill[c]++;
+      k[at] = static_cast<int>(q);
+      x[at] = xs[q];
+      y[at] = ys[q];
+      cell_of_piece[order[q]] = c;
+    }
+  }
+  int cells() const { return cols * rows; }
+  // The column (or row) of coordinate u: clamped to the grid (and 0 for a NaN) so that no value
+  // is cast out of range.
+  int Bin(double u, double u_min, int count) const {
+    const double r = (u - u_min) / cell;
+    return r >= 0 ? (r < count ? static_cast<int>(r) : count - 1) : 0;
+  }
+  int CellOf(double u, double w) const { return Bin(w, y_min, rows) * cols + Bin(u, x_min, cols); }
+  // The cells a window [x0, x1] x [y0, y1] covers: rows *r0..*r1 (none where the window misses
+  // the grid: *r1 < *r0), columns *c0..*c1.
+  void Window(double x0, double x1, double y0, double y1, int* r0, int* r1, int* c0,
+              int* c1) const {
+    const bool overlaps = y0 <= y_max && y1 >= y_min && x0 <= x_max && x1 >= x_min;
+    *r0 = Bin(y0, y_min, rows);
+    *r1 = overlaps ? Bin(y1, y_min, rows) : *r0 - 1;
+    *c0 = Bin(x0, x_min, cols);
+    *c1 = Bin(x1, x_min, cols);
+  }
+};
+
 struct SegmentScratch {
   cv::Mat stabilised, edges;
   CannyScratch canny;
@@ -89,15 +180,13 @@ struct SegmentScratch {
   std::vector<int> chain_begin;
   std::vector<uint8_t> rows_left;  // LinkChains: rows where its first pass left a pixel
   std::vector<std::pair<int, int>> pieces, merged;
-  // MergeCollinear
-  std::vector<int> order;
+  // MergeCollinear and BridgeKinks
+  StartGrid grid;
   std::vector<char> gone;
   std::vector<Segment> kept;
-  std::vector<double> length, start_x, start_y;    // by piece; starts in sorted order
-  std::vector<std::pair<double, int>> by_x;        // (start x, piece) in x order
-  std::vector<int> grid_begin, grid_fill, grid_k;  // the starts by cells of a grid
-  std::vector<double> grid_x, grid_y;
-  std::vector<int> start_cell, changed, changed_next;  // a piece's start's cell; joins by cell
+  std::vector<double> length;              // by piece
+  std::vector<int> changed, changed_next;  // joins by cell
+  std::vector<int> bridged;                // BridgeKinks: one piece's partners, sorted positions
   // With a worker pool: the edge map's bands, the read noise's sums by band, and the
   // segments of each part of the chains.
   EdgeBandsScratch bands;
@@ -511,13 +600,9 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
   // later).
   //
   // A join keeps the first piece's start (JoinSegments) and a joined piece is only marked gone,
-  // so the starts, their x order and the grid below are built once for all sweeps. The starts
-  // are binned into a grid of cells kCell px wide, each cell in x order: a piece looks only at
-  // the cells its window covers. Scanning the whole x window instead (every start within reach
-  // in x, at any y) took a quarter of the detector's time on dense texture (foliage: 17,000
-  // pieces in a 1024 x 1024 frame, long ones reaching 100 px either way). Of the starts that
-  // pass every test the first in x order is joined, as a scan of the x window would: the grid
-  // changes the cost, not the result.
+  // so the starts' grid (StartGrid, cells of at least kCell px) is built once for all sweeps.
+  // Of the starts in a piece's window that pass every test the first in x order is joined, as a
+  // scan of the whole x window would: the grid changes the cost, not the result.
   //
   // After the first sweep a piece is searched again only where its window's cells hold the
   // start of a piece joined to since the piece was last searched (counted per cell in
@@ -528,75 +613,13 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
   constexpr double kCell = 8;
   std::vector<Segment>& v = *segs;
   const size_t n = v.size();
-  std::vector<int>& order = sc.order;
+  StartGrid& g = sc.grid;
+  g.Build(v, kCell);
+  const std::vector<int>& order = g.order;
   std::vector<double>& len = sc.length;
-  order.resize(n);
   len.resize(n);
-  // Sorted as (start x, index) pairs: the comparisons then read contiguous memory instead of
-  // the pieces, and ties in x keep index order.
-  std::vector<std::pair<double, int>>& by_x = sc.by_x;
-  by_x.resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    by_x[i] = {v[i].a.x(), static_cast<int>(i)};
-    len[i] = v[i].length();
-  }
-  std::sort(by_x.begin(), by_x.end());
-  // The starts in that order, side by side in memory: the window scans below read them.
-  std::vector<double>&xs = sc.start_x, &ys = sc.start_y;
-  xs.resize(n);
-  ys.resize(n);
-  // The grid spans the finite starts only (a non-finite one lands in a clamped cell and passes
-  // no window test); with none finite it is one cell.
-  double x_min = 0, x_max = 0, y_min = 0, y_max = 0;
-  bool any_finite = false;
-  for (size_t k = 0; k < n; ++k) {
-    order[k] = by_x[k].second;
-    xs[k] = by_x[k].first;
-    ys[k] = v[order[k]].a.y();
-    if (!std::isfinite(xs[k]) || !std::isfinite(ys[k])) continue;
-    x_min = any_finite ? std::min(x_min, xs[k]) : xs[k];
-    x_max = any_finite ? std::max(x_max, xs[k]) : xs[k];
-    y_min = any_finite ? std::min(y_min, ys[k]) : ys[k];
-    y_max = any_finite ? std::max(y_max, ys[k]) : ys[k];
-    any_finite = true;
-  }
-  if (!std::isfinite(x_max - x_min) || !std::isfinite(y_max - y_min)) x_max = x_min, y_max = y_min;
-  // Cells of kCell px, larger where the starts spread far (about 4 cells per piece at most).
-  const double spread = std::max(x_max - x_min, y_max - y_min);
-  const double cell = std::max(kCell, spread / (2 * std::sqrt(static_cast<double>(n)) + 1));
-  const int cols = n == 0 ? 0 : static_cast<int>((x_max - x_min) / cell) + 1;
-  const int rows = n == 0 ? 0 : static_cast<int>((y_max - y_min) / cell) + 1;
-  // Clamped to the grid (and 0 for a NaN) so that no value is cast out of range.
-  auto bin = [cell](double u, double u_min, int count) {
-    const double r = (u - u_min) / cell;
-    return r >= 0 ? (r < count ? static_cast<int>(r) : count - 1) : 0;
-  };
-  // Counting sort of the sorted positions k by cell: cell c holds grid_k[grid_begin[c],
-  // grid_begin[c + 1]) in increasing k (so increasing x).
-  const int cells = cols * rows;
-  auto cell_of = [&](size_t k) { return bin(ys[k], y_min, rows) * cols + bin(xs[k], x_min, cols); };
-  std::vector<int>& begin = sc.grid_begin;
-  begin.assign(cells + 1, 0);
-  for (size_t k = 0; k < n; ++k) ++begin[cell_of(k) + 1];
-  for (int c = 0; c < cells; ++c) begin[c + 1] += begin[c];
-  std::vector<int>& fill = sc.grid_fill;
-  fill.assign(begin.begin(), begin.end());
-  // The starts again, in cell order: a window's cells are read from contiguous memory.
-  std::vector<int>& grid_k = sc.grid_k;
-  std::vector<double>&grid_x = sc.grid_x, &grid_y = sc.grid_y;
-  std::vector<int>& start_cell = sc.start_cell;  // by piece
-  grid_k.resize(n);
-  grid_x.resize(n);
-  grid_y.resize(n);
-  start_cell.resize(n);
-  for (size_t k = 0; k < n; ++k) {
-    const int c = cell_of(k);
-    const int at = fill[c]++;
-    grid_k[at] = static_cast<int>(k);
-    grid_x[at] = xs[k];
-    grid_y[at] = ys[k];
-    start_cell[order[k]] = c;
-  }
+  for (size_t i = 0; i < n; ++i) len[i] = v[i].length();
+  const int cells = g.cells();
   std::vector<char>& gone = sc.gone;
   gone.assign(n, 0);
   // Joins by the cell of the joining piece's start: since the sweep before began (`changed`),
@@ -621,32 +644,29 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
         const double y_reach = reach + 2 * o.merge_offset_px;
         // Starts with x in [b.x - reach, b.x + reach] and y within y_reach of b.y.
         const double x_begin = s.b.x() - reach, x_end = s.b.x() + reach, y = s.b.y();
-        const bool overlaps =
-            y - y_reach <= y_max && y + y_reach >= y_min && x_begin <= x_max && x_end >= x_min;
-        const int r_lo = bin(y - y_reach, y_min, rows);
-        const int r_hi = overlaps ? bin(y + y_reach, y_min, rows) : -1;
-        const int c_lo = bin(x_begin, x_min, cols), c_hi = bin(x_end, x_min, cols);
+        int r_lo, r_hi, c_lo, c_hi;
+        g.Window(x_begin, x_end, y - y_reach, y + y_reach, &r_lo, &r_hi, &c_lo, &c_hi);
         if (!first) {
           bool any_changed = false;
           for (int r = r_lo; r <= r_hi && !any_changed; ++r)
-            for (int g = r * cols + c_lo; g <= r * cols + c_hi && !any_changed; ++g)
-              any_changed = changed[g] > 0;
+            for (int c = r * g.cols + c_lo; c <= r * g.cols + c_hi && !any_changed; ++c)
+              any_changed = changed[c] > 0;
           if (!any_changed) break;
         }
         // The piece whose start passes every test, first in x order: sorted position and index.
         int best_k = std::numeric_limits<int>::max(), best = -1;
         for (int r = r_lo; r <= r_hi; ++r) {
-          for (int g = r * cols + c_lo; g <= r * cols + c_hi; ++g) {
-            for (int e = begin[g]; e < begin[g + 1]; ++e) {
-              const int k = grid_k[e];
+          for (int c = r * g.cols + c_lo; c <= r * g.cols + c_hi; ++c) {
+            for (int e = g.begin[c]; e < g.begin[c + 1]; ++e) {
+              const int k = g.k[e];
               if (k >= best_k) break;  // this cell has nothing earlier in x order
-              if (grid_x[e] < x_begin || grid_x[e] > x_end) continue;
+              if (g.x[e] < x_begin || g.x[e] > x_end) continue;
               // The start must be near in y as well (the gap along the piece is below reach
               // and the offset across it below two merge offsets).
-              if (std::abs(grid_y[e] - y) > y_reach) continue;
+              if (std::abs(g.y[e] - y) > y_reach) continue;
               // The gap along the piece, from the start's copy in the grid (the test below with
               // this piece's length for the shorter one's: a bound that needs no other piece).
-              const double gap = (grid_x[e] - s.b.x()) * di.x() + (grid_y[e] - y) * di.y();
+              const double gap = (g.x[e] - s.b.x()) * di.x() + (g.y[e] - y) * di.y();
               if (gap > max_gap_i || gap < -o.merge_gap_px) continue;
               const int j = order[k];
               if (j == static_cast<int>(i) || gone[j]) continue;
@@ -658,9 +678,10 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
               // A short piece's direction is uncertain: allow it the angle at which its own
               // length moves its far end by merge_offset_px, cos(atan(offset / shorter)) =
               // shorter / sqrt(shorter^2 + offset^2), compared squared (this runs for every pair).
-              const double c = di.dot(t.b - t.a) / len[j];
-              if (c < cos_max &&
-                  (c <= 0 || c * c * (shorter * shorter + offset2) < shorter * shorter))
+              const double cos_turn = di.dot(t.b - t.a) / len[j];
+              if (cos_turn < cos_max &&
+                  (cos_turn <= 0 ||
+                   cos_turn * cos_turn * (shorter * shorter + offset2) < shorter * shorter))
                 continue;
               // The shorter piece's ends must lie on the longer piece's line (the better-measured
               // of the two); the longer piece's ends on the shorter's line only when both are
@@ -683,8 +704,8 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
           v[i] = JoinSegments(s, v[best]);
           len[i] = v[i].length();
           gone[best] = 1;
-          ++changed[start_cell[i]];
-          ++changed_next[start_cell[i]];
+          ++changed[g.cell_of_piece[i]];
+          ++changed_next[g.cell_of_piece[i]];
           merged = joined = true;
         }
       }
@@ -703,26 +724,42 @@ void BridgeKinks(const SegmentOptions& o, std::vector<Segment>* segs) {
   SegmentScratch& sc = Scratch();
   std::vector<Segment>& v = *segs;
   const size_t n = v.size();
-  // (start x, piece) in x order, side by side in memory (as in MergeCollinear).
-  std::vector<std::pair<double, int>>& by_x = sc.by_x;
-  by_x.resize(n);
-  for (size_t i = 0; i < n; ++i) by_x[i] = {v[i].a.x(), static_cast<int>(i)};
-  std::sort(by_x.begin(), by_x.end());
+  const double gap = o.bridge_gap_px;
+  // The starts within `gap` of a piece's end: from the cells of the grid, in (x, index) order.
+  // A window of x alone held about 70 starts per piece on a textured 1024 x 1024 photograph
+  // (25,000 pieces), each read from the piece itself: a sixth of the detector's time there.
+  StartGrid& g = sc.grid;
+  g.Build(v, std::max(2 * gap, 1.0));
+  // The rows are widened by a hair: a start whose distance rounds to `gap` may lie a rounding
+  // step beyond it in y. The columns need none: x is tested as before, against the same
+  // b.x -+ gap the columns come from.
+
   const double cos_max = std::cos(o.bridge_max_turn_deg * M_PI / 180);
+  std::vector<int>& partners = sc.bridged;
   for (size_t i = 0; i < n; ++i) {
     const Segment s = v[i];  // a copy: v grows below
     const Eigen::Vector2d di = (s.b - s.a) / s.length();
-    auto it =
-        std::lower_bound(by_x.begin(), by_x.end(), std::make_pair(s.b.x() - o.bridge_gap_px, -1));
-    for (; it != by_x.end() && it->first <= s.b.x() + o.bridge_gap_px; ++it) {
-      const Segment& t = v[it->second];
-      if (it->second == static_cast<int>(i) || (t.a - s.b).norm() > o.bridge_gap_px) continue;
-      const Eigen::Vector2d dj = (t.b - t.a) / t.length();
-      const double c = di.dot(dj);
-      // A bend either way; corners (>= bridge_max_turn_deg) are left to the quad search.
-      if (c < cos_max) continue;
-      v.push_back(JoinSegments(s, t));
+    const double x_begin = s.b.x() - gap, x_end = s.b.x() + gap;
+    int r0, r1, c0, c1;
+    const double y_slack = 1e-9 * (1 + gap + std::abs(s.b.y()));
+    g.Window(x_begin, x_end, s.b.y() - gap - y_slack, s.b.y() + gap + y_slack, &r0, &r1, &c0, &c1);
+    partners.clear();
+    for (int r = r0; r <= r1; ++r) {
+      for (int c = r * g.cols + c0; c <= r * g.cols + c1; ++c) {
+        for (int e = g.begin[c]; e < g.begin[c + 1]; ++e) {
+          if (g.x[e] < x_begin || g.x[e] > x_end) continue;
+          const int j = g.order[g.k[e]];
+          const Segment& t = v[j];
+          if (j == static_cast<int>(i) || (t.a - s.b).norm() > gap) continue;
+          const Eigen::Vector2d dj = (t.b - t.a) / t.length();
+          // A bend either way; corners (>= bridge_max_turn_deg) are left to the quad search.
+          if (di.dot(dj) < cos_max) continue;
+          partners.push_back(g.k[e]);
+        }
+      }
     }
+    std::sort(partners.begin(), partners.end());
+    for (const int k : partners) v.push_back(JoinSegments(s, v[g.order[k]]));
   }
 }
 

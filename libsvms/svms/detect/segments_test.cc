@@ -268,6 +268,75 @@ TEST(Segments, MergeFindsWhatAScanOfTheWholeXWindowFinds) {
   EXPECT_TRUE(MergeCollinear(SegmentOptions{}, &odd));
 }
 
+// The oracle for BridgeKinks' grid: every start within bridge_gap_px in x, in (x, index)
+// order, as the bridge searched before its starts were binned in a grid.
+void BridgeKinksByXWindow(const SegmentOptions& o, std::vector<Segment>* segs) {
+  std::vector<Segment>& v = *segs;
+  const size_t n = v.size();
+  std::vector<std::pair<double, int>> by_x(n);
+  for (size_t i = 0; i < n; ++i) by_x[i] = {v[i].a.x(), static_cast<int>(i)};
+  std::sort(by_x.begin(), by_x.end());
+  const double cos_max = std::cos(o.bridge_max_turn_deg * M_PI / 180);
+  for (size_t i = 0; i < n; ++i) {
+    const Segment s = v[i];
+    const Eigen::Vector2d di = (s.b - s.a) / s.length();
+    auto it =
+        std::lower_bound(by_x.begin(), by_x.end(), std::make_pair(s.b.x() - o.bridge_gap_px, -1));
+    for (; it != by_x.end() && it->first <= s.b.x() + o.bridge_gap_px; ++it) {
+      const Segment& t = v[it->second];
+      if (it->second == static_cast<int>(i) || (t.a - s.b).norm() > o.bridge_gap_px) continue;
+      if (di.dot((t.b - t.a) / t.length()) < cos_max) continue;
+      v.push_back(JoinSegments(s, t));
+    }
+  }
+}
+
+// Polylines of pieces bent by up to 30 degrees with gaps of up to 2 px, some pieces starting
+// exactly where another ends or on a shared x, and short clutter: the bridges are those of a
+// scan of the whole x window, in the same order, to the bit.
+TEST(Segments, BridgeFindsWhatAScanOfTheXWindowFinds) {
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<double> pos(0, 400), unit(0, 1);
+  size_t bridges = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    std::vector<Segment> v;
+    for (int e = 0; e < 60; ++e) {
+      Eigen::Vector2d p = DrawVector2(pos, rng);
+      double ang = unit(rng) * 2 * M_PI;
+      for (int piece = 0; piece < 6; ++piece) {
+        const Eigen::Vector2d u(std::cos(ang), std::sin(ang));
+        const Eigen::Vector2d q = p + (4 + 20 * unit(rng)) * u;
+        v.push_back(MakeSegment(p, q));
+        // The next piece starts at the end itself, or up to 2 px away; some share its x.
+        const double g = unit(rng) < 0.2 ? 0 : 2 * unit(rng);
+        const double turn = (unit(rng) - 0.5) * 60 * M_PI / 180;
+        p = q + g * Eigen::Vector2d(std::cos(ang + turn), std::sin(ang + turn));
+        if (unit(rng) < 0.1) p.x() = q.x();
+        ang += turn;
+      }
+    }
+    for (int c = 0; c < 1500; ++c) {
+      const Eigen::Vector2d a = DrawVector2(pos, rng);
+      const double ang = unit(rng) * 2 * M_PI;
+      v.push_back(
+          MakeSegment(a, a + (4 + 8 * unit(rng)) * Eigen::Vector2d(std::cos(ang), std::sin(ang))));
+    }
+    std::shuffle(v.begin(), v.end(), rng);
+    const size_t pieces = v.size();
+    std::vector<Segment> expected = v;
+    BridgeKinksByXWindow(SegmentOptions{}, &expected);
+    BridgeKinks(SegmentOptions{}, &v);
+    bridges += v.size() - pieces;
+    ASSERT_EQ(v.size(), expected.size()) << "trial " << trial;
+    for (size_t i = pieces; i < v.size(); ++i) {
+      EXPECT_EQ(v[i].a, expected[i].a) << "trial " << trial << " " << i;
+      EXPECT_EQ(v[i].b, expected[i].b) << "trial " << trial << " " << i;
+      EXPECT_EQ(v[i].line, expected[i].line) << "trial " << trial << " " << i;
+    }
+  }
+  EXPECT_GT(bridges, 20u * 100);  // or it would test nothing
+}
+
 // A side bent halfway by 7-14 degrees (a shadow across a small square's side) gets a segment
 // over both pieces, the pieces stay; a corner, a gap or pieces going the other way do not.
 TEST(Segments, BridgeSpansABentSideButNotACornerOrAGap) {
