@@ -72,7 +72,8 @@ bool FindQuads(const std::vector<Segment>& segs, const QuadOptions& o, int width
   // Start points `a` binned on a grid of `cell` pixels (with two cells of margin around the
   // image; anything beyond goes to the border cells), by a counting sort. A sorted array of
   // cell keys searched for every cell a long segment's reach covers takes a tenth of the time
-  // on cluttered frames.
+  // on cluttered frames. Cells are stored column by column (cell gx * gh + gy), so that a
+  // column's cells in a window are one run of by_cell, read in one loop.
   const double cell = std::max(8.0, o.join_min_px * 2);
   const int margin = 2;
   const int gw = static_cast<int>(std::ceil(width / cell)) + 2 * margin;
@@ -83,11 +84,11 @@ bool FindQuads(const std::vector<Segment>& segs, const QuadOptions& o, int width
   };
   sc.cell_begin.assign(static_cast<size_t>(gw) * gh + 1, 0);
   for (int i = 0; i < n; ++i)
-    ++sc.cell_begin[cell_of(segs[i].a.y(), gh) * gw + cell_of(segs[i].a.x(), gw) + 1];
+    ++sc.cell_begin[cell_of(segs[i].a.x(), gw) * gh + cell_of(segs[i].a.y(), gh) + 1];
   for (size_t c = 1; c < sc.cell_begin.size(); ++c) sc.cell_begin[c] += sc.cell_begin[c - 1];
   sc.by_cell.resize(n);
   for (int i = 0; i < n; ++i) {
-    const int c = cell_of(segs[i].a.y(), gh) * gw + cell_of(segs[i].a.x(), gw);
+    const int c = cell_of(segs[i].a.x(), gw) * gh + cell_of(segs[i].a.y(), gh);
     sc.by_cell[sc.cell_begin[c]++] = i;
   }
   for (size_t c = sc.cell_begin.size() - 1; c > 0; --c) sc.cell_begin[c] = sc.cell_begin[c - 1];
@@ -112,30 +113,27 @@ bool FindQuads(const std::vector<Segment>& segs, const QuadOptions& o, int width
     const double reach = std::max(o.join_min_px, o.join_fraction * length_i);
     const int r = static_cast<int>(std::ceil(reach / cell));
     const int cx = cell_of(s.b.x(), gw), cy = cell_of(s.b.y(), gh);
+    const int gy0 = std::max(0, cy - r), gy1 = std::min(gh - 1, cy + r);
     for (int gx = std::max(0, cx - r); gx <= std::min(gw - 1, cx + r); ++gx) {
-      for (int gy = std::max(0, cy - r); gy <= std::min(gh - 1, cy + r); ++gy) {
-        const int c = gy * gw + gx;
-        for (int m = sc.cell_begin[c]; m < sc.cell_begin[c + 1]; ++m) {
-          const int j = sc.by_cell[m];
-          if (j == i) continue;
-          const Segment& t = segs[j];
-          const Eigen::Vector2d& dj = sc.direction[j];
-          if (Cross(di, dj) < sin_min_turn) continue;  // must turn right (clockwise on screen)
-          const double length_j = sc.length[j];
-          const double join =
-              std::max(o.join_min_px, o.join_fraction * std::min(length_i, length_j));
-          // A corner within `join` of both ends needs the ends within 2 join of each other (the
-          // slack covers rounding): most starts in the window fail this before the intersection.
-          const double ends = 2 * join + 1e-9;
-          if ((t.a - s.b).squaredNorm() > ends * ends) continue;
-          Eigen::Vector2d corner;
-          if (!Intersect(s.line, t.line, &corner)) continue;
-          if ((corner - s.b).norm() > join || (corner - t.a).norm() > join) continue;
-          // The corner must lie beyond the middle of both segments (not a crossing).
-          if ((corner - s.a).dot(di) < 0.5 * length_i || (t.b - corner).dot(dj) < 0.5 * length_j)
-            continue;
-          sc.follows.push_back({j, corner});
-        }
+      for (int m = sc.cell_begin[gx * gh + gy0]; m < sc.cell_begin[gx * gh + gy1 + 1]; ++m) {
+        const int j = sc.by_cell[m];
+        if (j == i) continue;
+        const Segment& t = segs[j];
+        const Eigen::Vector2d& dj = sc.direction[j];
+        if (Cross(di, dj) < sin_min_turn) continue;  // must turn right (clockwise on screen)
+        const double length_j = sc.length[j];
+        const double join = std::max(o.join_min_px, o.join_fraction * std::min(length_i, length_j));
+        // A corner within `join` of both ends needs the ends within 2 join of each other (the
+        // slack covers rounding): most starts in the window fail this before the intersection.
+        const double ends = 2 * join + 1e-9;
+        if ((t.a - s.b).squaredNorm() > ends * ends) continue;
+        Eigen::Vector2d corner;
+        if (!Intersect(s.line, t.line, &corner)) continue;
+        if ((corner - s.b).norm() > join || (corner - t.a).norm() > join) continue;
+        // The corner must lie beyond the middle of both segments (not a crossing).
+        if ((corner - s.a).dot(di) < 0.5 * length_i || (t.b - corner).dot(dj) < 0.5 * length_j)
+          continue;
+        sc.follows.push_back({j, corner});
       }
     }
     sc.follow_begin.push_back(static_cast<int>(sc.follows.size()));

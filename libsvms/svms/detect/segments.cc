@@ -94,8 +94,10 @@ struct StartGrid {
   std::vector<int> order;
   std::vector<double> xs, ys;
   // The grid spans the finite starts: [x_min, x_max] x [y_min, y_max] in cols x rows cells of
-  // `cell` px. Cell c holds sorted positions k[begin[c], begin[c + 1]) in increasing k, with
-  // copies of their starts in x[], y[] beside them; cell_of_piece[i] is piece i's cell.
+  // `cell` px, stored row by row (cell r * cols + c). Cell c holds sorted positions
+  // k[begin[c], begin[c + 1]) in increasing k, with copies of their starts in x[], y[] beside
+  // them, so that the cells c0..c1 of a row are the one run [begin[c0], begin[c1 + 1]);
+  // cell_of_piece[i] is piece i's cell.
   double x_min = 0, x_max = 0, y_min = 0, y_max = 0, cell = 1;
   int cols = 0, rows = 0;
   std::vector<int> begin, fill, k, cell_of_piece;
@@ -656,48 +658,48 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
         // The piece whose start passes every test, first in x order: sorted position and index.
         int best_k = std::numeric_limits<int>::max(), best = -1;
         for (int r = r_lo; r <= r_hi; ++r) {
-          for (int c = r * g.cols + c_lo; c <= r * g.cols + c_hi; ++c) {
-            for (int e = g.begin[c]; e < g.begin[c + 1]; ++e) {
-              const int k = g.k[e];
-              if (k >= best_k) break;  // this cell has nothing earlier in x order
-              if (g.x[e] < x_begin || g.x[e] > x_end) continue;
-              // The start must be near in y as well (the gap along the piece is below reach
-              // and the offset across it below two merge offsets).
-              if (std::abs(g.y[e] - y) > y_reach) continue;
-              // The gap along the piece, from the start's copy in the grid (the test below with
-              // this piece's length for the shorter one's: a bound that needs no other piece).
-              const double gap = (g.x[e] - s.b.x()) * di.x() + (g.y[e] - y) * di.y();
-              if (gap > max_gap_i || gap < -o.merge_gap_px) continue;
-              const int j = order[k];
-              if (j == static_cast<int>(i) || gone[j]) continue;
-              const Segment& t = v[j];
-              const double shorter = std::min(len[i], len[j]);
-              if (gap > std::max(o.merge_gap_px, o.merge_gap_fraction * shorter) ||
-                  gap < -o.merge_gap_px)
-                continue;
-              // A short piece's direction is uncertain: allow it the angle at which its own
-              // length moves its far end by merge_offset_px, cos(atan(offset / shorter)) =
-              // shorter / sqrt(shorter^2 + offset^2), compared squared (this runs for every pair).
-              const double cos_turn = di.dot(t.b - t.a) / len[j];
-              if (cos_turn < cos_max &&
-                  (cos_turn <= 0 ||
-                   cos_turn * cos_turn * (shorter * shorter + offset2) < shorter * shorter))
-                continue;
-              // The shorter piece's ends must lie on the longer piece's line (the better-measured
-              // of the two); the longer piece's ends on the shorter's line only when both are
-              // long.
-              const Segment& longer = len[i] >= len[j] ? s : t;
-              const Segment& other = len[i] >= len[j] ? t : s;
-              if (dist_to_line(longer, other.a) > o.merge_offset_px ||
-                  dist_to_line(longer, other.b) > o.merge_offset_px)
-                continue;
-              if (shorter > both_long && (dist_to_line(other, longer.a) > o.merge_offset_px ||
-                                          dist_to_line(other, longer.b) > o.merge_offset_px))
-                continue;
-              best_k = k;
-              best = j;
-              break;
-            }
+          // A row's cells c_lo..c_hi hold one run of the grid's entries (cells are stored row
+          // by row): one loop over it, not one per cell (most cells of a long piece's window
+          // are empty).
+          for (int e = g.begin[r * g.cols + c_lo]; e < g.begin[r * g.cols + c_hi + 1]; ++e) {
+            const int k = g.k[e];
+            if (k >= best_k) continue;  // not earlier in x order than the best so far
+            if (g.x[e] < x_begin || g.x[e] > x_end) continue;
+            // The start must be near in y as well (the gap along the piece is below reach
+            // and the offset across it below two merge offsets).
+            if (std::abs(g.y[e] - y) > y_reach) continue;
+            // The gap along the piece, from the start's copy in the grid (the test below with
+            // this piece's length for the shorter one's: a bound that needs no other piece).
+            const double gap = (g.x[e] - s.b.x()) * di.x() + (g.y[e] - y) * di.y();
+            if (gap > max_gap_i || gap < -o.merge_gap_px) continue;
+            const int j = order[k];
+            if (j == static_cast<int>(i) || gone[j]) continue;
+            const Segment& t = v[j];
+            const double shorter = std::min(len[i], len[j]);
+            if (gap > std::max(o.merge_gap_px, o.merge_gap_fraction * shorter) ||
+                gap < -o.merge_gap_px)
+              continue;
+            // A short piece's direction is uncertain: allow it the angle at which its own
+            // length moves its far end by merge_offset_px, cos(atan(offset / shorter)) =
+            // shorter / sqrt(shorter^2 + offset^2), compared squared (this runs for every pair).
+            const double cos_turn = di.dot(t.b - t.a) / len[j];
+            if (cos_turn < cos_max &&
+                (cos_turn <= 0 ||
+                 cos_turn * cos_turn * (shorter * shorter + offset2) < shorter * shorter))
+              continue;
+            // The shorter piece's ends must lie on the longer piece's line (the better-measured
+            // of the two); the longer piece's ends on the shorter's line only when both are
+            // long.
+            const Segment& longer = len[i] >= len[j] ? s : t;
+            const Segment& other = len[i] >= len[j] ? t : s;
+            if (dist_to_line(longer, other.a) > o.merge_offset_px ||
+                dist_to_line(longer, other.b) > o.merge_offset_px)
+              continue;
+            if (shorter > both_long && (dist_to_line(other, longer.a) > o.merge_offset_px ||
+                                        dist_to_line(other, longer.b) > o.merge_offset_px))
+              continue;
+            best_k = k;
+            best = j;
           }
         }
         if (best >= 0) {
@@ -745,17 +747,15 @@ void BridgeKinks(const SegmentOptions& o, std::vector<Segment>* segs) {
     g.Window(x_begin, x_end, s.b.y() - gap - y_slack, s.b.y() + gap + y_slack, &r0, &r1, &c0, &c1);
     partners.clear();
     for (int r = r0; r <= r1; ++r) {
-      for (int c = r * g.cols + c0; c <= r * g.cols + c1; ++c) {
-        for (int e = g.begin[c]; e < g.begin[c + 1]; ++e) {
-          if (g.x[e] < x_begin || g.x[e] > x_end) continue;
-          const int j = g.order[g.k[e]];
-          const Segment& t = v[j];
-          if (j == static_cast<int>(i) || (t.a - s.b).norm() > gap) continue;
-          const Eigen::Vector2d dj = (t.b - t.a) / t.length();
-          // A bend either way; corners (>= bridge_max_turn_deg) are left to the quad search.
-          if (di.dot(dj) < cos_max) continue;
-          partners.push_back(g.k[e]);
-        }
+      for (int e = g.begin[r * g.cols + c0]; e < g.begin[r * g.cols + c1 + 1]; ++e) {
+        if (g.x[e] < x_begin || g.x[e] > x_end) continue;
+        const int j = g.order[g.k[e]];
+        const Segment& t = v[j];
+        if (j == static_cast<int>(i) || (t.a - s.b).norm() > gap) continue;
+        const Eigen::Vector2d dj = (t.b - t.a) / t.length();
+        // A bend either way; corners (>= bridge_max_turn_deg) are left to the quad search.
+        if (di.dot(dj) < cos_max) continue;
+        partners.push_back(g.k[e]);
       }
     }
     std::sort(partners.begin(), partners.end());
