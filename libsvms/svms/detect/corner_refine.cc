@@ -7,6 +7,8 @@
 #include <cmath>
 #include <vector>
 
+#include "svms/base/thread_scratch.h"
+
 namespace svms {
 
 namespace {
@@ -508,10 +510,7 @@ double BlurredBandBias(double band_px, std::vector<BandReading>* bands) {
   }
   return std::max(0.0, at(t.inward, i));  // blurrier than the last valid entry
 }
-RefineScratch& Scratch() {
-  thread_local RefineScratch scratch;
-  return scratch;
-}
+RefineScratch& Scratch() { return ThreadScratch<RefineScratch>(); }
 
 // A side's line in the fitting plane, a x + b y + c = 0 with (a, b) a unit normal.
 struct LineFit {

@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 #include <thread>
 
+#include "svms/base/thread_scratch.h"
 #include "svms/codec/svms44.h"
 #include "svms/detect/bit_sampler.h"
 #include "svms/detect/noise_model.h"
@@ -509,7 +510,7 @@ std::vector<Detection> Detector::Detect(const cv::Mat& input, DetectionStats* st
 
 void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::time_point deadline,
                       std::vector<Detection>* detections, const NoiseModel* noise) const {
-  thread_local DetectScratch sc;
+  DetectScratch& sc = ThreadScratch<DetectScratch>();
   DetectionStats stats;
   const DetectorOptions& o = options_;
   std::vector<Detection>& result = *detections;

@@ -7,6 +7,7 @@
 #include <limits>
 #include <opencv2/core.hpp>
 
+#include "svms/base/thread_scratch.h"
 #include "svms/codec/svms44.h"
 #include "svms/detect/corner_refine.h"
 #include "svms/detect/disc_fit.h"
@@ -74,10 +75,7 @@ struct PoseScratch {
   std::vector<double> sigma;
   TipSearchMemo tip_memo;  // EstimateMarkerPose's, shared by its planar candidates
 };
-PoseScratch& Scratch() {
-  thread_local PoseScratch scratch;
-  return scratch;
-}
+PoseScratch& Scratch() { return ThreadScratch<PoseScratch>(); }
 
 // The other planar candidate's weight in the covariance below which it is left out, and above
 // which the pose is flagged ambiguous (EstimateMarkerPose).

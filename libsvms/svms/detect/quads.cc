@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdint>
 
+#include "svms/base/thread_scratch.h"
+
 namespace svms {
 namespace {
 
@@ -66,7 +68,7 @@ bool FindQuads(const std::vector<Segment>& segs, const QuadOptions& o, int width
   const bool has_deadline = deadline != std::chrono::steady_clock::time_point::max();
   auto past = [&] { return has_deadline && std::chrono::steady_clock::now() >= deadline; };
   quads_out->clear();
-  thread_local QuadScratch sc;
+  QuadScratch& sc = ThreadScratch<QuadScratch>();
   const int n = static_cast<int>(segs.size());
   const double sin_min_turn = std::sin(o.min_turn_deg * M_PI / 180);
   // Start points `a` binned on a grid of `cell` pixels (with two cells of margin around the

@@ -10,6 +10,7 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
+#include "svms/base/thread_scratch.h"
 #include "svms/detect/canny.h"
 #include "svms/detect/edge_bands.h"
 #include "svms/detect/worker_pool.h"
@@ -196,10 +197,7 @@ struct SegmentScratch {
   std::vector<int> part_begin;
   std::vector<std::vector<Segment>> part_segments;
 };
-SegmentScratch& Scratch() {
-  thread_local SegmentScratch scratch;
-  return scratch;
-}
+SegmentScratch& Scratch() { return ThreadScratch<SegmentScratch>(); }
 
 // 8-connected chains of edge pixels: each pixel belongs to one chain; chains start at end
 // points (pixels with one neighbour) and then at whatever is left (closed loops). Chains of
