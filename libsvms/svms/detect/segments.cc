@@ -222,6 +222,16 @@ bool LinkChains(cv::Mat& edges, SegmentScratch* sc, const Past& past) {
   };
   auto neighbours = [&](int x, int y) {
     int n = 0;
+    if (x > 0 && y > 0 && x + 1 < cols && y + 1 < rows) {
+      // Inside the border (nearly every pixel): no bounds to check. The first pass asks this of
+      // every edge pixel, a fifth of all pixels on a textured photograph.
+      const uint8_t* p = map + y * step + x;
+      const uint8_t* above = p - step;
+      const uint8_t* below = p + step;
+      n = (above[-1] != 0) + (above[0] != 0) + (above[1] != 0) + (p[-1] != 0) + (p[1] != 0) +
+          (below[-1] != 0) + (below[0] != 0) + (below[1] != 0);
+      return n;
+    }
     for (int k = 0; k < 8; ++k) n += is_edge(x + dx[k], y + dy[k]);
     return n;
   };
@@ -229,8 +239,14 @@ bool LinkChains(cv::Mat& edges, SegmentScratch* sc, const Past& past) {
   auto walk = [&](int x, int y, std::vector<cv::Point>* chain) {
     for (;;) {
       int k = 0;
-      for (; k < 8; ++k)
-        if (is_edge(x + dx[k], y + dy[k])) break;
+      if (x > 0 && y > 0 && x + 1 < cols && y + 1 < rows) {  // no bounds to check
+        const uint8_t* p = map + y * step + x;
+        for (; k < 8; ++k)
+          if (p[static_cast<ptrdiff_t>(dy[k]) * static_cast<ptrdiff_t>(step) + dx[k]]) break;
+      } else {
+        for (; k < 8; ++k)
+          if (is_edge(x + dx[k], y + dy[k])) break;
+      }
       if (k == 8) return;
       x += dx[k];
       y += dy[k];
