@@ -64,7 +64,7 @@ void MagnitudeL1(const int16_t* __restrict dx, const int16_t* __restrict dy,
 // kNotEdge. `above`, `here`, `below` are the magnitudes of the rows before, at and after this
 // one, readable at [j - 1, j + 1] (zero outside the image); `dx`, `dy` this row's derivatives.
 // Branch-free: every neighbour is loaded and the one OpenCV's direction test picks is
-// selected (SuppressRow calls it only for pixels above `low`, which on real frames are few).
+// selected. Gives kNotEdge at or below `low`, so it may be called for any pixel.
 SVMS_CANNY_INLINE uint8_t SuppressPixel(const int32_t* above, const int32_t* here,
                                         const int32_t* below, const int16_t* dx, const int16_t* dy,
                                         int32_t low, int32_t high, int j) {
@@ -93,11 +93,10 @@ SVMS_CANNY_INLINE uint8_t SuppressPixel(const int32_t* above, const int32_t* her
 }
 
 // Pixels above `low` in a block from which SuppressRow tests every pixel of the block without
-// a branch (SuppressPixel gives kNotEdge at or below `low` itself). A branch per pixel above
-// `low` beats the vectorised test of every pixel where few are (0.54 against 1.9 ms on a sparse
-// 1024^2 frame); on texture (foliage, gravel: most pixels above `low`) that branch goes either
-// way at random, and testing every pixel of the block is faster (the detector's median on the
-// crops of `svms bench speed` 4.9 -> 3.8 ms; 2 or 8 here gave 4.0 and 4.3).
+// a branch. Where few pixels are above `low` (most of a frame of markers) a branch per pixel
+// is cheaper than testing all 16; on texture (foliage, gravel: most pixels above `low`) that
+// branch goes either way at random and costs more than the test it skips. The value was chosen
+// by timing the crops of `svms bench speed` (docs/benchmarks.md); it changes no output.
 constexpr int kDenseBlock = kBlock / 4;
 
 // SuppressPixel for j in [0, n), into out[j]: blocks with no magnitude above `low` are

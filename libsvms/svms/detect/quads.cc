@@ -49,7 +49,7 @@ struct QuadScratch {
   std::vector<Follow> follows;  // segment i's: follows[follow_begin[i], follow_begin[i + 1])
   std::vector<int> follow_begin;
   // By segment: its unit direction from a to b and its length, computed once rather than for
-  // every pair (on a textured photograph 5,000-25,000 segments, each meeting dozens of starts).
+  // every pair (a textured photograph gives tens of thousands, each meeting dozens of starts).
   std::vector<Eigen::Vector2d> direction;
   std::vector<double> length;
 };

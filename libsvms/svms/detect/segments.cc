@@ -80,14 +80,11 @@ struct ReadNoiseTally {
   }
 };
 
-// Buffers of FindSegments, kept per thread between calls so that a thread's detector
-// allocates nothing once they have grown to its largest frame (the C API's promise).
 // The pieces' starts (Segment::a) binned on a grid of square cells, for the searches of
-// MergeCollinear and BridgeKinks: each looks at the starts near a piece's end, and scanning a
-// window of x alone (every start within reach in x, at any y) took a quarter of the detector's
-// time on dense texture (foliage: 17,000 pieces in a 1024 x 1024 frame, long ones reaching
-// 100 px either way). A search reads the cells its window covers; each cell holds its starts in
-// (x, index) order, the order the searches take them in.
+// MergeCollinear and BridgeKinks: each looks at the starts near a piece's end. A window of x
+// alone (every start within reach in x, at any y) holds far more starts than the window's
+// cells on dense texture, where pieces number in the tens of thousands. Each cell holds its
+// starts in (x, index) order, so a search can tell which of the starts it finds comes first.
 struct StartGrid {
   // Sorted positions k: the pieces in (start x, index) order, order[k] the piece, xs[k], ys[k]
   // its start.
@@ -105,12 +102,17 @@ struct StartGrid {
   std::vector<double> x, y;
 
   // Bins the starts of `v` in cells of at least `min_cell` px, larger where the starts spread
-  // far (about 4 cells per piece at most). A non-finite start lands in a clamped cell (and
-  // passes no window test); with no finite start the grid is one cell.
+  // far (about 4 cells per piece at most). A start whose x is not a number is sorted and binned
+  // as x = +infinity (a NaN would break the sort's ordering), so no window's x test passes it;
+  // a non-finite start lands in a clamped cell; with no finite start the grid is one cell.
   void Build(const std::vector<Segment>& v, double min_cell) {
     const size_t n = v.size();
     by_x.resize(n);
-    for (size_t i = 0; i < n; ++i) by_x[i] = {v[i].a.x(), static_cast<int>(i)};
+    for (size_t i = 0; i < n; ++i) {
+      const double x_key =
+          std::isnan(v[i].a.x()) ? std::numeric_limits<double>::infinity() : v[i].a.x();
+      by_x[i] = {x_key, static_cast<int>(i)};
+    }
     // Sorted as (start x, index) pairs: comparisons read contiguous memory instead of the
     // pieces, and ties in x keep index order.
     std::sort(by_x.begin(), by_x.end());
@@ -224,7 +226,7 @@ bool LinkChains(cv::Mat& edges, SegmentScratch* sc, const Past& past) {
     int n = 0;
     if (x > 0 && y > 0 && x + 1 < cols && y + 1 < rows) {
       // Inside the border (nearly every pixel): no bounds to check. The first pass asks this of
-      // every edge pixel, a fifth of all pixels on a textured photograph.
+      // every edge pixel, which on texture is a large share of all pixels.
       const uint8_t* p = map + y * step + x;
       const uint8_t* above = p - step;
       const uint8_t* below = p + step;
@@ -620,12 +622,13 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
   // Of the starts in a piece's window that pass every test the first in x order is joined, as a
   // scan of the whole x window would: the grid changes the cost, not the result.
   //
-  // After the first sweep a piece is searched again only where its window's cells hold the
-  // start of a piece joined to since the piece was last searched (counted per cell in
-  // `changed`: the joins of the sweep before and of this one so far): against pieces that have
-  // not changed it would fail as it failed before. On textured photographs this makes the
-  // repeated sweeps (2-5 of them) nearly free; the result is that of full sweeps to the bit
-  // (segments_test.cc checks it against full sweeps of the whole x window).
+  // After the first sweep a piece that has not changed since its last search (it is unchanged
+  // until it joins in its own turn) is searched again only where its window's cells hold the
+  // start of a piece joined to since then (counted per cell in `changed`: the joins of the sweep
+  // before and of this one so far): against pieces that have not changed it would fail as it
+  // failed before. Once it has joined in this turn, its end and line are new and it searches
+  // its whole window. The repeated sweeps then cost little; the result is that of full sweeps
+  // (segments_test.cc checks it against full sweeps of the whole x window, to the bit).
   constexpr double kCell = 8;
   std::vector<Segment>& v = *segs;
   const size_t n = v.size();
@@ -651,6 +654,7 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
       if (i % 256 == 255 && has_deadline && std::chrono::steady_clock::now() >= deadline)
         return false;
       if (gone[i]) continue;
+      bool moved = false;  // piece i has joined in this turn
       for (bool joined = true; joined;) {
         joined = false;
         const Segment& s = v[i];
@@ -662,7 +666,7 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
         const double x_begin = s.b.x() - reach, x_end = s.b.x() + reach, y = s.b.y();
         int r_lo, r_hi, c_lo, c_hi;
         g.Window(x_begin, x_end, y - y_reach, y + y_reach, &r_lo, &r_hi, &c_lo, &c_hi);
-        if (!first) {
+        if (!first && !moved) {
           bool any_changed = false;
           for (int r = r_lo; r <= r_hi && !any_changed; ++r)
             for (int c = r * g.cols + c_lo; c <= r * g.cols + c_hi && !any_changed; ++c)
@@ -722,7 +726,7 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
           gone[best] = 1;
           ++changed[g.cell_of_piece[i]];
           ++changed_next[g.cell_of_piece[i]];
-          merged = joined = true;
+          merged = joined = moved = true;
         }
       }
     }
@@ -741,15 +745,13 @@ void BridgeKinks(const SegmentOptions& o, std::vector<Segment>* segs) {
   std::vector<Segment>& v = *segs;
   const size_t n = v.size();
   const double gap = o.bridge_gap_px;
-  // The starts within `gap` of a piece's end: from the cells of the grid, in (x, index) order.
-  // A window of x alone held about 70 starts per piece on a textured 1024 x 1024 photograph
-  // (25,000 pieces), each read from the piece itself: a sixth of the detector's time there.
+  // The starts within `gap` of a piece's end, from the cells of the grid, put in (x, index)
+  // order.
   StartGrid& g = sc.grid;
   g.Build(v, std::max(2 * gap, 1.0));
   // The rows are widened by a hair: a start whose distance rounds to `gap` may lie a rounding
-  // step beyond it in y. The columns need none: x is tested as before, against the same
+  // step beyond it in y. The columns need none: x is tested against the same
   // b.x -+ gap the columns come from.
-
   const double cos_max = std::cos(o.bridge_max_turn_deg * M_PI / 180);
   std::vector<int>& partners = sc.bridged;
   for (size_t i = 0; i < n; ++i) {

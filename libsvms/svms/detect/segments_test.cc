@@ -115,7 +115,7 @@ TEST(Segments, MergeJoinsPiecesOfOneEdgeButNotACorner) {
 }
 
 // The oracle for MergeCollinear's grid: the same tests on every start within reach in x, at
-// any y, first in x order (how the merge searched before its starts were binned in a grid),
+// any y, first in x order (the merge without its grid),
 // joined with the merge's own JoinSegments (the joined line decides later joins).
 void MergeCollinearByXWindow(const SegmentOptions& o, std::vector<Segment>* segs) {
   const double cos_max = std::cos(o.merge_angle_deg * M_PI / 180);
@@ -184,6 +184,20 @@ void MergeCollinearByXWindow(const SegmentOptions& o, std::vector<Segment>* segs
   }
 }
 
+// Appends `count` short pieces (4-12 px, any direction) starting where `pos` draws: what
+// foliage gives.
+template <typename Rng>
+void AddClutter(int count, std::uniform_real_distribution<double>& pos, Rng& rng,
+                std::vector<Segment>* v) {
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (int c = 0; c < count; ++c) {
+    const Eigen::Vector2d a = DrawVector2(pos, rng);
+    const double ang = unit(rng) * 2 * M_PI;
+    v->push_back(
+        MakeSegment(a, a + (4 + 8 * unit(rng)) * Eigen::Vector2d(std::cos(ang), std::sin(ang))));
+  }
+}
+
 // Random edges cut into jittered pieces with gaps, crossing one another, plus short clutter
 // pieces (what foliage gives): the merge joins exactly the pieces the x-window oracle joins, in
 // the same order, to the bit.
@@ -213,12 +227,7 @@ size_t CompareMergeWithXWindowScan(double extent, int clutter, int trials, uint3
         t += piece + max_gap * unit(rng);
       }
     }
-    for (int c = 0; c < clutter; ++c) {
-      const Eigen::Vector2d a = DrawVector2(pos, rng);
-      const double ang = unit(rng) * 2 * M_PI;
-      v.push_back(
-          MakeSegment(a, a + (4 + 8 * unit(rng)) * Eigen::Vector2d(std::cos(ang), std::sin(ang))));
-    }
+    AddClutter(clutter, pos, rng, &v);
     std::shuffle(v.begin(), v.end(), rng);
     const size_t pieces = v.size();
     Eigen::Vector2d lo = v[0].a, hi = v[0].a;
@@ -262,14 +271,76 @@ TEST(Segments, MergeFindsWhatAScanOfTheWholeXWindowFinds) {
   double gappy_cell;
   const size_t gappy = CompareMergeWithXWindowScan(300, 0, 100, 26, &gappy_cell, 6);
   EXPECT_GT(gappy, 100u * 50);
-  // A start that is not a number is left alone, and crashes nothing.
-  std::vector<Segment> odd = {MakeSegment({0, 0}, {10, 0}), MakeSegment({10.5, 0}, {20, 0})};
-  odd[0].a = Eigen::Vector2d(std::nan(""), 0);
-  EXPECT_TRUE(MergeCollinear(SegmentOptions{}, &odd));
+  // A piece whose start is not a number is never joined to (no window's x test passes it), and
+  // nothing crashes, whichever of the two comes first.
+  for (int nan_first = 0; nan_first < 2; ++nan_first) {
+    std::vector<Segment> odd = {MakeSegment({0, 0}, {10, 0}), MakeSegment({10.5, 0}, {20, 0})};
+    odd[1].a = Eigen::Vector2d(std::nan(""), 0);
+    if (nan_first) std::swap(odd[0], odd[1]);
+    EXPECT_TRUE(MergeCollinear(SegmentOptions{}, &odd));
+    EXPECT_EQ(odd.size(), 2u) << nan_first;
+    std::vector<Segment> bridged = odd;
+    BridgeKinks(SegmentOptions{}, &bridged);
+    EXPECT_EQ(bridged.size(), 2u) << nan_first;
+  }
+}
+
+// A piece that joins in a later sweep searches on from its new end there and then: pieces in
+// chain order along one line, where the second sweep lengthens the first piece past a gap that
+// the third piece's start could not be reached over before. Then 500 such lines at random
+// angles, lengths and gaps, in chain order (shuffled sets rarely give this order).
+TEST(Segments, MergeSearchesOnFromAPiecesNewEndInLaterSweeps) {
+  auto make = MakeSegment;
+  std::vector<Segment> v = {make({0, 0}, {10, 0}), make({14, 0}, {19, 0}), make({20, 0}, {74, 0}),
+                            make({106, 0}, {176, 0})};
+  std::vector<Segment> expected = v;
+  MergeCollinearByXWindow(SegmentOptions{}, &expected);
+  ASSERT_EQ(expected.size(), 1u);  // the oracle joins all four
+  EXPECT_TRUE(MergeCollinear(SegmentOptions{}, &v));
+  ASSERT_EQ(v.size(), 1u);
+  EXPECT_EQ(v[0].a, expected[0].a);
+  EXPECT_EQ(v[0].b, expected[0].b);
+  EXPECT_EQ(v[0].line, expected[0].line);
+
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> unit(0, 1);
+  int joined_all = 0;
+  for (int trial = 0; trial < 500; ++trial) {
+    const Eigen::Vector2d a(1000 * unit(rng), 1000 * unit(rng));
+    const double angle = unit(rng) * 2 * M_PI;
+    const Eigen::Vector2d u(std::cos(angle), std::sin(angle)), n(-u.y(), u.x());
+    // (length, gap after it) of the four pieces, drawn one after the other.
+    std::vector<std::pair<double, double>> pieces;
+    for (const auto& [len_lo, len_span, gap_lo, gap_span] :
+         {std::array<double, 4>{8, 7, 3.5, 3.5}, {3, 4, 0, 2}, {30, 50, 0, 45}, {60, 40, 0, 0}}) {
+      const double len = len_lo + len_span * unit(rng);
+      const double gap = gap_lo + gap_span * unit(rng);
+      pieces.push_back({len, gap});
+    }
+    std::vector<Segment> w;
+    double t = 0;
+    for (const auto& [len, gap] : pieces) {
+      const double off_a = 0.1 * (unit(rng) - 0.5);
+      const double off_b = 0.1 * (unit(rng) - 0.5);
+      w.push_back(make(a + t * u + off_a * n, a + (t + len) * u + off_b * n));
+      t += len + gap;
+    }
+    std::vector<Segment> want = w;
+    MergeCollinearByXWindow(SegmentOptions{}, &want);
+    EXPECT_TRUE(MergeCollinear(SegmentOptions{}, &w));
+    joined_all += want.size() == 1;
+    ASSERT_EQ(w.size(), want.size()) << "trial " << trial;
+    for (size_t i = 0; i < w.size(); ++i) {
+      EXPECT_EQ(w[i].a, want[i].a) << "trial " << trial;
+      EXPECT_EQ(w[i].b, want[i].b) << "trial " << trial;
+      EXPECT_EQ(w[i].line, want[i].line) << "trial " << trial;
+    }
+  }
+  EXPECT_GT(joined_all, 25);  // lines the later sweeps complete, or the family tests nothing
 }
 
 // The oracle for BridgeKinks' grid: every start within bridge_gap_px in x, in (x, index)
-// order, as the bridge searched before its starts were binned in a grid.
+// order: the bridge without its grid.
 void BridgeKinksByXWindow(const SegmentOptions& o, std::vector<Segment>* segs) {
   std::vector<Segment>& v = *segs;
   const size_t n = v.size();
@@ -315,12 +386,7 @@ TEST(Segments, BridgeFindsWhatAScanOfTheXWindowFinds) {
         ang += turn;
       }
     }
-    for (int c = 0; c < 1500; ++c) {
-      const Eigen::Vector2d a = DrawVector2(pos, rng);
-      const double ang = unit(rng) * 2 * M_PI;
-      v.push_back(
-          MakeSegment(a, a + (4 + 8 * unit(rng)) * Eigen::Vector2d(std::cos(ang), std::sin(ang))));
-    }
+    AddClutter(1500, pos, rng, &v);
     std::shuffle(v.begin(), v.end(), rng);
     const size_t pieces = v.size();
     std::vector<Segment> expected = v;
