@@ -177,6 +177,8 @@ struct StartGrid {
   }
 };
 
+// Buffers of FindSegments, kept per thread between calls so that a thread's detector
+// allocates nothing once they have grown to its largest frame (the C API's promise).
 struct SegmentScratch {
   cv::Mat stabilised, edges;
   CannyScratch canny;
