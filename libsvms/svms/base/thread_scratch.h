@@ -8,10 +8,10 @@ namespace svms {
 // instance per thread: give every user its own struct (an anonymous-namespace struct per file),
 // never a plain std::vector that another function might also ask for.
 //
-// Not inlined, on purpose: where a thread_local is used directly in a shared library, GCC does
-// not keep its address across calls and blocks of the using function but looks it up again (a
-// call to __tls_get_addr), inside loops too; on textured photographs those lookups were a few
-// percent of the detector's time. The reference this returns stays in a register.
+// Not inlined, on purpose: where a thread_local is used directly in a shared library, the
+// GCC 12 build of this project was seen to look its address up again (a call to
+// __tls_get_addr) across calls and blocks of the using function, inside loops too. The
+// reference this returns stays in a register.
 template <typename Buffers>
 [[gnu::noinline]] Buffers& ThreadScratch() {
   thread_local Buffers buffers;

@@ -96,7 +96,7 @@ SVMS_CANNY_INLINE uint8_t SuppressPixel(const int32_t* above, const int32_t* her
 // a branch. Where few pixels are above `low` (most of a frame of markers) a branch per pixel
 // is cheaper than testing all 16; on texture (foliage, gravel: most pixels above `low`) that
 // branch goes either way at random and costs more than the test it skips. The value was chosen
-// by timing the crops of `svms bench speed` (docs/benchmarks.md); it changes no output.
+// by timing the crops of `svms bench speed`; it changes no output.
 constexpr int kDenseBlock = kBlock / 4;
 
 // SuppressPixel for j in [0, n), into out[j]: blocks with no magnitude above `low` are

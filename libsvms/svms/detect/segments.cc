@@ -102,15 +102,17 @@ struct StartGrid {
   std::vector<double> x, y;
 
   // Bins the starts of `v` in cells of at least `min_cell` px, larger where the starts spread
-  // far (about 4 cells per piece at most). A start whose x is not a number is sorted and binned
-  // as x = +infinity (a NaN would break the sort's ordering), so no window's x test passes it;
-  // a non-finite start lands in a clamped cell; with no finite start the grid is one cell.
+  // far (about 4 cells per piece at most). A start with a coordinate that is not a number is
+  // sorted and binned as x = +infinity (a NaN would break the sort's ordering, and pass tests
+  // written as "reject if greater"), so no finite window's x test passes it; a non-finite start
+  // lands in a clamped cell; with no finite start the grid is one cell.
   void Build(const std::vector<Segment>& v, double min_cell) {
     const size_t n = v.size();
     by_x.resize(n);
     for (size_t i = 0; i < n; ++i) {
-      const double x_key =
-          std::isnan(v[i].a.x()) ? std::numeric_limits<double>::infinity() : v[i].a.x();
+      const double x_key = std::isnan(v[i].a.x()) || std::isnan(v[i].a.y())
+                               ? std::numeric_limits<double>::infinity()
+                               : v[i].a.x();
       by_x[i] = {x_key, static_cast<int>(i)};
     }
     // Sorted as (start x, index) pairs: comparisons read contiguous memory instead of the
@@ -626,11 +628,12 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
   //
   // After the first sweep a piece that has not changed since its last search (it is unchanged
   // until it joins in its own turn) is searched again only where its window's cells hold the
-  // start of a piece joined to since then (counted per cell in `changed`: the joins of the sweep
-  // before and of this one so far): against pieces that have not changed it would fail as it
-  // failed before. Once it has joined in this turn, its end and line are new and it searches
-  // its whole window. The repeated sweeps then cost little; the result is that of full sweeps
-  // (segments_test.cc checks it against full sweeps of the whole x window, to the bit).
+  // start of a piece that has itself joined since then (counted per cell of the joining piece's
+  // start in `changed`: the joins of the sweep before and of this one so far): against pieces
+  // that have not changed it would fail as it failed before, and a piece marked gone only
+  // removes a candidate. Once it has joined in this turn, its end and line are new and it
+  // searches its whole window. The repeated sweeps then cost little; the result is that of full
+  // sweeps (segments_test.cc checks it against full sweeps of the whole x window, to the bit).
   constexpr double kCell = 8;
   std::vector<Segment>& v = *segs;
   const size_t n = v.size();

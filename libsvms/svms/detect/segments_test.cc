@@ -266,17 +266,19 @@ TEST(Segments, MergeFindsWhatAScanOfTheWholeXWindowFinds) {
   EXPECT_GT(sparse, 20u * 100);
   // Gaps of up to 6 px straddle the gap test (3 px, or half the shorter piece): a pair refused
   // in one sweep passes once a join has lengthened its shorter piece, often in the same sweep
-  // after the first piece's turn. The merge searches a piece again after the first sweep only
-  // where a start in its window has been joined to since: this checks that it misses none.
+  // after the first piece's turn. After the first sweep the merge searches an unchanged piece
+  // again only where a piece starting in its window has joined since: this checks, with the
+  // chain-order test below, that it misses none.
   double gappy_cell;
   const size_t gappy = CompareMergeWithXWindowScan(300, 0, 100, 26, &gappy_cell, 6);
   EXPECT_GT(gappy, 100u * 50);
-  // A piece whose start is not a number is never joined to (no window's x test passes it), and
-  // nothing crashes, whichever of the two comes first.
-  for (int nan_first = 0; nan_first < 2; ++nan_first) {
+  // A piece whose start has a coordinate that is not a number is never joined to (no finite
+  // window's x test passes it), and nothing crashes, whichever of the two comes first.
+  for (int nan_first = 0; nan_first < 4; ++nan_first) {
     std::vector<Segment> odd = {MakeSegment({0, 0}, {10, 0}), MakeSegment({10.5, 0}, {20, 0})};
-    odd[1].a = Eigen::Vector2d(std::nan(""), 0);
-    if (nan_first) std::swap(odd[0], odd[1]);
+    odd[1].a =
+        nan_first < 2 ? Eigen::Vector2d(std::nan(""), 0) : Eigen::Vector2d(10.5, std::nan(""));
+    if (nan_first % 2) std::swap(odd[0], odd[1]);
     EXPECT_TRUE(MergeCollinear(SegmentOptions{}, &odd));
     EXPECT_EQ(odd.size(), 2u) << nan_first;
     std::vector<Segment> bridged = odd;
@@ -286,8 +288,9 @@ TEST(Segments, MergeFindsWhatAScanOfTheWholeXWindowFinds) {
 }
 
 // A piece that joins in a later sweep searches on from its new end there and then: pieces in
-// chain order along one line, where the second sweep lengthens the first piece past a gap that
-// the third piece's start could not be reached over before. Then 500 such lines at random
+// chain order along one line: the first sweep joins the second and third pieces, the second
+// sweep joins the first piece to them, and only from that new end can the fourth piece's start
+// be reached. Then 500 such lines at random
 // angles, lengths and gaps, in chain order (shuffled sets rarely give this order).
 TEST(Segments, MergeSearchesOnFromAPiecesNewEndInLaterSweeps) {
   auto make = MakeSegment;
