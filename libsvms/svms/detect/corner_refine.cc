@@ -646,6 +646,14 @@ bool EdgesUnderPenumbra(const Sampler& sample, const CornerRefineOptions& o, dou
   return true;
 }
 
+// The mean square of a Student-t variable with nu degrees of freedom, nu / (nu - 2): what a
+// normal error over a sigma estimated with nu degrees of freedom gives on average. nu is held
+// at 3 or more (below 2 the mean square is infinite; a side has at least 3 points).
+double StudentVarianceFactor(double nu) {
+  nu = std::max(nu, 3.0);
+  return nu / (nu - 2);
+}
+
 // Each corner's sigma (out->corner_sigma) from the four sides' line fits (out->side_points,
 // ->side_rms; the lines in the fitting plane), side k's points spread over a fraction
 // 1 - 2 margins[k] of it, and the lag-1 sums of their residuals.
@@ -668,26 +676,43 @@ void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, const std::array<
   // A line fitted to n points spread evenly over a fraction f of a side, residual RMS s: its
   // offset at the middle has variance s^2 / n and its slope s^2 / (n (f L)^2 / 12); at the
   // side's end (L / 2 away) the perpendicular variance is s^2 / n (1 + 3 / f^2).
-  double pooled_ss = 0, pooled_dof = 0;
-  for (int k = 0; k < 4; ++k) {
-    const double dof = std::max(1, out.side_points[k] - 2);
-    pooled_ss += out.side_rms[k] * out.side_rms[k] * dof;
-    pooled_dof += dof;
-  }
-  const double pooled_var = pooled_ss / pooled_dof;
+  // Side k's variance, (dof_k s_k^2 + P s_pooled^2) / (dof_k + P) with s_pooled^2 =
+  // sum_i dof_i s_i^2 / sum_i dof_i, is sum_i c[k][i] s_i^2 over the sides' own estimates s_i^2
+  // (dof_i = n_i - 2 degrees of freedom each); its perpendicular variance at the ends is that
+  // times mult[k].
+  std::array<double, 4> dof, mult;
+  std::array<std::array<double, 4>, 4> c;
+  const double P = o.pooled_prior_dof;
+  double pooled_dof = 0;
+  for (int i = 0; i < 4; ++i) pooled_dof += dof[i] = std::max(1, out.side_points[i] - 2);
   std::array<double, 4> perp{};
   for (int k = 0; k < 4; ++k) {
-    const double dof = std::max(1, out.side_points[k] - 2);
-    const double var = (out.side_rms[k] * out.side_rms[k] * dof + o.pooled_prior_dof * pooled_var) /
-                       (dof + o.pooled_prior_dof);
     const double f = 1 - 2 * margins[k];
-    perp[k] = std::sqrt(correlated * var * (1 + 3 / (f * f)) / std::max(1, out.side_points[k]));
+    mult[k] = correlated * (1 + 3 / (f * f)) / std::max(1, out.side_points[k]);
+    double var = 0;
+    for (int i = 0; i < 4; ++i) {
+      c[k][i] = ((i == k ? dof[k] : 0) + P * dof[i] / pooled_dof) / (dof[k] + P);
+      var += c[k][i] * out.side_rms[i] * out.side_rms[i];
+    }
+    perp[k] = std::sqrt(mult[k] * var);
   }
   for (int k = 0; k < 4; ++k) {
     const int j = (k + 3) % 4;
     const double sin_angle =
         std::max(0.2, std::abs(lines[j].x() * lines[k].y() - lines[j].y() * lines[k].x()));
-    out.corner_sigma[k] = std::sqrt(0.5 * (perp[j] * perp[j] + perp[k] * perp[k])) / sin_angle;
+    double var = 0.5 * (perp[j] * perp[j] + perp[k] * perp[k]);
+    if (o.small_sample_variance) {
+      // The corner's variance is sum_i g_i s_i^2: where the sides share one sigma (as the
+      // pooling assumes) its degrees of freedom are (sum g)^2 / sum g_i^2 / dof_i
+      // (Satterthwaite), and its error over the sigma it gives is Student-t with as many.
+      double sum = 0, sum_sq = 0;
+      for (int i = 0; i < 4; ++i) {
+        const double g = 0.5 * (mult[j] * c[j][i] + mult[k] * c[k][i]);
+        sum += g, sum_sq += g * g / dof[i];
+      }
+      var *= StudentVarianceFactor(sum * sum / sum_sq);
+    }
+    out.corner_sigma[k] = std::sqrt(var) / sin_angle;
   }
   *perp_out = perp;
 }

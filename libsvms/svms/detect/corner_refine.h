@@ -66,6 +66,12 @@ struct CornerRefineOptions {
   // heavy tails (t with 3 dof: RMS 1.7); all sides see the same noise and contrast. On sides
   // of 60 points it changes little.
   double pooled_prior_dof = 8;
+  // A corner's variance is then a weighted sum of the four sides' own estimates, and rests on
+  // nu degrees of freedom (Satterthwaite's rule for that sum): its error over the sigma it
+  // gives is Student-t, whose mean square is nu / (nu - 2), not 1 (1.33 for two sides of 6
+  // points each on their own). true: each corner's variance is multiplied by that factor, so
+  // that its normalised squared error has mean 1, not only in the limit of many points.
+  bool small_sample_variance = true;
   // A quad whose shortest side is below this (pixels) has a white stripe (a third of the side)
   // too narrow for the edge profile's +-2 px window plus the pixels' blur: its edges are placed
   // as LocateEdge's narrow_band says.
@@ -108,7 +114,8 @@ struct RefinedCorners {
   // fits: each line's offset and slope from its edge points' scatter (side_rms shrunk toward
   // the four sides' pooled scatter, see pooled_prior_dof; side_points; times (1 + rho) /
   // (1 - rho) in variance for the points' correlation rho along the side, `correlation`),
-  // evaluated at the corner, then the intersection at the lines' angle.
+  // evaluated at the corner, then the intersection at the lines' angle; times nu / (nu - 2) in
+  // variance for the degrees of freedom it rests on, small_sample_variance).
   std::array<double, 4> corner_sigma{};
   // The four corners' joint covariance (pixels^2; rows and columns x0, y0, x1, y1, ..., in the
   // order of `corners`) from the same line fits. Two corners on one side share that side's
