@@ -205,6 +205,10 @@ void AddBenchProfiles(CLI::App& bench, int* exit_code) {
       ->check(CLI::NonNegativeNumber);
   c->add_option("--threads", o->threads, "Views in parallel")->check(CLI::Range(1, 256));
   c->add_option("--profiles", o->profiles, "Profiles to run (default: all)")->delimiter(',');
+  c->add_flag(
+      "--correlated-corners", o->correlated_corners,
+      "The single-marker pose takes the corners with their joint covariance from the "
+      "line fits where the detector gives one (MarkerPoseOptions::corner_covariance_from_fit)");
   c->footer("Example:\n  svms bench profiles --out out/bench/profiles");
   c->callback([o, exit_code] { *exit_code = RunProfilesBenchmark(*o); });
 }

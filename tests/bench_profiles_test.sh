@@ -133,4 +133,18 @@ rc=0
 "$root/scripts/profiles_by_size" "$out/run/report.md" > /dev/null 2> "$out/by_size_bad.txt" || rc=$?
 [[ $rc -eq 2 && $(wc -l < "$out/by_size_bad.txt") -eq 1 ]] && grep -q 'report.md' "$out/by_size_bad.txt" ||
   fail "profiles_by_size on report.md: exit $rc, $(cat "$out/by_size_bad.txt")"
+
+# --correlated-corners: the single-marker pose takes the corners' joint covariance, which the
+# report says, and the poses (so the NEES) differ from the default run's on the same views.
+rc=0
+"$svms" bench profiles --quick --profiles linear --correlated-corners --out "$out/joint" \
+  > /dev/null 2> "$out/joint_stderr.txt" || rc=$?
+[[ $rc -eq 0 || $rc -eq 3 ]] || { cat "$out/joint_stderr.txt" >&2; fail "--correlated-corners: exit code $rc"; }
+grep -q '^## Sensor profiles (`svms bench profiles --quick --correlated-corners`)' \
+  "$out/joint/report.md" || fail "--correlated-corners: not in the report's title"
+"$py" - "$out/run" "$out/joint" <<'PY' || fail "--correlated-corners changed no pose"
+import json, sys
+a, b = (json.load(open(f"{d}/summary.json"))["per_profile"]["linear"] for d in sys.argv[1:3])
+assert a["nees_mean"] != b["nees_mean"], (a["nees_mean"], b["nees_mean"])
+PY
 echo PASS

@@ -129,6 +129,7 @@ Status RunSet(const SetRun& run, const ProfilesBenchmarkOptions& o,
       readers.emplace_back(SensorPhotometry(s));
       DetectorOptions options;
       options.refine.max_row_window_px = CornerRowWindowPx(readers.back().model());
+      options.pose.corner_covariance_from_fit = o.correlated_corners;
       detectors.push_back(std::make_unique<Detector>(options, scene.camera, models));
     }
     bool any_defocus = false;

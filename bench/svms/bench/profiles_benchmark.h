@@ -27,6 +27,9 @@ struct ProfilesBenchmarkOptions {
   uint64_t seed = 1;   // of the datasets
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   std::vector<std::string> profiles;  // the sensor profiles to run (scene.h); empty: every one
+  // The single-marker pose whitens the corners with their joint covariance where the detector
+  // gives one (MarkerPoseOptions::corner_covariance_from_fit).
+  bool correlated_corners = false;
 };
 
 // Runs the benchmark. Returns an exit code (exit_codes.h): 3 when a target was missed, 2 for an

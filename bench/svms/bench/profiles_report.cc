@@ -213,7 +213,8 @@ double BitsGainBudget(const Sensor& raw, const Sensor& eight) {
 // The introduction and the table of figures per profile.
 void Table(const ProfilesBenchmarkOptions& o, const std::vector<std::string>& profiles, size_t rows,
            double seconds, std::map<std::string, json>& per, std::ostream* md) {
-  *md << "## Sensor profiles (`svms bench profiles" << (o.quick ? " --quick" : "") << "`)\n\n";
+  *md << "## Sensor profiles (`svms bench profiles" << (o.quick ? " --quick" : "")
+      << (o.correlated_corners ? " --correlated-corners" : "") << "`)\n\n";
   *md << "Every view of the range, angle and small sets rendered once and exposed through "
          "each profile's camera pipeline and codec (docs/simulator.md), read back into linear "
          "light with the camera's photometric model (photometric.h), then detected; "
@@ -221,7 +222,12 @@ void Table(const ProfilesBenchmarkOptions& o, const std::vector<std::string>& pr
       << ", " << Cell(seconds, 0) << " s. The small set is also exposed 1/"
       << Cell(1 / kDimExposureScale, 0)
       << " as long (the dim rows: white at about 1/24 of full scale, as in a frame exposed for "
-         "a glint or the sunlit Earth); every other row is over the well-exposed sets.\n\n";
+         "a glint or the sunlit Earth); every other row is over the well-exposed sets."
+      << (o.correlated_corners
+              ? " The single-marker pose takes each marker's corners with their joint covariance "
+                "where the detector gives one (MarkerPoseOptions::corner_covariance_from_fit)."
+              : "")
+      << "\n\n";
   *md << "| figure |";
   for (const std::string& p : profiles) *md << " " << p << " |";
   *md << "\n|---|";

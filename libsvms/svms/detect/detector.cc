@@ -253,7 +253,8 @@ void PoseMarker(const StepImages& im, const CameraModel& camera, const MarkerMod
   if (im.noise.valid()) pose_options.black_noise_sigma = im.noise.Sigma(d->black * im.level);
   MarkerPose mp;
   const bool posed = EstimateMarkerPose(im.measure, d->corners, model, camera, d->black * im.level,
-                                        d->white * im.level, pose_options, &mp, d->corner_sigma);
+                                        d->white * im.level, pose_options, &mp, d->corner_sigma,
+                                        &d->corner_covariance);
   if (!posed) {
     d->pose_error = mp.failure;
     return;
@@ -277,7 +278,8 @@ void PoseMarker(const StepImages& im, const CameraModel& camera, const MarkerMod
   };
   if (r.ok && r.excluded_points > 0 && sum2(r.corner_sigma) < sum2(d->corner_sigma) &&
       EstimateMarkerPose(im.measure, r.corners, model, camera, d->black * im.level,
-                         d->white * im.level, pose_options, &again, r.corner_sigma)) {
+                         d->white * im.level, pose_options, &again, r.corner_sigma,
+                         &r.corner_covariance)) {
     d->corners = r.corners;
     d->corner_sigma = r.corner_sigma;
     d->corner_covariance = r.corner_covariance;

@@ -971,6 +971,12 @@ TEST(RefinePose, CalibrationCovarianceMatchesMonteCarlo) {
     double rms;
     ASSERT_TRUE(RefinePose(cam, X, px, sigma, &pose, &cov, &rms));
     ASSERT_TRUE(CalibrationCovariance(cam, pose, X, sigma, &calibration));
+    if (i == 0) {  // the corners whitened together, by a diagonal whitener: the same
+      const Eigen::Matrix<double, 8, 8> W = Eigen::Matrix<double, 8, 8>::Identity() / 0.1;
+      PoseCovariance joint;
+      ASSERT_TRUE(CalibrationCovariance(cam, pose, X, sigma, &joint, &W));
+      EXPECT_LT((joint - calibration).norm(), 1e-9 * calibration.norm());
+    }
     Eigen::Matrix<double, 6, 1> e;
     e << Log(truth.Rotation() * pose.Rotation().transpose()), truth.tvec - pose.tvec;
     nees_with += e.dot((cov + calibration).ldlt().solve(e));

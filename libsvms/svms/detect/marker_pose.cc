@@ -73,6 +73,7 @@ struct PoseScratch {
   std::vector<Eigen::Vector3d> X;  // EstimateMarkerPose's points, pixels and sigmas
   std::vector<Eigen::Vector2d> px;
   std::vector<double> sigma;
+  Eigen::Matrix<double, 8, 8> corner_whitener;  // CornerWhitener's
   TipSearchMemo tip_memo;  // EstimateMarkerPose's, shared by its planar candidates
 };
 PoseScratch& Scratch() { return ThreadScratch<PoseScratch>(); }
@@ -95,16 +96,23 @@ constexpr double kAmbiguousMinDeg = 2;
 // out (they would move R by rounding only).
 constexpr PoseStepTolerances kMarkerPoseTolerances{1e-12, 1e-12, 1e-15};
 
-// Sum over the points of their squared reprojection error in units of their sigmas.
+// Sum over the points of their squared reprojection error in units of their sigmas; with
+// `corner_whitener` (FitPoints), the first four points' 8 residuals whitened by it instead.
 double WeightedSquaredResiduals(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X,
                                 const std::vector<Eigen::Vector2d>& px,
-                                const std::vector<double>& sigma, const Pose& pose) {
+                                const std::vector<double>& sigma, const Pose& pose,
+                                const Eigen::Matrix<double, 8, 8>* corner_whitener) {
   double chi2 = 0;
+  Eigen::Matrix<double, 8, 1> r8;
   for (size_t i = 0; i < X.size(); ++i) {
     Eigen::Vector2d q;
     if (!camera.Project(pose * X[i], &q)) return std::numeric_limits<double>::infinity();
-    chi2 += (q - px[i]).squaredNorm() / (sigma[i] * sigma[i]);
+    if (corner_whitener && i < 4)
+      r8.segment<2>(2 * i) = q - px[i];
+    else
+      chi2 += (q - px[i]).squaredNorm() / (sigma[i] * sigma[i]);
   }
+  if (corner_whitener && X.size() >= 4) chi2 += (*corner_whitener * r8).squaredNorm();
   return chi2;
 }
 
@@ -519,12 +527,16 @@ Eigen::Vector3d VisibleTipPoint(const MarkerModel& model, const Eigen::Vector3d&
 // Buffers per thread: a warmed-up call allocates nothing.
 bool CalibrationCovariance(const CameraModel& camera, const Pose& pose,
                            const std::vector<Eigen::Vector3d>& X, const std::vector<double>& sigma,
-                           PoseCovariance* out) {
+                           PoseCovariance* out,
+                           const Eigen::Matrix<double, 8, 8>* corner_whitener) {
   const Eigen::MatrixXd& L = camera.intrinsics_covariance_factor();
   if (L.size() == 0) return false;
   thread_local Eigen::Matrix<double, 2, Eigen::Dynamic> dq_dintrinsics;
-  thread_local Eigen::MatrixXd G, HG, SL;
+  thread_local Eigen::MatrixXd G, HG, SL, D8;
   G.setZero(6, L.rows());
+  const bool joint = corner_whitener && X.size() >= 4;
+  if (joint) D8.setZero(8, L.rows());
+  Eigen::Matrix<double, 8, 6> J8;
   Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
   const Eigen::Matrix3d R = pose.Rotation();
   for (size_t i = 0; i < X.size(); ++i) {
@@ -539,9 +551,19 @@ bool CalibrationCovariance(const CameraModel& camera, const Pose& pose,
       J.block<1, 3>(k, 0) = a.cross(g).transpose();
       J.block<1, 3>(k, 3) = g.transpose();
     }
+    if (joint && i < 4) {  // whitened together below, as in RefinePose
+      J8.block<2, 6>(2 * i, 0) = J;
+      D8.middleRows(2 * i, 2) = dq_dintrinsics;
+      continue;
+    }
     const double w = 1.0 / (sigma[i] * sigma[i]);
     H.noalias() += w * J.transpose() * J;
     G.noalias() += w * J.transpose() * dq_dintrinsics;
+  }
+  if (joint) {
+    const Eigen::Matrix<double, 8, 6> WJ = *corner_whitener * J8;
+    H.noalias() += WJ.transpose() * WJ;
+    G.noalias() += WJ.transpose() * (*corner_whitener * D8);
   }
   Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(H);
   if (lu.rank() < 6) return false;
@@ -596,10 +618,14 @@ bool EdgeQuadratic(const CameraModel& camera, const Pose& cam_from_marker,
 bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X,
                 const std::vector<Eigen::Vector2d>& px, const std::vector<double>& sigma,
                 Pose* pose, PoseCovariance* cov, double* rms,
-                const std::vector<EdgeObservation>* edges, int max_iterations) {
+                const std::vector<EdgeObservation>* edges, int max_iterations,
+                const Eigen::Matrix<double, 8, 8>* corner_whitener) {
   Eigen::Matrix3d R = pose->Rotation();
   Eigen::Vector3d t = pose->tvec;
   Eigen::Matrix<double, 6, 6> JtWJ;
+  const bool joint = corner_whitener && X.size() >= 4;
+  Eigen::Matrix<double, 8, 6> J8;
+  Eigen::Matrix<double, 8, 1> r8;
   for (int iter = 0; iter < max_iterations; ++iter) {
     JtWJ.setZero();
     Eigen::Matrix<double, 6, 1> JtWr = Eigen::Matrix<double, 6, 1>::Zero();
@@ -614,9 +640,24 @@ bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X
       // Left perturbation in camera axes: p = exp([d]) R X + t  ->  dp/dd = -[R X]x, dp/dt = I;
       // a row g^T of dq/dp gives the row [((R X) x g)^T, g^T].
       const Eigen::Vector3d a = R * X[i];
+      if (joint && i < 4) {  // whitened together below
+        for (int k = 0; k < 2; ++k) {
+          J8.block<1, 3>(2 * i + k, 0) = a.cross(dq_dp.row(k).transpose()).transpose();
+          J8.block<1, 3>(2 * i + k, 3) = dq_dp.row(k);
+        }
+        r8.segment<2>(2 * i) = r;
+        continue;
+      }
       const double w = 1.0 / (sigma[i] * sigma[i]);
       for (int k = 0; k < 2; ++k)
         AddRow(a.cross(dq_dp.row(k).transpose()), dq_dp.row(k).transpose(), w, r[k], &JtWJ, &JtWr);
+    }
+    if (joint) {
+      const Eigen::Matrix<double, 8, 6> WJ = *corner_whitener * J8;
+      const Eigen::Matrix<double, 8, 1> Wr = *corner_whitener * r8;
+      for (int k = 0; k < 8; ++k)
+        AddRow(WJ.block<1, 3>(k, 0).transpose(), WJ.block<1, 3>(k, 3).transpose(), 1, Wr(k), &JtWJ,
+               &JtWr);
     }
     // Edge points: the distance across the edge's image (EdgeResidual).
     for (size_t i = 0; edges && i < edges->size(); ++i) {
@@ -658,7 +699,8 @@ namespace {
 int RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const CameraModel& camera,
                          const MarkerPoseOptions& o, const std::vector<Eigen::Vector3d>& X,
                          const std::vector<Eigen::Vector2d>& px, const std::vector<double>& sig,
-                         Pose* pose, PoseCovariance* cov, Eigen::Matrix<double, 6, 6>* information,
+                         const Eigen::Matrix<double, 8, 8>* corner_whitener, Pose* pose,
+                         PoseCovariance* cov, Eigen::Matrix<double, 6, 6>* information,
                          Eigen::Matrix<double, 6, 1>* offset) {
   if (!o.use_stripe_edge || !(model.cell_size > 0) || model.id < 0) return 0;
   thread_local std::vector<EdgeObservation> edges;
@@ -732,7 +774,7 @@ int RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const C
   double rms;
   // First fit at a nominal 0.1 px, then each group's own scatter sets its sigma. Its pose
   // serves only to measure that scatter: three iterations from the corners' pose suffice.
-  if (!RefinePose(camera, X, px, sig, &p, &C, &rms, &edges, 3)) return 0;
+  if (!RefinePose(camera, X, px, sig, &p, &C, &rms, &edges, 3, corner_whitener)) return 0;
   thread_local std::vector<double> residual;
   residual.clear();
   std::array<double, 2> ss{};
@@ -773,7 +815,7 @@ int RefineWithStripeEdge(const cv::Mat& image, const MarkerModel& model, const C
   for (int g = 0; g < 2; ++g) usable[g] = usable[g] && kept_in[g] >= 12;
   keep_usable();
   if (edges.empty()) return 0;
-  if (!RefinePose(camera, X, px, sig, &p, &C, &rms, &edges)) return 0;
+  if (!RefinePose(camera, X, px, sig, &p, &C, &rms, &edges, 10, corner_whitener)) return 0;
   if (!EdgeQuadratic(camera, p, edges, information, offset)) return 0;
   *pose = p;
   *cov = C;
@@ -902,18 +944,48 @@ void FitPoints(const std::array<Eigen::Vector2d, 4>& corners, const MarkerModel&
   sig->push_back(sigma);
 }
 
+// Where o.corner_covariance_from_fit and the detector gave the corners' joint covariance
+// (RefinedCorners::corner_covariance, nonzero): in *storage the whitener W of C =
+// corner_covariance_scale^2 x that covariance, each corner's 2 x 2 block raised where its mean
+// variance is below min_corner_sigma_px^2; W = L^-1 for C = L L^T, so W C W^T = I. nullptr
+// otherwise: the corners are independent, with FitPoints' sigmas.
+const Eigen::Matrix<double, 8, 8>* CornerWhitener(const MarkerPoseOptions& o,
+                                                  const std::array<double, 4>& corner_sigma,
+                                                  const Eigen::Matrix<double, 8, 8>* covariance,
+                                                  Eigen::Matrix<double, 8, 8>* storage) {
+  if (!o.corner_covariance_from_fit || !covariance || !(covariance->diagonal().minCoeff() > 0))
+    return nullptr;
+  Eigen::Matrix<double, 8, 8> C =
+      o.corner_covariance_scale * o.corner_covariance_scale * *covariance;
+  for (int k = 0; k < 4; ++k) {
+    const double floor2 = o.min_corner_sigma_px * o.min_corner_sigma_px;
+    const double own = 0.5 * C.block<2, 2>(2 * k, 2 * k).trace();
+    if (!(corner_sigma[k] > 0) || !(own > 0)) return nullptr;
+    if (own < floor2) C.block<2, 2>(2 * k, 2 * k) += (floor2 - own) * Eigen::Matrix2d::Identity();
+  }
+  const Eigen::LLT<Eigen::Matrix<double, 8, 8>> llt(C);
+  if (llt.info() != Eigen::Success) return nullptr;
+  *storage = llt.matrixL().solve(Eigen::Matrix<double, 8, 8>::Identity());
+  return storage->allFinite() ? storage : nullptr;
+}
+
 // Refines f->pose over X (RefinePose) and weighs the result (f->chi2, f->ok). With a well's
 // tip (`well_tip`), whose visible bottom depends on the pose, once more with the refined one.
 void RefineCandidate(const CameraModel& camera, const MarkerModel& model, bool well_tip,
                      std::vector<Eigen::Vector3d>* X, const std::vector<Eigen::Vector2d>& px,
-                     const std::vector<double>& sig, RefinedCandidate* f) {
-  if (!RefinePose(camera, *X, px, sig, &f->pose, &f->covariance, &f->rms)) return;
+                     const std::vector<double>& sig,
+                     const Eigen::Matrix<double, 8, 8>* corner_whitener, RefinedCandidate* f) {
+  if (!RefinePose(camera, *X, px, sig, &f->pose, &f->covariance, &f->rms, nullptr, 10,
+                  corner_whitener))
+    return;
   if (well_tip) {
     double fraction = 1;
     X->back() = VisibleTipPoint(model, f->pose.Inverse().tvec, &fraction);
-    if (!RefinePose(camera, *X, px, sig, &f->pose, &f->covariance, &f->rms)) return;
+    if (!RefinePose(camera, *X, px, sig, &f->pose, &f->covariance, &f->rms, nullptr, 10,
+                    corner_whitener))
+      return;
   }
-  f->chi2 = WeightedSquaredResiduals(camera, *X, px, sig, f->pose);
+  f->chi2 = WeightedSquaredResiduals(camera, *X, px, sig, f->pose, corner_whitener);
   f->ok = std::isfinite(f->chi2);
 }
 
@@ -926,7 +998,8 @@ void RefineCandidate(const CameraModel& camera, const MarkerModel& model, bool w
 // holding the last candidate's points. False (and *failure) if no refinement converged.
 bool ChooseCandidate(const std::array<Eigen::Vector2d, 4>& corners, const MarkerModel& model,
                      const CameraModel& camera, const MarkerPoseOptions& o,
-                     const std::array<double, 4>& corner_sigma, const TipCandidates& cands,
+                     const std::array<double, 4>& corner_sigma,
+                     const Eigen::Matrix<double, 8, 8>* corner_whitener, const TipCandidates& cands,
                      const std::optional<TipObservation>& tip, std::vector<Eigen::Vector3d>* X,
                      std::vector<Eigen::Vector2d>* px, std::vector<double>* sig,
                      std::array<RefinedCandidate, 2>* refined, size_t* pick_out, bool* use_tip,
@@ -940,7 +1013,8 @@ bool ChooseCandidate(const std::array<Eigen::Vector2d, 4>& corners, const Marker
       f.pose = cands[s].pose;
       FitPoints(corners, model, camera, o, corner_sigma, f.pose, *use_tip ? &*tip : nullptr, X, px,
                 sig);
-      RefineCandidate(camera, model, *use_tip && model.post->concave(), X, *px, *sig, &f);
+      RefineCandidate(camera, model, *use_tip && model.post->concave(), X, *px, *sig,
+                      corner_whitener, &f);
       if (f.ok && (!(*refined)[pick].ok || s == 0 || f.chi2 < (*refined)[pick].chi2)) pick = s;
     }
     if (!(*refined)[pick].ok) {
@@ -996,7 +1070,7 @@ bool WidenForOtherCandidate(const RefinedCandidate& a, const RefinedCandidate& b
 // kAmbiguousMinDeg) the pose is flagged ambiguous.
 void WidenForPlanarTwin(const CameraModel& camera, const Pose& pose,
                         const std::vector<Eigen::Vector3d>& X, const std::vector<double>& sig,
-                        MarkerPose* out) {
+                        const Eigen::Matrix<double, 8, 8>* corner_whitener, MarkerPose* out) {
   const Pose twin = PlanarTwin(pose);
   Eigen::Matrix<double, 6, 1> d;
   const Eigen::AngleAxisd delta(twin.Rotation() * pose.Rotation().transpose());
@@ -1004,11 +1078,17 @@ void WidenForPlanarTwin(const CameraModel& camera, const Pose& pose,
   const double separation = d.dot(out->covariance.ldlt().solve(d));
   double D = 0;
   bool projected = true;
+  const bool joint = corner_whitener && X.size() >= 4;
+  Eigen::Matrix<double, 8, 1> d8;
   for (size_t i = 0; i < X.size() && projected; ++i) {
     Eigen::Vector2d p_kept, p_twin;
     projected = camera.Project(pose * X[i], &p_kept) && camera.Project(twin * X[i], &p_twin);
-    D += (p_twin - p_kept).squaredNorm() / (sig[i] * sig[i]);
+    if (joint && i < 4)
+      d8.segment<2>(2 * i) = p_twin - p_kept;
+    else
+      D += (p_twin - p_kept).squaredNorm() / (sig[i] * sig[i]);
   }
+  if (joint && projected) D += (*corner_whitener * d8).squaredNorm();
   const double w = 0.5 * std::erfc(std::sqrt(D) / 2 / std::sqrt(2.0));
   if (projected && separation > 9 && w > kMixtureWeightFloor) {
     out->ambiguity_covariance = w * d * d.transpose();
@@ -1026,7 +1106,8 @@ void WidenForPlanarTwin(const CameraModel& camera, const Pose& pose,
 bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 4>& corners,
                         const MarkerModel& model, const CameraModel& camera, double black,
                         double white, const MarkerPoseOptions& o, MarkerPose* out,
-                        const std::array<double, 4>& corner_sigma) {
+                        const std::array<double, 4>& corner_sigma,
+                        const Eigen::Matrix<double, 8, 8>* corner_covariance) {
   // Both planar solutions, and the tip where each puts it.
   std::array<PlanarPoseCandidate, 2> ippe;
   if (!PlanarSolutions(corners, model, camera, &ippe, &out->failure)) return false;
@@ -1047,11 +1128,14 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
   std::vector<Eigen::Vector3d>& X = sc.X;
   std::vector<Eigen::Vector2d>& px = sc.px;
   std::vector<double>& sig = sc.sigma;
+  const Eigen::Matrix<double, 8, 8>* whitener =
+      CornerWhitener(o, corner_sigma, corner_covariance, &sc.corner_whitener);
+  out->joint_corners = whitener != nullptr;
   std::array<RefinedCandidate, 2> refined;
   size_t pick = 0;
   bool use_tip = false;
-  if (!ChooseCandidate(corners, model, camera, o, corner_sigma, cands, tip, &X, &px, &sig, &refined,
-                       &pick, &use_tip, &out->failure))
+  if (!ChooseCandidate(corners, model, camera, o, corner_sigma, whitener, cands, tip, &X, &px, &sig,
+                       &refined, &pick, &use_tip, &out->failure))
     return false;
   // X, px and sig hold the last candidate's points; the kept one's differ only in a well's
   // visible bottom, which follows the pose.
@@ -1065,7 +1149,7 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
   out->edge_information.setZero();
   out->edge_offset.setZero();
   out->edge_points =
-      RefineWithStripeEdge(image, model, camera, o, X, px, sig, &pose, &out->covariance,
+      RefineWithStripeEdge(image, model, camera, o, X, px, sig, whitener, &pose, &out->covariance,
                            &out->edge_information, &out->edge_offset);
   // The other planar solution, as far as the data leave it likely, widens the covariance.
   out->ambiguous = false;
@@ -1076,11 +1160,11 @@ bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 
   const size_t other = 1 - pick;
   if (cands.size() > 1 && refined[other].ok)
     weighed = WidenForOtherCandidate(refined[pick], refined[other], out);
-  if (!weighed) WidenForPlanarTwin(camera, pose, X, sig, out);
+  if (!weighed) WidenForPlanarTwin(camera, pose, X, sig, whitener, out);
   out->calibration_in_covariance = false;
   if (o.use_calibration_covariance && camera.intrinsics_covariance_factor().size() > 0) {
     PoseCovariance calibration;
-    if (CalibrationCovariance(camera, pose, X, sig, &calibration)) {
+    if (CalibrationCovariance(camera, pose, X, sig, &calibration, whitener)) {
       out->covariance += calibration;
       out->calibration_in_covariance = true;
     }

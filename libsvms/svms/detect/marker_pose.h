@@ -60,6 +60,19 @@ struct MarkerPoseOptions {
   double corner_sigma_px = 0.1;
   double corner_fit_scale = kCornerFitScale;
   double min_corner_sigma_px = 0.002;
+  // Where the detector gave the corners' joint covariance from its line fits
+  // (RefinedCorners::corner_covariance: two corners on one side err in opposite directions
+  // across it), whiten the four corners' residuals with corner_covariance_scale^2 times it
+  // instead of taking them as independent (corner_fit_scale); the tip and the edges as before.
+  // The fused pose's ObjectPoseOptions::corner_covariance_from_fit, for one marker. Off by
+  // default: on `svms bench profiles --correlated-corners` (docs/benchmarks.md) it takes the
+  // NEES median on linear and raw12 frames from 3.5 to 4.2 (5.35 when honest), the
+  // orientation's NEES from overconfident to conservative on every profile, and the
+  // orientation errors down by 2-9 %; but on the blurred profiles, whose small markers'
+  // corners are still overconfident, the share of NEES below 12.59 falls (jpeg_srgb 0.890 ->
+  // 0.876, srgb8 0.881 -> 0.862).
+  bool corner_covariance_from_fit = false;
+  double corner_covariance_scale = kCornerCovarianceScale;
   double tip_search_fraction = 0.25;  // search radius, as a fraction of the square's side
   double tip_min_contrast = 0.35;     // tip brighter than black by this fraction of white - black
   // The image's noise at the square's black (standard deviation, image units), where the caller
@@ -130,6 +143,9 @@ struct MarkerPose {
   Eigen::Matrix<double, 6, 1> edge_offset = Eigen::Matrix<double, 6, 1>::Zero();
   int solutions = 0;                       // planar solutions considered
   bool calibration_in_covariance = false;  // the camera calibration's uncertainty is included
+  // The corners were fitted with their joint covariance (corner_covariance_from_fit and the
+  // detector gave one), not as independent points.
+  bool joint_corners = false;
   std::string failure;  // when EstimateMarkerPose returns false: why (one phrase)
 };
 
@@ -190,13 +206,16 @@ std::optional<TipObservation> FindTip(const cv::Mat& image, const Eigen::Vector2
                                       double noise_sigma = 0);
 
 // Pose of a marker from its corners (marker order: TL, TR, BR, BL as printed, pixels), each
-// with its sigma from the side fits (pixels; 0: not known, see MarkerPoseOptions).
+// with its sigma from the side fits (pixels; 0: not known, see MarkerPoseOptions), and their
+// joint covariance from the same fits (RefinedCorners::corner_covariance; nullptr or zero: not
+// known), used with MarkerPoseOptions::corner_covariance_from_fit.
 // False if the camera cannot unproject the corners or no solution is valid; out->failure says
 // which.
 bool EstimateMarkerPose(const cv::Mat& image, const std::array<Eigen::Vector2d, 4>& corners,
                         const MarkerModel& model, const CameraModel& camera, double black,
                         double white, const MarkerPoseOptions& options, MarkerPose* out,
-                        const std::array<double, 4>& corner_sigma = {});
+                        const std::array<double, 4>& corner_sigma = {},
+                        const Eigen::Matrix<double, 8, 8>* corner_covariance = nullptr);
 
 // The marker-frame point whose image is the centroid of what the camera at `cam_in_marker`
 // sees of the white tip. For a post, the centre of its top. For a concave well, the part of
@@ -218,11 +237,13 @@ bool RegionTouchesSides(const ExcludedRegion& region,
 // The camera calibration's share of a pose fit's covariance, added by EstimateMarkerPose:
 // S L L^T S^T with S = -(J^T W J)^-1 J^T W d pixel / d intrinsics over the points X (marker
 // frame, metres; sigma their pixel sigmas) at cam_from_marker, L the camera's
-// intrinsics_covariance_factor ([rotation, translation], camera axes). False when the camera
-// has no factor or a point does not project. Exposed for tests.
+// intrinsics_covariance_factor ([rotation, translation], camera axes); W whitens the first
+// four points together where `corner_whitener` is given (as in RefinePose). False when the
+// camera has no factor or a point does not project. Exposed for tests.
 bool CalibrationCovariance(const CameraModel& camera, const Pose& cam_from_marker,
                            const std::vector<Eigen::Vector3d>& X, const std::vector<double>& sigma,
-                           PoseCovariance* out);
+                           PoseCovariance* out,
+                           const Eigen::Matrix<double, 8, 8>* corner_whitener = nullptr);
 
 // The residual of one edge point at cam_from_marker (R, t): the signed pixel distance from
 // e.pixel to the image of the edge's line, across it (along the normal of the projected edge
@@ -245,10 +266,14 @@ bool EdgeQuadratic(const CameraModel& camera, const Pose& cam_from_marker,
 
 // Gauss-Newton refinement of cam_from_marker over `points_in_marker` observed at `pixels`
 // with per-point sigmas (and `edges`, point-to-line), at most `max_iterations` steps; fills
-// the covariance, (J^T W J)^-1 in [rotation, translation], camera axes. Exposed for tests.
+// the covariance, (J^T W J)^-1 in [rotation, translation], camera axes. With
+// `corner_whitener` W (8 x 8, W C W^T = I for the corners' joint covariance C), the first four
+// points are the corners and their 8 residuals are whitened by W together (their sigmas are
+// not used). Exposed for tests.
 bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& points_in_marker,
                 const std::vector<Eigen::Vector2d>& pixels, const std::vector<double>& sigmas,
                 Pose* cam_from_marker, PoseCovariance* covariance, double* rms_px,
-                const std::vector<EdgeObservation>* edges = nullptr, int max_iterations = 10);
+                const std::vector<EdgeObservation>* edges = nullptr, int max_iterations = 10,
+                const Eigen::Matrix<double, 8, 8>* corner_whitener = nullptr);
 
 }  // namespace svms
