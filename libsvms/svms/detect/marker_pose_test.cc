@@ -382,15 +382,21 @@ TEST(FindTip, NoTopIsFoundInABlurredSquareWithoutOneNearItsSidesOrCorners) {
   EXPECT_LE(false_read, 3);
 }
 
-// The edge residual's row against central differences of the residual itself, through a
-// distorted lens (left perturbation, camera axes), for edges along x and y at both sides.
-TEST(EdgeResidual, ItsRowMatchesFiniteDifferences) {
+// A 640 x 480 OPENCV8 camera with strong distortion, for the fits' tests.
+CameraModel DistortedCamera() {
   CameraModel camera;
-  ASSERT_TRUE(CameraModel::Create(
+  EXPECT_TRUE(CameraModel::Create(
                   "LENSMODEL_OPENCV8",
                   {800, 800, 321, 238, -0.3, 0.1, 0.0005, -0.0003, -0.01, 0.01, 0.004, 0.001}, 640,
                   480, &camera)
                   .ok());
+  return camera;
+}
+
+// The edge residual's row against central differences of the residual itself, through a
+// distorted lens (left perturbation, camera axes), for edges along x and y at both sides.
+TEST(EdgeResidual, ItsRowMatchesFiniteDifferences) {
+  const CameraModel camera = DistortedCamera();
   const Eigen::Matrix3d R =
       Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.3, -0.8, 0.2).normalized()).toRotationMatrix();
   const Eigen::Vector3d t(0.05, -0.03, 0.9);
@@ -473,12 +479,7 @@ TEST(EstimateMarkerPose, AFailureSaysWhy) {
 // the same corners taken as independent with their own sigmas give a NEES far from 6 and
 // poses no better.
 TEST(RefinePose, CornersWhitenedTogetherAreTheGeneralisedLeastSquaresFit) {
-  CameraModel camera;
-  ASSERT_TRUE(CameraModel::Create(
-                  "LENSMODEL_OPENCV8",
-                  {800, 800, 321, 238, -0.3, 0.1, 0.0005, -0.0003, -0.01, 0.01, 0.004, 0.001}, 640,
-                  480, &camera)
-                  .ok());
+  const CameraModel camera = DistortedCamera();
   const Pose truth = Pose::FromRotation(
       Eigen::AngleAxisd(0.5, Eigen::Vector3d(0.2, -0.9, 0.1).normalized()).toRotationMatrix(),
       Eigen::Vector3d(0.03, -0.02, 1.2));
