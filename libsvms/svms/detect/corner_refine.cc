@@ -647,10 +647,12 @@ bool EdgesUnderPenumbra(const Sampler& sample, const CornerRefineOptions& o, dou
 }
 
 // The mean square of a Student-t variable with nu degrees of freedom, nu / (nu - 2): what a
-// normal error over a sigma estimated with nu degrees of freedom gives on average. nu is held
-// at 3 or more (below 2 the mean square is infinite; a side has at least 3 points).
+// normal error over a sigma estimated with nu degrees of freedom gives on average. Capped at 3
+// (nu held at 3 or more, NaN included): below nu = 2 the mean square is infinite, which two
+// 3-point sides without pooling (pooled_prior_dof 0) can reach; with the default pooling nu is
+// about 4 or more.
 double StudentVarianceFactor(double nu) {
-  nu = std::max(nu, 3.0);
+  if (!(nu > 3)) nu = 3;
   return nu / (nu - 2);
 }
 
@@ -705,6 +707,8 @@ void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, const std::array<
       // The corner's variance is sum_i g_i s_i^2: where the sides share one sigma (as the
       // pooling assumes) its degrees of freedom are (sum g)^2 / sum g_i^2 / dof_i
       // (Satterthwaite), and its error over the sigma it gives is Student-t with as many.
+      // Counted as n - 2 per side: where the points err together (rho > 0) or were trimmed,
+      // fewer are independent, and the factor is then too small.
       double sum = 0, sum_sq = 0;
       for (int i = 0; i < 4; ++i) {
         const double g = 0.5 * (mult[j] * c[j][i] + mult[k] * c[k][i]);

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
 #include <chrono>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -971,11 +973,29 @@ TEST(RefinePose, CalibrationCovarianceMatchesMonteCarlo) {
     double rms;
     ASSERT_TRUE(RefinePose(cam, X, px, sigma, &pose, &cov, &rms));
     ASSERT_TRUE(CalibrationCovariance(cam, pose, X, sigma, &calibration));
-    if (i == 0) {  // the corners whitened together, by a diagonal whitener: the same
+    if (i == 0) {
+      // The corners whitened together by a diagonal whitener: the same.
       const Eigen::Matrix<double, 8, 8> W = Eigen::Matrix<double, 8, 8>::Identity() / 0.1;
       PoseCovariance joint;
       ASSERT_TRUE(CalibrationCovariance(cam, pose, X, sigma, &joint, &W));
       EXPECT_LT((joint - calibration).norm(), 1e-9 * calibration.norm());
+      // By two whiteners of one correlated C (L^-1 and Q L^-1, Q orthogonal): the same, and
+      // not what L^-T gives.
+      Eigen::Matrix<double, 8, 8> M, N;
+      for (int k = 0; k < 64; ++k) M(k) = g(rng), N(k) = g(rng);
+      const Eigen::Matrix<double, 8, 8> C =
+          0.01 * (M * M.transpose() / 8 + Eigen::Matrix<double, 8, 8>::Identity());
+      const Eigen::Matrix<double, 8, 8> L_inv =
+          Eigen::Matrix<double, 8, 8>(C.llt().matrixL()).inverse();
+      const Eigen::Matrix<double, 8, 8> Q_L_inv =
+          Eigen::HouseholderQR<Eigen::Matrix<double, 8, 8>>(N).householderQ() * L_inv;
+      const Eigen::Matrix<double, 8, 8> L_inv_t = L_inv.transpose();
+      PoseCovariance by_l, by_ql, by_lt;
+      ASSERT_TRUE(CalibrationCovariance(cam, pose, X, sigma, &by_l, &L_inv));
+      ASSERT_TRUE(CalibrationCovariance(cam, pose, X, sigma, &by_ql, &Q_L_inv));
+      ASSERT_TRUE(CalibrationCovariance(cam, pose, X, sigma, &by_lt, &L_inv_t));
+      EXPECT_LT((by_l - by_ql).norm(), 1e-9 * by_l.norm());
+      EXPECT_GT((by_l - by_lt).norm(), 1e-3 * by_l.norm());
     }
     Eigen::Matrix<double, 6, 1> e;
     e << Log(truth.Rotation() * pose.Rotation().transpose()), truth.tvec - pose.tvec;

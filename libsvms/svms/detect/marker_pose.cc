@@ -103,16 +103,17 @@ double WeightedSquaredResiduals(const CameraModel& camera, const std::vector<Eig
                                 const std::vector<double>& sigma, const Pose& pose,
                                 const Eigen::Matrix<double, 8, 8>* corner_whitener) {
   double chi2 = 0;
+  const bool joint = corner_whitener && X.size() >= 4;
   Eigen::Matrix<double, 8, 1> r8;
   for (size_t i = 0; i < X.size(); ++i) {
     Eigen::Vector2d q;
     if (!camera.Project(pose * X[i], &q)) return std::numeric_limits<double>::infinity();
-    if (corner_whitener && i < 4)
+    if (joint && i < 4)
       r8.segment<2>(2 * i) = q - px[i];
     else
       chi2 += (q - px[i]).squaredNorm() / (sigma[i] * sigma[i]);
   }
-  if (corner_whitener && X.size() >= 4) chi2 += (*corner_whitener * r8).squaredNorm();
+  if (joint) chi2 += (*corner_whitener * r8).squaredNorm();
   return chi2;
 }
 
@@ -532,7 +533,7 @@ bool CalibrationCovariance(const CameraModel& camera, const Pose& pose,
   const Eigen::MatrixXd& L = camera.intrinsics_covariance_factor();
   if (L.size() == 0) return false;
   thread_local Eigen::Matrix<double, 2, Eigen::Dynamic> dq_dintrinsics;
-  thread_local Eigen::MatrixXd G, HG, SL, D8;
+  thread_local Eigen::MatrixXd G, HG, SL, D8, WD8;
   G.setZero(6, L.rows());
   const bool joint = corner_whitener && X.size() >= 4;
   if (joint) D8.setZero(8, L.rows());
@@ -563,7 +564,8 @@ bool CalibrationCovariance(const CameraModel& camera, const Pose& pose,
   if (joint) {
     const Eigen::Matrix<double, 8, 6> WJ = *corner_whitener * J8;
     H.noalias() += WJ.transpose() * WJ;
-    G.noalias() += WJ.transpose() * (*corner_whitener * D8);
+    WD8.noalias() = *corner_whitener * D8;
+    G.noalias() += WJ.transpose() * WD8;
   }
   Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(H);
   if (lu.rank() < 6) return false;

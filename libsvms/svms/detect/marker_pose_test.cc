@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
+#include <Eigen/QR>
 #include <cmath>
 #include <cstdio>
 #include <opencv2/core.hpp>
@@ -544,6 +546,28 @@ TEST(RefinePose, CornersWhitenedTogetherAreTheGeneralisedLeastSquaresFit) {
     EXPECT_LT((error(a) - error(b)).norm(), 1e-10);
     EXPECT_LT((ca - cb).norm(), 1e-9 * ca.norm());
     EXPECT_DOUBLE_EQ(rms_a, rms_b);
+  }
+  // Any whitener of the same C (Q W, Q orthogonal: (Q W)^T Q W = C^-1) gives the same fit: the
+  // fit uses W as a whitener, not as C^-1/2 in some other order (W^T would differ).
+  {
+    Eigen::Matrix<double, 8, 8> M;
+    for (int i = 0; i < 64; ++i) M(i) = g(rng);
+    const Eigen::Matrix<double, 8, 8> Q =
+        Eigen::HouseholderQR<Eigen::Matrix<double, 8, 8>>(M).householderQ();
+    const Eigen::Matrix<double, 8, 8> QW = Q * W;
+    const std::vector<Eigen::Vector2d> px = draw();
+    Pose a = truth, b = truth;
+    PoseCovariance ca, cb;
+    double rms;
+    ASSERT_TRUE(RefinePose(camera, X, px, sigma, &a, &ca, &rms, nullptr, 10, &W));
+    ASSERT_TRUE(RefinePose(camera, X, px, sigma, &b, &cb, &rms, nullptr, 10, &QW));
+    EXPECT_LT((error(a) - error(b)).norm(), 1e-10);
+    EXPECT_LT((ca - cb).norm(), 1e-9 * ca.norm());
+    const Eigen::Matrix<double, 8, 8> Wt = W.transpose();
+    Pose c = truth;
+    PoseCovariance cc;
+    ASSERT_TRUE(RefinePose(camera, X, px, sigma, &c, &cc, &rms, nullptr, 10, &Wt));
+    EXPECT_GT((cc - ca).norm(), 1e-3 * ca.norm()) << "W^T is not a whitener of C";
   }
   double nees_joint = 0, nees_independent = 0, e2_joint = 0, e2_independent = 0;
   const int n = 2000;
