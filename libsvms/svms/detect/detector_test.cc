@@ -13,6 +13,7 @@
 #include "svms/base/random_draws.h"
 #include "svms/camera/photometric.h"
 #include "svms/detect/canny.h"
+#include "svms/detect/ippe.h"
 #include "svms/detect/noise_model.h"
 #include "svms/detect/segments.h"
 #include "svms/geometry/pose.h"
@@ -577,6 +578,125 @@ TEST(Detector, AnAmbiguousPoseCoversBothPlanarSolutions) {
   RecordProperty("ambiguous", ambiguous);
   RecordProperty("wrong_solution_kept", wrong);
   EXPECT_GT(ambiguous, 0);
+}
+
+// EstimateMarkerPose with MarkerPoseOptions::corner_covariance_from_fit, on the detected
+// corners of rendered markers: the flat ones of the ambiguity test (no post: the other planar
+// solution widens the covariance) and ones with a post of about 45 and 10 px (the tip picks
+// the candidate), through a camera with a calibration covariance. Given a diagonal joint
+// covariance (each corner's own sigma^2, scaled as the independent fit scales it), the paths
+// that whiten the corners (the candidates' refinement and chi2, the stripe and decal edges, the
+// other solution's weight, the calibration's share) must give the independent fit to rounding:
+// a whitener with the wrong scale, on the wrong rows or left out of the fit would not. Given
+// the detector's own joint covariance, the other solution's weight must be the one the
+// corners' chi2 under that covariance gives (a transposed whitener fails here), and the pose
+// stays within its covariance of the truth. Not reached by these views: the planar twin's
+// weight (WidenForPlanarTwin), taken only where both candidates refine to one pose.
+TEST(EstimateMarkerPose, JointCornersWithADiagonalCovarianceAreTheIndependentFit) {
+  CameraModel cam = CameraModel::Pinhole(1111.1, 320, 240);
+  ASSERT_TRUE(cam.set_intrinsics_covariance_factor(
+                     Eigen::Vector4d(2.0, 2.0, 1.5, 1.5).asDiagonal().toDenseMatrix())
+                  .ok());
+  std::vector<std::pair<MarkerModel, Eigen::Vector3d>> views;
+  for (int v = 0; v < svms_testing::kFlatMarkerViews; ++v)
+    views.emplace_back(svms_testing::FlatMarker(v), svms_testing::FlatMarkerEye(v));
+  for (int v = 0; v < 16; ++v) {  // 4 of about 45 px, then 12 of 10 px
+    const double a = (v < 4 ? 10 + 12 * v : 8 + 4 * (v - 4)) * M_PI / 180, range = v < 4 ? 5 : 22;
+    views.emplace_back(MarkerModel::Standard(100 + v, 0.2, 0.05),
+                       Eigen::Vector3d(range * std::sin(a), 0.3, range * std::cos(a)));
+  }
+  MarkerPoseOptions independent;
+  MarkerPoseOptions joint = independent;
+  joint.corner_covariance_from_fit = true;
+  joint.corner_covariance_scale = independent.corner_fit_scale;
+  int widened = 0, alternatives_weighed = 0, missed = 0, tips = 0, with_edges = 0;
+  double nees_joint = 0;
+  for (size_t v = 0; v < views.size(); ++v) {
+    SCOPED_TRACE("view " + std::to_string(v));
+    const MarkerModel& m = views[v].first;
+    const Rendered r = Render(Base(cam, {{m, Pose{}}}, Look(views[v].second, {0, 0, 0})));
+    ASSERT_EQ(r.image.depth(), CV_8U);  // so the detection's grey levels are the image's
+    const std::vector<Detection> d = Detector(DetectorOptions{}, cam, {m}).Detect(r.image);
+    if (d.size() != 1 && v >= views.size() - 12) {
+      ++missed;
+      continue;
+    }
+    ASSERT_EQ(d.size(), 1u);
+    ASSERT_GT(d[0].corner_covariance.diagonal().minCoeff(), 0);
+    Eigen::Matrix<double, 8, 8> diagonal = Eigen::Matrix<double, 8, 8>::Zero();
+    for (int k = 0; k < 4; ++k)
+      diagonal(2 * k, 2 * k) = diagonal(2 * k + 1, 2 * k + 1) =
+          d[0].corner_sigma[k] * d[0].corner_sigma[k];
+    MarkerPose a, b, c;
+    ASSERT_TRUE(EstimateMarkerPose(r.image, d[0].corners, m, cam, d[0].black, d[0].white,
+                                   independent, &a, d[0].corner_sigma));
+    ASSERT_TRUE(EstimateMarkerPose(r.image, d[0].corners, m, cam, d[0].black, d[0].white, joint, &b,
+                                   d[0].corner_sigma, &diagonal));
+    ASSERT_TRUE(EstimateMarkerPose(r.image, d[0].corners, m, cam, d[0].black, d[0].white, joint, &c,
+                                   d[0].corner_sigma, &d[0].corner_covariance));
+    EXPECT_FALSE(a.joint_corners);
+    EXPECT_TRUE(b.joint_corners);
+    EXPECT_TRUE(c.joint_corners);
+    // The diagonal whitener is the independent fit.
+    EXPECT_LT(AngleBetweenDeg(a.cam_from_marker, b.cam_from_marker), 1e-7);
+    EXPECT_LT((a.cam_from_marker.tvec - b.cam_from_marker.tvec).norm(),
+              1e-8 * a.cam_from_marker.tvec.norm());
+    EXPECT_LT((a.covariance - b.covariance).norm(), 1e-6 * a.covariance.norm());
+    EXPECT_LT((a.ambiguity_covariance - b.ambiguity_covariance).norm(), 1e-6 * a.covariance.norm());
+    EXPECT_EQ(a.ambiguous, b.ambiguous);
+    EXPECT_NEAR(a.alternative_weight, b.alternative_weight, 1e-9);
+    EXPECT_EQ(a.edge_points, b.edge_points);
+    EXPECT_EQ(a.tip.has_value(), b.tip.has_value());
+    EXPECT_TRUE(a.calibration_in_covariance);
+    EXPECT_TRUE(b.calibration_in_covariance);
+    // The detector's joint covariance is used.
+    EXPECT_GT((c.covariance - a.covariance).norm(), 1e-3 * a.covariance.norm());
+    const double nees =
+        RotationNees(r.truth.markers[0].cam_from_marker, c.cam_from_marker, c.covariance);
+    EXPECT_LT(nees, 16.3);  // chi-square, 3 dof, 99.9 %
+    nees_joint += nees;
+    // Where the kept pose's planar twin widened it (translation untouched) and the corners are
+    // the only points: the twin's weight Phi(-sqrt(D) / 2) with D the corners' displacement
+    // d8^T C^-1 d8 under the joint covariance C (a transposed whitener would give another D).
+    // The other planar solution's weight 1 / (1 + exp(dchi2 / 2)) where the corners are the
+    // only points (no post; edges off, so the kept pose is the one weighed): chi2 of each
+    // solution d8^T C^-1 d8 under the joint covariance C (a transposed whitener would give
+    // other values).
+    MarkerPoseOptions corners_only = joint;
+    corners_only.use_stripe_edge = false;
+    MarkerPose e;
+    ASSERT_TRUE(EstimateMarkerPose(r.image, d[0].corners, m, cam, d[0].black, d[0].white,
+                                   corners_only, &e, d[0].corner_sigma, &d[0].corner_covariance));
+    if (!e.tip && e.alternative) {
+      const Eigen::Matrix<double, 8, 8> C =
+          joint.corner_covariance_scale * joint.corner_covariance_scale * d[0].corner_covariance;
+      auto chi2 = [&](const Pose& pose) {
+        Eigen::Matrix<double, 8, 1> r8;
+        for (int k = 0; k < 4; ++k) {
+          Eigen::Vector2d q;
+          EXPECT_TRUE(cam.Project(pose * m.Corners()[k], &q));
+          r8.segment<2>(2 * k) = q - d[0].corners[k];
+        }
+        return r8.dot(C.ldlt().solve(r8));
+      };
+      const double dchi2 = std::max(0.0, chi2(*e.alternative) - chi2(e.cam_from_marker));
+      EXPECT_NEAR(e.alternative_weight, 1 / (1 + std::exp(0.5 * dchi2)),
+                  1e-6 * e.alternative_weight);
+      ++alternatives_weighed;
+    }
+    widened += a.ambiguity_covariance.norm() > 0;
+    tips += a.tip.has_value();
+    with_edges += a.edge_points > 0;
+  }
+  RecordProperty("views_widened_by_the_other_solution", widened);
+  RecordProperty("alternatives_weighed_jointly", alternatives_weighed);
+  RecordProperty("mean_rotation_nees_joint", std::to_string(nees_joint / views.size()));
+  // The paths above were taken.
+  EXPECT_GT(widened, 0);
+  EXPECT_GT(alternatives_weighed, 0);
+  EXPECT_LE(missed, 2);  // of the 10 px markers
+  EXPECT_GT(tips, 0);
+  EXPECT_GT(with_edges, 0);
 }
 
 // A 30 px marker nearly head-on (the paper's Fig. 9 at its far end): the white stripe's outer
