@@ -209,6 +209,11 @@ void AddBenchProfiles(CLI::App& bench, int* exit_code) {
       "--correlated-corners", o->correlated_corners,
       "The single-marker pose takes the corners with their joint covariance from the "
       "line fits where the detector gives one (MarkerPoseOptions::corner_covariance_from_fit)");
+  c->add_option("--corner-fit-scale", o->corner_fit_scale,
+                "Corner sigma = this times the detector's line-fit sigma in the single-marker "
+                "pose (default: kCornerCovarianceScale with --correlated-corners, else "
+                "kCornerFitScale; marker_pose.h)")
+      ->check(CLI::NonNegativeNumber);
   c->footer("Example:\n  svms bench profiles --out out/bench/profiles");
   c->callback([o, exit_code] { *exit_code = RunProfilesBenchmark(*o); });
 }

@@ -30,6 +30,10 @@ struct ProfilesBenchmarkOptions {
   // The single-marker pose whitens the corners with their joint covariance where the detector
   // gives one (MarkerPoseOptions::corner_covariance_from_fit).
   bool correlated_corners = false;
+  // The single-marker pose's corner sigma: this times the line fits' sigma (with
+  // correlated_corners the joint covariance's scale). 0: the default, kCornerFitScale
+  // (kCornerCovarianceScale with correlated_corners; marker_pose.h).
+  double corner_fit_scale = 0;
 };
 
 // Runs the benchmark. Returns an exit code (exit_codes.h): 3 when a target was missed, 2 for an

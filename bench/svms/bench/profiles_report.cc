@@ -14,6 +14,7 @@
 #include "svms/base/statistics.h"
 #include "svms/bench/report_numbers.h"
 #include "svms/datasets/datasets.h"
+#include "svms/detect/marker_pose.h"
 #include "svms/pipelines/exit_codes.h"
 #include "svms/pipelines/json_text.h"
 #include "svms/pipelines/report_file.h"
@@ -214,7 +215,9 @@ double BitsGainBudget(const Sensor& raw, const Sensor& eight) {
 void Table(const ProfilesBenchmarkOptions& o, const std::vector<std::string>& profiles, size_t rows,
            double seconds, std::map<std::string, json>& per, std::ostream* md) {
   *md << "## Sensor profiles (`svms bench profiles" << (o.quick ? " --quick" : "")
-      << (o.correlated_corners ? " --correlated-corners" : "") << "`)\n\n";
+      << (o.correlated_corners ? " --correlated-corners" : "")
+      << (o.corner_fit_scale > 0 ? " --corner-fit-scale " + Cell(o.corner_fit_scale, 3) : "")
+      << "`)\n\n";
   *md << "Every view of the range, angle and small sets rendered once and exposed through "
          "each profile's camera pipeline and codec (docs/simulator.md), read back into linear "
          "light with the camera's photometric model (photometric.h), then detected; "
@@ -415,6 +418,11 @@ int WriteProfilesReport(const ProfilesBenchmarkOptions& o, const std::vector<std
   summary["profiles"] = profiles;
   summary["seed"] = o.seed;
   summary["quick"] = o.quick;
+  summary["correlated_corners"] = o.correlated_corners;
+  // The corner sigma's scale the single-marker pose used.
+  summary["corner_fit_scale"] =
+      o.corner_fit_scale > 0 ? o.corner_fit_scale
+                             : (o.correlated_corners ? kCornerCovarianceScale : kCornerFitScale);
   std::map<std::string, json> per = ProfileFigures(profiles, rows, timings);
   AddNoiseFigures(o, profiles, timings, &per);
   for (const std::string& p : profiles) summary["per_profile"][p] = per[p];
