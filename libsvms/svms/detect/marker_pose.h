@@ -34,16 +34,13 @@ struct TipObservation {
 };
 
 // The factor between a refined corner's error and the sigma its side fits give
-// (RefinedCorners::corner_sigma), shared by single-marker pose, fusion and the survey.
-// Calibrated on the simulator's mockup survey images with the true layout (200 views rendered
-// with 256 rays on edge pixels, `svms bench pose --data MOCKUP --layout MOCKUP/true_layout.json
-// --repeat 1`), with edges_along_rows on and no corner floor but min_corner_sigma_px: 0.95
-// made their mean NEES 6.04, and on the compare size sweep (one marker, seed 2) the line-fit
-// sigma times 1.00 gave per-axis corner Z^2 1.07-1.12 at 8-60 px: both measured before the
-// line-fit sigmas carried their own degrees of freedom (CornerRefineOptions::
-// small_sample_variance, which widens them by 22 % in variance at 8 px, 8 % at 16 px and 2 % at 60
-// px), and not measured again. The approach is the test (docs/flight-interface.md).
-inline constexpr double kCornerFitScale = 0.95;
+// (RefinedCorners::corner_sigma), shared by single-marker pose, fusion and the survey: 1, the
+// line fits' sigma as they give it, fitted to no render. Each corner's sigma carries its own
+// degrees of freedom (CornerRefineOptions::small_sample_variance); against it the corners'
+// per-axis Z^2 on the linear sensor profile has means of 0.94-1.14 by size from 8 to 60+ px
+// (`svms bench profiles`, `scripts/profiles_by_size`; docs/flight-interface.md says what the
+// pose's NEES does with it).
+inline constexpr double kCornerFitScale = 1.0;
 // The same factor where a marker's corners are taken with their joint covariance from the line
 // fits (RefinedCorners::corner_covariance; the fused pose, object_pose.h). Not fitted to a pose
 // test: the square root of the corners' per-axis Z^2 against corner_sigma over 150 synthetic
@@ -51,8 +48,6 @@ inline constexpr double kCornerFitScale = 0.95;
 // corner_refine_test.cc, TheCornersJointCovarianceCarriesTheSidesSlopes checks it within 0.04):
 // 1.133 with that test's seed, so 1.06. Used by MarkerPoseOptions::corner_covariance_from_fit
 // too.
-// kCornerFitScale is lower because treating the corners as independent overstates what
-// four corners say about a pose: it was fitted to the pose's NEES with that model.
 inline constexpr double kCornerCovarianceScale = 1.06;
 
 struct MarkerPoseOptions {
@@ -67,12 +62,10 @@ struct MarkerPoseOptions {
   // across it), whiten the four corners' residuals with corner_covariance_scale^2 times it
   // instead of taking them as independent (corner_fit_scale); the tip and the edges as before.
   // The fused pose's ObjectPoseOptions::corner_covariance_from_fit, for one marker. Off by
-  // default: on `svms bench profiles --correlated-corners` (docs/benchmarks.md) it takes the
-  // NEES median on linear and raw12 frames from 3.5 to 4.2 (5.35 when honest), the
-  // orientation's NEES mean nearer 3 (12-30 px: srgb8 6.05 -> 3.66) and the orientation
-  // errors down by 2-9 %; but on the blurred profiles, whose small markers' corners are still
-  // overconfident, the share of NEES below 12.59 falls (jpeg_srgb 0.890 -> 0.876, srgb8 0.881
-  // -> 0.862, raw12_bayer 0.891 -> 0.866).
+  // default: it makes the NEES on linear frames and the orientation's more honest, but on the
+  // blurred sensor profiles, whose small markers' corners are still overconfident, it lowers
+  // the share of NEES below 12.59 (`svms bench profiles --correlated-corners`, figures in
+  // docs/benchmarks.md).
   bool corner_covariance_from_fit = false;
   double corner_covariance_scale = kCornerCovarianceScale;
   double tip_search_fraction = 0.25;  // search radius, as a fraction of the square's side
