@@ -5,7 +5,7 @@
 # markers in that size range (the well-exposed sets; the dim set apart); the dim set's found
 # count and the corner RMS over the markers every profile found; the report's median row shows
 # the summary's medians. And a profile that does not exist ends with one line, exit 2. The
-# options --correlated-corners and --corner-fit-scale change the poses as they say.
+# options --correlated-corners and --corner-fit-scale (each alone) change the poses as they say.
 set -euo pipefail
 svms="$1"
 py=/usr/bin/python3
@@ -150,18 +150,22 @@ assert a["nees_mean"] != b["nees_mean"], (a["nees_mean"], b["nees_mean"])
 PY
 
 # --corner-fit-scale: the summary and the report's title say which scale the single-marker
-# pose used; corner sigmas twice the default's make the NEES smaller on the same views.
+# pose used (and the summary the defaults' otherwise); corner sigmas twice the default's make
+# the NEES smaller on the same views. Not run here: the option with --correlated-corners.
 rc=0
 "$svms" bench profiles --quick --profiles linear --corner-fit-scale 2 --out "$out/scale" \
   > /dev/null 2> "$out/scale_stderr.txt" || rc=$?
 [[ $rc -eq 0 || $rc -eq 3 ]] || { cat "$out/scale_stderr.txt" >&2; fail "--corner-fit-scale: exit code $rc"; }
 grep -q '^## Sensor profiles (`svms bench profiles --quick --corner-fit-scale 2.000`)' \
   "$out/scale/report.md" || fail "--corner-fit-scale: not in the report's title"
-"$py" - "$out/run" "$out/scale" <<'PY' || fail "--corner-fit-scale: summary (above)"
+"$py" - "$out/run" "$out/joint" "$out/scale" <<'PY' || fail "--corner-fit-scale: summary (above)"
 import json, sys
-s0, s2 = (json.load(open(f"{d}/summary.json")) for d in sys.argv[1:3])
-assert s2["corner_fit_scale"] == 2 and 0.5 < s0["corner_fit_scale"] < 1.5, \
-    (s0["corner_fit_scale"], s2["corner_fit_scale"])
+s0, sj, s2 = (json.load(open(f"{d}/summary.json")) for d in sys.argv[1:4])
+# The defaults (marker_pose.h): kCornerFitScale 1 for independent corners,
+# kCornerCovarianceScale 1.06 for the joint covariance.
+assert (s0["corner_fit_scale"], s0["correlated_corners"]) == (1.0, False), s0["corner_fit_scale"]
+assert (sj["corner_fit_scale"], sj["correlated_corners"]) == (1.06, True), sj["corner_fit_scale"]
+assert (s2["corner_fit_scale"], s2["correlated_corners"]) == (2, False), s2["corner_fit_scale"]
 a, b = s0["per_profile"]["linear"]["nees_mean"], s2["per_profile"]["linear"]["nees_mean"]
 assert b < 0.6 * a, (a, b)
 PY

@@ -130,9 +130,11 @@ Status RunSet(const SetRun& run, const ProfilesBenchmarkOptions& o,
       DetectorOptions options;
       options.refine.max_row_window_px = CornerRowWindowPx(readers.back().model());
       options.pose.corner_covariance_from_fit = o.correlated_corners;
-      if (o.corner_fit_scale > 0)
-        (o.correlated_corners ? options.pose.corner_covariance_scale
-                              : options.pose.corner_fit_scale) = o.corner_fit_scale;
+      if (o.corner_fit_scale > 0) {  // both, as the fusion's CornerFitScale does: a marker
+        // without a joint covariance falls back to the independent corners
+        options.pose.corner_fit_scale = o.corner_fit_scale;
+        if (o.correlated_corners) options.pose.corner_covariance_scale = o.corner_fit_scale;
+      }
       detectors.push_back(std::make_unique<Detector>(options, scene.camera, models));
     }
     bool any_defocus = false;

@@ -31,8 +31,8 @@ struct ProfilesBenchmarkOptions {
   // gives one (MarkerPoseOptions::corner_covariance_from_fit).
   bool correlated_corners = false;
   // The single-marker pose's corner sigma: this times the line fits' sigma (with
-  // correlated_corners the joint covariance's scale). 0: the default, kCornerFitScale
-  // (kCornerCovarianceScale with correlated_corners; marker_pose.h).
+  // correlated_corners the joint covariance's scale as well). 0: the defaults, kCornerFitScale
+  // (kCornerCovarianceScale for the joint covariance; marker_pose.h).
   double corner_fit_scale = 0;
 };
 
