@@ -179,6 +179,7 @@ void BindDetector(py::module_& m) {
       .def_readwrite("known_ids_only", &DetectorOptions::known_ids_only)
       .def_readwrite("min_contrast", &DetectorOptions::min_contrast)
       .def_readwrite("refine_corners", &DetectorOptions::refine_corners)
+      .def_readwrite("equalize_rings", &DetectorOptions::equalize_rings)
       .def_readwrite("post_silhouette_margin_px", &DetectorOptions::post_silhouette_margin_px)
       .def_readwrite("threads", &DetectorOptions::threads);
 

@@ -10,6 +10,7 @@
 #include "svms/codec/svms44.h"
 #include "svms/detect/bit_sampler.h"
 #include "svms/detect/noise_model.h"
+#include "svms/detect/ring_equalizer.h"
 #include "svms/detect/worker_pool.h"
 
 namespace svms {
@@ -191,10 +192,31 @@ bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, Detec
   return complete;
 }
 
+// 7c: the decoding of step 7b's reading of a small square, and, where it does not decode or
+// decodes only with more corrections than a decode may have without evidence, of the same
+// reading with its ring equalised (DetectorOptions::equalize_rings); the one with fewer
+// corrections kept.
+CodeMatch DecodeEqualised(const BitReading& bits, const DetectorOptions& o) {
+  const CodeMatch m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
+  if (!o.equalize_rings || (m.accepted() && m.bit_errors <= o.max_unsupported_corrections))
+    return m;
+  // Interference brings cells near the threshold, while the rest stay clear of it: a reading
+  // with every cell far from it (a sharp ring that does not decode, such as a marker's stripe
+  // read as a ring) or none (a flat patch) is not equalised.
+  int near = 0;
+  for (float margin : bits.margin) near += std::abs(margin) < o.equalize_near_margin;
+  if (near < o.equalize_min_near_cells || near > 44 - o.equalize_min_clear_cells) return m;
+  const RingEqualization eq = EqualizeRing(bits, o.ring_equalizer);
+  if (!eq.ok || eq.word == bits.word) return m;
+  const CodeMatch m2 = Svms44::Decode(eq.word, o.max_corrections, o.id_count);
+  return m2.accepted() && (!m.accepted() || m2.bit_errors < m.bit_errors) ? m2 : m;
+}
+
 // 5-7 for one quad: the homography from its corners, its bits, their decoding. A small square
 // whose bits do not decode, or decode only with more corrections than a decode may have without
-// evidence, gets its corners refined once and is read again (7b). The
-// detection (ID, rotation, corners in the marker's order, grey levels), or nullopt.
+// evidence, gets its corners refined once and is read again (7b), that reading also with its
+// ring equalised (7c). The detection (ID, rotation, corners in the marker's order, grey levels),
+// or nullopt.
 std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorOptions& o,
                                     const CameraModel* cam) {
   static const MarkerModel unit = MarkerModel::Standard(0, 1.0, 0);
@@ -221,7 +243,7 @@ std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorO
     if (r.ok) {
       const BitReading again = SampleBits(gray, UnitHomography(r.corners), unit);
       if (again.samples_outside == 0 && again.white - again.black >= o.min_contrast) {
-        const CodeMatch m2 = Svms44::Decode(again.word, o.max_corrections, o.id_count);
+        const CodeMatch m2 = DecodeEqualised(again, o);
         // A decode is replaced only by the same ID in the same rotation with fewer
         // corrections: two readings of one square that name two codewords (9 or more bits
         // apart) cannot both be right, and the weak one still needs its evidence.

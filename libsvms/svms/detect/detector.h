@@ -33,6 +33,7 @@
 #include "svms/detect/marker_pose.h"
 #include "svms/detect/noise_model.h"
 #include "svms/detect/quads.h"
+#include "svms/detect/ring_equalizer.h"
 #include "svms/detect/segments.h"
 #include "svms/geometry/pose.h"
 #include "svms/marker/marker_model.h"
@@ -102,6 +103,24 @@ struct DetectorOptions {
   double small_quad_refine_px = 32;
   double small_quad_min_contrast = 20;
   int small_quad_min_separated_refs = 40;
+  // Step 7c: step 7b's reading that does not decode, or decodes only with more than
+  // max_unsupported_corrections, is read again with its ring's inter-symbol interference
+  // modelled from its own cells (ring_equalizer.h), and replaces it where it decodes with fewer
+  // corrections. On the small set's 8-12 px markers behind 0.7 px of blur and JPEG, most of the
+  // bits a plain reading flips are white cells between black ones. Only on 7b's reading: the
+  // segments' corners of such markers are too far off for any reading of their bits, and each
+  // equalisation costs some tens of microseconds.
+  bool equalize_rings = true;
+  // ... only where at least equalize_min_near_cells of the 44 cells read within
+  // equalize_near_margin of the threshold (BitReading::margin) and at least
+  // equalize_min_clear_cells do not. Of the small set's 8-12 px JPEG markers whose plain
+  // reading at their true corners is 3 or more flips off (77), every one has 2 or more such
+  // cells, and 30 or more clear ones; a quad across a marker's stripe, a sharp ring that does
+  // not decode, has none, and a flat patch no clear one.
+  double equalize_near_margin = 0.1;
+  int equalize_min_near_cells = 2;
+  int equalize_min_clear_cells = 11;
+  RingEqualizerOptions ring_equalizer;
   // Step 10b: when the post's silhouette (grown by this margin, pixels) reaches a side, that
   // side is refitted without the edge points under it and the pose solved again. <= 0: off.
   double post_silhouette_margin_px = 2.5;
