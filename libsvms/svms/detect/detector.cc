@@ -194,8 +194,10 @@ bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, Detec
 
 // 7c: the decoding of step 7b's reading of a small square, and, where it does not decode or
 // decodes only with more corrections than a decode may have without evidence, of the same
-// reading with its ring equalised (DetectorOptions::equalize_rings); the one with fewer
-// corrections kept.
+// reading with its ring equalised (DetectorOptions::equalize_rings). The equalised decode is
+// taken where the plain one failed, or names the same ID and rotation with fewer corrections:
+// two readings of one square that name two codewords cannot both be right, and the plain one
+// keeps its need for evidence.
 CodeMatch DecodeEqualised(const BitReading& bits, const DetectorOptions& o) {
   const CodeMatch m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
   if (!o.equalize_rings || (m.accepted() && m.bit_errors <= o.max_unsupported_corrections))
@@ -205,11 +207,15 @@ CodeMatch DecodeEqualised(const BitReading& bits, const DetectorOptions& o) {
   // read as a ring) or none (a flat patch) is not equalised.
   int near = 0;
   for (float margin : bits.margin) near += std::abs(margin) < o.equalize_near_margin;
-  if (near < o.equalize_min_near_cells || near > 44 - o.equalize_min_clear_cells) return m;
+  if (near < o.equalize_min_near_cells || near > Svms44::kBits - o.equalize_min_clear_cells)
+    return m;
   const RingEqualization eq = EqualizeRing(bits, o.ring_equalizer);
   if (!eq.ok || eq.word == bits.word) return m;
   const CodeMatch m2 = Svms44::Decode(eq.word, o.max_corrections, o.id_count);
-  return m2.accepted() && (!m.accepted() || m2.bit_errors < m.bit_errors) ? m2 : m;
+  const bool better =
+      m2.accepted() && (!m.accepted() || (m2.id == m.id && m2.rotation == m.rotation &&
+                                          m2.bit_errors < m.bit_errors));
+  return better ? m2 : m;
 }
 
 // 5-7 for one quad: the homography from its corners, its bits, their decoding. A small square

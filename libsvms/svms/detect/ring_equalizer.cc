@@ -12,7 +12,7 @@
 namespace svms {
 namespace {
 
-constexpr int kCells = 44;
+constexpr int kCells = Svms44::kBits;
 
 int Bit(uint64_t word, int i) { return static_cast<int>((word >> ((i + kCells) % kCells)) & 1); }
 
@@ -26,8 +26,9 @@ double Predict(const RingEqualization& m, int i, int prev, int self, int next) {
 }
 
 // Least squares of the model over the ring read as `word`; false where its regressors are
-// degenerate (all cells alike, or no cell with mixed neighbours to tell the leak from the
-// offset). The corner cells' gain is fitted only where they are not all alike.
+// collinear (all cells alike, or the neighbours' sum an affine function of the cell's own bit,
+// as on a ring of period 4: 0011...), or where white does not read whiter than black. The
+// corner cells' gain is fitted only where they are not all alike.
 bool FitModel(const std::array<float, 44>& margin, uint64_t word, RingEqualization* out) {
   int corner_ones = 0;
   for (int i = 0; i < kCells; i += Svms44::kBitsPerSide) corner_ones += Bit(word, i);
@@ -49,8 +50,10 @@ bool FitModel(const std::array<float, 44>& margin, uint64_t word, RingEqualizati
     normal(4, 4) = 1;
     rhs(4) = 0;
   }
+  // The normal matrix holds small integers (counts), so its determinant is an integer: 0 where
+  // the regressors are collinear, at least 1 otherwise.
+  if (!(std::abs(normal.determinant()) > 0.5)) return false;
   const Eigen::LDLT<Eigen::Matrix<double, 5, 5>> ldlt(normal);
-  if (ldlt.info() != Eigen::Success || !(std::abs(normal.determinant()) > 1e-6)) return false;
   const Eigen::Matrix<double, 5, 1> p = ldlt.solve(rhs);
   out->offset = p(0);
   out->gain = p(1);
@@ -124,14 +127,21 @@ uint64_t MostLikelyRing(const std::array<float, 44>& margin, const RingEqualizat
 RingEqualization Settle(const std::array<float, 44>& margin, uint64_t word, int rounds) {
   RingEqualization eq;
   if (!FitModel(margin, word, &eq)) return eq;
-  for (int round = 0; round < rounds; ++round) {
-    const uint64_t next = MostLikelyRing(margin, eq);
-    if (next == word) break;
-    word = next;
-    if (!FitModel(margin, word, &eq)) return eq;
-  }
   eq.word = word;
   eq.ok = true;
+  for (int round = 0; round < rounds; ++round) {
+    const uint64_t next = MostLikelyRing(margin, eq);
+    if (next == word) {
+      eq.settled = true;
+      break;
+    }
+    RingEqualization refit;
+    if (!FitModel(margin, next, &refit)) break;  // keep the last reading the model held for
+    word = next;
+    eq = refit;
+    eq.word = word;
+    eq.ok = true;
+  }
   return eq;
 }
 

@@ -23,10 +23,8 @@
 // quantiles of the margins, and the settled reading with the least squared residuals is kept.
 // Nothing is fitted to a dataset: the numbers come from the marker's cells each time. With a
 // single start the 8-9 px markers among those (53, at their true corners) are 24 within two
-// flips; with the five quantiles, 50. The reading is sensitive to where the corners are: the
-// same markers read on corners 3 % too small are 42 within two flips, and on step 8's corner
-// fit started from a square 15 % too small (as the segments' often are here) 24 (9-10 px: 53
-// of 63, against 63 at the true corners).
+// flips; with the five quantiles, 50. The reading depends on where the corners are: on
+// corners 3 % too small, 42 of the 53 are within two flips.
 //
 // The equalised reading is a second reading of the quad, not a test that it is a marker: a
 // texture's quadrilateral gives a word as random as its plain reading (tested), so a second
@@ -44,9 +42,11 @@ namespace svms {
 
 struct RingEqualizerOptions {
   static constexpr int kMaxStarts = 8;
-  int rounds = 4;  // fit, then search; at most this many times (fewer where the reading settles)
-  // Starting readings besides the plain one: thresholds at this many quantiles of the margins,
-  // evenly from 0.3 to 0.7 (at most kMaxStarts).
+  // Searches after the first fit, each followed by a fit to the reading it gives; fewer where
+  // the reading settles (RingEqualization::settled).
+  int rounds = 4;
+  // Starting readings besides the plain one: thresholds at this many quantiles of the margins
+  // (capped at kMaxStarts), evenly from 0.3 to 0.7.
   int quantile_starts = 5;
 };
 
@@ -61,11 +61,14 @@ struct RingEqualization {
   // The model could be fitted and has white reading whiter than black, on the corners too:
   // word is meaningful.
   bool ok = false;
+  // The search under the model gives `word` back (false: `rounds` ran out, or the next reading's
+  // fit failed; word is the last reading the model was fitted to).
+  bool settled = false;
 };
 
-// The ring of `reading` read with its inter-symbol interference modelled (see above). Without
-// black or white cells to fit the model on, or where it gives white no more light than black,
-// ok is false. Some tens of microseconds.
+// The ring of `reading` read with its inter-symbol interference modelled (see above). Where no
+// starting reading gives a model that can be fitted (all cells alike, collinear regressors) and
+// gives white more light than black, ok is false. Some tens of microseconds.
 RingEqualization EqualizeRing(const BitReading& reading, const RingEqualizerOptions& options = {});
 
 }  // namespace svms
