@@ -5,6 +5,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/QR>
 #include <chrono>
+#include <functional>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -744,24 +745,38 @@ TEST(Detector, TheStripeAndDecalEdgesSharpenTheOrientationOfASmallMarker) {
   EXPECT_LT(sigma_on, 0.9 * sigma_stripe);  // and the decal's edge adds to the stripe's
 }
 
+// `count` 0.1 m markers (IDs first_id, first_id + 1, ...; posts `post_m` tall, 0 for flat ones)
+// lying on the plate, marker i turned in its plane by i * turn_rad and centred at at(i) (metres):
+// the rows of small markers the tests below render.
+struct MarkerRow {
+  std::vector<std::pair<MarkerModel, Pose>> markers;
+  std::vector<MarkerModel> models;
+};
+MarkerRow MakeMarkerRow(int first_id, int count, double post_m, double turn_rad,
+                        const std::function<Eigen::Vector3d(int)>& at) {
+  MarkerRow row;
+  for (int i = 0; i < count; ++i) {
+    Pose p;
+    p.rvec = Eigen::Vector3d(0, 0, turn_rad * i);
+    p.tvec = at(i);
+    row.markers.push_back({MarkerModel::Standard(first_id + i, 0.1, post_m), p});
+    row.models.push_back(row.markers.back().first);
+  }
+  return row;
+}
+
 // Markers whose black square is 8-11 px: the corners of such a small quad are off by tenths
 // of a pixel, and the bits are read right only after the corner fit (step 7b).
 TEST(Detector, TenPixelMarkersAreReadAfterTheirCornersAreRefined) {
-  std::vector<std::pair<MarkerModel, Pose>> markers;
-  for (int i = 0; i < 6; ++i) {
-    Pose p;
-    p.rvec = Eigen::Vector3d(0, 0, 0.25 * i);  // in-plane turns
-    p.tvec = Eigen::Vector3d(-0.6 + 0.25 * i, 0.12 * (i % 2), 0);
-    markers.push_back({MarkerModel::Standard(40 + i, 0.1, 0.025), p});
-  }
+  const MarkerRow row = MakeMarkerRow(40, 6, 0.025, 0.25, [](int i) {
+    return Eigen::Vector3d(-0.6 + 0.25 * i, 0.12 * (i % 2), 0);
+  });
   const CameraModel cam = CameraModel::Pinhole(600, 400, 200);
-  const Rendered r = Render(Base(cam, markers, Look({0.05, -0.3, 5.6}, {0, 0, 0})));
+  const Rendered r = Render(Base(cam, row.markers, Look({0.05, -0.3, 5.6}, {0, 0, 0})));
   for (const MarkerTruth& t : r.truth.markers) ASSERT_LT(t.side_px, 11.5);
   auto found_ids = [&](const DetectorOptions& o) {
-    std::vector<MarkerModel> models;
-    for (const auto& m : markers) models.push_back(m.first);
     int right = 0, wrong = 0;
-    for (const Detection& d : Detector(o, cam, models).Detect(r.image))
+    for (const Detection& d : Detector(o, cam, row.models).Detect(r.image))
       (d.id >= 40 && d.id < 46 ? right : wrong)++;
     EXPECT_EQ(wrong, 0);
     return right;
@@ -781,15 +796,11 @@ TEST(Detector, TenPixelMarkersAreReadAfterTheirCornersAreRefined) {
 // with more than two or three corrections. Step 7c reads the ring with that interference
 // modelled from its own cells: every marker it finds within two corrections.
 TEST(Detector, EightPixelRingsBehindABlurAreReadWithTheirInterferenceModelled) {
-  std::vector<std::pair<MarkerModel, Pose>> markers;
-  std::vector<MarkerModel> models;
-  for (int i = 0; i < 12; ++i) {
-    Pose p;
-    p.rvec = Eigen::Vector3d(0, 0, 0.11 * i);  // in-plane turns
-    p.tvec = Eigen::Vector3d(-0.75 + 0.3 * (i % 6), -0.2 + 0.4 * (i / 6), 0);
-    markers.push_back({MarkerModel::Standard(70 + i, 0.1, 0), p});
-    models.push_back(markers.back().first);
-  }
+  const MarkerRow row = MakeMarkerRow(70, 12, 0, 0.11, [](int i) {
+    return Eigen::Vector3d(-0.75 + 0.3 * (i % 6), -0.2 + 0.4 * (i / 6), 0);
+  });
+  const std::vector<std::pair<MarkerModel, Pose>>& markers = row.markers;
+  const std::vector<MarkerModel>& models = row.models;
   const CameraModel cam = CameraModel::Pinhole(600, 400, 200);
   const Rendered r =
       RenderThroughAnOrdinaryCamera(Base(cam, markers, Look({0.05, -0.3, 6.6}, {0, 0, 0})));
@@ -944,15 +955,11 @@ TEST(Detector, ABlurredSubPixelTipPicksThePoseOfATenPixelMarker) {
 // pose cannot always give. Step 7b reads such a square again on refined corners: every marker
 // is found, with at most the corrections a decode may have on its own.
 TEST(Detector, BlurredSmallMarkersWithManyCorrectionsAreReadAgainOnRefinedCorners) {
-  std::vector<std::pair<MarkerModel, Pose>> markers;
-  std::vector<MarkerModel> models;
-  for (int i = 0; i < 6; ++i) {
-    Pose p;
-    p.rvec = Eigen::Vector3d(0, 0, 0.13 * i);  // in-plane turns
-    p.tvec = Eigen::Vector3d(-0.75 + 0.3 * i, 0.15 * (i % 2), 0);
-    markers.push_back({MarkerModel::Standard(50 + i, 0.1, 0.025), p});
-    models.push_back(markers.back().first);
-  }
+  const MarkerRow row = MakeMarkerRow(50, 6, 0.025, 0.13, [](int i) {
+    return Eigen::Vector3d(-0.75 + 0.3 * i, 0.15 * (i % 2), 0);
+  });
+  const std::vector<std::pair<MarkerModel, Pose>>& markers = row.markers;
+  const std::vector<MarkerModel>& models = row.models;
   const CameraModel cam = CameraModel::Pinhole(600, 400, 200);
   const Rendered r =
       RenderThroughAnOrdinaryCamera(Base(cam, markers, Look({1.6, -0.4, 2.9}, {0, 0, 0})));
