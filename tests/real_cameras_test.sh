@@ -42,7 +42,11 @@ for a, b, c in zip(lin, jpg, bay):
             ta, to = da[i]["cam_from_marker"]["tvec"], do[i]["cam_from_marker"]["tvec"]
             r = sum(x * x for x in ta) ** 0.5
             err = sum((x - y) ** 2 for x, y in zip(ta, to)) ** 0.5
-            assert err < 0.005 * r, (a["image"], i, ta, to)
+            # Within 0.5 % of the range, or within 3 sigma of the two poses' own position
+            # uncertainty where that is larger (a marker of a few pixels: a JPEG's 8 px marker
+            # at 16 m has a range sigma of 0.5 m).
+            var = sum(da[i]["covariance"][k] + do[i]["covariance"][k] for k in (21, 28, 35))
+            assert err < max(0.005 * r, 3 * var ** 0.5), (a["image"], i, ta, to, var ** 0.5)
             n += 1
 found = sum(len(set(d["id"] for d in a["detections"] if "cam_from_marker" in d)) for a in lin)
 assert n >= 0.8 * 2 * found, (n, found)  # each profile finds at least 80 % of linear's
