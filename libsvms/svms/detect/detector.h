@@ -113,9 +113,11 @@ struct DetectorOptions {
   bool equalize_rings = true;
   // ... only where at least equalize_min_near_cells of the 44 cells read within
   // equalize_near_margin of the threshold (BitReading::margin) and at least
-  // equalize_min_clear_cells do not. Of the small set's 8-12 px JPEG markers whose plain
-  // reading at their true corners is 3 or more flips off (77), every one has 2 or more such
-  // cells, and 30 or more clear ones; a quad across a marker's stripe, a sharp ring that does
+  // equalize_min_clear_cells do not. These bounds were read off jpeg_srgb renders (a scratch
+  // probe at the truth's corners) and checked on every sensor profile by `svms bench profiles`:
+  // with them no marker any profile found before is lost. Of the small set's 8-12 px JPEG markers
+  // whose plain reading at their true corners is 3 or more flips off (77), every one has 2 or more
+  // such cells, and 30 or more clear ones; a quad across a marker's stripe, a sharp ring that does
   // not decode, has none, and a flat patch no clear one.
   double equalize_near_margin = 0.1;
   int equalize_min_near_cells = 2;

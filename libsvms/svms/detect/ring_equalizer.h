@@ -10,7 +10,9 @@
 // background beyond the one-cell quiet zone. Read at their true corners, the small set's 8-12 px
 // markers behind 0.7 px of blur and JPEG (`svms dataset small --profile jpeg_srgb`, seed 1: 209
 // markers) are 132 within two flips of their codeword and 77 three or more flips away;
-// equalised as below, 205 and 4.
+// equalised as below, 205 and 4. (These counts, and the ones below, come from a scratch probe that
+// samples SampleBits at the truth's corners; no command in the repository prints them. What
+// `svms bench profiles` prints is the detector's: docs/benchmarks.md.)
 //
 // The reading is therefore modelled per marker, from its own 44 cells: each cell's margin
 // (BitReading::margin) is offset + gain s_i + leak (s_{i-1} + s_{i+1}) plus noise, s in
