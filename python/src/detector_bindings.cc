@@ -180,6 +180,7 @@ void BindDetector(py::module_& m) {
       .def_readwrite("min_contrast", &DetectorOptions::min_contrast)
       .def_readwrite("refine_corners", &DetectorOptions::refine_corners)
       .def_readwrite("equalize_rings", &DetectorOptions::equalize_rings)
+      .def_readwrite("deconvolve_rings", &DetectorOptions::deconvolve_rings)
       .def_readwrite("post_silhouette_margin_px", &DetectorOptions::post_silhouette_margin_px)
       .def_readwrite("threads", &DetectorOptions::threads);
 

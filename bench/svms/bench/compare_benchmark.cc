@@ -98,6 +98,7 @@ std::vector<System> MakeSystems(const DetectorOptions& svms_options) {
                   {"min_contrast", svms_options.min_contrast},
                   {"refine_corners", svms_options.refine_corners},
                   {"equalize_rings", svms_options.equalize_rings},
+                  {"deconvolve_rings", svms_options.deconvolve_rings},
                   {"pose", "svms::Detector's own (corners + post tip)"},
                   {"other_options", "DetectorOptions defaults"}};
     systems.push_back(std::move(s));

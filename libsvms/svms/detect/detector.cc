@@ -10,6 +10,7 @@
 #include "svms/codec/svms44.h"
 #include "svms/detect/bit_sampler.h"
 #include "svms/detect/noise_model.h"
+#include "svms/detect/ring_deconvolution.h"
 #include "svms/detect/ring_equalizer.h"
 #include "svms/detect/worker_pool.h"
 
@@ -192,39 +193,58 @@ bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, Detec
   return complete;
 }
 
-// 7c: the decoding of step 7b's reading of a small square, and, where it does not decode or
-// decodes only with more corrections than a decode may have without evidence, of the same
-// reading with its ring equalised (DetectorOptions::equalize_rings). The equalised decode is
-// taken where the plain one failed, or names the same ID and rotation with fewer corrections:
-// two readings of one square that name two codewords cannot both be right, and the plain one
-// keeps its need for evidence.
-CodeMatch DecodeEqualised(const BitReading& bits, const DetectorOptions& o) {
-  const CodeMatch m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
-  if (!o.equalize_rings || (m.accepted() && m.bit_errors <= o.max_unsupported_corrections))
-    return m;
+// 7c-7d: the decoding of step 7b's reading of a small square (`bits`, through
+// pixel_from_unit), and, where it does not decode or decodes only with more corrections than a
+// decode may have without evidence, of the same reading with its ring equalised
+// (DetectorOptions::equalize_rings), and where that is still weak, of the ring read by
+// deconvolution (DetectorOptions::deconvolve_rings). A later reading is taken where the earlier
+// failed, or names the same ID and rotation with fewer corrections: two readings of one square
+// that name two codewords cannot both be right, and the first keeps its need for evidence.
+// 7d, the dearest reading (a millisecond or two), is not begun after `deadline`; *out_of_time
+// then says so.
+CodeMatch DecodeSmallRing(const cv::Mat& gray, const Eigen::Matrix3d& pixel_from_unit,
+                          const BitReading& bits, const DetectorOptions& o,
+                          Clock::time_point deadline, bool* out_of_time) {
+  CodeMatch m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
+  auto weak = [&] { return !m.accepted() || m.bit_errors > o.max_unsupported_corrections; };
+  if (!weak() || (!o.equalize_rings && !o.deconvolve_rings)) return m;
   // Interference brings cells near the threshold, while the rest stay clear of it: a reading
   // with every cell far from it (a sharp ring that does not decode, such as a marker's stripe
-  // read as a ring) or none (a flat patch) is not equalised.
+  // read as a ring) or none (a flat patch) is not read again.
   int near = 0;
   for (float margin : bits.margin) near += std::abs(margin) < o.equalize_near_margin;
   if (near < o.equalize_min_near_cells || near > Svms44::kBits - o.equalize_min_clear_cells)
     return m;
-  const RingEqualization eq = EqualizeRing(bits, o.ring_equalizer);
-  if (!eq.ok || eq.word == bits.word) return m;
-  const CodeMatch m2 = Svms44::Decode(eq.word, o.max_corrections, o.id_count);
-  const bool better =
-      m2.accepted() && (!m.accepted() || (m2.id == m.id && m2.rotation == m.rotation &&
-                                          m2.bit_errors < m.bit_errors));
-  return better ? m2 : m;
+  auto consider = [&](uint64_t word) {
+    const CodeMatch m2 = Svms44::Decode(word, o.max_corrections, o.id_count);
+    if (m2.accepted() && (!m.accepted() || (m2.id == m.id && m2.rotation == m.rotation &&
+                                            m2.bit_errors < m.bit_errors)))
+      m = m2;
+  };
+  if (o.equalize_rings) {
+    const RingEqualization eq = EqualizeRing(bits, o.ring_equalizer);
+    if (eq.ok && eq.word != bits.word) consider(eq.word);
+  }
+  if (o.deconvolve_rings && weak()) {
+    if (deadline != Clock::time_point::max() && Clock::now() >= deadline) {
+      *out_of_time = true;
+      return m;
+    }
+    const RingDeconvolution dc = ReadRingDeconvolved(gray, pixel_from_unit, o.ring_deconvolution);
+    if (dc.ok && dc.word != bits.word) consider(dc.word);
+  }
+  return m;
 }
 
 // 5-7 for one quad: the homography from its corners, its bits, their decoding. A small square
 // whose bits do not decode, or decode only with more corrections than a decode may have without
 // evidence, gets its corners refined once and is read again (7b), that reading also with its
-// ring equalised (7c). The detection (ID, rotation, corners in the marker's order, grey levels),
-// or nullopt.
+// ring equalised (7c) and deconvolved (7d). The detection (ID, rotation, corners in the marker's
+// order, grey levels), or nullopt; nullopt with *out_of_time set where 7d was due after
+// `deadline` (the quad is then unfinished, not rejected).
 std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorOptions& o,
-                                    const CameraModel* cam) {
+                                    const CameraModel* cam, Clock::time_point deadline,
+                                    bool* out_of_time) {
   static const MarkerModel unit = MarkerModel::Standard(0, 1.0, 0);
   BitReading bits = SampleBits(gray, UnitHomography(q.corners), unit);
   if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) return std::nullopt;
@@ -247,9 +267,12 @@ std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorO
     // bits (JPEG, 11 px: 4 or 5 flipped bits after one iteration, 2 or 3 after two).
     const RefinedCorners r = RefineCorners(gray, q.corners, cam, o.refine);
     if (r.ok) {
-      const BitReading again = SampleBits(gray, UnitHomography(r.corners), unit);
+      const Eigen::Matrix3d pixel_from_unit = UnitHomography(r.corners);
+      const BitReading again = SampleBits(gray, pixel_from_unit, unit);
       if (again.samples_outside == 0 && again.white - again.black >= o.min_contrast) {
-        const CodeMatch m2 = DecodeEqualised(again, o);
+        const CodeMatch m2 =
+            DecodeSmallRing(gray, pixel_from_unit, again, o, deadline, out_of_time);
+        if (*out_of_time) return std::nullopt;
         // A decode is replaced only by the same ID in the same rotation with fewer
         // corrections: two readings of one square that name two codewords (9 or more bits
         // apart) cannot both be right, and the weak one still needs its evidence.
@@ -358,7 +381,10 @@ void MeasureQuadsInParallel(const StepImages& im, const std::vector<Quad>& quads
         slot.state = Slot::kUnfinished;
         return;
       }
-      std::optional<Detection> decoded = DecodeQuad(im.gray, quads[part], o, cam);
+      bool out_of_time = false;
+      std::optional<Detection> decoded =
+          DecodeQuad(im.gray, quads[part], o, cam, deadline, &out_of_time);
+      if (out_of_time) slot.state = Slot::kUnfinished;
       if (!decoded) return;
       Detection& d = slot.detection;
       d = std::move(*decoded);
@@ -611,7 +637,12 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   const CameraModel* cam = camera_.empty() ? nullptr : &camera_;
   for (size_t qi = 0; qi < quads.size(); ++qi) {
     if (qi % 8 == 0 && past_deadline()) break;
-    std::optional<Detection> d = DecodeQuad(im.gray, quads[qi], o, cam);
+    bool out_of_time = false;
+    std::optional<Detection> d = DecodeQuad(im.gray, quads[qi], o, cam, deadline, &out_of_time);
+    if (out_of_time) {
+      stats.budget_exceeded = true;
+      break;
+    }
     if (!d) continue;
     const bool known = models_.count(d->id) > 0;
     if (!models_.empty() && o.known_ids_only && !known) continue;
