@@ -200,8 +200,8 @@ bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, Detec
 // deconvolution (DetectorOptions::deconvolve_rings). A later reading is taken where the earlier
 // failed, or names the same ID and rotation with fewer corrections: two readings of one square
 // that name two codewords cannot both be right, and the first keeps its need for evidence.
-// 7d, the dearest reading (a millisecond or two), is not begun after `deadline`; *out_of_time
-// then says so.
+// 7d, the dearest reading (0.5-2 ms), is not begun after `deadline`, and stops between its
+// blurs' fits once it has passed; *out_of_time then says so.
 CodeMatch DecodeSmallRing(const cv::Mat& gray, const Eigen::Matrix3d& pixel_from_unit,
                           const BitReading& bits, const DetectorOptions& o,
                           Clock::time_point deadline, bool* out_of_time) {
@@ -230,7 +230,12 @@ CodeMatch DecodeSmallRing(const cv::Mat& gray, const Eigen::Matrix3d& pixel_from
       *out_of_time = true;
       return m;
     }
-    const RingDeconvolution dc = ReadRingDeconvolved(gray, pixel_from_unit, o.ring_deconvolution);
+    const RingDeconvolution dc =
+        ReadRingDeconvolved(gray, pixel_from_unit, o.ring_deconvolution, deadline);
+    if (dc.out_of_time) {
+      *out_of_time = true;
+      return m;
+    }
     if (dc.ok && dc.word != bits.word) consider(dc.word);
   }
   return m;

@@ -16,12 +16,14 @@ constexpr int kCells = Svms44::kBits;
 // Regions of the unit plane (the square of side 1 centred on the origin).
 constexpr int kSquare = 0, kStripe = 1, kFirstCell = 2, kQuiet = kFirstCell + kCells,
               kBeyond = kQuiet + 1, kCentre = kBeyond + 1, kRegions = kCentre + 1;
-constexpr double kGridPx = 0.25;  // the footprints' sampling step, pixels
-constexpr double kWindow =
-    1.3;  // the fit's pixels: within this many half-extents (1 = ring's edge)
+constexpr double kGridPx = 0.25;   // the footprints' sampling step, pixels
+constexpr double kMaxSigmaPx = 4;  // blurs beyond this are not candidates (the grid's reach)
+// The fit's pixels: within this many half-extents of the ring (1 = the ring's outer edge).
+constexpr double kWindow = 1.3;
 // The centre patch (half-side, unit plane): the post's silhouette and its tip near the middle
-// of the square, whose light is not the square's. The tip of the standard post (a quarter of the
-// side high) lands within it up to about 45 degrees of tilt.
+// of the square, whose light is not the square's (and a dual marker's inner marker, whose quiet
+// zone reaches 0.29). The tip of the standard post (a quarter of the side high) lands within it
+// up to about 45 degrees of tilt.
 constexpr double kCentreHalf = 0.3;
 
 // The bit index of each cell of the 12 x 12 grid of sixths from (-1, 1) (row 0 at the top), -1
@@ -72,7 +74,8 @@ double Pixel(const cv::Mat& image, int x, int y) {
 }  // namespace
 
 RingDeconvolution ReadRingDeconvolved(const cv::Mat& image, const Eigen::Matrix3d& pixel_from_unit,
-                                      const RingDeconvolutionOptions& options) {
+                                      const RingDeconvolutionOptions& options,
+                                      std::chrono::steady_clock::time_point deadline) {
   RingDeconvolution out;
   if (image.empty() || image.channels() != 1 ||
       (image.depth() != CV_8U && image.depth() != CV_16U) || options.blur_sigmas_px.empty())
@@ -95,15 +98,24 @@ RingDeconvolution ReadRingDeconvolved(const cv::Mat& image, const Eigen::Matrix3
     lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
   }
   for (int k = 0; k < 4; ++k)
-    if ((ring[k] - ring[(k + 1) % 4]).norm() > options.max_extent_px) return out;
-  const double max_sigma =
-      *std::max_element(options.blur_sigmas_px.begin(), options.blur_sigmas_px.end());
-  if (!(max_sigma > 0)) return out;
+    if (!((ring[k] - ring[(k + 1) % 4]).norm() <= options.max_extent_px)) return out;
+  // A steep perspective can throw the window's corners far from a small ring: its cost grows
+  // with its area, so a window more than twice the limit across is not read. Checked in floating
+  // point before any conversion to int (NaN fails every comparison).
+  if (!((hi - lo).maxCoeff() <= 2 * options.max_extent_px)) return out;
+  if (!(lo.x() >= 0 && lo.y() >= 0 && hi.x() <= image.cols - 1 && hi.y() <= image.rows - 1))
+    return out;
+  // The candidate blurs: finite, positive, and under kMaxSigmaPx, sorted.
+  std::vector<double> sigmas;
+  for (double s : options.blur_sigmas_px)
+    if (s > 0 && s <= kMaxSigmaPx) sigmas.push_back(s);
+  std::sort(sigmas.begin(), sigmas.end());
+  if (sigmas.empty()) return out;
   // Footprints reach 0.5 + 3 sigma from a pixel's centre.
-  const int reach = static_cast<int>(std::ceil((0.5 + 3 * max_sigma) / kGridPx));
+  const int reach = static_cast<int>(std::ceil((0.5 + 3 * sigmas.back()) / kGridPx));
   const int px0 = static_cast<int>(std::floor(lo.x())), py0 = static_cast<int>(std::floor(lo.y()));
   const int px1 = static_cast<int>(std::ceil(hi.x())), py1 = static_cast<int>(std::ceil(hi.y()));
-  if (px0 < 0 || py0 < 0 || px1 >= image.cols || py1 >= image.rows) return out;
+  if (px1 >= image.cols || py1 >= image.rows) return out;
 
   // The regions on the grid: pixel centres fall on every 4th grid point.
   constexpr int kPerPx = static_cast<int>(1 / kGridPx);
@@ -124,13 +136,13 @@ RingDeconvolution ReadRingDeconvolved(const cv::Mat& image, const Eigen::Matrix3
       if (u.z() > 0 && std::max(std::abs(u.x()), std::abs(u.y())) < kWindow * u.z())
         pixels.push_back({x, y});
     }
-  if (static_cast<int>(pixels.size()) < 2 * kRegions) return out;
+  out.pixels = static_cast<int>(pixels.size());
+  if (out.pixels < 2 * kRegions) return out;
 
   // The fit under one blur: the albedos into *albedo and the squared residual, or infinity
-  // where the normal equations cannot be solved; *unseen where a region the reading needs (the
-  // square, the stripe, a cell) has almost no pixel.
+  // where a region the reading needs (the square, the stripe, a cell) has almost no pixel or
+  // the normal equations cannot be solved.
   std::vector<double> kernel, prefix;
-  bool unseen = false;
   auto fit = [&](double sigma, Eigen::Matrix<double, kRegions, 1>* albedo) {
     const int taps = static_cast<int>(std::ceil((0.5 + 3 * sigma) / kGridPx));
     kernel.resize(2 * taps + 1);
@@ -172,36 +184,41 @@ RingDeconvolution ReadRingDeconvolved(const cv::Mat& image, const Eigen::Matrix3
         for (int b = a; b < n; ++b) normal(seen[b], seen[a]) += wa * w[seen[b]];
       }
     }
+    // The square, the stripe and every cell must have pixels: a blur whose footprints leave
+    // one almost unseen gives no reading.
     for (int r = 0; r < kQuiet; ++r)
-      if (normal(r, r) < 0.05) unseen = true;
+      if (normal(r, r) < 0.05) return std::numeric_limits<double>::infinity();
     // The regions beyond and at the centre may be missing: a small ridge keeps the solve
     // defined.
     const double ridge = 1e-9 * normal.trace();
     for (int r = 0; r < kRegions; ++r) normal(r, r) += ridge;
     const Eigen::LDLT<Eigen::Matrix<double, kRegions, kRegions>, Eigen::Lower> ldlt(normal);
-    if (unseen || ldlt.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
+    if (ldlt.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
     *albedo = ldlt.solve(rhs);
     return std::max(0.0, sum_i2 - albedo->dot(rhs));
   };
 
-  // The blur: from the middle candidate downhill along the sorted candidates (the residual
-  // falls toward the image's blur and rises past it), so the widest, dearest footprints are
-  // fitted only when the image asks for them.
-  std::vector<double> sigmas;
-  for (double s : options.blur_sigmas_px)
-    if (s > 0) sigmas.push_back(s);
-  std::sort(sigmas.begin(), sigmas.end());
-  if (sigmas.empty()) return out;
+  // The blur: from the middle candidate downhill along the sorted candidates to a local minimum
+  // of the residual (it falls toward the image's blur and rises past it), so the widest,
+  // dearest footprints are fitted only when the image asks for them. A candidate whose fit
+  // fails counts as an infinite residual; where the one reached is such, there is no reading.
   std::vector<double> ss(sigmas.size(), -1);
   std::vector<Eigen::Matrix<double, kRegions, 1>> albedos(sigmas.size());
+  const bool timed = deadline != std::chrono::steady_clock::time_point::max();
   auto residual = [&](size_t k) {
-    if (ss[k] < 0) ss[k] = fit(sigmas[k], &albedos[k]);
+    if (ss[k] < 0) {
+      if (timed && std::chrono::steady_clock::now() >= deadline) {
+        out.out_of_time = true;
+        return std::numeric_limits<double>::infinity();
+      }
+      ss[k] = fit(sigmas[k], &albedos[k]);
+    }
     return ss[k];
   };
   size_t k = sigmas.size() / 2;
   for (;;) {
     const double here = residual(k);
-    if (unseen) return out;
+    if (out.out_of_time) return out;
     if (k > 0 && residual(k - 1) < here) {
       --k;
     } else if (k + 1 < sigmas.size() && residual(k + 1) < here) {
@@ -210,6 +227,7 @@ RingDeconvolution ReadRingDeconvolved(const cv::Mat& image, const Eigen::Matrix3
       break;
     }
   }
+  if (out.out_of_time) return out;
   const double best_ss = ss[k];
   if (!std::isfinite(best_ss)) return out;
   const Eigen::Matrix<double, kRegions, 1>& best_albedo = albedos[k];
@@ -221,7 +239,6 @@ RingDeconvolution ReadRingDeconvolved(const cv::Mat& image, const Eigen::Matrix3
     out.cell[i] = best_albedo(kFirstCell + i);
     if (out.cell[i] > threshold) out.word |= uint64_t{1} << i;
   }
-  out.pixels = static_cast<int>(pixels.size());
   out.residual_rms = std::sqrt(best_ss / (out.pixels - kRegions));
   // A stripe no brighter than the square by three times the fit's own scatter (a flat patch,
   // a texture's quadrilateral) is not a ring to read.

@@ -9,17 +9,18 @@
 //
 // This reader models the image instead of thresholding it. The marker is a set of regions of
 // unknown brightness (albedo): the black square (less a centre patch where the post and its tip
-// project), the white stripe, the 44 bit cells, the quiet zone beyond the ring (read on its
-// own: the simulator's and a print's quiet zone need not match the stripe), everything beyond
-// it, and the centre patch. Each pixel sees those regions through its own area convolved with
-// an isotropic Gaussian blur of sigma s (pixels): its value is sum_r w_pr a_r, w_pr the share
-// of region r in pixel p's footprint, found by sampling the marker plane through the
-// homography of the given corners on a 0.25 px grid. The albedos a follow by linear least
-// squares over the pixels out to 1.3 half-extents of the marker; the cells' albedos against the
-// midpoint of the square's and the stripe's are the bits. The blur is not a constant: the
-// candidates of `blur_sigmas_px` are fitted from the middle one downhill (the residual falls
-// toward the image's blur and rises past it) and the least squared residual kept, so the sigma
-// comes from the marker's own pixels.
+// project, and where a dual marker's inner marker lies), the white stripe, the 44 bit cells, the
+// quiet zone beyond the ring (read on its own: the simulator's and a print's quiet zone need not
+// match the stripe), everything beyond it, and the centre patch. Each pixel sees those regions
+// through its own area convolved with an isotropic Gaussian blur of sigma s (pixels): its value
+// is sum_r w_pr a_r, w_pr the share of region r in pixel p's footprint, found by sampling the
+// marker plane through the homography of the given corners on a 0.25 px grid. The albedos a
+// follow by linear least squares over the pixels out to 1.3 half-extents of the ring; the
+// cells' albedos against the midpoint of the square's and the stripe's are the bits. The blur
+// is not a constant: the candidates of `blur_sigmas_px` are fitted from the middle one downhill
+// to a local minimum of the squared residual (it falls toward the image's blur and rises past
+// it; on 200 random renders of 8-13 px markers at 0-1.3 px of blur, a scratch check, the same
+// choice as the least of all five), so the sigma comes from the marker's own pixels.
 //
 // The least squares spread each cell's light back over its neighbours, which undoes the
 // interference ring_equalizer.h models along the ring; and since every pixel near the ring
@@ -38,6 +39,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <chrono>
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <vector>
@@ -45,11 +47,13 @@
 namespace svms {
 
 struct RingDeconvolutionOptions {
-  // The blurs that may be tried (Gaussian sigma, pixels, on top of the pixel's own area); the
-  // least squared residual picks one.
+  // The blurs that may be tried (Gaussian sigma, pixels, on top of the pixel's own area; those
+  // outside (0, 4] are ignored); the fit's residual picks one.
   std::vector<double> blur_sigmas_px = {0.25, 0.45, 0.65, 0.9, 1.2};
-  // Markers whose ring (twice the square's side) has a side longer than this (pixels) are not
-  // read: the cost grows with the area, and from about 16 px the plain reading is sharp.
+  // Markers whose ring (twice the square's side) has a side longer than this (pixels), or whose
+  // fitted window is more than twice this across, are not read: the cost grows with the area
+  // (about 3 ms per call at the limit, a 14 px square), and the markers this reading recovers
+  // in `svms bench profiles` are 8-12 px.
   double max_extent_px = 28;
 };
 
@@ -60,20 +64,28 @@ struct RingDeconvolution {
   std::array<double, 44> cell{};
   double blur_sigma_px = 0;  // the blur kept
   double residual_rms = 0;   // grey levels, per degree of freedom
-  int pixels = 0;            // pixels in the fit
-  // The fit had pixels enough, every region was seen, and the stripe reads brighter than the
-  // square by more than three times the fit's residual: word is meaningful.
+  int pixels = 0;            // pixels in the fit (0 where the window was refused)
+  // The fit had pixels enough, the square, the stripe and every cell had pixels, and the stripe
+  // reads brighter than the square by more than three times the fit's residual: word is
+  // meaningful.
   bool ok = false;
+  // The deadline passed before the fit was done (ok is then false).
+  bool out_of_time = false;
 };
 
 // The ring of the marker whose unit plane (black square of side 1 centred on the origin, y up;
 // pixel_from_unit as SampleBits' pixel_from_plane for MarkerModel::Standard(id, 1.0, 0)) maps
 // to pixels of `image` (CV_8UC1 or CV_16UC1; (0, 0) the centre of the top-left pixel), read
 // as above. Standard proportions (marker_model.h): a cell a sixth of the square, the stripe two
-// cells, a quiet zone of one cell. ok is false where the fit's pixels reach past the image's
-// border, a side of the ring is longer than max_extent_px, or the fit fails. About 0.15 ms per
-// blur fitted on an 8 px marker (three or four are), growing with the marker's area.
-RingDeconvolution ReadRingDeconvolved(const cv::Mat& image, const Eigen::Matrix3d& pixel_from_unit,
-                                      const RingDeconvolutionOptions& options = {});
+// cells, a quiet zone of one cell. ok is false where the window (the bounding box of its
+// corners) reaches past the image's border, the marker is too large (max_extent_px), or the fit
+// fails. On this project's 2-core machine a call took about 1 ms on an 8 px square, 2 ms at
+// 12 px and 3 ms at 14 px (thread CPU time, the machine busy; three or four blurs fitted).
+// `deadline` is read before each blur's fit: past it, the reading stops there (out_of_time), so
+// that it overruns a frame's budget by one fit at most.
+RingDeconvolution ReadRingDeconvolved(
+    const cv::Mat& image, const Eigen::Matrix3d& pixel_from_unit,
+    const RingDeconvolutionOptions& options = {},
+    std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max());
 
 }  // namespace svms

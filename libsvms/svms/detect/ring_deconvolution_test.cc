@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>
+#include <chrono>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -75,7 +76,7 @@ cv::Mat RenderMarker(const std::array<Eigen::Vector2d, 4>& corners, uint64_t wor
   return out;
 }
 
-// A square of side `side` px centred at (32, 32), turned by `turn` radians.
+// A square of side `side` px centred near (32, 32), turned by `turn` radians.
 std::array<Eigen::Vector2d, 4> Square(double side, double turn, double cx = 32.3,
                                       double cy = 31.6) {
   std::array<Eigen::Vector2d, 4> q;
@@ -124,7 +125,7 @@ TEST(ReadRingDeconvolved, ReadsEightPixelRingsBehindABlur) {
   EXPECT_EQ(deconvolved_flips, 0);
 }
 
-// The blur is chosen by the marker's own pixels: a sharp image keeps the sharpest candidates, a
+// The blur is chosen by the marker's own pixels: a sharp image keeps the sharpest candidate, a
 // blurrier one a wider one.
 TEST(ReadRingDeconvolved, ChoosesTheBlurFromThePixels) {
   std::mt19937 rng(4);
@@ -142,8 +143,8 @@ TEST(ReadRingDeconvolved, ChoosesTheBlurFromThePixels) {
   EXPECT_LE(Flips(blurred.word, word), 2);
 }
 
-// Corners a fifth of a pixel off (as step 8's are on such markers behind JPEG): the footprints
-// still cover their cells, and the deconvolved reading stays within two flips where the
+// Corners up to 0.2 px off along each axis (as step 8's are on such markers behind JPEG): the
+// footprints still cover their cells, and the deconvolved reading stays within two flips where the
 // cells' centres no longer do.
 TEST(ReadRingDeconvolved, StaysNearTheCodewordWithCornersTenthsOfAPixelOff) {
   std::mt19937 rng(5);
@@ -192,6 +193,81 @@ TEST(ReadRingDeconvolved, RefusesWhatItCannotRead) {
   RingDeconvolutionOptions none;
   none.blur_sigmas_px.clear();
   EXPECT_FALSE(ReadRingDeconvolved(image, H, none).ok);
+}
+
+// A square of 1 unit tilted by `tilt` radians about its x axis, 2 units in front of a pinhole
+// of focal length `focal` px centred at (32, 32): its corners in the order of PixelFromUnit.
+// With a focal length of 20 px the square is about 10 px and subtends half a radian, so the
+// homography is far from affine (its third row varies by a third across the square).
+std::array<Eigen::Vector2d, 4> Tilted(double tilt, double focal = 20) {
+  std::array<Eigen::Vector2d, 4> q;
+  const double s[4][2] = {{-0.5, 0.5}, {0.5, 0.5}, {0.5, -0.5}, {-0.5, -0.5}};
+  for (int k = 0; k < 4; ++k) {
+    const double x = s[k][0], y = s[k][1] * std::cos(tilt), z = 2 + s[k][1] * std::sin(tilt);
+    q[k] = Eigen::Vector2d(32 + focal * x / z, 32 - focal * y / z);
+  }
+  return q;
+}
+
+// Strong perspective: the plane's points are divided by the homography's third row, which
+// varies across the marker; a reading that left the division out would misplace the far cells.
+TEST(ReadRingDeconvolved, ReadsARingSeenInStrongPerspective) {
+  std::mt19937 rng(8);
+  std::uniform_int_distribution<int> id(0, Svms44::kNumIds - 1);
+  for (const double tilt : {0.6, -0.7}) {
+    const uint64_t word = Svms44::Codeword(id(rng));
+    const std::array<Eigen::Vector2d, 4> q = Tilted(tilt);
+    const Eigen::Matrix3d H = PixelFromUnit(q);
+    ASSERT_GT(std::abs(H(2, 1)), 0.1);  // not affine
+    RingDeconvolutionOptions options;
+    options.max_extent_px = 40;  // the ring's near side is 28-31 px
+    const RingDeconvolution d =
+        ReadRingDeconvolved(RenderMarker(q, word, 0.5, 1.0, &rng), H, options);
+    ASSERT_TRUE(d.ok) << tilt;
+    EXPECT_LE(Flips(d.word, word), 1) << tilt;
+    EXPECT_LT(d.residual_rms, 4) << tilt;
+  }
+}
+
+// A perspective steep enough to throw the fitted window's corners far beyond a small ring
+// (here 144 px across for a ring whose longest side is 33 px) is not read: its cost would grow
+// with that area.
+TEST(ReadRingDeconvolved, RefusesAWindowThrownFarByPerspective) {
+  // Pixels (128 + 5 x / w, 128 - 5 y / w) with w = 1 - 0.7 x: w = 0.3 at the ring's right
+  // edge, 0.09 at the window's.
+  Eigen::Matrix3d projective, to_centre;
+  projective << 5, 0, 0, 0, -5, 0, -0.7, 0, 1;
+  to_centre << 1, 0, 128, 0, 1, 128, 0, 0, 1;
+  const Eigen::Matrix3d H = to_centre * projective;
+  const cv::Mat image(256, 256, CV_8U, cv::Scalar(100));
+  RingDeconvolutionOptions options;
+  options.max_extent_px = 34;  // the ring passes; the window (up to 68 px) does not
+  EXPECT_FALSE(ReadRingDeconvolved(image, H, options).ok);
+  EXPECT_EQ(ReadRingDeconvolved(image, H, options).pixels, 0);
+  options.max_extent_px = 80;  // a window up to 160 px: fitted (and a flat image then fails)
+  const RingDeconvolution d = ReadRingDeconvolved(image, H, options);
+  EXPECT_FALSE(d.ok);
+  EXPECT_GT(d.pixels, 0);
+}
+
+// A deadline already passed stops the reading before its first fit; a far one changes nothing.
+TEST(ReadRingDeconvolved, StopsAtADeadline) {
+  std::mt19937 rng(7);
+  const uint64_t word = Svms44::Codeword(321);
+  const std::array<Eigen::Vector2d, 4> q = Square(8.5, 0.4);
+  const Eigen::Matrix3d H = PixelFromUnit(q);
+  const cv::Mat image = RenderMarker(q, word, 0.7, 2.0, &rng);
+  const auto now = std::chrono::steady_clock::now();
+  const RingDeconvolution passed = ReadRingDeconvolved(image, H, {}, now);
+  EXPECT_TRUE(passed.out_of_time);
+  EXPECT_FALSE(passed.ok);
+  const RingDeconvolution far = ReadRingDeconvolved(image, H, {}, now + std::chrono::hours(1));
+  const RingDeconvolution none = ReadRingDeconvolved(image, H);
+  EXPECT_FALSE(far.out_of_time);
+  ASSERT_TRUE(far.ok);
+  EXPECT_EQ(far.word, none.word);
+  EXPECT_EQ(far.word, word);
+  EXPECT_EQ(far.blur_sigma_px, none.blur_sigma_px);
 }
 
 }  // namespace
