@@ -200,7 +200,7 @@ bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, Detec
 // deconvolution (DetectorOptions::deconvolve_rings). A later reading is taken where the earlier
 // failed, or names the same ID and rotation with fewer corrections: two readings of one square
 // that name two codewords cannot both be right, and the first keeps its need for evidence.
-// 7d, the dearest reading (0.5-2 ms), is not begun after `deadline`, and stops between its
+// 7d, the dearest reading (1-3 ms), is not begun after `deadline`, and stops between its
 // blurs' fits once it has passed; *out_of_time then says so.
 CodeMatch DecodeSmallRing(const cv::Mat& gray, const Eigen::Matrix3d& pixel_from_unit,
                           const BitReading& bits, const DetectorOptions& o,

@@ -129,7 +129,7 @@ struct DetectorOptions {
   // to its pixels through a blurred pixel footprint, the blur chosen by the fit. It replaces
   // the reading as 7c's does. On the small set's 8-12 px JPEG markers (a scratch probe, views
   // 13, 15, 17, 19, 20 of `svms dataset small --profile jpeg_srgb`) it reads 90 of 94 quads within
-  // two flips from step 8's corners, where SampleBits or 7c reads 68. 0.5-2 ms per quad, so last,
+  // two flips from step 8's corners, where SampleBits or 7c reads 68. 1-3 ms per quad, so last,
   // only where the quicker readings left the quad weak, and not begun past the frame's deadline.
   bool deconvolve_rings = true;
   RingDeconvolutionOptions ring_deconvolution;
