@@ -197,13 +197,13 @@ bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, Detec
 // pixel_from_unit), and, where it does not decode or decodes only with more corrections than a
 // decode may have without evidence, of the same reading with its ring equalised
 // (DetectorOptions::equalize_rings), and where that is still weak, of the ring read by
-// deconvolution (DetectorOptions::deconvolve_rings). A later reading is taken where the earlier
-// failed, or names the same ID and rotation with fewer corrections: two readings of one square
-// that name two codewords cannot both be right, and the first keeps its need for evidence.
-// 7d, the dearest reading (1-3 ms), is not begun after `deadline`, and stops between its
+// deconvolution (DetectorOptions::deconvolve_rings, and `deconvolve`). A later reading is taken
+// where the earlier failed, or names the same ID and rotation with fewer corrections: two readings
+// of one square that name two codewords cannot both be right, and the first keeps its need for
+// evidence. 7d, the dearest reading (1-3 ms), is not begun after `deadline`, and stops between its
 // blurs' fits once it has passed; *out_of_time then says so.
 CodeMatch DecodeSmallRing(const cv::Mat& gray, const Eigen::Matrix3d& pixel_from_unit,
-                          const BitReading& bits, const DetectorOptions& o,
+                          const BitReading& bits, const DetectorOptions& o, bool deconvolve,
                           Clock::time_point deadline, bool* out_of_time) {
   CodeMatch m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
   auto weak = [&] { return !m.accepted() || m.bit_errors > o.max_unsupported_corrections; };
@@ -225,7 +225,7 @@ CodeMatch DecodeSmallRing(const cv::Mat& gray, const Eigen::Matrix3d& pixel_from
     const RingEqualization eq = EqualizeRing(bits, o.ring_equalizer);
     if (eq.ok && eq.word != bits.word) consider(eq.word);
   }
-  if (o.deconvolve_rings && weak()) {
+  if (o.deconvolve_rings && deconvolve && weak()) {
     if (deadline != Clock::time_point::max() && Clock::now() >= deadline) {
       *out_of_time = true;
       return m;
@@ -247,12 +247,56 @@ CodeMatch DecodeSmallRing(const cv::Mat& gray, const Eigen::Matrix3d& pixel_from
 // ring equalised (7c) and deconvolved (7d). The detection (ID, rotation, corners in the marker's
 // order, grey levels), or nullopt; nullopt with *out_of_time set where 7d was due after
 // `deadline` (the quad is then unfinished, not rejected).
+// Step 4b's inferred side (3, from corner 3 to corner 0) against the middle known side (1):
+// at each side's quarter points, the pixels 0.2 of the middle side's length inside (the black
+// square, half a side deep) and outside (the white stripe, a third of a side wide) agree within
+// 0.3 of the middle side's own step. A real square's missing side is the same black-to-stripe
+// edge as the others, only lost to rounded corners; a texture's three-sided curve rarely closes
+// like that. On the small sets (jpeg_srgb, srgb8, linear) the markers 4b gave back differ by at
+// most 0.15 of their step. On four of bench speed's photographs (Autumn, aloeR, Path,
+// BytheWater) 4b completed 34,500 quads before its skew bound; 4.6 % pass this test, 3.0 % both.
+// It reads 12 samples where SampleBits reads hundreds, so it comes first.
+bool InferredSideMatches(const cv::Mat& gray, const Quad& q) {
+  const Eigen::Vector2d centre = 0.25 * (q.corners[0] + q.corners[1] + q.corners[2] + q.corners[3]);
+  const double depth = 0.2 * (q.corners[2] - q.corners[1]).norm();
+  auto levels = [&](const Eigen::Vector2d& p, const Eigen::Vector2d& r, double* in, double* out) {
+    const Eigen::Vector2d d = (r - p).normalized();
+    Eigen::Vector2d n(-d.y(), d.x());
+    if (n.dot(0.5 * (p + r) - centre) < 0) n = -n;  // outward
+    *in = *out = 0;
+    for (const double t : {0.25, 0.5, 0.75}) {
+      const Eigen::Vector2d m = p + t * (r - p);
+      *out += SampleImage(gray, m.x() + depth * n.x(), m.y() + depth * n.y()) / 3;
+      *in += SampleImage(gray, m.x() - depth * n.x(), m.y() - depth * n.y()) / 3;
+    }
+  };
+  double in1, out1, in3, out3;
+  levels(q.corners[1], q.corners[2], &in1, &out1);
+  levels(q.corners[3], q.corners[0], &in3, &out3);
+  const double step = out1 - in1;
+  return step > 0 && std::max(std::abs(in3 - in1), std::abs(out3 - out1)) <= 0.3 * step;
+}
+
 std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorOptions& o,
                                     const CameraModel* cam, Clock::time_point deadline,
                                     bool* out_of_time) {
   static const MarkerModel unit = MarkerModel::Standard(0, 1.0, 0);
+  if (q.completed && (!o.refine_corners || !InferredSideMatches(gray, q))) return std::nullopt;
   BitReading bits = SampleBits(gray, UnitHomography(q.corners), unit);
   if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) return std::nullopt;
+  if (q.completed) {
+    // 4b's quad: two corners are guesses 1-3 px off, at which no reading or gate means
+    // anything (a scratch probe on the jpeg_srgb small set: 26-44 of 44 references separated,
+    // no decode); step 8's fit brings them to 0.1-0.3 px from the truth, as from the segments'
+    // corners of a complete square, and the quad is read from there. One fit per such quad, so
+    // only where its stripe and square differ as 7b asks of any retry.
+    if (bits.white - bits.black < o.small_quad_min_contrast) return std::nullopt;
+    const RefinedCorners r = RefineCorners(gray, q.corners, cam, o.refine);
+    if (!r.ok) return std::nullopt;
+    q.corners = r.corners;
+    bits = SampleBits(gray, UnitHomography(q.corners), unit);
+    if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) return std::nullopt;
+  }
   CodeMatch m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
   // 7b. A small square's corners from the segments are off by tenths of a pixel, which at
   // its bit cells (a sixth of its side, out to twice its half-side) misplaces the samples:
@@ -275,8 +319,13 @@ std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorO
       const Eigen::Matrix3d pixel_from_unit = UnitHomography(r.corners);
       const BitReading again = SampleBits(gray, pixel_from_unit, unit);
       if (again.samples_outside == 0 && again.white - again.black >= o.min_contrast) {
+        // Not 7d on 4b's quads: a small square in a chessboard (a calibration target, the
+        // squares a monitor shows) closes as 4b asks, its ring reads as a weak word, and 7d's
+        // 1-3 ms per quad then came to 5-9 ms per frame on bench speed's chessboard photographs
+        // (opencv-doc left02, left09), where the markers it gave back on the small sets were
+        // 2 of 8 (jpeg_srgb) and 3 of 10 (srgb8); 7b and 7c cost microseconds.
         const CodeMatch m2 =
-            DecodeSmallRing(gray, pixel_from_unit, again, o, deadline, out_of_time);
+            DecodeSmallRing(gray, pixel_from_unit, again, o, !q.completed, deadline, out_of_time);
         if (*out_of_time) return std::nullopt;
         // A decode is replaced only by the same ID in the same rotation with fewer
         // corrections: two readings of one square that name two codewords (9 or more bits

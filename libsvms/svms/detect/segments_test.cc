@@ -578,13 +578,5 @@ TEST(Quads, NestedAndAdjacentSquaresAreAllFound) {
       found({c - 60 * u - 60 * v, c + 60 * u - 60 * v, c + 60 * u + 60 * v, c - 60 * u + 60 * v}));
 }
 
-TEST(Quads, IntersectGivesTheCrossingAndRejectsParallelLines) {
-  Eigen::Vector2d p;
-  ASSERT_TRUE(Intersect({1, 0, -3}, {0, 1, -4}, &p));  // x = 3, y = 4
-  EXPECT_NEAR(p.x(), 3, 1e-12);
-  EXPECT_NEAR(p.y(), 4, 1e-12);
-  EXPECT_FALSE(Intersect({1, 0, -3}, {1, 0, -5}, &p));
-}
-
 }  // namespace
 }  // namespace svms

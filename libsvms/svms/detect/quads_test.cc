@@ -1,0 +1,153 @@
+#include "svms/detect/quads.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+
+namespace svms {
+namespace {
+
+// The segment from a to b, its line through both (dark side on the right walking a -> b).
+Segment MakeSegment(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  Segment s;
+  s.a = a;
+  s.b = b;
+  const Eigen::Vector2d d = (b - a).normalized();
+  const Eigen::Vector2d n(-d.y(), d.x());
+  s.line = Eigen::Vector3d(n.x(), n.y(), -n.dot(a));
+  s.contrast = 50;
+  return s;
+}
+
+// The four sides of a square of `side` px about `centre`, turned by `deg`, clockwise on
+// screen, each cut short by `rounding` px at both ends (the rounded corners of a small
+// blurred square); and its true corners.
+struct SmallSquare {
+  std::array<Eigen::Vector2d, 4> corners;
+  std::vector<Segment> sides;
+};
+SmallSquare MakeSmallSquare(const Eigen::Vector2d& centre, double side, double deg,
+                            double rounding) {
+  const double a = deg * M_PI / 180;
+  const Eigen::Vector2d u(std::cos(a), std::sin(a)), v(-std::sin(a), std::cos(a));
+  SmallSquare sq;
+  const double h = side / 2;
+  sq.corners = {centre - h * u - h * v, centre + h * u - h * v, centre + h * u + h * v,
+                centre - h * u + h * v};
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d p = sq.corners[k], q = sq.corners[(k + 1) % 4];
+    const Eigen::Vector2d d = (q - p).normalized();
+    sq.sides.push_back(MakeSegment(p + rounding * d, q - rounding * d));
+  }
+  return sq;
+}
+
+// Corner k of `q` against corner (k + r) % 4 of `truth`, the worst over k, at the best r.
+double WorstCornerError(const Quad& q, const std::array<Eigen::Vector2d, 4>& truth) {
+  double best = 1e300;
+  for (int r = 0; r < 4; ++r) {
+    double worst = 0;
+    for (int k = 0; k < 4; ++k) worst = std::max(worst, (q.corners[k] - truth[(k + r) % 4]).norm());
+    best = std::min(best, worst);
+  }
+  return best;
+}
+
+TEST(Quads, IntersectGivesTheCrossingAndRejectsParallelLines) {
+  Eigen::Vector2d p;
+  ASSERT_TRUE(Intersect({1, 0, -3}, {0, 1, -4}, &p));  // x = 3, y = 4
+  EXPECT_NEAR(p.x(), 3, 1e-12);
+  EXPECT_NEAR(p.y(), 4, 1e-12);
+  EXPECT_FALSE(Intersect({1, 0, -3}, {1, 0, -5}, &p));
+}
+
+// A small square with all four sides gives its quad once, none of its 3-chains completed.
+TEST(Quads, ACompleteSmallSquareIsNotCompletedAgain) {
+  for (const double deg : {0.0, 17.0, 45.0, 71.0}) {
+    const SmallSquare sq = MakeSmallSquare({50, 40}, 9, deg, 1.5);
+    const std::vector<Quad> quads = FindQuads(sq.sides, QuadOptions{}, 100, 80);
+    ASSERT_EQ(quads.size(), 1u) << deg << " degrees";
+    EXPECT_FALSE(quads[0].completed);
+    EXPECT_LT(WorstCornerError(quads[0], sq.corners), 1e-9);
+  }
+}
+
+// Step 4b: with any one side of a small square missing, the other three give a quad whose
+// side 3 is inferred; a square's missing corners are exact (a parallelogram with the middle
+// side's length), its known corners the segments' intersections.
+TEST(Quads, ThreeSidesOfASmallSquareAreCompleted) {
+  for (const double side : {7.0, 9.0, 11.5}) {
+    for (const double deg : {0.0, 17.0, 45.0, 71.0}) {
+      const SmallSquare sq = MakeSmallSquare({50, 40}, side, deg, 1.5);
+      for (int missing = 0; missing < 4; ++missing) {
+        SCOPED_TRACE(std::to_string(side) + " px, " + std::to_string(deg) + " degrees, side " +
+                     std::to_string(missing) + " missing");
+        std::vector<Segment> three;
+        for (int k = 0; k < 4; ++k)
+          if (k != missing) three.push_back(sq.sides[k]);
+        const std::vector<Quad> quads = FindQuads(three, QuadOptions{}, 100, 80);
+        ASSERT_EQ(quads.size(), 1u);
+        const Quad& q = quads[0];
+        EXPECT_TRUE(q.completed);
+        EXPECT_EQ(q.sides[3], -1);
+        for (int k = 0; k < 3; ++k) EXPECT_GE(q.sides[k], 0);
+        EXPECT_LT(WorstCornerError(q, sq.corners), 1e-9);
+      }
+    }
+  }
+}
+
+// Under perspective the inferred corners are off by about how much the two known sides differ
+// in length, and still within the 1-3 px that step 8's fit starts from.
+TEST(Quads, AForeshortenedSquaresInferredCornersAreNearItsOwn) {
+  // A trapezoid: the top 8 px wide, the bottom 10, 9 px tall.
+  const std::array<Eigen::Vector2d, 4> corners = {
+      Eigen::Vector2d(46, 35.5), Eigen::Vector2d(54, 35.5), Eigen::Vector2d(55, 44.5),
+      Eigen::Vector2d(45, 44.5)};
+  std::vector<Segment> three;
+  for (int k = 1; k < 4; ++k) {  // the top is missing
+    const Eigen::Vector2d p = corners[k], q = corners[(k + 1) % 4];
+    const Eigen::Vector2d d = (q - p).normalized();
+    three.push_back(MakeSegment(p + 1.5 * d, q - 1.5 * d));
+  }
+  const std::vector<Quad> quads = FindQuads(three, QuadOptions{}, 100, 80);
+  ASSERT_EQ(quads.size(), 1u);
+  EXPECT_TRUE(quads[0].completed);
+  const double worst = WorstCornerError(quads[0], corners);
+  EXPECT_GT(worst, 0.1);
+  EXPECT_LT(worst, 1.5);
+}
+
+// Only small squares are completed (their corners round off; a large square's sides are whole),
+// never with the option off, and never two sides alone or three that do not turn right.
+TEST(Quads, OnlySmallThreeSidedChainsAreCompleted) {
+  const SmallSquare large = MakeSmallSquare({50, 40}, 20, 10, 1.5);
+  const std::vector<Segment> three_large(large.sides.begin(), large.sides.begin() + 3);
+  EXPECT_TRUE(FindQuads(three_large, QuadOptions{}, 100, 80).empty());
+
+  const SmallSquare small = MakeSmallSquare({50, 40}, 9, 10, 1.5);
+  const std::vector<Segment> three(small.sides.begin(), small.sides.begin() + 3);
+  QuadOptions off;
+  off.complete_below_px = 0;
+  EXPECT_TRUE(FindQuads(three, off, 100, 80).empty());
+  QuadOptions below_nine;
+  below_nine.complete_below_px = 8.5;  // the middle side, 9 px corner to corner, is too long
+  EXPECT_TRUE(FindQuads(three, below_nine, 100, 80).empty());
+
+  const std::vector<Segment> two(small.sides.begin(), small.sides.begin() + 2);
+  EXPECT_TRUE(FindQuads(two, QuadOptions{}, 100, 80).empty());
+
+  // The light square's sides (dark outside) turn left: no chain.
+  std::vector<Segment> reversed;
+  for (int k = 2; k >= 0; --k) reversed.push_back(MakeSegment(three[k].b, three[k].a));
+  EXPECT_TRUE(FindQuads(reversed, QuadOptions{}, 100, 80).empty());
+
+  // Inferred corners outside the image are not kept: the top's, 1.5 px above it.
+  const SmallSquare at_edge = MakeSmallSquare({50, 3}, 9, 0, 1.5);
+  const std::vector<Segment> edge_three(at_edge.sides.begin() + 1, at_edge.sides.end());
+  EXPECT_TRUE(FindQuads(edge_three, QuadOptions{}, 100, 80).empty());
+}
+
+}  // namespace
+}  // namespace svms
