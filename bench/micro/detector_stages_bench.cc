@@ -111,6 +111,7 @@ void BM_Stage3_Decode(benchmark::State& state) {
   for (auto _ : state) {
     accepted = 0;
     for (const svms::Quad& q : f.quads) {
+      if (q.completed) continue;  // step 4b's: corners fitted before they are read (detector.cc)
       std::vector<cv::Point2f> dst;
       for (const auto& p : q.corners)
         dst.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));

@@ -241,12 +241,6 @@ CodeMatch DecodeSmallRing(const cv::Mat& gray, const Eigen::Matrix3d& pixel_from
   return m;
 }
 
-// 5-7 for one quad: the homography from its corners, its bits, their decoding. A small square
-// whose bits do not decode, or decode only with more corrections than a decode may have without
-// evidence, gets its corners refined once and is read again (7b), that reading also with its
-// ring equalised (7c) and deconvolved (7d). The detection (ID, rotation, corners in the marker's
-// order, grey levels), or nullopt; nullopt with *out_of_time set where 7d was due after
-// `deadline` (the quad is then unfinished, not rejected).
 // Step 4b's inferred side (3, from corner 3 to corner 0) against the middle known side (1):
 // at each side's quarter points, the pixels 0.2 of the middle side's length inside (the black
 // square, half a side deep) and outside (the white stripe, a third of a side wide) agree within
@@ -277,26 +271,35 @@ bool InferredSideMatches(const cv::Mat& gray, const Quad& q) {
   return step > 0 && std::max(std::abs(in3 - in1), std::abs(out3 - out1)) <= 0.3 * step;
 }
 
+// 5-7 for one quad: the homography from its corners, its bits, their decoding. A small square
+// whose bits do not decode, or decode only with more corrections than a decode may have without
+// evidence, gets its corners refined once and is read again (7b), that reading also with its
+// ring equalised (7c) and deconvolved (7d). A quad step 4b completed (Quad::completed) is
+// dropped unless its guessed side passes InferredSideMatches and corner fits are on
+// (DetectorOptions::refine_corners); its corners are fitted before anything is read, and it is
+// not deconvolved. The detection (ID, rotation, corners in the marker's order, grey levels), or
+// nullopt; nullopt with *out_of_time set where 7d was due after `deadline` (the quad is then
+// unfinished, not rejected).
 std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorOptions& o,
                                     const CameraModel* cam, Clock::time_point deadline,
                                     bool* out_of_time) {
   static const MarkerModel unit = MarkerModel::Standard(0, 1.0, 0);
-  if (q.completed && (!o.refine_corners || !InferredSideMatches(gray, q))) return std::nullopt;
-  BitReading bits = SampleBits(gray, UnitHomography(q.corners), unit);
-  if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) return std::nullopt;
   if (q.completed) {
-    // 4b's quad: two corners are guesses 1-3 px off, at which no reading or gate means
-    // anything (a scratch probe on the jpeg_srgb small set: 26-44 of 44 references separated,
-    // no decode); step 8's fit brings them to 0.1-0.3 px from the truth, as from the segments'
-    // corners of a complete square, and the quad is read from there. One fit per such quad, so
-    // only where its stripe and square differ as 7b asks of any retry.
-    if (bits.white - bits.black < o.small_quad_min_contrast) return std::nullopt;
+    // 4b's quad: two corners are guesses 1-3 px off, at which the bits mean nothing (a scratch
+    // probe on the jpeg_srgb small set: 26-44 of 44 references separated, no decode), nor
+    // whether a sample falls outside the image; step 8's fit brings them to 0.1-0.3 px from
+    // the truth, as from the segments' corners of a complete square, and the quad is read from
+    // there (7b fits once more where that reading is weak). The fit costs more than a reading:
+    // only where the stripe and square differ as 7b asks of any retry.
+    if (!o.refine_corners || !InferredSideMatches(gray, q)) return std::nullopt;
+    const BitReading rough = SampleBits(gray, UnitHomography(q.corners), unit);
+    if (rough.white - rough.black < o.small_quad_min_contrast) return std::nullopt;
     const RefinedCorners r = RefineCorners(gray, q.corners, cam, o.refine);
     if (!r.ok) return std::nullopt;
     q.corners = r.corners;
-    bits = SampleBits(gray, UnitHomography(q.corners), unit);
-    if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) return std::nullopt;
   }
+  BitReading bits = SampleBits(gray, UnitHomography(q.corners), unit);
+  if (bits.samples_outside > 0 || bits.white - bits.black < o.min_contrast) return std::nullopt;
   CodeMatch m = Svms44::Decode(bits.word, o.max_corrections, o.id_count);
   // 7b. A small square's corners from the segments are off by tenths of a pixel, which at
   // its bit cells (a sixth of its side, out to twice its half-side) misplaces the samples:
@@ -322,8 +325,8 @@ std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorO
         // Not 7d on 4b's quads: a small square in a chessboard (a calibration target, the
         // squares a monitor shows) closes as 4b asks, its ring reads as a weak word, and 7d's
         // 1-3 ms per quad then came to 5-9 ms per frame on bench speed's chessboard photographs
-        // (opencv-doc left02, left09), where the markers it gave back on the small sets were
-        // 2 of 8 (jpeg_srgb) and 3 of 10 (srgb8); 7b and 7c cost microseconds.
+        // (opencv-doc left02, left09), for 2 of the 8 markers 4b with 7d gave back on the
+        // jpeg_srgb small set (3 of 10 on srgb8); 7b and 7c cost microseconds.
         const CodeMatch m2 =
             DecodeSmallRing(gray, pixel_from_unit, again, o, !q.completed, deadline, out_of_time);
         if (*out_of_time) return std::nullopt;

@@ -3,6 +3,7 @@
 // Steps, each a free function over plain structs, each timed (DetectionStats):
 //   1-3  edges -> chains -> straight segments          (segments.h)
 //   4    quadrilaterals and their corners              (quads.h)
+//   4b   small three-sided squares completed, their corners fitted first (quads.h)
 //   5    homography from the corners
 //   6    data bits, thresholds from the marker's own square and stripe   (bit_sampler.h)
 //   7    svms44 decoding with graded acceptance        (svms44.h)

@@ -920,15 +920,19 @@ TEST(Detector, ThreeSidedSmallSquaresBehindABlurAreCompleted) {
     auto found = [&](DetectorOptions o, int* wrong) {
       o.known_ids_only = false;
       std::set<int> right;
+      int right_detections = 0;
       *wrong = 0;
       for (const Detection& d : Detector(o, cam, row.models).Detect(r.image)) {
         const bool ok = d.id >= 200 && d.id < 224 &&
                         (d.corners[0] - r.truth.markers[d.id - 200].corners[0].pixel).norm() < 1;
-        if (ok)
+        if (ok) {
           right.insert(d.id);
-        else
+          ++right_detections;
+        } else {
           ++*wrong;
+        }
       }
+      EXPECT_EQ(right_detections, static_cast<int>(right.size())) << "a marker found twice";
       return right;
     };
     DetectorOptions off;

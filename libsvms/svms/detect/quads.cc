@@ -183,7 +183,9 @@ bool FindQuads(const std::vector<Segment>& segs, const QuadOptions& o, int width
     }
   }
   // 4b. Three small sides i -> j -> k that no fourth closes: the missing corners lie along i
-  // and k at the middle side's length from the known ones (a parallelogram).
+  // and k at the middle side's length from the known ones (a parallelogram). A fourth side that
+  // closes them into a quad the search above turned away (too small, concave, off the image)
+  // also counts: such a square is not completed either.
   auto closes = [&](int i, int j, int k) {
     for (const auto* c = begin(k); c != end(k); ++c) {
       const int l = c->next;

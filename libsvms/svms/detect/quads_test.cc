@@ -91,8 +91,14 @@ TEST(Quads, ThreeSidesOfASmallSquareAreCompleted) {
         const Quad& q = quads[0];
         EXPECT_TRUE(q.completed);
         EXPECT_EQ(q.sides[3], -1);
-        for (int k = 0; k < 3; ++k) EXPECT_GE(q.sides[k], 0);
+        for (int k = 0; k < 3; ++k) ASSERT_GE(q.sides[k], 0);
         EXPECT_LT(WorstCornerError(q, sq.corners), 1e-9);
+        // Corner k is where side k - 1 meets side k: corners 1 and 2 are the known ones.
+        for (int k = 1; k <= 2; ++k) {
+          Eigen::Vector2d p;
+          ASSERT_TRUE(Intersect(three[q.sides[k - 1]].line, three[q.sides[k]].line, &p));
+          EXPECT_LT((q.corners[k] - p).norm(), 1e-9) << "corner " << k;
+        }
       }
     }
   }
@@ -134,6 +140,30 @@ TEST(Quads, OnlySmallThreeSidedChainsAreCompleted) {
   QuadOptions below_nine;
   below_nine.complete_below_px = 8.5;  // the middle side, 9 px corner to corner, is too long
   EXPECT_TRUE(FindQuads(three, below_nine, 100, 80).empty());
+
+  // The first and third sides 50 degrees from antiparallel (40 allowed): a side of 8 px going
+  // right, one of 10 px going down, one of 8 px leaving down and to the left.
+  const double a50 = 50 * M_PI / 180;
+  const Eigen::Vector2d c1(50, 35), c2(50, 45);
+  const Eigen::Vector2d c0 = c1 - Eigen::Vector2d(8, 0);
+  const Eigen::Vector2d c3 = c2 + 8 * Eigen::Vector2d(-std::cos(a50), std::sin(a50));
+  auto cut = [](const Eigen::Vector2d& p, const Eigen::Vector2d& q) {
+    const Eigen::Vector2d d = (q - p).normalized();
+    return MakeSegment(p + 1.5 * d, q - 1.5 * d);
+  };
+  const std::vector<Segment> skewed = {cut(c0, c1), cut(c1, c2), cut(c2, c3)};
+  EXPECT_TRUE(FindQuads(skewed, QuadOptions{}, 100, 80).empty());
+  QuadOptions wide_skew;
+  wide_skew.complete_max_skew_deg = 55;
+  EXPECT_EQ(FindQuads(skewed, wide_skew, 100, 80).size(), 1u);
+
+  // A middle side under QuadOptions::min_side (6 px) corner to corner.
+  const SmallSquare tiny = MakeSmallSquare({50, 40}, 5.5, 10, 0.5);
+  const std::vector<Segment> tiny_three(tiny.sides.begin(), tiny.sides.begin() + 3);
+  EXPECT_TRUE(FindQuads(tiny_three, QuadOptions{}, 100, 80).empty());
+  QuadOptions small_min;
+  small_min.min_side = 5;
+  EXPECT_EQ(FindQuads(tiny_three, small_min, 100, 80).size(), 1u);
 
   const std::vector<Segment> two(small.sides.begin(), small.sides.begin() + 2);
   EXPECT_TRUE(FindQuads(two, QuadOptions{}, 100, 80).empty());
