@@ -1,11 +1,14 @@
 #include "svms/bench/profiles_benchmark.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <mutex>
+#include <opencv2/imgproc.hpp>
 
 #include "svms/bench/profiles_report.h"
 #include "svms/bench/truth_poses.h"
@@ -98,9 +101,38 @@ struct SetRun {
   double exposure_scale = 1;
 };
 
+// Whether two sensors have one camera pipeline and light but for how the frame is stored.
+bool SameButTheCodec(Sensor a, const Sensor& b) {
+  a.format = b.format, a.jpeg_quality = b.jpeg_quality;
+  return a.bits == b.bits && a.exposure == b.exposure && a.full_well == b.full_well &&
+         a.read_noise == b.read_noise && a.shot_noise == b.shot_noise &&
+         a.defocus_sigma_px == b.defocus_sigma_px && a.vignetting == b.vignetting &&
+         a.response == b.response && a.signal_bits == b.signal_bits &&
+         a.black_level == b.black_level && a.bayer == b.bayer && a.channel_gain == b.channel_gain &&
+         a.format == b.format;
+}
+
+// The pixels within 1.5 px of the true sides of the fully visible markers of 12-30 px (the
+// sizes whose corners the codec's error moves most; CodecTally).
+cv::Mat SideBand(const ViewTruth& truth, cv::Size size) {
+  cv::Mat band = cv::Mat::zeros(size, CV_8UC1);
+  for (const MarkerTruth& m : truth.markers) {
+    if (!m.fully_visible() || m.min_side_px < 12 || m.min_side_px >= 30) continue;
+    std::vector<cv::Point> poly;
+    for (const PointTruth& c : m.corners)  // 4 fractional bits (cv::polylines' shift)
+      poly.emplace_back(cvRound(c.pixel.x() * 16), cvRound(c.pixel.y() * 16));
+    cv::polylines(band, std::vector<std::vector<cv::Point>>{poly}, true, 255, 3, cv::LINE_8, 4);
+  }
+  return band;
+}
+
+// A view index no view has: Expose seeds the sensor's noise by the view, so this exposes the
+// same light with a noise draw of its own.
+constexpr int kSecondNoiseDraw = 1 << 20;
+
 Status RunSet(const SetRun& run, const ProfilesBenchmarkOptions& o,
               const std::vector<std::string>& profiles, std::vector<ProfileRow>* rows,
-              std::vector<ViewTiming>* timings) {
+              std::vector<ViewTiming>* timings, std::vector<CodecTally>* codec) {
   DatasetOptions dopt;
   dopt.seed = o.seed;
   dopt.quick = o.quick;
@@ -137,6 +169,27 @@ Status RunSet(const SetRun& run, const ProfilesBenchmarkOptions& o,
       }
       detectors.push_back(std::make_unique<Detector>(options, scene.camera, models));
     }
+    // Each JPEG profile and its lossless twin (CodecTally), on the well-exposed plain sets.
+    std::vector<std::pair<size_t, size_t>> twins;
+    std::vector<CodecTally> tallies;
+    if (!run.textured && run.exposure_scale == 1) {
+      double reference_defocus = std::numeric_limits<double>::quiet_NaN();
+      for (size_t p = 0; p < profiles.size(); ++p)
+        if (profiles[p] == "linear") reference_defocus = sensors[p].defocus_sigma_px;
+      for (size_t a = 0; a < profiles.size(); ++a)
+        for (size_t b = 0; b < profiles.size(); ++b)
+          if (sensors[a].format == "jpeg" && sensors[b].format == "png" &&
+              SameButTheCodec(sensors[a], sensors[b])) {
+            twins.push_back({a, b});
+            CodecTally t;
+            t.profile = profiles[a], t.twin = profiles[b];
+            t.defocus_px = sensors[a].defocus_sigma_px;
+            t.reference_defocus_px = reference_defocus;
+            tallies.push_back(t);
+            break;
+          }
+    }
+    const std::vector<CodecTally> blank_tallies = tallies;  // each worker's view starts from it
     bool any_defocus = false;
     for (const Sensor& s : sensors) any_defocus = any_defocus || s.defocus_sigma_px > 0;
     const int n = static_cast<int>(scene.views.size());
@@ -154,6 +207,7 @@ Status RunSet(const SetRun& run, const ProfilesBenchmarkOptions& o,
         const cv::Mat radiance =
             any_defocus ? renderer->RenderRadianceFine(v) : renderer->RenderRadiance(v);
         const ViewTruth truth = ComputeTruth(*renderer, v);
+        std::vector<cv::Mat> decoded_by(profiles.size());
         for (size_t p = 0; p < profiles.size(); ++p) {
           const cv::Mat exposed = renderer->Expose(radiance, v, sensors[p]);
           cv::Mat decoded, linear;
@@ -164,6 +218,7 @@ Status RunSet(const SetRun& run, const ProfilesBenchmarkOptions& o,
             failure = profiles[p] + ", " + truth.name + ": " + s.message();
             continue;
           }
+          decoded_by[p] = decoded;
           DetectionStats stats;
           const auto t0 = std::chrono::steady_clock::now();
           // A raw frame's noise from its stored values, as svms detect and PoseEstimator take it.
@@ -182,7 +237,34 @@ Status RunSet(const SetRun& run, const ProfilesBenchmarkOptions& o,
           view_timings[v].push_back(t);
           if (!run.textured) Score(profiles[p], run.name, truth, found, &view_rows[v]);
         }
+        std::vector<CodecTally> view_tallies = blank_tallies;
+        for (size_t k = 0; k < twins.size(); ++k) {
+          const auto [a, b] = twins[k];
+          if (decoded_by[a].empty() || decoded_by[b].empty()) continue;
+          const cv::Mat band = SideBand(truth, decoded_by[a].size());
+          cv::Mat second;
+          if (!ThroughCodec(sensors[b],
+                            renderer->Expose(radiance, v + kSecondNoiseDraw, sensors[b]), &second))
+            continue;
+          cv::Mat lossy, lossless, again;
+          decoded_by[a].convertTo(lossy, CV_64F);
+          decoded_by[b].convertTo(lossless, CV_64F);
+          second.convertTo(again, CV_64F);
+          CodecTally& t = view_tallies[k];
+          for (int y = 0; y < band.rows; ++y)
+            for (int x = 0; x < band.cols; ++x) {
+              if (!band.at<uint8_t>(y, x)) continue;
+              const double e = lossy.at<double>(y, x) - lossless.at<double>(y, x);
+              const double n = lossless.at<double>(y, x) - again.at<double>(y, x);
+              t.codec_sq += e * e, t.noise_sq += 0.5 * n * n, ++t.pixels;
+            }
+        }
         std::lock_guard<std::mutex> lock(io);
+        for (size_t k = 0; k < tallies.size(); ++k) {
+          tallies[k].codec_sq += view_tallies[k].codec_sq;
+          tallies[k].noise_sq += view_tallies[k].noise_sq;
+          tallies[k].pixels += view_tallies[k].pixels;
+        }
         progress.Update(++done);
       }
     };
@@ -191,6 +273,16 @@ Status RunSet(const SetRun& run, const ProfilesBenchmarkOptions& o,
     for (auto& t : pool) t.join();
     progress.Finish();
     if (!failure.empty()) return Status::Error(failure);
+    for (const CodecTally& t : tallies) {
+      auto it = std::find_if(codec->begin(), codec->end(), [&](const CodecTally& c) {
+        return c.profile == t.profile && c.twin == t.twin;
+      });
+      if (it == codec->end()) {
+        codec->push_back(t);
+      } else {
+        it->codec_sq += t.codec_sq, it->noise_sq += t.noise_sq, it->pixels += t.pixels;
+      }
+    }
     for (int v = 0; v < n; ++v) {
       rows->insert(rows->end(), view_rows[v].begin(), view_rows[v].end());
       timings->insert(timings->end(), view_timings[v].begin(), view_timings[v].end());
@@ -215,19 +307,20 @@ int RunBenchmark(const ProfilesBenchmarkOptions& o) {
   }
   std::vector<ProfileRow> rows;
   std::vector<ViewTiming> timings;
+  std::vector<CodecTally> codec;
   const auto t_start = std::chrono::steady_clock::now();
   // The angle set on black and on the Earth one after the other: their times are compared.
   for (const SetRun& run : {SetRun{"range", "range"}, SetRun{"small", "small"},
                             SetRun{kDimSet, "small", false, kDimExposureScale},
                             SetRun{"angle", "angle"}, SetRun{"angle_earth", "angle", true}}) {
-    if (Status s = RunSet(run, o, profiles, &rows, &timings); !s) {
+    if (Status s = RunSet(run, o, profiles, &rows, &timings, &codec); !s) {
       std::cerr << "svms bench profiles: " << s.message() << "\n";
       return kExitFailed;
     }
   }
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-  return WriteProfilesReport(o, profiles, rows, timings, seconds);
+  return WriteProfilesReport(o, profiles, rows, timings, codec, seconds);
 }
 
 }  // namespace

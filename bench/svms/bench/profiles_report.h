@@ -42,11 +42,25 @@ struct ViewTiming {
   NoiseModel noise;
 };
 
+// What a lossy codec adds where the corners are measured: a JPEG profile against its twin, the
+// profile whose camera differs only in storing losslessly (jpeg_srgb and srgb8), on the same
+// exposures of the well-exposed sets. Over the pixels within 1.5 px of the true sides of fully
+// visible markers of 12-30 px: the sum of squared differences between the two decoded frames
+// (the codec's error, stored codes) and half that between the twin's frame and a second
+// exposure of the same light with its own noise draw (the sensor's noise there).
+struct CodecTally {
+  std::string profile, twin;
+  double defocus_px = 0;            // the two profiles' lens blur (sigma, px)
+  double reference_defocus_px = 0;  // the linear profile's, where it ran (else NaN)
+  double codec_sq = 0, noise_sq = 0;
+  long pixels = 0;
+};
+
 // Writes summary.json, report.md (also on stdout) and markers.csv; `seconds` the run's wall
 // time. Returns the benchmark's exit code (exit_codes.h).
 int WriteProfilesReport(const ProfilesBenchmarkOptions& options,
                         const std::vector<std::string>& profiles,
                         const std::vector<ProfileRow>& rows, const std::vector<ViewTiming>& timings,
-                        double seconds);
+                        const std::vector<CodecTally>& codec, double seconds);
 
 }  // namespace svms

@@ -1,0 +1,56 @@
+#include "svms/bench/edge_information.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace svms {
+namespace {
+
+double Phi(double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); }
+double PhiDensity(double x) { return std::exp(-0.5 * x * x) / std::sqrt(2 * M_PI); }
+
+// The ramp max(0, u) convolved with a Gaussian of sigma s.
+double BlurredRamp(double u, double s) { return u * Phi(u / s) + s * PhiDensity(u / s); }
+
+}  // namespace
+
+double EdgeOffsetInformation(double s, double theta) {
+  // The trapezoid's widths: a the longer, b the shorter, b kept off 0 where the closed form
+  // below divides by it (1e-4 px changes I by less than 1e-4).
+  double a = std::abs(std::cos(theta)), b = std::abs(std::sin(theta));
+  if (a < b) std::swap(a, b);
+  b = std::max(b, 1e-4);
+  if (s <= 0) return (a - b / 3) / (a * a);  // the integral of the trapezoid's square
+  // k(u) = (r(u + (a+b)/2) - r(u + (a-b)/2) - r(u - (a-b)/2) + r(u - (a+b)/2)) / (a b), r the
+  // blurred ramp: p rises with slope 1 / (a b) over b, is flat at 1 / a, falls likewise.
+  auto k = [&](double u) {
+    return (BlurredRamp(u + (a + b) / 2, s) - BlurredRamp(u + (a - b) / 2, s) -
+            BlurredRamp(u - (a - b) / 2, s) + BlurredRamp(u - (a + b) / 2, s)) /
+           (a * b);
+  };
+  // Simpson's rule over +-(half the trapezoid + 9 sigma), steps of a tenth of the finer of
+  // s and b.
+  const double half = (a + b) / 2 + 9 * s;
+  const double h0 = std::min(s, b) / 10;
+  const int n = 2 * static_cast<int>(std::ceil(half / h0));
+  const double h = 2 * half / n;
+  double sum = 0;
+  for (int i = 0; i <= n; ++i) {
+    const double v = k(-half + i * h);
+    sum += v * v * (i == 0 || i == n ? 1 : (i % 2 ? 4 : 2));
+  }
+  return sum * h / 3;
+}
+
+double EdgeBlurBoundFactor(double blur_sigma_px, double reference_sigma_px) {
+  constexpr int kDirections = 9;  // 2.5, 7.5, ..., 42.5 degrees
+  double sum = 0;
+  for (int i = 0; i < kDirections; ++i) {
+    const double theta = (2.5 + 5.0 * i) * M_PI / 180;
+    sum += std::sqrt(EdgeOffsetInformation(reference_sigma_px, theta) /
+                     EdgeOffsetInformation(blur_sigma_px, theta));
+  }
+  return sum / kDirections;
+}
+
+}  // namespace svms
