@@ -20,8 +20,8 @@ assert float(cells[1]) > 1.0, cells  # the codec errs by more than the sensor's 
 for c in (cells[2], cells[4]):
     v = [float(x) for x in c.split("/")]
     assert len(v) == 3 and all(math.isfinite(x) and 0 < x < 0.5 for x in v), cells
-m = re.search(r"rebuilt from them, ([0-9.]+) %", text)
-assert m and float(m.group(1)) >= 95, text
+m = re.search(r"rebuilt from them within 1 code, ([0-9.]+) %", text)
+assert m and float(m.group(1)) == 100, text
 PY
 for bad in "--trials 0" "--quality 101" "--blur 0" "--stripe 20" "--nonesuch 1"; do
   rc=0

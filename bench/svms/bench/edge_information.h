@@ -8,9 +8,11 @@
 // where k = p * phi_s and p is the density of n.x over one pixel (the convolution of two boxes
 // of widths |cos theta| and |sin theta|: a trapezoid). Its inverse square root is the
 // Cramer-Rao bound on the offset's sigma of any unbiased estimator from those pixels; so the
-// ratio of two blurs' bounds is what one blur costs against the other at the same noise,
-// whatever the detector. `svms bench profiles` states it beside the measured ratios of its
-// sensor profiles (docs/benchmarks.md).
+// ratio of two blurs' bounds is what one blur costs against the other at the same noise for
+// estimators equally efficient behind both (a bound on RMS errors, not on a given detector's
+// medians). The noise is taken white and the same on every pixel: with shot noise, larger on
+// the white side, the factor at 0.7 px is about 5 % larger. `svms bench profiles` states it
+// beside the measured ratios of its sensor profiles (docs/benchmarks.md).
 #pragma once
 
 namespace svms {

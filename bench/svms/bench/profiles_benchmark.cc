@@ -8,7 +8,6 @@
 #include <limits>
 #include <memory>
 #include <mutex>
-#include <opencv2/imgproc.hpp>
 
 #include "svms/bench/profiles_report.h"
 #include "svms/bench/truth_poses.h"
@@ -112,16 +111,31 @@ bool SameButTheCodec(Sensor a, const Sensor& b) {
          a.format == b.format;
 }
 
-// The pixels within 1.5 px of the true sides of the fully visible markers of 12-30 px (the
-// sizes whose corners the codec's error moves most; CodecTally).
+// The pixels whose centres lie within 1.5 px of the true sides of the fully visible markers of
+// 12-30 px (the sizes whose corners the codec's error moves most; CodecTally). Pixel centres
+// are at whole coordinates (truth.h). Measured point to segment, not drawn with cv::polylines,
+// whose thick lines reach about 2.5 px.
 cv::Mat SideBand(const ViewTruth& truth, cv::Size size) {
+  constexpr double kReach = 1.5;
   cv::Mat band = cv::Mat::zeros(size, CV_8UC1);
   for (const MarkerTruth& m : truth.markers) {
     if (!m.fully_visible() || m.min_side_px < 12 || m.min_side_px >= 30) continue;
-    std::vector<cv::Point> poly;
-    for (const PointTruth& c : m.corners)  // 4 fractional bits (cv::polylines' shift)
-      poly.emplace_back(cvRound(c.pixel.x() * 16), cvRound(c.pixel.y() * 16));
-    cv::polylines(band, std::vector<std::vector<cv::Point>>{poly}, true, 255, 3, cv::LINE_8, 4);
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector2d a = m.corners[k].pixel, b = m.corners[(k + 1) % 4].pixel;
+      const Eigen::Vector2d ab = b - a;
+      const int x0 = std::max(0, static_cast<int>(std::floor(std::min(a.x(), b.x()) - kReach)));
+      const int x1 =
+          std::min(size.width - 1, static_cast<int>(std::ceil(std::max(a.x(), b.x()) + kReach)));
+      const int y0 = std::max(0, static_cast<int>(std::floor(std::min(a.y(), b.y()) - kReach)));
+      const int y1 =
+          std::min(size.height - 1, static_cast<int>(std::ceil(std::max(a.y(), b.y()) + kReach)));
+      for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x) {
+          const Eigen::Vector2d p(x, y);
+          const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+          if ((p - a - t * ab).norm() <= kReach) band.at<uint8_t>(y, x) = 255;
+        }
+    }
   }
   return band;
 }
