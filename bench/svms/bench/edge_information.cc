@@ -3,16 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "svms/base/statistics.h"
+
 namespace svms {
-namespace {
-
-double Phi(double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); }
-double PhiDensity(double x) { return std::exp(-0.5 * x * x) / std::sqrt(2 * M_PI); }
-
-// The ramp max(0, u) convolved with a Gaussian of sigma s.
-double BlurredRamp(double u, double s) { return u * Phi(u / s) + s * PhiDensity(u / s); }
-
-}  // namespace
 
 double EdgeOffsetInformation(double s, double theta) {
   // The trapezoid's widths: a the longer, b the shorter, b kept off 0 where the closed form

@@ -33,6 +33,12 @@ double NormalQuantile(double p) {
   return 0.5 * (lo + hi);
 }
 
+double BlurredRamp(double x, double sigma) {
+  const double z = x / sigma;
+  return x * 0.5 * std::erfc(-z / std::sqrt(2.0)) +
+         sigma * std::exp(-0.5 * z * z) / std::sqrt(2 * M_PI);
+}
+
 double ChiSquareQuantile(double p, double dof) {
   const double z = NormalQuantile(p), h = 2.0 / (9.0 * dof);
   const double c = 1 - h + z * std::sqrt(h);

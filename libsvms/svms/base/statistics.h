@@ -22,6 +22,12 @@ double Rms(const std::vector<double>& v);
 // 2e-16 / phi(z), the resolution of Phi near p: 5e-16 at the centre, 7e-14 at p = 0.999.
 double NormalQuantile(double p);
 
+// The integral of Phi(t / sigma) dt from -inf to x (sigma > 0): the ramp max(0, x) blurred by a
+// Gaussian of sigma, x Phi(x / sigma) + sigma phi(x / sigma). Integrated over a pixel, it gives
+// the mean of a blurred step edge there (the detector's model band, a blurred edge's Fisher
+// information in the benchmarks).
+double BlurredRamp(double x, double sigma);
+
 // The p-quantile of the chi-square distribution with `dof` degrees of freedom (dof > 0), by the
 // Wilson-Hilferty approximation dof (1 - h + z sqrt(h))^3, h = 2 / (9 dof), z =
 // NormalQuantile(p). Its relative error shrinks as dof grows: at p = 0.95, -0.5 % for 3 dof and

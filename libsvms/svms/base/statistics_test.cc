@@ -42,6 +42,16 @@ TEST(Statistics, MedianOfAnEvenCountIsTheMeanOfTheMiddleTwo) {
   EXPECT_DOUBLE_EQ(Median({2, 9, 4}), 4);
 }
 
+TEST(Statistics, BlurredRamp) {
+  // At 0: sigma phi(0); far out, the ramp itself; its slope is Phi(x / sigma).
+  EXPECT_NEAR(BlurredRamp(0, 0.7), 0.7 / std::sqrt(2 * M_PI), 1e-15);
+  EXPECT_NEAR(BlurredRamp(5, 0.5), 5, 1e-12);
+  EXPECT_NEAR(BlurredRamp(-5, 0.5), 0, 1e-12);
+  const double h = 1e-5;
+  EXPECT_NEAR((BlurredRamp(0.3 + h, 0.4) - BlurredRamp(0.3 - h, 0.4)) / (2 * h),
+              0.5 * std::erfc(-0.3 / 0.4 / std::sqrt(2.0)), 1e-9);
+}
+
 TEST(Statistics, NormalQuantile) {
   EXPECT_NEAR(NormalQuantile(0.5), 0, 1e-15);
   EXPECT_NEAR(NormalQuantile(0.975), 1.959963984540054, 1e-14);

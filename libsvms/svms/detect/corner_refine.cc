@@ -7,6 +7,7 @@
 #include <cmath>
 #include <vector>
 
+#include "svms/base/statistics.h"
 #include "svms/base/thread_scratch.h"
 
 namespace svms {
@@ -392,11 +393,7 @@ constexpr int kBandPhases = 8, kBandPixels = 16;
 bool ModelBand(double sigma, double w, std::vector<BandReading>* readings, double* inward,
                double* rise) {
   // The integral of Phi(t / sigma) from -inf to x.
-  auto G = [sigma](double x) {
-    const double z = x / sigma;
-    return x * 0.5 * std::erfc(-z / std::sqrt(2.0)) +
-           sigma * std::exp(-0.5 * z * z) / std::sqrt(2 * M_PI);
-  };
+  auto G = [sigma](double x) { return BlurredRamp(x, sigma); };
   // Phase k's strip, its true edge at 6 + (k + 1/2) / kBandPhases (the search reads pixels
   // 1-12 about it); the pixels' borders' integrals are each shared by two pixels.
   std::array<std::array<uint16_t, 2 * kBandPixels>, kBandPhases> strips;
