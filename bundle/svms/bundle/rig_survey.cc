@@ -16,6 +16,7 @@
 #include "svms/bundle/cost_functions.h"
 #include "svms/bundle/view_graph.h"
 #include "svms/detect/marker_pose.h"
+#include "svms/geometry/pose_matrix.h"
 #include "svms/geometry/so3.h"
 
 namespace svms {
@@ -451,13 +452,13 @@ Status Solver::ComputeCovariance() {
   for (size_t i = 0; i < frame_col.size(); ++i) {
     const int o = 6 * static_cast<int>(i);
     const Mat6 A = Eigen::MatrixXd(H.block(o, o, 6, 6));
-    Eigen::LDLT<Mat6> ldlt(A);
-    if (ldlt.info() != Eigen::Success || !ldlt.isPositive() ||
-        ldlt.vectorD().minCoeff() <= 1e-12 * ldlt.vectorD().maxCoeff())
+    const Eigen::MatrixXd B = D.middleRows(o, 6);
+    Eigen::MatrixXd A_inv_B;
+    Vector6d d;
+    if (!SolveLdlt(A, B, &A_inv_B, &d) || d.minCoeff() <= 1e-12 * d.maxCoeff())
       return Fail("frame " + std::to_string(frame_col[i]) +
                   ": rig_from_object is not determined by its points");
-    const Eigen::Matrix<double, 6, Eigen::Dynamic> B = D.middleRows(o, 6);
-    S.noalias() -= B.transpose() * ldlt.solve(B);
+    S.noalias() -= B.transpose() * A_inv_B;
   }
   const Eigen::MatrixXd Scc = 0.5 * (S.topLeftCorner(nc, nc) + S.topLeftCorner(nc, nc).transpose());
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Scc);

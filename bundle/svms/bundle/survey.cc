@@ -17,6 +17,7 @@
 #include "svms/bundle/view_graph.h"
 #include "svms/detect/marker_pose.h"
 #include "svms/geometry/alignment.h"
+#include "svms/geometry/pose_matrix.h"
 #include "svms/geometry/so3.h"
 
 namespace svms {
@@ -914,8 +915,8 @@ void Solver::EliminateCameras(const std::vector<ReducedParam>& cams, ReducedNorm
                               std::vector<std::string>* found) {
   const int nx = static_cast<int>(h->Hrt.cols());
   for (size_t c = 0; c < cams.size(); ++c) {
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(h->Hcc[c]);
-    if (es.eigenvalues()(0) <= 1e-12 * std::max(1.0, es.eigenvalues()(5))) {
+    const Vector6d values = SymmetricEigenvalues(h->Hcc[c]);
+    if (values(0) <= 1e-12 * std::max(1.0, values(5))) {
       found->push_back(cams[c].name + " (camera pose)");
       continue;
     }

@@ -1,8 +1,6 @@
 #include "svms/fusion/object_pose.h"
 
 #include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
-#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -12,6 +10,7 @@
 #include "svms/base/statistics.h"
 #include "svms/detect/marker_pose.h"
 #include "svms/detect/pose_gauss_newton.h"
+#include "svms/geometry/pose_matrix.h"
 #include "svms/geometry/so3.h"
 
 namespace svms {
@@ -128,14 +127,14 @@ void SetUpEdges(const ObjectPoseOptions& o, Block* b) {
   if (!o.use_edges || m.edge_points <= 0 || !m.cam_from_marker || m.pose_ambiguous ||
       !m.edge_information.allFinite() || !m.edge_offset.allFinite())
     return;
-  const Eigen::SelfAdjointEigenSolver<Mat6> eig(
-      0.5 * (m.edge_information + m.edge_information.transpose()));
-  const double largest = eig.eigenvalues().maxCoeff();
+  Mat6 vectors;
+  const Vec6 values =
+      SymmetricEigenvalues(0.5 * (m.edge_information + m.edge_information.transpose()), &vectors);
+  const double largest = values.maxCoeff();
   if (!(largest > 0)) return;
   for (int k = 0; k < 6; ++k) {
-    if (!(eig.eigenvalues()(k) > 1e-9 * largest)) continue;
-    b->edge_U.row(b->edge_rows++) =
-        std::sqrt(eig.eigenvalues()(k)) * eig.eigenvectors().col(k).transpose();
+    if (!(values(k) > 1e-9 * largest)) continue;
+    b->edge_U.row(b->edge_rows++) = std::sqrt(values(k)) * vectors.col(k).transpose();
   }
   b->edge_mu = m.edge_offset;
   b->R_det = m.cam_from_marker->Rotation();
@@ -650,12 +649,10 @@ bool FusedCovariance(const std::vector<View>& views, const ObjectPoseOptions& o,
     result.message = "no marker left after rejection";
     return false;
   }
-  Eigen::FullPivLU<Mat6> lu(info.H);
-  if (lu.rank() < 6) {
-    result.message = "the pose is not determined (rank " + std::to_string(lu.rank()) + " of 6)";
+  if (const int rank = InvertFullPivLu(info.H, &result.covariance); rank < 6) {
+    result.message = "the pose is not determined (rank " + std::to_string(rank) + " of 6)";
     return false;
   }
-  result.covariance = lu.inverse();
   result.covariance = 0.5 * (result.covariance + result.covariance.transpose()).eval();
   const Mat6 H_inv = result.covariance;
   // The frame's own evidence on the noise level: the variance factor's posterior mean under a
@@ -673,8 +670,8 @@ bool FusedCovariance(const std::vector<View>& views, const ObjectPoseOptions& o,
     // averages away.
     // Each camera's calibration is its own, independent error.
     thread_local Eigen::MatrixXd HG, SL;
-    Eigen::FullPivLU<Mat6> lu_points(info.H_points);
-    const Mat6 H_points_inv = lu_points.rank() == 6 ? Mat6(lu_points.inverse()) : H_inv;
+    Mat6 H_points_inv = H_inv;
+    InvertFullPivLu(info.H_points, &H_points_inv);
     for (size_t c = 0; c < views.size(); ++c) {
       if (G[c].size() == 0) continue;
       HG.noalias() = H_points_inv * G[c];
@@ -1021,9 +1018,9 @@ Eigen::Matrix<double, 6, 1> PoseError(const Pose& truth, const Pose& estimate) {
 
 double Nees(const Pose& truth, const Pose& estimate, const PoseCovariance& covariance) {
   const Eigen::Matrix<double, 6, 1> e = PoseError(truth, estimate);
-  Eigen::LDLT<PoseCovariance> ldlt(covariance);
-  if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return std::nan("");
-  return e.dot(ldlt.solve(e));
+  Eigen::Matrix<double, 6, 1> covariance_e;
+  if (!SolveLdlt(covariance, e, &covariance_e)) return std::nan("");
+  return e.dot(covariance_e);
 }
 
 }  // namespace svms

@@ -1,6 +1,5 @@
 #include "svms/camera/camera_rig.h"
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -9,6 +8,7 @@
 #include "svms/base/file_io.h"
 #include "svms/base/json_fields.h"
 #include "svms/camera/camera_covariance.h"
+#include "svms/geometry/pose_matrix.h"
 
 namespace svms {
 namespace {
@@ -38,7 +38,7 @@ PoseCovariance ParseCovariance(const json& obj, const std::string& path) {
   const double scale = std::max(1e-300, C.cwiseAbs().maxCoeff());
   if ((C - C.transpose()).cwiseAbs().maxCoeff() > 1e-9 * scale)
     throw FieldError{where + ": expected a symmetric 6x6 matrix"};
-  const double min_eig = Eigen::SelfAdjointEigenSolver<PoseCovariance>(C).eigenvalues()(0);
+  const double min_eig = SymmetricEigenvalues(C)(0);
   if (!(min_eig > 0))
     throw FieldError{where + ": expected a positive definite matrix, its smallest eigenvalue is " +
                      std::to_string(min_eig)};

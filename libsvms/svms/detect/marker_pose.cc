@@ -1,6 +1,7 @@
 #include "svms/detect/marker_pose.h"
 
-#include <Eigen/Dense>
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -13,6 +14,7 @@
 #include "svms/detect/disc_fit.h"
 #include "svms/detect/ippe.h"
 #include "svms/detect/pose_gauss_newton.h"
+#include "svms/geometry/pose_matrix.h"
 
 namespace svms {
 namespace {
@@ -567,9 +569,8 @@ bool CalibrationCovariance(const CameraModel& camera, const Pose& pose,
     WD8.noalias() = *corner_whitener * D8;
     G.noalias() += WJ.transpose() * WD8;
   }
-  Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(H);
-  if (lu.rank() < 6) return false;
-  const Eigen::Matrix<double, 6, 6> H_inv = lu.inverse();
+  Matrix6d H_inv;
+  if (InvertFullPivLu(H, &H_inv) < 6) return false;
   HG.noalias() = H_inv * G;
   SL.noalias() = HG * L;
   out->noalias() = SL * SL.transpose();
@@ -607,13 +608,14 @@ bool EdgeQuadratic(const CameraModel& camera, const Pose& cam_from_marker,
            &H, &g);
   }
   H.triangularView<Eigen::StrictlyLower>() = H.transpose();
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(H);
-  const double floor = 1e-12 * std::max(0.0, eig.eigenvalues().maxCoeff());
-  Eigen::Matrix<double, 6, 1> inverse = Eigen::Matrix<double, 6, 1>::Zero();
+  Matrix6d vectors;
+  const Vector6d values = SymmetricEigenvalues(H, &vectors);
+  const double floor = 1e-12 * std::max(0.0, values.maxCoeff());
+  Vector6d inverse = Vector6d::Zero();
   for (int k = 0; k < 6; ++k)
-    if (eig.eigenvalues()(k) > floor && floor > 0) inverse(k) = 1 / eig.eigenvalues()(k);
+    if (values(k) > floor && floor > 0) inverse(k) = 1 / values(k);
   *information = H;
-  *offset = -(eig.eigenvectors() * inverse.asDiagonal() * eig.eigenvectors().transpose() * g);
+  *offset = -(vectors * inverse.asDiagonal() * vectors.transpose() * g);
   return information->allFinite() && offset->allFinite();
 }
 
@@ -677,9 +679,7 @@ bool RefinePose(const CameraModel& camera, const std::vector<Eigen::Vector3d>& X
     if (step == PoseStep::kConverged) break;
   }
   *pose = Pose::FromRotation(R, t);
-  Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(JtWJ);
-  if (lu.rank() < 6) return false;
-  *cov = lu.inverse();
+  if (InvertFullPivLu(JtWJ, cov) < 6) return false;
   return cov->allFinite();
 }
 
@@ -1048,7 +1048,9 @@ bool WidenForOtherCandidate(const RefinedCandidate& a, const RefinedCandidate& b
   Eigen::Matrix<double, 6, 1> d;
   const Eigen::AngleAxisd delta(b.pose.Rotation() * a.pose.Rotation().transpose());
   d << delta.angle() * delta.axis(), b.pose.tvec - a.pose.tvec;
-  const double separation = d.dot(a.covariance.ldlt().solve(d));
+  Vector6d covariance_d;
+  SolveLdlt(a.covariance, d, &covariance_d);
+  const double separation = d.dot(covariance_d);
   const double dchi2 = std::max(0.0, b.chi2 - a.chi2);
   if (separation > 9 && dchi2 < 2 * std::log(1 / kMixtureWeightFloor - 1)) {
     const double w = 1 / (1 + std::exp(0.5 * dchi2));
@@ -1077,7 +1079,9 @@ void WidenForPlanarTwin(const CameraModel& camera, const Pose& pose,
   Eigen::Matrix<double, 6, 1> d;
   const Eigen::AngleAxisd delta(twin.Rotation() * pose.Rotation().transpose());
   d << delta.angle() * delta.axis(), Eigen::Vector3d::Zero();
-  const double separation = d.dot(out->covariance.ldlt().solve(d));
+  Vector6d covariance_d;
+  SolveLdlt(out->covariance, d, &covariance_d);
+  const double separation = d.dot(covariance_d);
   double D = 0;
   bool projected = true;
   const bool joint = corner_whitener && X.size() >= 4;

@@ -1,7 +1,6 @@
 #include "svms/detect/pose_gauss_newton.h"
 
-#include <Eigen/Cholesky>
-
+#include "svms/geometry/pose_matrix.h"
 #include "svms/geometry/so3.h"
 
 namespace svms {
@@ -9,7 +8,8 @@ namespace svms {
 PoseStep PoseGaussNewtonStep(const Eigen::Matrix<double, 6, 6>& H,
                              const Eigen::Matrix<double, 6, 1>& g, const PoseStepTolerances& tol,
                              Eigen::Matrix3d* R, Eigen::Vector3d* t) {
-  const Eigen::Matrix<double, 6, 1> step = -H.ldlt().solve(g);
+  Vector6d step;
+  SolveLdlt(H, Vector6d(-g), &step);
   if (!step.allFinite()) return PoseStep::kFailed;
   const double angle = step.head<3>().norm();
   if (angle > tol.min_rotation) *R = Exp(step.head<3>()) * *R;

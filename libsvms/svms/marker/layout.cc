@@ -1,11 +1,12 @@
 #include "svms/marker/layout.h"
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
 #include <map>
+
+#include "svms/geometry/pose_matrix.h"
 
 namespace svms {
 namespace {
@@ -130,7 +131,7 @@ Status Layout::Validate() const {
       if (!C.allFinite()) return Status::Error(path + "covariance: expected 36 finite numbers");
       if ((C - C.transpose()).cwiseAbs().maxCoeff() > 1e-9 * std::max(1.0, C.cwiseAbs().maxCoeff()))
         return Status::Error(path + "covariance: expected a symmetric 6x6 matrix");
-      const double min_eig = Eigen::SelfAdjointEigenSolver<PoseCovariance>(C).eigenvalues()(0);
+      const double min_eig = SymmetricEigenvalues(C)(0);
       if (min_eig < -1e-12 * std::max(1e-30, C.diagonal().maxCoeff()))
         return Status::Error(path + "covariance: expected a positive semi-definite matrix, its " +
                              "smallest eigenvalue is " + std::to_string(min_eig));
