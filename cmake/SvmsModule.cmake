@@ -25,8 +25,11 @@ function(svms_add_module name)
       $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
     target_link_libraries(${target} PUBLIC ${M_PUBLIC} PRIVATE ${M_PRIVATE})
     target_compile_features(${target} PUBLIC cxx_std_17)
-    # SVMS_FUZZ: libFuzzer's coverage on the libraries the fuzz targets exercise.
-    target_compile_options(${target} PRIVATE ${SVMS_FUZZ_COVERAGE_FLAGS})
+    # SVMS_FUZZ: libFuzzer's coverage on the modules the fuzz targets reach
+    # (SVMS_FUZZ_COVERAGE_MODULES, top CMakeLists.txt).
+    if(name IN_LIST SVMS_FUZZ_COVERAGE_MODULES)
+      target_compile_options(${target} PRIVATE ${SVMS_FUZZ_COVERAGE_FLAGS})
+    endif()
   else()
     add_library(${target} INTERFACE)
     target_include_directories(${target} INTERFACE
