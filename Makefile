@@ -22,14 +22,15 @@ build: configure
 test: build
 	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
 
-# Hardening (docs/reliability.md), all in ONE clang build directory, SANITIZE_BUILD: the library
-# with AddressSanitizer + UndefinedBehaviorSanitizer and libFuzzer's coverage, the gtest
-# executables with ASan + UBSan, the fuzz targets with libFuzzer.
+# Hardening (docs/reliability.md), all in ONE clang build directory, SANITIZE_BUILD: the
+# libraries with AddressSanitizer + UndefinedBehaviorSanitizer (and libFuzzer's coverage on the
+# modules the fuzz targets reach), the gtest executables with ASan + UBSan, the fuzz targets
+# with libFuzzer.
 #   make test-sanitize  what .ci/run runs after `make test`: test-asan, then fuzz
 #   make test-asan      the unit tests (ctest label "unit") under ASan + UBSan, less those in
-#                       SANITIZE_SKIP: each repeats, hundreds of times, code paths that faster
-#                       tests run under ASan too, and costs 1-9 min there (CI has 60 min for
-#                       all of .ci/run). They run in `make test`. Pure integer decoding: every ID
+#                       SANITIZE_SKIP: each repeats, many times, code paths that faster tests
+#                       run under ASan too, and costs from half a minute to 9 min there (CI has
+#                       60 min for all of .ci/run). They run in `make test`. Pure integer decoding: every ID
 #                       with two flipped bits, samples of four flips, every five-flip pattern of
 #                       the strong subset. Monte Carlo: the rendered NEES statistics (48 and
 #                       12 renders, and the approach's fused NEES against its measure), the
@@ -42,19 +43,18 @@ test: build
 #                       PoseEstimators runs its paths under ASan), the shadow edge along a side
 #                       (the sun sweep's views), the threads' 16-marker bit-for-bit render and the
 #                       timed edge-map deadline on 1024 x 1024 texture (WorkerPool, EdgeBands and
-#                       the dual marker's 2-thread comparison run under ASan). And three whose
-#                       paths other tests run under ASan: the family's codec statistics
-#                       (a million random words decoded), the rendered approach's frames
-#                       (PoseEstimator.TwoLayouts... and ALoneAmbiguous... fuse rendered frames
-#                       of it), the small rendered survey (survey_test's surveys run the
-#                       solver; the detector runs in its own tests).
+#                       the dual marker's 2-thread comparison run under ASan). And two whose
+#                       paths other tests run under ASan: the rendered approach's frames
+#                       (PoseEstimator.TheLatencyOfARawFrame... and TwoLayoutsShare... fuse
+#                       frames of the same approach), the small rendered survey (survey_test's
+#                       surveys run the solver; the detector runs in its own tests).
 #   make fuzz           each libFuzzer target of fuzz/ for FUZZ_SECONDS from its seeds
 # Stack traces need file and line only: line tables instead of full debug info (of Eigen, Ceres
 # and OpenCV templates) keep the build shorter.
 SANITIZE_BUILD ?= build-sanitize
 FUZZ_SECONDS ?= 15
 SANITIZE_ENV = LSAN_OPTIONS=suppressions=$(CURDIR)/cmake/lsan.supp UBSAN_OPTIONS=print_stacktrace=1
-SANITIZE_SKIP = EveryIdTwoFlips|SampleFourFlips|StrongSubsetCorrectsEveryFiveFlipPattern|NeesIsNearSix|FusedNeesStaysWithinAFactorOfTwo|RefineCorners\.TheCornersJointCovariance|ASmallQuadsCornerSigmasAreHonest|WidenedByStudentsFactor|CorrelatedEdgePointsWidenTheCornerSigmas|InwardBiasIsInItsCornerSigmas|Survey\.RepeatedCornerErrorIsPropagated|Survey\.CalibrationUncertaintyIsPropagated|SurveyRig.*MonteCarlo|ALoneDistantMarkersFusedPose|RenderedTwoCameraRig|AShadowEdgeAlongASideDoesNotMoveIt|SeveralThreadsGiveTheSameDetectionsToTheBit|ADeadlinePassedBeforeTheEdgeMapEnds|CodecStats\.MeasuresTheFamily|RenderedApproachFramesMatchTheTruthWithinTheirSigmas|SurveyRendered\.SmallRenderedScene
+SANITIZE_SKIP = EveryIdTwoFlips|SampleFourFlips|StrongSubsetCorrectsEveryFiveFlipPattern|NeesIsNearSix|FusedNeesStaysWithinAFactorOfTwo|RefineCorners\.TheCornersJointCovariance|ASmallQuadsCornerSigmasAreHonest|WidenedByStudentsFactor|CorrelatedEdgePointsWidenTheCornerSigmas|InwardBiasIsInItsCornerSigmas|Survey\.RepeatedCornerErrorIsPropagated|Survey\.CalibrationUncertaintyIsPropagated|SurveyRig.*MonteCarlo|ALoneDistantMarkersFusedPose|RenderedTwoCameraRig|AShadowEdgeAlongASideDoesNotMoveIt|SeveralThreadsGiveTheSameDetectionsToTheBit|ADeadlinePassedBeforeTheEdgeMapEnds|RenderedApproachFramesMatchTheTruthWithinTheirSigmas|SurveyRendered\.SmallRenderedScene
 SANITIZE_UNIT = $(SANITIZE_ENV) ctest --test-dir $(SANITIZE_BUILD) -L unit -E "$(SANITIZE_SKIP)" \
   --output-on-failure -j $(JOBS)
 SANITIZE_FUZZ = $(SANITIZE_ENV) scripts/run_fuzz $(SANITIZE_BUILD) $(FUZZ_SECONDS)

@@ -2,7 +2,6 @@
 
 #include <ceres/ceres.h>
 
-#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/Sparse>
 #include <algorithm>
@@ -452,8 +451,8 @@ Status Solver::ComputeCovariance() {
   for (size_t i = 0; i < frame_col.size(); ++i) {
     const int o = 6 * static_cast<int>(i);
     const Mat6 A = Eigen::MatrixXd(H.block(o, o, 6, 6));
-    const Eigen::MatrixXd B = D.middleRows(o, 6);
-    Eigen::MatrixXd A_inv_B;
+    const Eigen::Matrix<double, 6, Eigen::Dynamic> B = D.middleRows(o, 6);
+    Eigen::Matrix<double, 6, Eigen::Dynamic> A_inv_B;
     Vector6d d;
     if (!SolveLdlt(A, B, &A_inv_B, &d) || d.minCoeff() <= 1e-12 * d.maxCoeff())
       return Fail("frame " + std::to_string(frame_col[i]) +

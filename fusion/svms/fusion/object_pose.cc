@@ -1018,9 +1018,9 @@ Eigen::Matrix<double, 6, 1> PoseError(const Pose& truth, const Pose& estimate) {
 
 double Nees(const Pose& truth, const Pose& estimate, const PoseCovariance& covariance) {
   const Eigen::Matrix<double, 6, 1> e = PoseError(truth, estimate);
-  Eigen::Matrix<double, 6, 1> covariance_e;
-  if (!SolveLdlt(covariance, e, &covariance_e)) return std::nan("");
-  return e.dot(covariance_e);
+  Eigen::Matrix<double, 6, 1> information_e;  // covariance^-1 e
+  if (!SolveLdlt(covariance, e, &information_e)) return std::nan("");
+  return e.dot(information_e);
 }
 
 }  // namespace svms

@@ -1048,9 +1048,11 @@ bool WidenForOtherCandidate(const RefinedCandidate& a, const RefinedCandidate& b
   Eigen::Matrix<double, 6, 1> d;
   const Eigen::AngleAxisd delta(b.pose.Rotation() * a.pose.Rotation().transpose());
   d << delta.angle() * delta.axis(), b.pose.tvec - a.pose.tvec;
-  Vector6d covariance_d;
-  SolveLdlt(a.covariance, d, &covariance_d);
-  const double separation = d.dot(covariance_d);
+  // a.covariance^-1 d. Whether the covariance is positive is not asked: the LDLT's solution is
+  // what the separation below is measured with either way.
+  Vector6d information_d;
+  SolveLdlt(a.covariance, d, &information_d);
+  const double separation = d.dot(information_d);
   const double dchi2 = std::max(0.0, b.chi2 - a.chi2);
   if (separation > 9 && dchi2 < 2 * std::log(1 / kMixtureWeightFloor - 1)) {
     const double w = 1 / (1 + std::exp(0.5 * dchi2));
@@ -1079,9 +1081,9 @@ void WidenForPlanarTwin(const CameraModel& camera, const Pose& pose,
   Eigen::Matrix<double, 6, 1> d;
   const Eigen::AngleAxisd delta(twin.Rotation() * pose.Rotation().transpose());
   d << delta.angle() * delta.axis(), Eigen::Vector3d::Zero();
-  Vector6d covariance_d;
-  SolveLdlt(out->covariance, d, &covariance_d);
-  const double separation = d.dot(covariance_d);
+  Vector6d information_d;  // out->covariance^-1 d, as in WidenForOtherCandidate
+  SolveLdlt(out->covariance, d, &information_d);
+  const double separation = d.dot(information_d);
   double D = 0;
   bool projected = true;
   const bool joint = corner_whitener && X.size() >= 4;

@@ -8,6 +8,7 @@ namespace svms {
 PoseStep PoseGaussNewtonStep(const Eigen::Matrix<double, 6, 6>& H,
                              const Eigen::Matrix<double, 6, 1>& g, const PoseStepTolerances& tol,
                              Eigen::Matrix3d* R, Eigen::Vector3d* t) {
+  // An H that is not positive definite still gives its LDLT's step; a non-finite one fails below.
   Vector6d step;
   SolveLdlt(H, Vector6d(-g), &step);
   if (!step.allFinite()) return PoseStep::kFailed;

@@ -14,7 +14,8 @@ int InvertFullPivLu(const Matrix6d& a, Matrix6d* inverse) {
 }
 
 Vector6d SymmetricEigenvalues(const Matrix6d& a, Matrix6d* vectors) {
-  // Eigenvectors always: the eigenvalues are then those of the call sites' default mode.
+  // Eigenvectors always, so that the eigenvalues are bit for bit those of Eigen's default
+  // (ComputeEigenvectors) mode.
   const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(a);
   if (vectors) *vectors = eig.eigenvectors();
   return eig.eigenvalues();
@@ -34,7 +35,8 @@ bool SolveLdlt(const Matrix6d& a, const Vector6d& b, Vector6d* x, Vector6d* d) {
   return Solve(a, b, x, d);
 }
 
-bool SolveLdlt(const Matrix6d& a, const Eigen::MatrixXd& b, Eigen::MatrixXd* x, Vector6d* d) {
+bool SolveLdlt(const Matrix6d& a, const Eigen::Matrix<double, 6, Eigen::Dynamic>& b,
+               Eigen::Matrix<double, 6, Eigen::Dynamic>* x, Vector6d* d) {
   return Solve(a, b, x, d);
 }
 

@@ -2,12 +2,10 @@
 // covariances, ordered as PoseCovariance ([rotation(3), translation(3)]).
 //
 // Every module that fits or checks a pose inverts, factors or diagonalises such a matrix.
-// Eigen's fixed-size decompositions are header templates that each file instantiates and
-// optimises anew: a FullPivLU and a SelfAdjointEigenSolver of a 6x6 cost about ten seconds of
-// compile time each, in each file that uses them, and the build is most of what CI's 60
-// minutes are spent on. These functions are compiled once (pose_matrix.cc) and return exactly
-// what the Eigen decomposition named in each comment returns; a file that needs more of a
-// decomposition than they give uses Eigen directly.
+// These functions are compiled once (pose_matrix.cc) rather than instantiated from Eigen's
+// headers in each file that needs them, which costs seconds of compile time per file and
+// decomposition, and return bit for bit what the Eigen decomposition named in each comment
+// returns; a file that needs more of a decomposition than they give uses Eigen directly.
 #pragma once
 
 #include <Eigen/Core>
@@ -32,7 +30,7 @@ Vector6d SymmetricEigenvalues(const Matrix6d& a, Matrix6d* vectors = nullptr);
 // *d (when not null) receives the diagonal of D, in pivoted order.
 bool SolveLdlt(const Matrix6d& a, const Vector6d& b, Vector6d* x, Vector6d* d = nullptr);
 // The same for several right-hand sides: b is 6 x n, *x is resized to 6 x n.
-bool SolveLdlt(const Matrix6d& a, const Eigen::MatrixXd& b, Eigen::MatrixXd* x,
-               Vector6d* d = nullptr);
+bool SolveLdlt(const Matrix6d& a, const Eigen::Matrix<double, 6, Eigen::Dynamic>& b,
+               Eigen::Matrix<double, 6, Eigen::Dynamic>* x, Vector6d* d = nullptr);
 
 }  // namespace svms

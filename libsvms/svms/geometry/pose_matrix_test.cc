@@ -79,12 +79,12 @@ TEST(PoseMatrix, SolveLdltSolvesAndTellsAnIndefiniteMatrix) {
   EXPECT_EQ(x, Vector6d(a.ldlt().solve(b)));
   EXPECT_EQ(d, Vector6d(a.ldlt().vectorD()));
   EXPECT_GT(d.minCoeff(), 0);
-  // Several right-hand sides at once: the same columns.
-  Eigen::MatrixXd B(6, 2), X;
+  // Several right-hand sides at once: the same columns, and Eigen's own to the bit.
+  Eigen::Matrix<double, 6, Eigen::Dynamic> B(6, 2), X;
   B << b, 2 * b;
   EXPECT_TRUE(SolveLdlt(a, B, &X));
-  ASSERT_EQ(X.rows(), 6);
   ASSERT_EQ(X.cols(), 2);
+  EXPECT_EQ(X, (Eigen::Matrix<double, 6, Eigen::Dynamic>(a.ldlt().solve(B))));
   EXPECT_LT((X.col(0) - x).cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_LT((X.col(1) - 2 * x).cwiseAbs().maxCoeff(), 1e-11);
   // One negative eigenvalue: not positive semi-definite.
