@@ -861,27 +861,37 @@ TEST(Detector, EightPixelRingsBehindABlurAreReadWithTheirInterferenceModelled) {
 // quality 85): step 8's corners of such markers are tenths of a pixel off and a cell's centre
 // no longer reads its cell, equalised or not (and some give no quad at all). Step 7d reads the
 // ring by deconvolution: more markers found, more within two corrections, none wrong (all
-// 32,768 IDs allowed).
+// 32,768 IDs allowed), over four exposures of the row.
 TEST(Detector, EightPixelRingsThroughJpegAreReadByDeconvolution) {
   const MarkerRow row = MakeMarkerRow(90, 12, 0, 0.13, [](int i) {
     return Eigen::Vector3d(-0.75 + 0.3 * (i % 6), -0.2 + 0.4 * (i / 6), 0);
   });
   const CameraModel cam = CameraModel::Pinhole(600, 400, 200);
-  const Rendered r = RenderThroughAnOrdinaryCamera(
-      Base(cam, row.markers, Look({0.05, -0.3, 7.2}, {0, 0, 0})), "jpeg_srgb");
-  for (const MarkerTruth& t : r.truth.markers) {
-    ASSERT_GT(t.side_px, 7.5);
-    ASSERT_LT(t.side_px, 9.2);
+  // Several exposures of the row (each its own noise and codec blocks), summed: at 8 px a
+  // marker read or not turns on a few grey levels, so one frame's 12 say little.
+  std::vector<Rendered> frames;
+  for (uint64_t seed : {3, 4, 5, 6}) {
+    Scene s = Base(cam, row.markers, Look({0.05, -0.3, 7.2}, {0, 0, 0}));
+    s.seed = seed;
+    frames.push_back(RenderThroughAnOrdinaryCamera(s, "jpeg_srgb"));
+    for (const MarkerTruth& t : frames.back().truth.markers) {
+      ASSERT_GT(t.side_px, 7.5);
+      ASSERT_LT(t.side_px, 9.2);
+    }
   }
   auto count = [&](DetectorOptions o, int* wrong, int* unsupported) {
     o.known_ids_only = false;
     int right = 0;
     *wrong = *unsupported = 0;
-    for (const Detection& d : Detector(o, cam, row.models).Detect(r.image)) {
-      const bool ok = d.id >= 90 && d.id < 102 &&
-                      (d.corners[0] - r.truth.markers[d.id - 90].corners[0].pixel).norm() < 1;
-      (ok ? right : *wrong)++;
-      *unsupported += ok && d.bit_errors <= o.max_unsupported_corrections;
+    for (const Rendered& r : frames) {
+      int found = 0;
+      for (const Detection& d : Detector(o, cam, row.models).Detect(r.image)) {
+        const bool ok = d.id >= 90 && d.id < 102 &&
+                        (d.corners[0] - r.truth.markers[d.id - 90].corners[0].pixel).norm() < 1;
+        (ok ? found : *wrong)++;
+        *unsupported += ok && d.bit_errors <= o.max_unsupported_corrections;
+      }
+      right += found;
     }
     return right;
   };
@@ -890,12 +900,17 @@ TEST(Detector, EightPixelRingsThroughJpegAreReadByDeconvolution) {
   int wrong_on, wrong_off, unsupported_on, unsupported_off;
   const int on = count(DetectorOptions{}, &wrong_on, &unsupported_on);
   const int plain = count(off, &wrong_off, &unsupported_off);
+  std::printf(
+      "%d exposures of 12 markers: %d found (%d within the unsupported corrections) "
+      "deconvolved, %d (%d) without\n",
+      static_cast<int>(frames.size()), on, unsupported_on, plain, unsupported_off);
   RecordProperty("found_deconvolved", on);
   RecordProperty("found_without", plain);
   EXPECT_EQ(wrong_on, 0);
   EXPECT_EQ(wrong_off, 0);
-  EXPECT_GE(on, plain + 3);
-  EXPECT_GE(unsupported_on, unsupported_off + 3);
+  // Measured: 34 (32) of 48 against 17 (10); per exposure 8-9 against 1-7.
+  EXPECT_GE(on, plain + 8);
+  EXPECT_GE(unsupported_on, unsupported_off + 8);
 }
 
 // Step 4b on the pixels of an ordinary camera: 24 markers of 8.5-8.6 px (srgb8: 0.7 px of blur) and

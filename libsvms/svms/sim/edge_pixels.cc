@@ -41,14 +41,18 @@ cv::Mat EdgePixels(const cv::Mat& radiance) {
 // Renders the edge pixels (EdgePixels) of *out, the first pass's radiance of frame f, again with
 // sensor.edge_rays_per_pixel samples each.
 void Renderer::Impl::RefineEdges(const Frame& f, cv::Mat* out) const {
-  // 1. The edge pixels, from the first pass alone (so the result does not depend on the order
-  // in which they are refined).
+  // The edge pixels from the first pass alone, so that the result does not depend on the
+  // order in which they are refined.
   const cv::Mat edge = EdgePixels(*out);
-  // 2. Each rendered again, tile by tile, with the finer grid of jittered samples, through the
-  // general per-sample path.
-  Frame fine = f;
-  fine.n = static_cast<int>(std::lround(std::sqrt(scene.sensor.edge_rays_per_pixel)));
-  const int nn = fine.n * fine.n;
+  RenderAgain(f, static_cast<int>(std::lround(std::sqrt(scene.sensor.edge_rays_per_pixel))), edge,
+              out);
+}
+
+// Tile by tile, so that each tile's candidates are culled once.
+void Renderer::Impl::RenderAgain(const Frame& f, int n, const cv::Mat& mask, cv::Mat* out) const {
+  Frame g = f;
+  g.n = n;
+  const int nn = n * n;
   Scratch sc;
   sc.idx.resize(nn);
   sc.ray.resize(3 * (static_cast<size_t>(nn) + 2));
@@ -62,12 +66,12 @@ void Renderer::Impl::RefineEdges(const Frame& f, cv::Mat* out) const {
       const int x1 = std::min(W, tx + kTile), y1 = std::min(H, ty + kTile);
       bool any = false;
       for (int y = ty; y < y1 && !any; ++y)
-        for (int x = tx; x < x1 && !any; ++x) any = edge.at<uint8_t>(y, x);
+        for (int x = tx; x < x1 && !any; ++x) any = mask.at<uint8_t>(y, x);
       if (!any) continue;
       TileCandidates(f, tx, ty, x1, y1, &candidates);
       for (int y = ty; y < y1; ++y)
         for (int x = tx; x < x1; ++x) {
-          if (!edge.at<uint8_t>(y, x)) continue;
+          if (!mask.at<uint8_t>(y, x)) continue;
           auto finite = [&](int i, int j) {
             return corner_dirs[static_cast<size_t>(j) * (W + 1) + i].allFinite();
           };
@@ -85,11 +89,11 @@ void Renderer::Impl::RefineEdges(const Frame& f, cv::Mat* out) const {
             const Vec3 c[4] = {corner(x, y), corner(x + 1, y), corner(x, y + 1),
                                corner(x + 1, y + 1)};
             PixelPlan plan;
-            ConeCandidates(fine, c, 4, candidates, &pixel_cands, &plan);
+            ConeCandidates(g, c, 4, candidates, &pixel_cands, &plan);
             J.cands = &pixel_cands;
           }
           J.plan = PixelPlan{};  // not planned: every sample traced on its own
-          out->ptr<float>(y)[x] = static_cast<float>(RenderPixel(fine, J, nullptr, &sc));
+          out->ptr<float>(y)[x] = static_cast<float>(RenderPixel(g, J, nullptr, &sc));
         }
     }
   }

@@ -90,12 +90,13 @@ class Renderer {
   // pixels on an edge (EdgePixels) the mean of that many instead.
   cv::Mat RenderRadiance(int view) const;
   // The radiance of view `view` on a grid kRadianceSupersample times finer in each direction
-  // (CV_32FC1, that many times the camera's width and height): each fine pixel the mean of
-  // rays_per_pixel / kRadianceSupersample^2 samples (its square root rounded up; edge pixels
-  // likewise): as many rays as RenderRadiance casts, or a few more, kept apart. It is the light
-  // before the pixels integrate it, which a lens's defocus acts on: Expose blurs it there and then
-  // integrates the pixels. The fine camera rays are the bilinear blend of the pixel-corner rays (as
-  // within a pixel).
+  // (CV_32FC1, that many times the camera's width and height): the light before the pixels
+  // integrate it, which a lens's defocus acts on (Expose blurs it there and then integrates the
+  // pixels). Within each pixel on an edge of RenderRadiance's first pass (EdgePixels), each fine
+  // pixel is the mean of max(rays_per_pixel, edge_rays_per_pixel) / kRadianceSupersample^2
+  // samples (its square root rounded up), cast through the bilinear blend of the pixel-corner
+  // rays (as within a pixel); every other pixel's fine pixels carry the first pass's value of
+  // that pixel (render.cc says why, and what it costs).
   cv::Mat RenderRadianceFine(int view) const;
   // RenderRadianceFine where `sensor` blurs (defocus_sigma_px > 0), else RenderRadiance: what
   // Expose needs for it.

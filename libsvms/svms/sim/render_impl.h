@@ -242,8 +242,14 @@ struct Renderer::Impl {
 
   // render.cc: setting up, and a view's frame.
   Status Build();
-  // The radiance of a view on this Impl's grid (RenderRadiance's body).
+  // The radiance of a view on this Impl's grid (RenderRadiance's body): the first pass, then
+  // RefineEdges where sensor.edge_rays_per_pixel asks for more samples than rays_per_pixel.
   cv::Mat Render(int view) const;
+  // The first pass alone: rays_per_pixel samples per pixel.
+  cv::Mat FirstPass(const Frame& f) const;
+  // RenderRadianceFine's body, this Impl being the camera's grid and `fine` a Finer copy of it:
+  // see render.cc.
+  cv::Mat RenderFine(const Impl& fine, int view) const;
   // A copy on a grid `factor` times finer: corner rays blended from this one's, the samples per
   // pixel divided by factor^2 (at least 1), the backdrop resampled.
   std::unique_ptr<Impl> Finer(int factor) const;
@@ -323,6 +329,9 @@ struct Renderer::Impl {
 
   // edge_pixels.cc: the second pass over edge pixels.
   void RefineEdges(const Frame& f, cv::Mat* out) const;
+  // Renders the pixels set in `mask` (CV_8U, this grid's size) of *out again from scratch, each
+  // the mean of n x n jittered samples through the general per-sample path.
+  void RenderAgain(const Frame& f, int n, const cv::Mat& mask, cv::Mat* out) const;
 };
 
 }  // namespace svms
