@@ -264,9 +264,9 @@ cv::Mat Renderer::Impl::Render(int view) const {
 // The fine grid is rendered where the light changes within a camera pixel, and taken from the
 // camera's grid elsewhere: the first pass on the camera's grid (rays_per_pixel stratified
 // samples per pixel, as RenderRadiance), its edge pixels (EdgePixels), then each fine pixel of
-// an edge pixel rendered anew with the fine grid's samples (rays_per_pixel, or
-// edge_rays_per_pixel where that is more, divided by factor^2: the same number per camera pixel)
-// and every other fine pixel the value of the camera pixel it lies in.
+// an edge pixel or of one of its 8 neighbours rendered anew with the fine grid's samples
+// (rays_per_pixel, or edge_rays_per_pixel where that is more, divided by factor^2: the same
+// number per camera pixel) and every other fine pixel the value of the camera pixel it lies in.
 //
 // Why not the first pass on the fine grid itself: one sample per fine pixel there samples the
 // sun's disc alone (16 rays per pixel: 0.0003-0.0005 RMS on a lit white, render.h) 4 times as
@@ -279,10 +279,19 @@ cv::Mat Renderer::Impl::Render(int view) const {
 // across it; after a symmetric blur, a pixel's mean over its fine pixels is the same for a
 // staircase as for the linear light it steps along (each pixel's mean is its centre's value,
 // and the blur's weights are symmetric), so only the curvature within a pixel is lost.
+// A step of contrast C at the middle of a pixel is another matter: that pixel's second
+// differences vanish and its first ones are C / 2, so below C = 2 kEdgeRadianceJump (a marker
+// in shadow: ambient 0.04 times its print's contrast) EdgePixels leaves it out and only its
+// neighbours in, whose second differences are C / 2. Copied, the step would be blurred as on
+// the pixel grid, wrong by about 4.5 % of C beside it. Hence the neighbours: every step of
+// C > 2 kEdgeRadianceStep is cast on the fine grid, and the copies err by at most 4.5 % of
+// that, 0.0004 of white (Render.TheFineGridIsRenderedWhereTheLightChangesWithinAPixel: a
+// marker in shadow, without the neighbours, 5 % of its contrast).
 cv::Mat Renderer::Impl::RenderFine(const Impl& fine, int view) const {
   const int k = fine.W / W;
   const cv::Mat coarse = FirstPass(MakeFrame(view));
-  const cv::Mat edge = EdgePixels(coarse);
+  cv::Mat edge;
+  cv::dilate(EdgePixels(coarse), edge, cv::Mat::ones(3, 3, CV_8U));
   cv::Mat out(fine.H, fine.W, CV_32F), mask(fine.H, fine.W, CV_8U);
   for (int y = 0; y < fine.H; ++y) {
     const float* c = coarse.ptr<float>(y / k);

@@ -92,11 +92,11 @@ class Renderer {
   // The radiance of view `view` on a grid kRadianceSupersample times finer in each direction
   // (CV_32FC1, that many times the camera's width and height): the light before the pixels
   // integrate it, which a lens's defocus acts on (Expose blurs it there and then integrates the
-  // pixels). Within each pixel on an edge of RenderRadiance's first pass (EdgePixels), each fine
-  // pixel is the mean of max(rays_per_pixel, edge_rays_per_pixel) / kRadianceSupersample^2
-  // samples (its square root rounded up), cast through the bilinear blend of the pixel-corner
-  // rays (as within a pixel); every other pixel's fine pixels carry the first pass's value of
-  // that pixel (render.cc says why, and what it costs).
+  // pixels). Within each pixel on an edge of RenderRadiance's first pass (EdgePixels) or next
+  // to one, each fine pixel is the mean of max(rays_per_pixel, edge_rays_per_pixel) /
+  // kRadianceSupersample^2 samples (its square root rounded up), cast through the bilinear blend
+  // of the pixel-corner rays (as within a pixel); every other pixel's fine pixels carry the
+  // first pass's value of that pixel (render.cc says why, and what it costs).
   cv::Mat RenderRadianceFine(int view) const;
   // RenderRadianceFine where `sensor` blurs (defocus_sigma_px > 0), else RenderRadiance: what
   // Expose needs for it.
