@@ -272,7 +272,7 @@ cv::Mat Renderer::Impl::Render(int view) const {
 // sun's disc alone (16 rays per pixel: 0.0003-0.0005 RMS on a lit white, render.h) 4 times as
 // noisily, which trips EdgePixels' second-difference test on every lit surface (about a third of
 // the fine pixels of a range view, all rendered again), and the per-pixel work of the first pass
-// is paid 16 times: 15 s for a 1024 x 1024 range view against 1.7 s without a defocus.
+// is paid 16 times: 15 s for a 1024 x 1024 range view against 1.6 s without a defocus.
 //
 // What the copy costs: nothing where the light is flat. Where it varies smoothly (below
 // EdgePixels' thresholds), a camera pixel's fine pixels carry its mean instead of the slope
@@ -283,9 +283,9 @@ cv::Mat Renderer::Impl::Render(int view) const {
 // differences vanish and its first ones are C / 2, so below C = 2 kEdgeRadianceJump (a marker
 // in shadow: ambient 0.04 times its print's contrast) EdgePixels leaves it out and only its
 // neighbours in, whose second differences are C / 2. Copied, the step would be blurred as on
-// the pixel grid, wrong by about 4.5 % of C beside it. Hence the neighbours: every step of
-// C > 2 kEdgeRadianceStep is cast on the fine grid, and the copies err by at most 4.5 % of
-// that, 0.0004 of white (Render.TheFineGridIsRenderedWhereTheLightChangesWithinAPixel: a
+// the pixel grid, wrong by about 5 % of C beside it. Hence the neighbours: every step of
+// C > 2 kEdgeRadianceStep is cast on the fine grid, and the copies err by at most about 5.6 %
+// of that, 0.00045 of white (Render.TheFineGridIsRenderedWhereTheLightChangesWithinAPixel: a
 // marker in shadow, without the neighbours, 5 % of its contrast).
 cv::Mat Renderer::Impl::RenderFine(const Impl& fine, int view) const {
   const int k = fine.W / W;

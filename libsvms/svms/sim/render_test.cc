@@ -384,7 +384,8 @@ TEST(EdgePixels, AStraightGradientIsNotAnEdgeButAStepItsRampAndNoiseAre) {
 // ambient light of a shadow (contrast 0.03), the marker square to the pixel rows at two
 // half-pixel phases, where a step through the middle of a pixel is no edge pixel of its own.
 // Measured: worst 0.1 % of the contrast in sunlight, 0 in shadow (the very rays of the whole
-// grid); without the neighbours 4.9-5.6 % in shadow, without casting at all 6 % in sunlight.
+// grid); without the neighbours 4.9-5.6 % in shadow, without casting at all 6 % in sunlight. The
+// shadow's frames are checked to hold such steps.
 TEST(Render, TheFineGridIsRenderedWhereTheLightChangesWithinAPixel) {
   constexpr int kSize = 160;
   constexpr double kFocal = 1000;
@@ -438,6 +439,29 @@ TEST(Render, TheFineGridIsRenderedWhereTheLightChangesWithinAPixel) {
         c.name, worst, 100 * worst / contrast, contrast);
     EXPECT_GT(contrast, c.sun ? 0.5 : 0.025) << c.name;
     EXPECT_LT(worst / contrast, 0.005) << c.name;
+    if (c.sun) continue;
+    // The shadow's case is the one for the neighbours: camera pixels that a step crosses (their
+    // 16 fine pixels of the reference span a quarter of the contrast or more) which are no edge
+    // pixels of the first pass (rays_per_pixel alone: the same samples), found only as a
+    // neighbour's.
+    const cv::Mat first =
+        Make(scene_for(CameraModel::Pinhole(kFocal, kSize, kSize), 16, 0))->RenderRadiance(0);
+    const cv::Mat edge = EdgePixels(first);
+    double rlo, rhi;
+    cv::minMaxLoc(reference, &rlo, &rhi);
+    int unflagged_steps = 0;
+    for (int y = 0; y < kSize; ++y)
+      for (int x = 0; x < kSize; ++x) {
+        if (edge.at<uint8_t>(y, x)) continue;
+        double blo, bhi;
+        cv::minMaxLoc(reference(cv::Rect(kRadianceSupersample * x, kRadianceSupersample * y,
+                                         kRadianceSupersample, kRadianceSupersample)),
+                      &blo, &bhi);
+        unflagged_steps += bhi - blo >= 0.25 * (rhi - rlo);
+      }
+    std::printf("%s: %d pixels crossed by a step that are no edge pixels of their own\n", c.name,
+                unflagged_steps);
+    EXPECT_GT(unflagged_steps, 0) << c.name;
   }
 }
 
