@@ -4,23 +4,19 @@
 #include <set>
 #include <sstream>
 
+#include "svms/base/format.h"
+
 namespace svms {
 namespace {
 
 bool Positive(double v) { return std::isfinite(v) && v > 0; }
-
-std::string Num(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
 
 }  // namespace
 
 Status SurveyOptions::Check() const {
   auto bad = [](const std::string& field, const std::string& expected, double got) {
     return Status::Error("survey options: " + field + ": expected " + expected + ", got " +
-                         Num(got));
+                         Significant(got, 6));
   };
   if (!Positive(corner_sigma_px)) return bad("corner_sigma_px", "> 0 pixels", corner_sigma_px);
   if (!Positive(corner_fit_scale)) return bad("corner_fit_scale", "> 0", corner_fit_scale);
@@ -100,7 +96,7 @@ Status SurveyConfig::Check() const {
   for (const ControlPoint& c : control_points) {
     if (!Positive(c.sigma))
       return Status::Error("survey config: control point " + c.point.name +
-                           ": sigma: expected > 0 metres, got " + Num(c.sigma));
+                           ": sigma: expected > 0 metres, got " + Significant(c.sigma, 6));
     if (!c.point_in_object.allFinite())
       return Status::Error("survey config: control point " + c.point.name +
                            ": coordinates must be finite");
@@ -111,10 +107,10 @@ Status SurveyConfig::Check() const {
     const std::string n = "scale bar " + b.a.name + ":" + b.b.name;
     if (!Positive(b.distance))
       return Status::Error("survey config: " + n + ": distance: expected > 0 metres, got " +
-                           Num(b.distance));
+                           Significant(b.distance, 6));
     if (!Positive(b.sigma))
       return Status::Error("survey config: " + n + ": sigma: expected > 0 metres, got " +
-                           Num(b.sigma));
+                           Significant(b.sigma, 6));
     if (b.a.marker_id == b.b.marker_id)
       return Status::Error("survey config: " + n + ": both ends on marker " +
                            std::to_string(b.a.marker_id) +

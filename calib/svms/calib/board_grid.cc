@@ -2,7 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
+
+#include "svms/base/format.h"
 
 namespace svms {
 namespace {
@@ -17,12 +18,6 @@ double Gcd(double a, double b, double tol) {
     a = b, b = r;
   }
   return a;
-}
-
-std::string Num(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.9g", v);
-  return buf;
 }
 
 }  // namespace
@@ -44,7 +39,7 @@ Status FindBoardGrid(const std::vector<Eigen::Vector3d>& points, double tol, int
   Eigen::Vector3d lo = points[0], hi = points[0];
   for (const Eigen::Vector3d& p : points) {
     if (!(std::abs(p.z()) <= tol))
-      return Status::Error("a point is off the board's plane (z = " + Num(p.z()) +
+      return Status::Error("a point is off the board's plane (z = " + Significant(p.z(), 9) +
                            " m: a post tip); mrcal's calibration object is flat");
     lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
   }
@@ -59,9 +54,9 @@ Status FindBoardGrid(const std::vector<Eigen::Vector3d>& points, double tol, int
   const double wx = (hi.x() - lo.x()) / g, wy = (hi.y() - lo.y()) / g;
   if (!(wx + 1 <= max_nodes && wy + 1 <= max_nodes && (wx + 1) * (wy + 1) <= max_nodes))
     return Status::Error("the points lie on no regular grid of at most " +
-                         std::to_string(max_nodes) + " nodes (common spacing " + Num(g) +
-                         " m for a " + Num(hi.x() - lo.x()) + " x " + Num(hi.y() - lo.y()) +
-                         " m board)");
+                         std::to_string(max_nodes) + " nodes (common spacing " + Significant(g, 9) +
+                         " m for a " + Significant(hi.x() - lo.x(), 9) + " x " +
+                         Significant(hi.y() - lo.y(), 9) + " m board)");
   BoardGrid r;
   r.width = static_cast<int>(std::lround(wx)) + 1;
   r.height = static_cast<int>(std::lround(wy)) + 1;
@@ -72,8 +67,8 @@ Status FindBoardGrid(const std::vector<Eigen::Vector3d>& points, double tol, int
   int i, j;
   for (const Eigen::Vector3d& p : points)
     if (!r.Node(p, tol, &i, &j))
-      return Status::Error("the point (" + Num(p.x()) + ", " + Num(p.y()) +
-                           ") m is not on the grid of spacing " + Num(r.spacing) + " m");
+      return Status::Error("the point (" + Significant(p.x(), 9) + ", " + Significant(p.y(), 9) +
+                           ") m is not on the grid of spacing " + Significant(r.spacing, 9) + " m");
   *grid = r;
   return Status::Ok();
 }

@@ -6,16 +6,11 @@
 #include <cstdio>
 #include <map>
 
+#include "svms/base/format.h"
 #include "svms/geometry/pose_matrix.h"
 
 namespace svms {
 namespace {
-
-std::string Num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.4g", v);
-  return buf;
-}
 
 // A marker's printed footprint in the object frame: the outer edge of its bit ring (a square of
 // side 2 * half_extent() on the marker's plane z = 0), its centre and normal.
@@ -83,9 +78,9 @@ std::string Overlap(const LayoutEntry& a, const LayoutEntry& b) {
   const double smaller = std::min(a.marker.size, b.marker.size);
   const double distance = (a.object_from_marker.tvec - b.object_from_marker.tvec).norm();
   if (distance < 0.5 * smaller) {
-    return "its centre is " + Num(distance) + " m from that of marker " +
+    return "its centre is " + Significant(distance, 4) + " m from that of marker " +
            std::to_string(b.marker.id) + ", closer than half the smaller black square (" +
-           Num(0.5 * smaller) + " m)";
+           Significant(0.5 * smaller, 4) + " m)";
   }
   if (!coplanar) return "";
   // Both squares in a's plane (x, y of a's marker frame), each shrunk toward its centre.
@@ -100,9 +95,9 @@ std::string Overlap(const LayoutEntry& a, const LayoutEntry& b) {
     qb[k] = cb + (1 - 2 * kLayoutOverlapMargin) * (in_a(fb.corners[k]) - cb);
   }
   if (Separated(qa, qb)) return "";
-  return "its printed square (" + Num(fa.side) + " m, to the outer edge of the bit ring) " +
-         "overlaps that of marker " + std::to_string(b.marker.id) + " (" + Num(fb.side) +
-         " m) on the same plane";
+  return "its printed square (" + Significant(fa.side, 4) +
+         " m, to the outer edge of the bit ring) " + "overlaps that of marker " +
+         std::to_string(b.marker.id) + " (" + Significant(fb.side, 4) + " m) on the same plane";
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "svms/base/format.h"
 #include "svms/codec/svms44.h"
 
 namespace svms {
@@ -10,25 +11,20 @@ namespace {
 
 constexpr double kGeometryTolerance = 1e-6;  // metres: 1 micrometre
 
-std::string Num(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.9g", v);
-  return buf;
-}
-
 Status CheckRing(const std::string& where, double size, double stripe, double cell) {
   if (!(std::isfinite(size) && size > 0))
-    return Status::Error(where + "size: expected a positive number of metres, got " + Num(size));
+    return Status::Error(where + "size: expected a positive number of metres, got " +
+                         Significant(size, 9));
   if (!(std::isfinite(stripe) && stripe > 0))
     return Status::Error(where + "stripe_width: expected a positive number of metres, got " +
-                         Num(stripe));
+                         Significant(stripe, 9));
   if (!(std::isfinite(cell) && cell > 0))
     return Status::Error(where + "cell_size: expected a positive number of metres, got " +
-                         Num(cell));
+                         Significant(cell, 9));
   if (std::abs(0.5 * size + stripe - 5 * cell) > kGeometryTolerance) {
     return Status::Error(where + "cell_size: expected size / 2 + stripe_width = 5 * cell_size (" +
-                         Num((0.5 * size + stripe) / 5) + " m for this size and stripe), got " +
-                         Num(cell));
+                         Significant((0.5 * size + stripe) / 5, 9) +
+                         " m for this size and stripe), got " + Significant(cell, 9));
   }
   return Status::Ok();
 }
@@ -117,8 +113,8 @@ Status MarkerModel::Validate(const std::string& path) const {
     const double needed = 2 * (6 * inner->cell_size + inner->cell_size);
     if (needed > size + kGeometryTolerance) {
       return Status::Error(ip + "size: the inner marker with a one-cell margin needs " +
-                           Num(needed) + " m, more than the outer black square (" + Num(size) +
-                           " m)");
+                           Significant(needed, 9) + " m, more than the outer black square (" +
+                           Significant(size, 9) + " m)");
     }
     innermost = inner->size;
   }
@@ -126,15 +122,16 @@ Status MarkerModel::Validate(const std::string& path) const {
     const std::string pp = path + "post.";
     if (!std::isfinite(post->height) || post->height == 0)
       return Status::Error(pp + "height: expected a nonzero number of metres (> 0 post, < 0 " +
-                           "concave well), got " + Num(post->height));
+                           "concave well), got " + Significant(post->height, 9));
     if (!(std::isfinite(post->radius) && post->radius > 0 && post->radius <= 0.25 * innermost))
       return Status::Error(pp + "radius: expected a positive number of metres up to a quarter of " +
-                           "the innermost black square (" + Num(0.25 * innermost) + "), got " +
-                           Num(post->radius));
+                           "the innermost black square (" + Significant(0.25 * innermost, 9) +
+                           "), got " + Significant(post->radius, 9));
     if (!(std::isfinite(post->tip_radius) && post->tip_radius > 0 &&
           post->tip_radius <= post->radius + kGeometryTolerance))
       return Status::Error(pp + "tip_radius: expected a positive number of metres up to radius (" +
-                           Num(post->radius) + "), got " + Num(post->tip_radius));
+                           Significant(post->radius, 9) + "), got " +
+                           Significant(post->tip_radius, 9));
   }
   return Status::Ok();
 }
