@@ -367,9 +367,16 @@ bool EdgeBelowPenumbra(const Sampler& sample, const Eigen::Vector2d& edge,
   return FallTo(sample, edge, outward, black + 0.5 * (stripe - black), reach_px, inner, strength);
 }
 
+// One 8 x 8 block's share of a side's edge points (SideBlockSums): its key, points, sum of
+// their places along the side and of their residuals.
+struct CodecBlock {
+  long key;
+  double n, t, r;
+};
 // Buffers of RefineCorners, kept per thread between calls (no allocation once grown).
 struct RefineScratch {
-  std::vector<double> line, weights, residual, abs_inliers;
+  std::vector<CodecBlock> codec_blocks;
+  std::vector<double> line, weights, residual, signed_residual, abs_inliers;
   std::vector<Eigen::Vector2d> pts, edges, past_end;
   std::vector<char> use;
   std::vector<BandReading> bands;
@@ -574,12 +581,13 @@ LineFit FitLineRobust(const std::vector<Eigen::Vector2d>& pts, const std::vector
     fit.lag1_pairs = 0;
     double previous = 0;
     bool have_previous = false;
+    sc.signed_residual.resize(pts.size());
     for (size_t i = 0; i < pts.size(); ++i) {
+      const double signed_r = sc.signed_residual[i] = px_per_unit * nrm.dot(pts[i] - mean);
       if (!use[i]) {
         have_previous = false;
         continue;
       }
-      const double signed_r = px_per_unit * nrm.dot(pts[i] - mean);
       fit.lag1_squares += signed_r * signed_r;
       if (have_previous) fit.lag1_products += previous * signed_r, ++fit.lag1_pairs;
       previous = signed_r, have_previous = true;
@@ -602,6 +610,111 @@ LineFit FitLineRobust(const std::vector<Eigen::Vector2d>& pts, const std::vector
   }
   return fit;
 }
+// The edge points of one side grouped by the 8 x 8 pixel block they fall in: a JPEG codes
+// each block on its own (its luma DCT blocks; the grid laid from the image's origin, as an
+// uncropped JPEG's is), so the codec's error of a block moves its points together, and a side
+// has only as many independent readings of its place as blocks it crosses. The residuals say
+// how much: with per-point errors of covariance a I + c J (J: 1 for two points in one block),
+// and the residuals r = (I - H) e of an ordinary line fit (H its hat matrix, from the points'
+// places s along the side), E[r'r] = a tr(I - H) + c tr(J (I - H)) and E[r'Jr] =
+// a tr(J (I - H)) + c tr(J (I - H) J (I - H)): two equations, linear in (a, c), summed over a
+// marker's four sides and solved there (SideLineVariance). The traces need only each block's
+// count n_g and sum of places t_g (H = 1/n + s_i s_j / S). Method of moments, not a constant:
+// on frames without blocks c comes out about 0. The weighted total least squares fit is taken
+// as ordinary for these sums.
+constexpr double kCodecBlockPx = 8;
+struct SideBlocks {
+  double q1 = 0, q2 = 0;                  // r'r and r'Jr of the side's inliers, px^2
+  double a1 = 0, c1 = 0, a2 = 0, c2 = 0;  // E[q1] = a1 a + c1 c, E[q2] = a2 a + c2 c
+  // For the side's line at its ends: inliers n, S = sum s^2, N2 = sum n_g^2, T2 = sum t_g^2,
+  // NT = sum n_g t_g, and the ends' places s0, s1 (px along the side from the inliers' mean).
+  double n = 0, S = 0, N2 = 0, T2 = 0, NT = 0, s0 = 0, s1 = 0;
+};
+// `px`: the edge points in pixels, `r` their signed residuals about the fitted line (px),
+// `use` the fit's inliers; the side runs from pixel a to b.
+SideBlocks SideBlockSums(const std::vector<Eigen::Vector2d>& px, const std::vector<double>& r,
+                         const std::vector<char>& use, const Eigen::Vector2d& a,
+                         const Eigen::Vector2d& b) {
+  SideBlocks out;
+  const Eigen::Vector2d u = (b - a).normalized();
+  double mean = 0;
+  for (size_t i = 0; i < px.size(); ++i)
+    if (use[i]) mean += u.dot(px[i] - a), ++out.n;
+  if (out.n < 3) return out;
+  mean /= out.n;
+  std::vector<CodecBlock>& blocks = Scratch().codec_blocks;
+  blocks.clear();
+  for (size_t i = 0; i < px.size(); ++i) {
+    if (!use[i]) continue;
+    const long key = static_cast<long>(std::floor(px[i].y() / kCodecBlockPx)) * 1000003L +
+                     static_cast<long>(std::floor(px[i].x() / kCodecBlockPx));
+    const double s = u.dot(px[i] - a) - mean;
+    auto it = std::find_if(blocks.begin(), blocks.end(),
+                           [&](const CodecBlock& g) { return g.key == key; });
+    if (it == blocks.end()) blocks.push_back({key, 0, 0, 0}), it = blocks.end() - 1;
+    it->n += 1, it->t += s, it->r += r[i];
+    out.S += s * s;
+    out.q1 += r[i] * r[i];
+  }
+  if (!(out.S > 0)) return SideBlocks{};
+  double diag_h = 0;  // sum_g 1_g' H 1_g n_g
+  double in_h = 0;    // sum_g 1_g' H 1_g
+  for (const CodecBlock& g : blocks) {
+    const double h = g.n * g.n / out.n + g.t * g.t / out.S;
+    in_h += h, diag_h += g.n * h;
+    out.N2 += g.n * g.n, out.T2 += g.t * g.t, out.NT += g.n * g.t;
+    out.q2 += g.r * g.r;
+  }
+  out.a1 = out.n - 2;
+  out.c1 = out.a2 = out.n - in_h;
+  out.c2 = out.N2 - 2 * diag_h + out.N2 * out.N2 / (out.n * out.n) +
+           2 * out.NT * out.NT / (out.n * out.S) + out.T2 * out.T2 / (out.S * out.S);
+  out.s0 = -mean;
+  out.s1 = (b - a).norm() - mean;
+  return out;
+}
+// The pooled (a, c) of SideBlocks over a marker's sides (c >= 0, a >= 0).
+Eigen::Vector2d BlockVariances(const std::array<SideBlocks, 4>& sides) {
+  Eigen::Matrix2d M = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d q = Eigen::Vector2d::Zero();
+  for (const SideBlocks& b : sides) {
+    M += (Eigen::Matrix2d() << b.a1, b.c1, b.a2, b.c2).finished();
+    q += Eigen::Vector2d(b.q1, b.q2);
+  }
+  // Under c = 0 with Gaussian errors, r'Jr has mean a a2 and variance 2 a^2 c2: c is taken
+  // only where q2 stands 2 of its sigmas above that (on frames without blocks, clamping an
+  // unbiased estimate at 0 would widen every corner a little).
+  const double a0 = M(0, 0) > 0 ? q(0) / M(0, 0) : 0;
+  if (!(q(1) - a0 * M(1, 0) > 2 * a0 * std::sqrt(2 * std::max(M(1, 1), 0.0))))
+    return Eigen::Vector2d(a0, 0);
+  Eigen::Vector2d ac = Eigen::Vector2d::Zero();
+  if (std::abs(M.determinant()) > 1e-12 * M.squaredNorm()) ac = M.partialPivLu().solve(q);
+  if (!(ac.y() > 0)) return Eigen::Vector2d(M(0, 0) > 0 ? q(0) / M(0, 0) : 0, 0);
+  if (!(ac.x() > 0)) return Eigen::Vector2d(0, (q(0) + q(1)) / (M(0, 1) + M(1, 1)));
+  return ac;
+}
+// A side's line across itself at its two ends (variances v0, v1 and covariance, px^2) for the
+// per-point covariance a I + c J, and what its scatter alone would say, (a + c c1 / a1) times
+// the independent points' (1/n + s^2/S): *factor the mean ratio of the two at the ends,
+// *end_correlation the ends' correlation.
+void SideLineVariance(const SideBlocks& b, const Eigen::Vector2d& ac, double* factor,
+                      double* end_correlation) {
+  *factor = 1;
+  *end_correlation = NAN;
+  if (!(b.n >= 3 && b.S > 0)) return;
+  const double a = ac.x(), c = ac.y();
+  auto cov = [&](double s, double t) {
+    return a * (1 / b.n + s * t / b.S) +
+           c * (b.N2 / (b.n * b.n) + s * t * b.T2 / (b.S * b.S) + (s + t) * b.NT / (b.n * b.S));
+  };
+  const double scatter = a + c * b.c1 / b.a1;
+  const double v0 = cov(b.s0, b.s0), v1 = cov(b.s1, b.s1);
+  if (!(scatter > 0 && v0 > 0 && v1 > 0)) return;
+  *factor =
+      0.5 * (v0 / (1 / b.n + b.s0 * b.s0 / b.S) + v1 / (1 / b.n + b.s1 * b.s1 / b.S)) / scatter;
+  *end_correlation = cov(b.s0, b.s1) / std::sqrt(v0 * v1);
+}
+
 // Step 8's penumbra rule for one side (`outward`, length `len`; last_iteration: the refinement's
 // last). A shadow's penumbra running along the side on the white stripe: see
 // CornerRefineOptions::penumbra_dark_fraction. Taken from the located edges (*edges, their
@@ -659,8 +772,8 @@ double StudentVarianceFactor(double nu) {
 // *perp: each side's perpendicular sigma at its ends (pixels), for CornerCovariance.
 void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, const std::array<double, 4>& margins,
                   double lag1_products, double lag1_squares, int lag1_pairs,
-                  const CornerRefineOptions& o, RefinedCorners* out_io,
-                  std::array<double, 4>* perp_out) {
+                  const std::array<double, 4>& block_factor, const CornerRefineOptions& o,
+                  RefinedCorners* out_io, std::array<double, 4>* perp_out) {
   RefinedCorners& out = *out_io;
   // Neighbouring edge points (1.5 px apart) err together where the image was smoothed: by
   // the optics' blur, a JPEG's blocks, a demosaicing filter. Their scatter then says less
@@ -687,7 +800,8 @@ void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, const std::array<
   std::array<double, 4> perp{};
   for (int k = 0; k < 4; ++k) {
     const double f = 1 - 2 * margins[k];
-    mult[k] = correlated * (1 + 3 / (f * f)) / std::max(1, out.side_points[k]);
+    mult[k] =
+        std::max(correlated, block_factor[k]) * (1 + 3 / (f * f)) / std::max(1, out.side_points[k]);
     double var = 0;
     for (int i = 0; i < 4; ++i) {
       c[k][i] = ((i == k ? dof[k] : 0) + P * dof[i] / pooled_dof) / (dof[k] + P);
@@ -733,14 +847,17 @@ void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, const std::array<
 Eigen::Matrix<double, 8, 8> CornerCovariance(const std::array<Eigen::Vector2d, 4>& corners,
                                              const std::array<double, 4>& perp,
                                              const std::array<double, 4>& corner_sigma,
-                                             const std::array<double, 4>& margins) {
+                                             const std::array<double, 4>& margins,
+                                             const std::array<double, 4>& end_correlations) {
   // Moves across the sides: side k's at its start (corner k) is 2k, at its end 2k + 1.
   Eigen::Matrix<double, 8, 8> moves = Eigen::Matrix<double, 8, 8>::Zero();
   std::array<Eigen::Vector2d, 4> normal;
   for (int k = 0; k < 4; ++k) {
     const double v = perp[k] * perp[k];
     const double f = 1 - 2 * margins[k];
-    const double end_correlation = (1 - 3 / (f * f)) / (1 + 3 / (f * f));
+    const double end_correlation = std::isfinite(end_correlations[k])
+                                       ? end_correlations[k]
+                                       : (1 - 3 / (f * f)) / (1 + 3 / (f * f));
     moves(2 * k, 2 * k) = moves(2 * k + 1, 2 * k + 1) = v;
     moves(2 * k, 2 * k + 1) = moves(2 * k + 1, 2 * k) = end_correlation * v;
     const Eigen::Vector2d u = (corners[(k + 1) % 4] - corners[k]).normalized();
@@ -837,6 +954,7 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
     std::array<Eigen::Vector3d, 4> lines;  // in the fitting plane
     double lag1_products = 0, lag1_squares = 0;
     int lag1_pairs = 0;
+    std::array<SideBlocks, 4> blocks;
     double min_side = INFINITY;
     for (int k = 0; k < 4; ++k)
       min_side = std::min(min_side, (out.corners[(k + 1) % 4] - out.corners[k]).norm());
@@ -890,8 +1008,10 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
         Eigen::Vector2d q;
         if (!plane.ToPlane(edges[i], &q)) continue;
         pts.push_back(q);
+        edges[mapped] = edges[i];
         weights[mapped++] = weights[i];
       }
+      edges.resize(mapped);
       weights.resize(mapped);
       if (pts.size() < 3) return out;  // not refined: keep what we had, ok = false
       const LineFit fit = FitLineRobust(pts, weights, plane, o);
@@ -901,9 +1021,17 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       out.side_rms[k] = fit.rms_px;
       lag1_products += fit.lag1_products, lag1_squares += fit.lag1_squares;
       lag1_pairs += fit.lag1_pairs;
+      blocks[k] = SideBlockSums(edges, sc.signed_residual, sc.use, a, b);
     }
+    const Eigen::Vector2d block_ac =
+        o.codec_blocks ? BlockVariances(blocks) : Eigen::Vector2d(1, 0);
+    std::array<double, 4> block_factor, end_correlation;
+    for (int k = 0; k < 4; ++k)
+      SideLineVariance(blocks[k], block_ac, &block_factor[k], &end_correlation[k]);
+    out.block_correlation = block_ac.y() > 0 ? block_ac.y() / block_ac.sum() : 0;
     std::array<double, 4> perp;
-    CornerSigmas(lines, margins, lag1_products, lag1_squares, lag1_pairs, o, &out, &perp);
+    CornerSigmas(lines, margins, lag1_products, lag1_squares, lag1_pairs, block_factor, o, &out,
+                 &perp);
     // A small marker's sides behind a blur lie inward by about band_bias_px, which their
     // scatter does not show: in each corner's sigma (and, through it, the joint covariance).
     // On the last iteration, whose sigmas are kept.
@@ -925,9 +1053,10 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
     // is not known: they are left as independent (zero covariance).
     // Only the last iteration's lines are kept, so only their covariance is computed.
     if (it == o.iterations - 1)
-      out.corner_covariance = out.correlation > 0
-                                  ? Eigen::Matrix<double, 8, 8>::Zero()
-                                  : CornerCovariance(out.corners, perp, out.corner_sigma, margins);
+      out.corner_covariance =
+          out.correlation > 0
+              ? Eigen::Matrix<double, 8, 8>::Zero()
+              : CornerCovariance(out.corners, perp, out.corner_sigma, margins, end_correlation);
   }
   out.ok = true;
   return out;

@@ -72,6 +72,11 @@ struct CornerRefineOptions {
   // points each on their own). true: each corner's variance is multiplied by that factor, so
   // that its normalised squared error has mean 1, not only in the limit of many points.
   bool small_sample_variance = true;
+  // Estimate from the sides' residuals how much of the edge points' error the points within
+  // one 8 x 8 pixel block share (RefinedCorners::block_correlation) and widen the sides'
+  // lines by it: a JPEG codes each block on its own. false: the points' errors are taken as
+  // shared only through their lag-1 correlation.
+  bool codec_blocks = true;
   // A quad whose shortest side is below this (pixels) has a white stripe (a third of the side)
   // too narrow for the edge profile's +-2 px window plus the pixels' blur: its edges are placed
   // as LocateEdge's narrow_band says.
@@ -112,23 +117,30 @@ struct RefinedCorners {
   std::array<int, 4> side_points{};  // edge points used per side
   // Standard deviation of each corner (pixels, each axis) propagated from its two side lines'
   // fits: each line's offset and slope from its edge points' scatter (side_rms shrunk toward
-  // the four sides' pooled scatter, see pooled_prior_dof; side_points; times (1 + rho) /
-  // (1 - rho) in variance for the points' correlation rho along the side, `correlation`),
-  // evaluated at the corner, then the intersection at the lines' angle; times nu / (nu - 2) in
-  // variance for the degrees of freedom it rests on, small_sample_variance).
+  // the four sides' pooled scatter, see pooled_prior_dof; side_points; times the larger of
+  // (1 + rho) / (1 - rho), for the points' correlation rho along the side, `correlation`, and
+  // what errors shared within 8 x 8 blocks add, `block_correlation`), evaluated at the corner, then
+  // the intersection at the lines' angle; times nu / (nu - 2) in variance for the degrees of
+  // freedom it rests on, small_sample_variance).
   std::array<double, 4> corner_sigma{};
   // The four corners' joint covariance (pixels^2; rows and columns x0, y0, x1, y1, ..., in the
   // order of `corners`) from the same line fits. Two corners on one side share that side's
   // line: its offset moves both across the side together, its slope moves them in opposite
   // directions, and with the edge points spread over the middle fraction f of the side the
   // slope wins, so their components across the side correlate by (1 - 3 / f^2) / (1 + 3 / f^2)
-  // (-0.65 at f = 0.8). Each corner's 2 x 2 block has corner_sigma^2 as its mean diagonal.
-  // Zero where the corners were not refined.
+  // (-0.65 at f = 0.8) for independent points spread evenly; from the points' own places and
+  // the errors they share within blocks (block_correlation) where those are known. Each corner's 2
+  // x 2 block has corner_sigma^2 as its mean diagonal. Zero where the corners were not refined.
   Eigen::Matrix<double, 8, 8> corner_covariance = Eigen::Matrix<double, 8, 8>::Zero();
   // The lag-1 correlation of the edge points' residuals along the sides (pooled over the four;
   // 0 where it does not stand out of its noise), by which corner_sigma was widened: see
   // RefineCorners.
   double correlation = 0;
+  // The share of the edge points' variance that the points within one 8 x 8 pixel block (a
+  // JPEG's coding unit, laid from the image's origin) have in common, estimated from the
+  // sides' residuals by moments (0 where it does not stand 2 sigmas out of its noise). It
+  // widens each side's line and sets the correlation of its two ends in corner_covariance.
+  double block_correlation = 0;
   int excluded_points = 0;  // edge points left out because they fell in an ExcludedRegion
   // On a quad under narrow_stripe_side_px: an upper bound on how far inward its sides are
   // placed because the stripe's blurred peak falls short of its white (pixels, from the stripe
