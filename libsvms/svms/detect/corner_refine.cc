@@ -9,6 +9,7 @@
 
 #include "svms/base/statistics.h"
 #include "svms/base/thread_scratch.h"
+#include "svms/detect/codec_blocks.h"
 
 namespace svms {
 
@@ -367,12 +368,6 @@ bool EdgeBelowPenumbra(const Sampler& sample, const Eigen::Vector2d& edge,
   return FallTo(sample, edge, outward, black + 0.5 * (stripe - black), reach_px, inner, strength);
 }
 
-// One 8 x 8 block's share of a side's edge points (SideBlockSums): its key, points, sum of
-// their places along the side and of their residuals.
-struct CodecBlock {
-  long key;
-  double n, t, r;
-};
 // Buffers of RefineCorners, kept per thread between calls (no allocation once grown).
 struct RefineScratch {
   std::vector<CodecBlock> codec_blocks;
@@ -610,111 +605,6 @@ LineFit FitLineRobust(const std::vector<Eigen::Vector2d>& pts, const std::vector
   }
   return fit;
 }
-// The edge points of one side grouped by the 8 x 8 pixel block they fall in: a JPEG codes
-// each block on its own (its luma DCT blocks; the grid laid from the image's origin, as an
-// uncropped JPEG's is), so the codec's error of a block moves its points together, and a side
-// has only as many independent readings of its place as blocks it crosses. The residuals say
-// how much: with per-point errors of covariance a I + c J (J: 1 for two points in one block),
-// and the residuals r = (I - H) e of an ordinary line fit (H its hat matrix, from the points'
-// places s along the side), E[r'r] = a tr(I - H) + c tr(J (I - H)) and E[r'Jr] =
-// a tr(J (I - H)) + c tr(J (I - H) J (I - H)): two equations, linear in (a, c), summed over a
-// marker's four sides and solved there (SideLineVariance). The traces need only each block's
-// count n_g and sum of places t_g (H = 1/n + s_i s_j / S). Method of moments, not a constant:
-// on frames without blocks c comes out about 0. The weighted total least squares fit is taken
-// as ordinary for these sums.
-constexpr double kCodecBlockPx = 8;
-struct SideBlocks {
-  double q1 = 0, q2 = 0;                  // r'r and r'Jr of the side's inliers, px^2
-  double a1 = 0, c1 = 0, a2 = 0, c2 = 0;  // E[q1] = a1 a + c1 c, E[q2] = a2 a + c2 c
-  // For the side's line at its ends: inliers n, S = sum s^2, N2 = sum n_g^2, T2 = sum t_g^2,
-  // NT = sum n_g t_g, and the ends' places s0, s1 (px along the side from the inliers' mean).
-  double n = 0, S = 0, N2 = 0, T2 = 0, NT = 0, s0 = 0, s1 = 0;
-};
-// `px`: the edge points in pixels, `r` their signed residuals about the fitted line (px),
-// `use` the fit's inliers; the side runs from pixel a to b.
-SideBlocks SideBlockSums(const std::vector<Eigen::Vector2d>& px, const std::vector<double>& r,
-                         const std::vector<char>& use, const Eigen::Vector2d& a,
-                         const Eigen::Vector2d& b) {
-  SideBlocks out;
-  const Eigen::Vector2d u = (b - a).normalized();
-  double mean = 0;
-  for (size_t i = 0; i < px.size(); ++i)
-    if (use[i]) mean += u.dot(px[i] - a), ++out.n;
-  if (out.n < 3) return out;
-  mean /= out.n;
-  std::vector<CodecBlock>& blocks = Scratch().codec_blocks;
-  blocks.clear();
-  for (size_t i = 0; i < px.size(); ++i) {
-    if (!use[i]) continue;
-    const long key = static_cast<long>(std::floor(px[i].y() / kCodecBlockPx)) * 1000003L +
-                     static_cast<long>(std::floor(px[i].x() / kCodecBlockPx));
-    const double s = u.dot(px[i] - a) - mean;
-    auto it = std::find_if(blocks.begin(), blocks.end(),
-                           [&](const CodecBlock& g) { return g.key == key; });
-    if (it == blocks.end()) blocks.push_back({key, 0, 0, 0}), it = blocks.end() - 1;
-    it->n += 1, it->t += s, it->r += r[i];
-    out.S += s * s;
-    out.q1 += r[i] * r[i];
-  }
-  if (!(out.S > 0)) return SideBlocks{};
-  double diag_h = 0;  // sum_g 1_g' H 1_g n_g
-  double in_h = 0;    // sum_g 1_g' H 1_g
-  for (const CodecBlock& g : blocks) {
-    const double h = g.n * g.n / out.n + g.t * g.t / out.S;
-    in_h += h, diag_h += g.n * h;
-    out.N2 += g.n * g.n, out.T2 += g.t * g.t, out.NT += g.n * g.t;
-    out.q2 += g.r * g.r;
-  }
-  out.a1 = out.n - 2;
-  out.c1 = out.a2 = out.n - in_h;
-  out.c2 = out.N2 - 2 * diag_h + out.N2 * out.N2 / (out.n * out.n) +
-           2 * out.NT * out.NT / (out.n * out.S) + out.T2 * out.T2 / (out.S * out.S);
-  out.s0 = -mean;
-  out.s1 = (b - a).norm() - mean;
-  return out;
-}
-// The pooled (a, c) of SideBlocks over a marker's sides (c >= 0, a >= 0).
-Eigen::Vector2d BlockVariances(const std::array<SideBlocks, 4>& sides) {
-  Eigen::Matrix2d M = Eigen::Matrix2d::Zero();
-  Eigen::Vector2d q = Eigen::Vector2d::Zero();
-  for (const SideBlocks& b : sides) {
-    M += (Eigen::Matrix2d() << b.a1, b.c1, b.a2, b.c2).finished();
-    q += Eigen::Vector2d(b.q1, b.q2);
-  }
-  // Under c = 0 with Gaussian errors, r'Jr has mean a a2 and variance 2 a^2 c2: c is taken
-  // only where q2 stands 2 of its sigmas above that (on frames without blocks, clamping an
-  // unbiased estimate at 0 would widen every corner a little).
-  const double a0 = M(0, 0) > 0 ? q(0) / M(0, 0) : 0;
-  if (!(q(1) - a0 * M(1, 0) > 2 * a0 * std::sqrt(2 * std::max(M(1, 1), 0.0))))
-    return Eigen::Vector2d(a0, 0);
-  Eigen::Vector2d ac = Eigen::Vector2d::Zero();
-  if (std::abs(M.determinant()) > 1e-12 * M.squaredNorm()) ac = M.partialPivLu().solve(q);
-  if (!(ac.y() > 0)) return Eigen::Vector2d(M(0, 0) > 0 ? q(0) / M(0, 0) : 0, 0);
-  if (!(ac.x() > 0)) return Eigen::Vector2d(0, (q(0) + q(1)) / (M(0, 1) + M(1, 1)));
-  return ac;
-}
-// A side's line across itself at its two ends (variances v0, v1 and covariance, px^2) for the
-// per-point covariance a I + c J, and what its scatter alone would say, (a + c c1 / a1) times
-// the independent points' (1/n + s^2/S): *factor the mean ratio of the two at the ends,
-// *end_correlation the ends' correlation.
-void SideLineVariance(const SideBlocks& b, const Eigen::Vector2d& ac, double* factor,
-                      double* end_correlation) {
-  *factor = 1;
-  *end_correlation = NAN;
-  if (!(b.n >= 3 && b.S > 0)) return;
-  const double a = ac.x(), c = ac.y();
-  auto cov = [&](double s, double t) {
-    return a * (1 / b.n + s * t / b.S) +
-           c * (b.N2 / (b.n * b.n) + s * t * b.T2 / (b.S * b.S) + (s + t) * b.NT / (b.n * b.S));
-  };
-  const double scatter = a + c * b.c1 / b.a1;
-  const double v0 = cov(b.s0, b.s0), v1 = cov(b.s1, b.s1);
-  if (!(scatter > 0 && v0 > 0 && v1 > 0)) return;
-  *factor =
-      0.5 * (v0 / (1 / b.n + b.s0 * b.s0 / b.S) + v1 / (1 / b.n + b.s1 * b.s1 / b.S)) / scatter;
-  *end_correlation = cov(b.s0, b.s1) / std::sqrt(v0 * v1);
-}
-
 // Step 8's penumbra rule for one side (`outward`, length `len`; last_iteration: the refinement's
 // last). A shadow's penumbra running along the side on the white stripe: see
 // CornerRefineOptions::penumbra_dark_fraction. Taken from the located edges (*edges, their
@@ -838,12 +728,14 @@ void CornerSigmas(const std::array<Eigen::Vector3d, 4>& lines, const std::array<
 // a + s b at the signed distance s from its middle (offset a, slope b independent for points
 // centred on the middle): at its two ends, var(a) + (L/2)^2 var(b) each and
 // var(a) - (L/2)^2 var(b) between them, with (L/2)^2 var(b) = 3 var(a) / f^2 for evenly spread
-// points. A corner moves by N^-1 (d_prev, d_next), N the two sides' unit normals as rows,
-// d their lines' moves across themselves at that corner; the same 0.2 floor on |det N| as
-// corner_sigma's. The sides' angles are taken between the refined corners in pixels, while
-// corner_sigma takes them between the lines in the fitting plane (undistorted through a lens
-// model): each corner's rows and columns are then scaled so that its block's mean variance is
-// corner_sigma^2 exactly (a congruence: the correlations, and positive definiteness, stay).
+// independent points; where end_correlations[k] is finite (points that share errors within
+// blocks: codec_blocks.h) the ends' correlation is that instead. A corner moves by N^-1 (d_prev,
+// d_next), N the two sides' unit normals as rows, d their lines' moves across themselves at that
+// corner; the same 0.2 floor on |det N| as corner_sigma's. The sides' angles are taken between the
+// refined corners in pixels, while corner_sigma takes them between the lines in the fitting plane
+// (undistorted through a lens model): each corner's rows and columns are then scaled so that its
+// block's mean variance is corner_sigma^2 exactly (a congruence: the correlations, and positive
+// definiteness, stay).
 Eigen::Matrix<double, 8, 8> CornerCovariance(const std::array<Eigen::Vector2d, 4>& corners,
                                              const std::array<double, 4>& perp,
                                              const std::array<double, 4>& corner_sigma,
@@ -1021,14 +913,27 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       out.side_rms[k] = fit.rms_px;
       lag1_products += fit.lag1_products, lag1_squares += fit.lag1_squares;
       lag1_pairs += fit.lag1_pairs;
-      blocks[k] = SideBlockSums(edges, sc.signed_residual, sc.use, a, b);
+      if (o.codec_blocks)
+        blocks[k] = SideBlockSums(edges, sc.signed_residual, sc.use, a, b, &sc.codec_blocks);
     }
-    const Eigen::Vector2d block_ac =
-        o.codec_blocks ? BlockVariances(blocks) : Eigen::Vector2d(1, 0);
+    // What the sides' points share within 8 x 8 blocks (codec_blocks.h): each side's factor
+    // on its line's variance and the correlation of its ends; where none is found (c = 0, and
+    // always without codec_blocks) the independent points' model, ends correlated as evenly
+    // spread points' are (CornerCovariance).
     std::array<double, 4> block_factor, end_correlation;
-    for (int k = 0; k < 4; ++k)
-      SideLineVariance(blocks[k], block_ac, &block_factor[k], &end_correlation[k]);
-    out.block_correlation = block_ac.y() > 0 ? block_ac.y() / block_ac.sum() : 0;
+    block_factor.fill(1);
+    end_correlation.fill(NAN);
+    out.block_correlation = 0;
+    if (o.codec_blocks) {
+      const Eigen::Vector2d ac = BlockVariances(blocks);
+      if (ac.y() > 0) {
+        out.block_correlation = ac.y() / ac.sum();
+        for (int k = 0; k < 4; ++k) {
+          const SideLineEnds ends = SideLineVariance(blocks[k], ac);
+          if (ends.ok) block_factor[k] = ends.factor, end_correlation[k] = ends.Correlation();
+        }
+      }
+    }
     std::array<double, 4> perp;
     CornerSigmas(lines, margins, lag1_products, lag1_squares, lag1_pairs, block_factor, o, &out,
                  &perp);
@@ -1047,10 +952,11 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       if (!plane.ToPixel(h.head<2>() / h.z(), &px)) return out;
       out.corners[k] = px;
     }
-    // The joint covariance assumes edge points that err independently along a side. Where
-    // they err together (out.correlation > 0: a JPEG's blocks, blur, a demosaic) a side's
-    // line moves more as a whole than the model says, and its corners' correlation across it
-    // is not known: they are left as independent (zero covariance).
+    // The joint covariance takes a side's edge points as independent or sharing errors within
+    // blocks. Where neighbours err together along the side (out.correlation > 0: blur, a
+    // JPEG's blocks, a demosaic) a side's line moves more as a whole than either says, and
+    // its corners' correlation across it is not known: they are left as independent (zero
+    // covariance).
     // Only the last iteration's lines are kept, so only their covariance is computed.
     if (it == o.iterations - 1)
       out.corner_covariance =

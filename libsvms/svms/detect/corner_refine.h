@@ -74,8 +74,9 @@ struct CornerRefineOptions {
   bool small_sample_variance = true;
   // Estimate from the sides' residuals how much of the edge points' error the points within
   // one 8 x 8 pixel block share (RefinedCorners::block_correlation) and widen the sides'
-  // lines by it: a JPEG codes each block on its own. false: the points' errors are taken as
-  // shared only through their lag-1 correlation.
+  // lines by it: a JPEG codes each block on its own (the model and what it cannot see:
+  // codec_blocks.h). false: the points' errors are taken as shared only through their lag-1
+  // correlation.
   bool codec_blocks = true;
   // A quad whose shortest side is below this (pixels) has a white stripe (a third of the side)
   // too narrow for the edge profile's +-2 px window plus the pixels' blur: its edges are placed
