@@ -463,7 +463,7 @@ TEST(RefineCorners, CorrelatedEdgePointsWidenTheCornerSigmas) {
 // points of one block have in common (block_correlation), and the corners' sigmas must carry
 // it. Squares of 40 px with 1 code of sensor noise through OpenCV's libjpeg at quality 50.
 // Only in part: the codec errs alike in neighbouring blocks that hold alike pieces of one
-// straight edge, which no residual about the line shows (per-axis Z^2 1.41 with the blocks'
+// straight edge, which no residual about the line shows (per-axis Z^2 1.37 with the blocks'
 // share, 1.64 without; on the rendered approach through jpeg_srgb the fused pose's NEES stays
 // optimistic with the corners' joint covariance: docs/bench/pose.md).
 TEST(RefineCorners, ErrorsSharedWithinCodecBlocksWidenTheCorners) {
