@@ -39,8 +39,9 @@ test: build
 #                       blocks (120 squares each), the small blurred marker's inward bias,
 #                       the survey's repeated corner error and calibration uncertainty (30
 #                       surveys each), the rig survey's Monte Carlo runs (300 solves), the
-#                       lone distant marker's fused pose. Renders: the two-camera rig (CapiRig.ProcessRigFrameIsTheRig-
-#                       PoseEstimators runs its paths under ASan), the shadow edge along a side
+#                       lone distant marker's fused pose. Renders: the two-camera rig
+#                       (CapiRig.ProcessRigFrameIsTheRigPoseEstimators runs its paths under
+#                       ASan), the shadow edge along a side
 #                       (the sun sweep's views), the threads' 16-marker bit-for-bit render and the
 #                       timed edge-map deadline on 1024 x 1024 texture (WorkerPool, EdgeBands and
 #                       the dual marker's 2-thread comparison run under ASan). And two whose

@@ -71,14 +71,21 @@ Eigen::Vector2d BlockVariances(const std::array<SideBlocks, 4>& sides) {
   // Under c = 0, q2 - a0 a2 has mean 0 and variance 2 a^2 (c2 - c1^2 / a1) (a0 taken from the
   // same residuals); a1 c2 >= c1^2 always (Cauchy-Schwarz), with equality only where every
   // block holds one point, and then c cannot be told from a.
-  const double null_variance = 2 * a0 * a0 * (M(1, 1) - M(0, 1) * M(0, 1) / M(0, 0));
-  if (!(null_variance > 0) || !(q(1) - a0 * M(1, 0) > 2 * std::sqrt(null_variance)))
+  // Where every side lies in one block each, c1 and c2 are 0 but for rounding and the blocks
+  // cannot be told from the lines: the information on c must stand out of sum N2's rounding.
+  double n2 = 0;
+  for (const SideBlocks& b : sides) n2 += b.N2;
+  const double information = M(1, 1) - M(0, 1) * M(0, 1) / M(0, 0);
+  const double null_variance = 2 * a0 * a0 * information;
+  if (!(information > 1e-9 * n2) || !(null_variance > 0) ||
+      !(q(1) - a0 * M(1, 0) > 2 * std::sqrt(null_variance)))
     return Eigen::Vector2d(a0, 0);
   const Eigen::Vector2d ac = M.partialPivLu().solve(q);
   if (!ac.allFinite()) return Eigen::Vector2d(a0, 0);
-  if (!(ac.y() > 0)) return Eigen::Vector2d(a0, 0);
-  // All of the variance shared: E[q1 + q2] = c (c1 + c2) with a = 0.
-  if (!(ac.x() > 0)) return Eigen::Vector2d(0, (q(0) + q(1)) / (M(0, 1) + M(1, 1)));
+  // Both shares positive, or the model is not taken: a <= 0 (all of the variance shared, or
+  // more) is what a marker's few blocks give by chance far more often than a codec does, and
+  // would make each side's two ends move as one (correlation 1, a singular covariance).
+  if (!(ac.y() > 0) || !(ac.x() > 0)) return Eigen::Vector2d(a0, 0);
   return ac;
 }
 

@@ -53,9 +53,10 @@ SideBlocks SideBlockSums(const std::vector<Eigen::Vector2d>& px, const std::vect
                          const std::vector<char>& use, const Eigen::Vector2d& a,
                          const Eigen::Vector2d& b, std::vector<CodecBlock>* scratch);
 
-// (a, c), px^2, from the sides' sums pooled: a >= 0, c >= 0, and c = 0 unless r'Jr stands 2
-// sigmas above what c = 0 predicts (its variance under c = 0 and Gaussian errors, a estimated
-// from r'r: 2 a^2 (sum c2 - (sum c1)^2 / sum a1)).
+// (a, c), px^2, from the sides' sums pooled: c = 0 and a = sum q1 / sum a1 unless r'Jr stands
+// 2 sigmas above what c = 0 predicts (its variance under c = 0 and Gaussian errors, a
+// estimated from r'r: 2 a^2 (sum c2 - (sum c1)^2 / sum a1)) and the solution has a > 0 and
+// c > 0.
 Eigen::Vector2d BlockVariances(const std::array<SideBlocks, 4>& sides);
 
 // A side's fitted line, its place across itself at its two ends for per-point covariance

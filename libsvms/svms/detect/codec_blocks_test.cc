@@ -21,8 +21,8 @@ std::vector<Eigen::Vector2d> PointsAlong(const Eigen::Vector2d& a, const Eigen::
 }
 
 int64_t BlockOf(const Eigen::Vector2d& p) {
-  return static_cast<int64_t>(std::floor((p.y() + 0.5) / 8)) * 100000 +
-         static_cast<int64_t>(std::floor((p.x() + 0.5) / 8));
+  return static_cast<int64_t>(std::floor((p.y() + 0.5) / kCodecBlockPx)) * 100000 +
+         static_cast<int64_t>(std::floor((p.x() + 0.5) / kCodecBlockPx));
 }
 
 // The side's hat matrix H (ordinary line fit in the places s along it) and block matrix J,
@@ -118,6 +118,32 @@ TEST(SideBlockSums, TooFewPointsOrNonFiniteOnesGiveEmptySums) {
   EXPECT_EQ(SideBlockSums(px, r, {1, 1, 1, 1}, a, b, &scratch).n, 0);
 }
 
+// A small marker whose every side lies in one block: the blocks cannot be told from the lines
+// (c1 and c2 are 0 but for rounding), and no share is taken; the rounding once gave c = 1e26
+// px^2 and poses that did not converge (10 px markers of Detector.ASubPixelTipPicksThePose-
+// OfATenPixelMarker).
+TEST(BlockVariances, SidesEachWithinOneBlockGiveNoShare) {
+  const std::array<Eigen::Vector2d, 4> corners = {
+      Eigen::Vector2d(0.8, 0.9), {6.2, 1.1}, {6.1, 6.3}, {0.7, 6.2}};
+  std::mt19937 rng(9);
+  std::normal_distribution<double> normal(0, 0.05);
+  std::vector<CodecBlock> scratch;
+  std::array<SideBlocks, 4> sums;
+  double q1 = 0, a1 = 0;
+  for (int k = 0; k < 4; ++k) {
+    const std::vector<Eigen::Vector2d> px = PointsAlong(corners[k], corners[(k + 1) % 4], 1.0);
+    std::vector<double> r(px.size());
+    for (double& v : r) v = normal(rng);
+    sums[k] = SideBlockSums(px, r, std::vector<char>(px.size(), 1), corners[k],
+                            corners[(k + 1) % 4], &scratch);
+    ASSERT_EQ(sums[k].N2, sums[k].n * sums[k].n);  // one block
+    q1 += sums[k].q1, a1 += sums[k].a1;
+  }
+  const Eigen::Vector2d ac = BlockVariances(sums);
+  EXPECT_EQ(ac.y(), 0);
+  EXPECT_DOUBLE_EQ(ac.x(), q1 / a1);
+}
+
 // The four sides of a 40 px square turned by 20 degrees, a point every 1.5 px.
 std::array<std::vector<Eigen::Vector2d>, 4> Square(std::array<Eigen::Vector2d, 4>* corners) {
   std::array<std::vector<Eigen::Vector2d>, 4> sides;
@@ -133,7 +159,8 @@ std::array<std::vector<Eigen::Vector2d>, 4> Square(std::array<Eigen::Vector2d, 4
 // Errors of covariance a I + c J drawn on the square's points, each side's line fitted: the
 // mean of BlockVariances over the draws is (a, c) (the gate passes nearly every draw at an
 // equal share; it biases c up a little where it drops the low draws); with c = 0 the gate passes
-// about 2.3 % of them (one-sided 2 sigmas).
+// a few per cent of them: one-sided 2 sigmas of a Gaussian would be 2.3 %, and the statistic,
+// a quadratic form of few blocks, has a heavier tail (about 3.6 % in a reviewer's re-run).
 TEST(BlockVariances, RecoversTheVariancesOfInjectedErrors) {
   std::array<Eigen::Vector2d, 4> corners;
   const auto sides = Square(&corners);
@@ -169,8 +196,9 @@ TEST(BlockVariances, RecoversTheVariancesOfInjectedErrors) {
   EXPECT_NEAR(mean.y(), 1.0, 0.08);
   int false_alarms = 0;
   for (int i = 0; i < draws; ++i) false_alarms += estimate(1.0, 0.0).y() > 0;
+  std::printf("a = 1, c = 0: c found in %d of %d draws\n", false_alarms, draws);
   EXPECT_GT(false_alarms, 0.005 * draws);
-  EXPECT_LT(false_alarms, 0.045 * draws);
+  EXPECT_LT(false_alarms, 0.06 * draws);
 }
 
 // The fitted line's place at the side's ends, over many draws, against SideLineVariance; and

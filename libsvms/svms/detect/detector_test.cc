@@ -1001,7 +1001,7 @@ struct TipTally {
 TipTally DetectTiltedRow(const TiltedRow& row, int first_id, const DetectorOptions& options) {
   TipTally t;
   for (const Detection& d : Detector(options, row.cam, row.models).Detect(row.r.image)) {
-    EXPECT_TRUE(d.cam_from_marker.has_value());
+    EXPECT_TRUE(d.cam_from_marker.has_value()) << d.id << ": " << d.pose_error;
     if (!d.cam_from_marker) continue;
     const MarkerTruth& truth = row.r.truth.markers[d.id - first_id];
     t.max_side_px = std::max(t.max_side_px, truth.side_px);
