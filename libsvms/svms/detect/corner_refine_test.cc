@@ -457,6 +457,25 @@ TEST(RefineCorners, CorrelatedEdgePointsWidenTheCornerSigmas) {
   EXPECT_NEAR(z2_smooth / n, 1.0, 0.5);
 }
 
+// A TurnedSquare `side` px wide about (60, 60), its place and angle drawn from `place` and
+// `angle`, drawn (Draw) in floats with noise_sigma times draws of `noise` added to each pixel.
+cv::Mat NoisyTurnedSquare(double side, double noise_sigma,
+                          std::uniform_real_distribution<double>& place,
+                          std::uniform_real_distribution<double>& angle,
+                          std::normal_distribution<double>& noise, std::mt19937& rng,
+                          std::array<Eigen::Vector2d, 4>* truth,
+                          std::array<Eigen::Vector2d, 4>* guess) {
+  const Eigen::Vector2d centre = Eigen::Vector2d(60, 60) + DrawVector2(place, rng);
+  const double a = angle(rng);
+  TurnedSquare(centre, side, a, place, rng, truth, guess);
+  cv::Mat img;
+  Draw(*truth).convertTo(img, CV_32F);
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x)
+      img.at<float>(y, x) += static_cast<float>(noise_sigma * noise(rng));
+  return img;
+}
+
 // A JPEG codes each 8 x 8 block on its own: its error moves a side's edge points block by
 // block, so a side has about as many independent readings as blocks it crosses, not points,
 // and its scatter about the line says too little. The sides' residuals show the share the
@@ -477,14 +496,8 @@ TEST(RefineCorners, ErrorsSharedWithinCodecBlocksWidenTheCorners) {
   double z2 = 0, z2_without = 0, z2_png = 0, block_share = 0, chi2 = 0, chi2_without = 0;
   int n = 0, trials = 0, png_gated = 0, joint = 0;
   for (int trial = 0; trial < 120; ++trial) {
-    const Eigen::Vector2d centre = Eigen::Vector2d(60, 60) + DrawVector2(place, rng);
-    const double a = angle(rng);
     std::array<Eigen::Vector2d, 4> truth, guess;
-    TurnedSquare(centre, 40, a, place, rng, &truth, &guess);
-    cv::Mat img;
-    Draw(truth).convertTo(img, CV_32F);
-    for (int y = 0; y < img.rows; ++y)
-      for (int x = 0; x < img.cols; ++x) img.at<float>(y, x) += static_cast<float>(noise(rng));
+    const cv::Mat img = NoisyTurnedSquare(40, 1, place, angle, noise, rng, &truth, &guess);
     cv::Mat png, jpeg;
     img.convertTo(png, CV_8U);
     std::vector<uchar> bytes;
@@ -539,14 +552,8 @@ TEST(RefineCorners, TheCornersJointCovarianceCarriesTheSidesSlopes) {
   double across_ab = 0, across_aa = 0, across_bb = 0, predicted_correlation = 0;
   int trials = 0;
   for (int trial = 0; trial < 150; ++trial) {
-    const Eigen::Vector2d centre = Eigen::Vector2d(60, 60) + DrawVector2(place, rng);
-    const double a = angle(rng);
     std::array<Eigen::Vector2d, 4> truth, guess;
-    TurnedSquare(centre, 36, a, place, rng, &truth, &guess);
-    cv::Mat img;
-    Draw(truth).convertTo(img, CV_32F);
-    for (int y = 0; y < img.rows; ++y)
-      for (int x = 0; x < img.cols; ++x) img.at<float>(y, x) += static_cast<float>(12 * noise(rng));
+    const cv::Mat img = NoisyTurnedSquare(36, 12, place, angle, noise, rng, &truth, &guess);
     cv::Mat img16;
     img.convertTo(img16, CV_16U, 64);
     const RefinedCorners r = RefineCorners(img16, guess, nullptr, {});
