@@ -847,6 +847,8 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
     double lag1_products = 0, lag1_squares = 0;
     int lag1_pairs = 0;
     std::array<SideBlocks, 4> blocks;
+    // Only the last iteration's sigmas are kept: the blocks' share is estimated there alone.
+    const bool last_iteration = o.codec_blocks && it == o.iterations - 1;
     double min_side = INFINITY;
     for (int k = 0; k < 4; ++k)
       min_side = std::min(min_side, (out.corners[(k + 1) % 4] - out.corners[k]).norm());
@@ -913,7 +915,7 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
       out.side_rms[k] = fit.rms_px;
       lag1_products += fit.lag1_products, lag1_squares += fit.lag1_squares;
       lag1_pairs += fit.lag1_pairs;
-      if (o.codec_blocks)
+      if (last_iteration)
         blocks[k] = SideBlockSums(edges, sc.signed_residual, sc.use, a, b, &sc.codec_blocks);
     }
     // What the sides' points share within 8 x 8 blocks (codec_blocks.h): each side's factor
@@ -924,7 +926,7 @@ RefinedCorners RefineCorners(const cv::Mat& img, const std::array<Eigen::Vector2
     block_factor.fill(1);
     end_correlation.fill(NAN);
     out.block_correlation = 0;
-    if (o.codec_blocks) {
+    if (last_iteration) {
       const Eigen::Vector2d ac = BlockVariances(blocks);
       if (ac.y() > 0) {
         out.block_correlation = ac.y() / ac.sum();
