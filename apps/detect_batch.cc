@@ -32,11 +32,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-int BadInput(const std::string& m) {
-  std::cerr << "svms detect: " << m << "\n";
-  return kExitBadInput;
-}
-
 // What every image of the batch is measured with, and what the batch has found so far.
 struct Batch {
   explicit Batch(const DetectOptions& options) : o(options) {}
@@ -59,32 +54,37 @@ struct Batch {
 int Prepare(Batch* b) {
   const DetectOptions& o = b->o;
   if (!o.camera.empty()) {
-    if (Status s = ReadCameraWithSidecar(o.camera, &b->camera); !s) return BadInput(s.message());
+    if (Status s = ReadCameraWithSidecar(o.camera, &b->camera); !s)
+      return BadInput("svms detect", s.message());
     if (std::string hint = MissingUncertaintyHint(o.camera); !hint.empty() && !o.quiet)
       std::cerr << "svms detect: " << hint << "\n";
   }
   if (Status s = Photometry::Create(o.photometry, o.camera, &b->photometry); !s)
-    return BadInput(s.message());
+    return BadInput("svms detect", s.message());
   if (!o.markers.empty()) {
     ModelFile f;
-    if (Status s = ReadModelFile(o.markers, &f); !s) return BadInput(s.message());
+    if (Status s = ReadModelFile(o.markers, &f); !s) return BadInput("svms detect", s.message());
     b->models = f.markers;
   }
   b->files = ExpandImageInputs(o.inputs);
   if (b->files.empty())
     return BadInput(
+        "svms detect",
         "no image files in the inputs (directories are searched for .png, .jpg, .jpeg, .tif, "
         ".tiff, .bmp, .pgm, .ppm)");
   if (!o.overlay.empty()) {
-    if (Status s = PrepareOutputDirectory("--overlay", o.overlay); !s) return BadInput(s.message());
-    if (Status s = CheckOverlayTargets(o.overlay, b->files); !s) return BadInput(s.message());
+    if (Status s = PrepareOutputDirectory("--overlay", o.overlay); !s)
+      return BadInput("svms detect", s.message());
+    if (Status s = CheckOverlayTargets(o.overlay, b->files); !s)
+      return BadInput("svms detect", s.message());
   }
   if (!o.debug.empty()) {
-    if (Status s = PrepareOutputDirectory("--debug", o.debug); !s) return BadInput(s.message());
+    if (Status s = PrepareOutputDirectory("--debug", o.debug); !s)
+      return BadInput("svms detect", s.message());
     for (const char* picture : {"1_segments.png", "2_quads.png"})
       if (Status s = CheckNotAnInput("--debug", (fs::path(o.debug) / picture).string(), b->files);
           !s)
-        return BadInput(s.message());
+        return BadInput("svms detect", s.message());
   }
   // LoadStoredImage refuses absurd images from their headers before decoding them; OpenCV's
   // own limit (read once, at its first use) is a second line.

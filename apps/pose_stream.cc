@@ -31,11 +31,6 @@ std::string ObjectName(const Layout& layout, const std::string& path) {
   return layout.name.empty() ? std::filesystem::path(path).stem().string() : layout.name;
 }
 
-int BadInput(const std::string& m) {
-  std::cerr << "svms pose: " << m << "\n";
-  return kExitBadInput;
-}
-
 // The estimator and what the stream has done so far.
 struct Stream {
   explicit Stream(const PoseOptions& options) : o(options) {}
@@ -57,29 +52,31 @@ int Prepare(Stream* s) {
   const PoseOptions& o = s->o;
   if (o.from_stdin == !o.inputs.empty())
     return BadInput(
+        "svms pose",
         "give IMAGES or --stdin (a path, and optionally a timestamp in seconds, per line), not "
         "both and not neither");
   if (Status st = Photometry::Create(o.photometry, o.camera, &s->photometry); !st)
-    return BadInput(st.message());
+    return BadInput("svms pose", st.message());
   PoseEstimatorOptions options;
   options.fusion.corner_sigma_px = o.corner_sigma_px;
   options.budget_ms = o.budget_ms;
   options.detector.threads = o.frame_threads;
   options.detector.refine.max_row_window_px = s->photometry.CornerRowWindowPx();
   options.detector.known_ids_only = !o.unknown_ids;
-  if (o.layouts.empty()) return BadInput("--layout: expected a layout file");
+  if (o.layouts.empty()) return BadInput("svms pose", "--layout: expected a layout file");
   if (Status st = o.layouts.size() == 1
                       ? PoseEstimator::CreateFromFiles(o.camera, o.layouts[0], options, &s->est)
                       : PoseEstimator::CreateFromFiles(o.camera, o.layouts, options, &s->est);
       !st)
-    return BadInput(st.message());
+    return BadInput("svms pose", st.message());
   for (size_t i = 0; i < o.layouts.size(); ++i)
     s->object_names.push_back(ObjectName(s->est->layouts()[i], o.layouts[i]));
   if (!o.from_stdin) s->files = ExpandImageInputs(o.inputs);
   if (!o.overlay.empty()) {
     if (Status st = PrepareOutputDirectory("--overlay", o.overlay); !st)
-      return BadInput(st.message());
-    if (Status st = CheckOverlayTargets(o.overlay, s->files); !st) return BadInput(st.message());
+      return BadInput("svms pose", st.message());
+    if (Status st = CheckOverlayTargets(o.overlay, s->files); !st)
+      return BadInput("svms pose", st.message());
   }
   // LoadImage refuses absurd images from their headers; OpenCV's own limit is a second line.
   s->max_pixels = static_cast<int64_t>(o.max_megapixels * 1e6);

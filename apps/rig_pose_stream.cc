@@ -16,14 +16,6 @@
 #include "svms/pipelines/json_text.h"
 
 namespace svms::cli {
-namespace {
-
-int BadInput(const std::string& m) {
-  std::cerr << "svms pose: " << m << "\n";
-  return kExitBadInput;
-}
-
-}  // namespace
 
 bool ParseFramesListLine(const std::string& line, size_t cameras, const std::filesystem::path& base,
                          double* timestamp, std::vector<std::string>* paths, std::string* error) {
@@ -56,11 +48,11 @@ bool ParseFramesListLine(const std::string& line, size_t cameras, const std::fil
 }
 
 int RunRigPose(const RigPoseOptions& o) {
-  if (o.layouts.empty()) return BadInput("--layout: expected a layout file");
+  if (o.layouts.empty()) return BadInput("svms pose", "--layout: expected a layout file");
   if (o.frames_list.empty())
-    return BadInput(
-        "--rig: expected --frames-list FILE (one line per time stamp, one image per "
-        "camera)");
+    return BadInput("svms pose",
+                    "--rig: expected --frames-list FILE (one line per time stamp, one image per "
+                    "camera)");
   PoseEstimatorOptions options;
   if (o.corner_sigma_px > 0) options.fusion.corner_sigma_px = o.corner_sigma_px;
   options.budget_ms = o.budget_ms;
@@ -68,9 +60,9 @@ int RunRigPose(const RigPoseOptions& o) {
   options.detector.known_ids_only = true;
   std::unique_ptr<RigPoseEstimator> est;
   if (Status s = RigPoseEstimator::CreateFromFiles(o.rig, o.layouts, options, &est); !s)
-    return BadInput(s.message());
+    return BadInput("svms pose", s.message());
   std::string list;
-  if (Status s = ReadTextFile(o.frames_list, &list); !s) return BadInput(s.message());
+  if (Status s = ReadTextFile(o.frames_list, &list); !s) return BadInput("svms pose", s.message());
   const std::filesystem::path base = std::filesystem::path(o.frames_list).parent_path();
   const int64_t max_pixels = static_cast<int64_t>(o.max_megapixels * 1e6);
   const size_t n = est->num_cameras(), objects = o.layouts.size();

@@ -18,12 +18,7 @@
 namespace svms::cli {
 namespace {
 
-constexpr const char* kProgram = "svms survey rig: ";
-
-int BadInput(const std::string& m) {
-  std::cerr << kProgram << m << "\n";
-  return kExitBadInput;
-}
+constexpr const char* kProgram = "svms survey rig";
 
 // Square roots of the rotation and translation blocks' traces: mrad and mm.
 std::string Sigmas(const std::optional<PoseCovariance>& c) {
@@ -70,16 +65,16 @@ int RunRigSurvey(const RigSurveyRunOptions& o) {
   for (const auto& [flag, out] : {std::pair{"--out", o.out}, std::pair{"--report", o.report}}) {
     if (out.empty()) continue;
     if (Status s = CheckNotAnInput(flag, out, {o.rig, o.layout, o.frames_list}); !s)
-      return BadInput(s.message());
+      return BadInput(kProgram, s.message());
   }
   if (!o.report.empty() && std::filesystem::absolute(o.report) == std::filesystem::absolute(o.out))
-    return BadInput("--report " + o.report + ": is --out; expected another file name");
+    return BadInput(kProgram, "--report " + o.report + ": is --out; expected another file name");
   PoseEstimatorOptions options;
   if (o.corner_sigma_px > 0) options.fusion.corner_sigma_px = o.corner_sigma_px;
   options.detector.known_ids_only = true;
   std::unique_ptr<RigPoseEstimator> est;
   if (Status s = RigPoseEstimator::CreateFromFiles(o.rig, {o.layout}, options, &est); !s)
-    return BadInput(s.message());
+    return BadInput(kProgram, s.message());
   const CameraRig& rig = est->rig();
   const size_t n = est->num_cameras();
   RigSurveyOptions survey;
@@ -87,11 +82,11 @@ int RunRigSurvey(const RigSurveyRunOptions& o) {
   for (const RigCamera& c : rig.cameras) survey.camera_names.push_back(c.name);
   if (!o.reference.empty())
     if (Status s = FindRigCamera(rig, o.reference, o.rig, &survey.reference_camera); !s)
-      return BadInput("--reference " + o.reference + ": " + s.message());
+      return BadInput(kProgram, "--reference " + o.reference + ": " + s.message());
 
   // The observations of every listed time stamp.
   std::string list;
-  if (Status s = ReadTextFile(o.frames_list, &list); !s) return BadInput(s.message());
+  if (Status s = ReadTextFile(o.frames_list, &list); !s) return BadInput(kProgram, s.message());
   const std::filesystem::path base = std::filesystem::path(o.frames_list).parent_path();
   const int64_t max_pixels = static_cast<int64_t>(o.max_megapixels * 1e6);
   std::istringstream lines(list);
@@ -107,26 +102,28 @@ int RunRigSurvey(const RigSurveyRunOptions& o) {
     double timestamp = static_cast<double>(frames.size());
     std::string error;
     if (!ParseFramesListLine(line, n, base, &timestamp, &paths, &error))
-      return BadInput(where + error);
+      return BadInput(kProgram, where + error);
     for (size_t c = 0; c < n; ++c) {
       images[c].release();
       if (paths[c].empty()) continue;
       const CameraModel& camera = est->camera(c).camera();
       if (Status s = LoadImage(paths[c], max_pixels, &images[c]); !s)
-        return BadInput(where + s.message());
+        return BadInput(kProgram, where + s.message());
       if (images[c].cols != camera.width() || images[c].rows != camera.height())
-        return BadInput(where + paths[c] + ": " + std::to_string(images[c].cols) + "x" +
-                        std::to_string(images[c].rows) + " pixels, but camera '" +
-                        rig.cameras[c].name + "' is " + std::to_string(camera.width()) + "x" +
-                        std::to_string(camera.height()));
+        return BadInput(kProgram, where + paths[c] + ": " + std::to_string(images[c].cols) + "x" +
+                                      std::to_string(images[c].rows) + " pixels, but camera '" +
+                                      rig.cameras[c].name + "' is " +
+                                      std::to_string(camera.width()) + "x" +
+                                      std::to_string(camera.height()));
     }
     frames.push_back(RigSurveyFrameFromImages(*est, images, timestamp));
   }
-  if (frames.empty()) return BadInput(o.frames_list + ": no frames (one line per time stamp)");
+  if (frames.empty())
+    return BadInput(kProgram, o.frames_list + ": no frames (one line per time stamp)");
 
   RigSurveyResult result;
   if (Status s = SurveyRig(RigSurveyViews(*est), frames, survey, &result); !s) {
-    std::cerr << kProgram << s.message() << "\n";
+    std::cerr << kProgram << ": " << s.message() << "\n";
     return kExitFailed;
   }
   CameraRig out = rig;
@@ -137,12 +134,12 @@ int RunRigSurvey(const RigSurveyRunOptions& o) {
   const std::string report = Report(o, rig, result, frames.size());
   int rc = kExitOk;
   if (Status s = WriteRigFile(o.out, out); !s) {
-    std::cerr << kProgram << s.message() << "\n";
+    std::cerr << kProgram << ": " << s.message() << "\n";
     rc = kExitFailed;
   }
   if (!o.report.empty())
     if (Status s = WriteTextFile(o.report, report); !s) {
-      std::cerr << kProgram << s.message() << "\n";
+      std::cerr << kProgram << ": " << s.message() << "\n";
       rc = kExitFailed;
     }
   if (!o.quiet) std::cerr << report;

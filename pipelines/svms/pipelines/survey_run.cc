@@ -28,11 +28,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-int BadInput(const std::string& m) {
-  std::cerr << "svms survey: " << m << "\n";
-  return kExitBadInput;
-}
-
 std::vector<std::string> Split(const std::string& s, char sep) {
   std::vector<std::string> out;
   std::stringstream ss(s);
@@ -87,63 +82,68 @@ int MakeSurveySettings(const SurveyRunOptions& o, const ModelFile& models, Surve
                        SurveyConfig* config) {
   if (o.corner_sigma) {
     if (!(std::isfinite(*o.corner_sigma) && *o.corner_sigma > 0))
-      return BadInput("--corner-sigma " + Significant(*o.corner_sigma, 6) +
-                      ": expected a positive number of pixels (leave it out for each corner's "
-                      "own sigma)");
+      return BadInput("svms survey",
+                      "--corner-sigma " + Significant(*o.corner_sigma, 6) +
+                          ": expected a positive number of pixels (leave it out for each corner's "
+                          "own sigma)");
     options->corner_sigma_px = *o.corner_sigma;
     options->corner_sigma_from_fit = false;
   }
   options->num_threads = o.threads;
   if (o.reference) {
     if (*o.reference < 0)
-      return BadInput("--reference " + std::to_string(*o.reference) +
-                      ": expected the ID of a marker in " + o.markers + " (0 to 32767)");
+      return BadInput("svms survey", "--reference " + std::to_string(*o.reference) +
+                                         ": expected the ID of a marker in " + o.markers +
+                                         " (0 to 32767)");
     bool known = false;
     for (const MarkerModel& m : models.markers)
       known = known || m.id == *o.reference || (m.inner && m.inner->id == *o.reference);
     if (!known)
-      return BadInput("--reference " + std::to_string(*o.reference) +
-                      ": no marker with that ID in " + o.markers +
-                      "; expected the ID of one of its markers");
+      return BadInput("svms survey", "--reference " + std::to_string(*o.reference) +
+                                         ": no marker with that ID in " + o.markers +
+                                         "; expected the ID of one of its markers");
     config->reference_id = *o.reference;
   }
   config->refine_intrinsics = o.refine_intrinsics;
   config->drop_disconnected = o.drop_disconnected;
   for (const std::string& t : o.scale_bars) {
     ScaleBar bar;
-    if (Status s = ParseScaleBar(t, &bar); !s) return BadInput(s.message());
+    if (Status s = ParseScaleBar(t, &bar); !s) return BadInput("svms survey", s.message());
     config->scale_bars.push_back(bar);
   }
   for (const std::string& t : o.control_points) {
     ControlPoint cp;
-    if (Status s = ParseControlPoint(t, &cp); !s) return BadInput(s.message());
+    if (Status s = ParseControlPoint(t, &cp); !s) return BadInput("svms survey", s.message());
     config->control_points.push_back(cp);
   }
   if (!config->control_points.empty()) {
     if (o.reference)
-      return BadInput("--reference and --control-point both fix the object frame; give one");
+      return BadInput("svms survey",
+                      "--reference and --control-point both fix the object frame; give one");
     config->gauge = SurveyConfig::Gauge::kControlPoints;
   } else if (!o.reference) {
-    return BadInput("the object frame: expected --reference ID or three --control-point");
+    return BadInput("svms survey",
+                    "the object frame: expected --reference ID or three --control-point");
   }
-  if (Status s = options->Check(); !s) return BadInput(s.message());
-  if (Status s = config->Check(); !s) return BadInput(s.message());
+  if (Status s = options->Check(); !s) return BadInput("svms survey", s.message());
+  if (Status s = config->Check(); !s) return BadInput("svms survey", s.message());
   return kExitOk;
 }
 
 // Outputs: none may replace an input; the report directory must be writable (checked now,
 // not after the solve). kExitOk to go on.
 int CheckOutputs(const SurveyRunOptions& o, const std::vector<std::string>& files) {
-  if (files.empty()) return BadInput("no images given");
+  if (files.empty()) return BadInput("svms survey", "no images given");
   std::vector<std::string> inputs = files;
   inputs.push_back(o.camera);
   inputs.push_back(CovarianceSidecarPath(o.camera));
   inputs.push_back(o.markers);
-  if (Status s = CheckNotAnInput("--out", o.out, inputs); !s) return BadInput(s.message());
+  if (Status s = CheckNotAnInput("--out", o.out, inputs); !s)
+    return BadInput("svms survey", s.message());
   if (!o.out_camera.empty()) {
     for (const std::string& path : {o.out_camera, CovarianceSidecarPath(o.out_camera)})
       if (Status s = CheckNotAnInput("--out-camera", path, inputs); !s)
-        return BadInput(s.message());
+        return BadInput("svms survey", s.message());
     // The layout and the camera are written as one group: three distinct files.
     std::error_code out_ec;
     const fs::path out = fs::weakly_canonical(o.out, out_ec);
@@ -151,12 +151,13 @@ int CheckOutputs(const SurveyRunOptions& o, const std::vector<std::string>& file
       std::error_code ec;
       const fs::path p = fs::weakly_canonical(path, ec);
       if ((!ec && !out_ec && p == out) || path == o.out)
-        return BadInput("--out-camera " + o.out_camera + ": writes " + path +
-                        ", which is --out; expected another file name");
+        return BadInput("svms survey", "--out-camera " + o.out_camera + ": writes " + path +
+                                           ", which is --out; expected another file name");
     }
   }
   if (!o.report.empty())
-    if (Status s = PrepareOutputDirectory("--report", o.report); !s) return BadInput(s.message());
+    if (Status s = PrepareOutputDirectory("--report", o.report); !s)
+      return BadInput("svms survey", s.message());
   return kExitOk;
 }
 
@@ -266,17 +267,19 @@ int SolveAndWrite(const SurveyRunOptions& o, const std::vector<SurveyImage>& ima
 
 int RunSurveyFromImages(const SurveyRunOptions& o) {
   if (!o.out_camera.empty() && !o.refine_intrinsics)
-    return BadInput("--out-camera " + o.out_camera +
-                    ": only with --refine-intrinsics (without it the camera is the input one)");
+    return BadInput("svms survey",
+                    "--out-camera " + o.out_camera +
+                        ": only with --refine-intrinsics (without it the camera is the input one)");
   CameraModel camera;
-  if (Status s = ReadCameraWithSidecar(o.camera, &camera); !s) return BadInput(s.message());
+  if (Status s = ReadCameraWithSidecar(o.camera, &camera); !s)
+    return BadInput("svms survey", s.message());
   if (std::string hint = MissingUncertaintyHint(o.camera); !hint.empty() && !o.quiet)
     std::cerr << "svms survey: " << hint << "\n";
   Photometry photometry;
   if (Status s = Photometry::Create(o.photometry, o.camera, &photometry); !s)
-    return BadInput(s.message());
+    return BadInput("svms survey", s.message());
   ModelFile models;
-  if (Status s = ReadModelFile(o.markers, &models); !s) return BadInput(s.message());
+  if (Status s = ReadModelFile(o.markers, &models); !s) return BadInput("svms survey", s.message());
   SurveyOptions options;
   SurveyConfig config;
   if (const int rc = MakeSurveySettings(o, models, &options, &config); rc != kExitOk) return rc;
