@@ -605,5 +605,30 @@ TEST(ViewGraph, RobustAverageIgnoresABadSample) {
   EXPECT_GT(AngleBetweenRad(PlainAverage(samples), truth), 0.03);
 }
 
+// The inlier test's angle is the angle between rotations (AngleBetweenRad): a sample turned by
+// 0.9 of the threshold from the others is kept, one turned by 1.1 of it and one turned by
+// nearly 180 degrees (where a quaternion's sign flips) are not.
+TEST(ViewGraph, RobustAverageMeasuresAnglesBetweenRotations) {
+  const double threshold = 3 * M_PI / 180;
+  const Pose truth{Eigen::Vector3d(0.4, -0.2, 0.3), Eigen::Vector3d(0.5, 0, 0.1)};
+  auto turned = [&](double angle, const Eigen::Vector3d& axis) {
+    return Pose::FromRotation(
+        Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix() * truth.Rotation(),
+        truth.tvec);
+  };
+  std::vector<Pose> samples(5, truth);
+  const Pose inside = turned(0.9 * threshold, Eigen::Vector3d(1, 2, 3));
+  const Pose outside = turned(1.1 * threshold, Eigen::Vector3d(-3, 1, 2));
+  const Pose flipped = turned(M_PI - 1e-3, Eigen::Vector3d(0, 1, 1));
+  ASSERT_NEAR(AngleBetweenRad(inside, truth), 0.9 * threshold, 1e-12);
+  ASSERT_NEAR(AngleBetweenRad(outside, truth), 1.1 * threshold, 1e-12);
+  ASSERT_NEAR(AngleBetweenRad(flipped, truth), M_PI - 1e-3, 1e-9);
+  samples.insert(samples.end(), {inside, outside, flipped});
+  const RelativePoseAverage a = RobustAverage(samples, threshold, 0.05);
+  EXPECT_EQ(a.samples, 8);
+  EXPECT_EQ(a.inliers, 6);
+  EXPECT_LT(AngleBetweenRad(a.a_from_b, truth), 0.2 * threshold);
+}
+
 }  // namespace
 }  // namespace svms
