@@ -149,7 +149,12 @@ MonteCarlo RunMonteCarlo(const CalibrateBenchmarkOptions& o, const CalibrationDa
     co.width = truth.width(), co.height = truth.height(), co.verbose = false,
     co.threads = o.threads;
     CalibrationResult rr;
-    if (!Calibrate(syn, co, &rr).ok()) continue;
+    if (const Status st = Calibrate(syn, co, &rr); !st.ok()) {
+      mc.failures.push_back("trial " + std::to_string(trial + 1) + ": " + st.message());
+      std::cerr << "svms bench calibrate: Monte-Carlo " << mc.failures.back() << "\n";
+      progress.Update(trial + 1);
+      continue;
+    }
     ++mc.solved;
     std::vector<Pose> used_true;
     for (int v : rr.views) used_true.push_back(syn_true[v]);

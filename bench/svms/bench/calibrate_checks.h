@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <string>
 #include <vector>
 
 #include "svms/bench/calibrate_tools.h"
@@ -40,6 +41,7 @@ struct MonteCarlo {
   double error_rms = NAN;      // aligned error over the region and the trials, px
   double predicted_rms = NAN;  // the predictions over the same cells, px
   double seconds = 0;
+  std::vector<std::string> failures;  // "trial N: why", one per trial that did not solve
 };
 MonteCarlo RunMonteCarlo(const CalibrateBenchmarkOptions& o, const CalibrationData& data,
                          const CalibrationOptions& calib, const ToolResult& svms,

@@ -358,8 +358,9 @@ void ChecksSection(const CalibrationData& data, const CalibrateFindings& f, std:
   *md << "\nMonte-Carlo: the same " << a.r.views.size()
       << " views and points, put at their true projections plus Gaussian noise of that sigma, "
          "calibrated "
-      << mc.trials << " times (" << mc.solved << " solved, " << Fixed(mc.seconds, 0)
-      << " s): aligned error over the region " << Fixed(mc.error_rms, 4) << " px RMS, predicted "
+      << mc.trials << " times (" << mc.solved << " solved, " << Fixed(mc.seconds, 0) << " s";
+  for (const std::string& why : mc.failures) *md << "; " << why;
+  *md << "): aligned error over the region " << Fixed(mc.error_rms, 4) << " px RMS, predicted "
       << Fixed(mc.predicted_rms, 4) << " px RMS (ratio predicted / true "
       << Fixed(mc.predicted_rms / mc.error_rms, 2)
       << "). A single calibration's error is one draw, correlated over the image; this checks "
