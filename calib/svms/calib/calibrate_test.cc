@@ -350,6 +350,16 @@ TEST(Calibrate, NonConvergenceIsReported) {
   const Status st = Calibrate(Synthesise(s, DistortedCamera(), 0.1, 12), o, &r);
   ASSERT_FALSE(st.ok());
   EXPECT_NE(st.message().find("did not converge"), std::string::npos) << st.message();
+  // A rational model's failure names the valley its numerator and denominator share.
+  EXPECT_NE(st.message().find("LENSMODEL_OPENCV8's rational distortion"), std::string::npos)
+      << st.message();
+  EXPECT_NE(st.message().find(", k4 = "), std::string::npos) << st.message();
+  // A model without a denominator gets no such hint.
+  o.lensmodel = "LENSMODEL_OPENCV5";
+  const Status st5 = Calibrate(Synthesise(s, DistortedCamera(), 0.1, 12), o, &r);
+  ASSERT_FALSE(st5.ok());
+  EXPECT_NE(st5.message().find("did not converge"), std::string::npos) << st5.message();
+  EXPECT_EQ(st5.message().find("rational"), std::string::npos) << st5.message();
 }
 
 }  // namespace
