@@ -630,5 +630,27 @@ TEST(ViewGraph, RobustAverageMeasuresAnglesBetweenRotations) {
   EXPECT_LT(AngleBetweenRad(a.a_from_b, truth), 0.2 * threshold);
 }
 
+// Samples of a relative rotation near a half turn about (1, -1, 0), where Eigen gives
+// neighbouring rotations quaternions of opposite sign: all are within the inlier angle of each
+// other and all are kept.
+TEST(ViewGraph, RobustAverageKeepsSamplesNearAHalfTurn) {
+  const Eigen::Vector3d half = Eigen::Vector3d(1, -1, 0).normalized();
+  std::vector<Pose> samples;
+  for (const Eigen::Vector3d& nudge :
+       {Eigen::Vector3d(1e-3, 0, 0), Eigen::Vector3d(0, -1e-3, 0), Eigen::Vector3d(0, 0, 1e-3),
+        Eigen::Vector3d(-1e-3, 0, 0), Eigen::Vector3d(0, 1e-3, 0)})
+    samples.push_back(Pose{(M_PI - 1e-3) * (half + nudge).normalized(), Eigen::Vector3d(0, 0, 1)});
+  int opposite = 0;
+  for (const Pose& a : samples)
+    for (const Pose& b : samples)
+      opposite +=
+          Eigen::Quaterniond(a.Rotation()).coeffs().dot(Eigen::Quaterniond(b.Rotation()).coeffs()) <
+          0;
+  ASSERT_GT(opposite, 0);  // the case this checks
+  const RelativePoseAverage a = RobustAverage(samples, 1 * M_PI / 180, 0.05);
+  EXPECT_EQ(a.inliers, 5);
+  EXPECT_LT(AngleBetweenRad(a.a_from_b, samples[2]), 5e-3);
+}
+
 }  // namespace
 }  // namespace svms

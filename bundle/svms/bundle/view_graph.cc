@@ -1,7 +1,6 @@
 #include "svms/bundle/view_graph.h"
 
 #include <algorithm>
-#include <cmath>
 #include <deque>
 #include <functional>
 #include <numeric>
@@ -9,6 +8,7 @@
 #include <set>
 
 #include "svms/geometry/alignment.h"
+#include "svms/geometry/so3.h"
 
 namespace svms {
 namespace {
@@ -86,17 +86,12 @@ RelativePoseAverage RobustAverage(const std::vector<Pose>& samples, double inlie
   out.samples = static_cast<int>(n);
   // Medoid: the sample with the least summed (capped) distance to the others, distances in
   // units of the inlier thresholds. Beyond 200 samples, 200 evenly spaced candidates.
-  // The angle between two samples from their unit quaternions' dot product, 2 acos(|q_i.q_j|):
-  // this loop makes up to 200 n pairs, and a 4-term dot product and one acos cost about 12 ns
-  // a pair, against 20 for Eigen's angularDistance (a quaternion product, a norm and atan2)
-  // and 15 for acos of a 3x3 product's trace. The acos loses precision only below about
-  // 1e-7 rad, far under the inlier angle (degrees) it is compared with.
-  std::vector<Eigen::Vector4d> q(n);
-  for (size_t i = 0; i < n; ++i)
-    q[i] = Eigen::Quaterniond(samples[i].Rotation()).normalized().coeffs();
-  auto angle = [&](size_t i, size_t j) {
-    return 2 * std::acos(std::min(1.0, std::abs(q[i].dot(q[j]))));
-  };
+  // The angle between two samples is AngleBetweenRad's, through their unit quaternions
+  // (AngleBetweenUnitQuaternionsRad): this loop makes up to 200 n pairs, and the inlier angle
+  // it is compared with is degrees.
+  std::vector<Eigen::Quaterniond> q(n);
+  for (size_t i = 0; i < n; ++i) q[i] = Eigen::Quaterniond(samples[i].Rotation()).normalized();
+  auto angle = [&](size_t i, size_t j) { return AngleBetweenUnitQuaternionsRad(q[i], q[j]); };
   auto dist = [&](size_t i, size_t j) {
     const double d = angle(i, j) / inlier_angle_rad +
                      (samples[i].tvec - samples[j].tvec).norm() / inlier_distance;

@@ -72,6 +72,31 @@ TEST(So3, AngleBetweenRotations) {
               1e-12);
 }
 
+// The quaternions' angle is AngleBetweenRad's, to the arccosine's precision, for either sign of
+// either quaternion; near a half turn too, where Eigen gives neighbouring rotations quaternions
+// of opposite sign.
+TEST(So3, AngleBetweenUnitQuaternionsIsTheAngleBetweenRotations) {
+  const Eigen::Matrix3d a = Exp(Eigen::Vector3d(0.4, -0.3, 1.1));
+  const Eigen::Vector3d axis = Eigen::Vector3d(1, 2, -0.5).normalized();
+  for (double angle : {1e-3, 0.05, 0.3, 2.0, 3.1, M_PI - 1e-4}) {
+    const Eigen::Matrix3d b = a * Exp(angle * axis);
+    const Eigen::Quaterniond qa(a), qb(b);
+    for (double sign : {1.0, -1.0}) {
+      const Eigen::Quaterniond qs(sign * qb.coeffs());
+      EXPECT_NEAR(AngleBetweenUnitQuaternionsRad(qa, qs), AngleBetweenRad(a, b), 1e-7) << angle;
+    }
+  }
+  // Two rotations about 3e-3 rad apart, each nearly a half turn about (1, -1, 0): Eigen picks the
+  // quaternion whose largest component is positive, x for one and y for the other.
+  const Eigen::Vector3d half = Eigen::Vector3d(1, -1, 0).normalized();
+  const Eigen::Matrix3d c = Exp((M_PI - 1e-3) * (half + Eigen::Vector3d(1e-3, 0, 0)).normalized());
+  const Eigen::Matrix3d d = Exp((M_PI - 1e-3) * (half + Eigen::Vector3d(0, -1e-3, 0)).normalized());
+  const Eigen::Quaterniond qc(c), qd(d);
+  ASSERT_LT(qc.coeffs().dot(qd.coeffs()), 0);  // the case this checks
+  EXPECT_NEAR(AngleBetweenUnitQuaternionsRad(qc, qd), AngleBetweenRad(c, d), 1e-7);
+  EXPECT_LT(AngleBetweenRad(c, d), 4e-3);
+}
+
 TEST(So3, PoseUsesExpAndLog) {
   const Pose p{Eigen::Vector3d(0.2, -0.5, 0.7), Eigen::Vector3d(0.1, 0.2, 0.3)};
   EXPECT_EQ(p.Rotation(), Exp(p.rvec));
