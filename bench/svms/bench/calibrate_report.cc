@@ -107,7 +107,8 @@ void WriteJson(const CalibrateBenchmarkOptions& o, const CalibrationData& data,
                       {"solved", f.monte_carlo.solved},
                       {"region_error_rms_px", f.monte_carlo.error_rms},
                       {"region_predicted_rms_px", f.monte_carlo.predicted_rms},
-                      {"seconds", f.monte_carlo.seconds}};
+                      {"seconds", f.monte_carlo.seconds},
+                      {"failures", f.monte_carlo.failures}};
   const ResponseCheck& r = f.response;
   // A figure of a run that did not happen is null.
   auto figure = [](bool have, double v) { return have ? nlohmann::json(v) : nlohmann::json(); };
@@ -358,13 +359,14 @@ void ChecksSection(const CalibrationData& data, const CalibrateFindings& f, std:
   *md << "\nMonte-Carlo: the same " << a.r.views.size()
       << " views and points, put at their true projections plus Gaussian noise of that sigma, "
          "calibrated "
-      << mc.trials << " times (" << mc.solved << " solved, " << Fixed(mc.seconds, 0) << " s";
-  for (const std::string& why : mc.failures) *md << "; " << why;
-  *md << "): aligned error over the region " << Fixed(mc.error_rms, 4) << " px RMS, predicted "
+      << mc.trials << " times (" << mc.solved << " solved, " << Fixed(mc.seconds, 0)
+      << " s): aligned error over the region " << Fixed(mc.error_rms, 4) << " px RMS, predicted "
       << Fixed(mc.predicted_rms, 4) << " px RMS (ratio predicted / true "
       << Fixed(mc.predicted_rms / mc.error_rms, 2)
       << "). A single calibration's error is one draw, correlated over the image; this checks "
          "the propagation itself.\n";
+  // One sentence each: the solver's messages carry their own semicolons and parentheses.
+  for (const std::string& why : mc.failures) *md << "\nMonte-Carlo " << why << "\n";
   *md << "\nThe boards differ: the SVMS board gives " << a.r.num_inliers << " corners ("
       << a.r.num_outliers << " rejected as outliers) in " << a.r.views.size() << " of "
       << data.views << " views, the chessboard " << 63 * f.chess.corners.size() << " corners in "

@@ -555,20 +555,9 @@ Status Calibrate(const std::vector<ViewObservations>& all_views, const Calibrati
       !st)
     return Status::Error("the solve gave an invalid camera model: " + st.message());
   if (final_summary.termination_type != ceres::CONVERGENCE) {
-    std::string hint;
-    // OPENCV8 and OPENCV12 divide by (1 + k4 r^2 + k5 r^4 + k6 r^6). With k1..k3 and k4..k6
-    // growing together the ratio tends to a finite function, so the cost has a valley out to
-    // infinity in which the projection hardly changes; the solve can creep along it (k1 and k4
-    // in the tens of thousands after hundreds of iterations on the calibration dataset's 48
-    // poses; docs/bench/calibrate.md).
-    if (lensmodel == "LENSMODEL_OPENCV8" || lensmodel == "LENSMODEL_OPENCV12")
-      hint = "; " + lensmodel +
-             "'s rational distortion may be creeping along a valley where its numerator and "
-             "denominator grow together (now " +
-             Fmt("k1 = %.4g, k4 = %.4g", s.intrinsics[4], s.intrinsics[9]) +
-             "); LENSMODEL_OPENCV5 and the splined models have no such valley";
     return Status::Error("the solve did not converge (" + final_summary.BriefReport() +
-                         "); no model written" + hint);
+                         "); no model written" +
+                         RationalDistortionValleyHint(lensmodel, s.intrinsics));
   }
   if (!(result->rms_px <= o.max_rms_px)) {
     return Status::Error(
@@ -595,6 +584,20 @@ Status Calibrate(const std::vector<ViewObservations>& all_views, const Calibrati
             100 * rel));
   }
   return Status::Ok();
+}
+
+std::string RationalDistortionValleyHint(const std::string& lensmodel,
+                                         const std::vector<double>& intrinsics) {
+  if (lensmodel != "LENSMODEL_OPENCV8" && lensmodel != "LENSMODEL_OPENCV12") return "";
+  if (intrinsics.size() < 10) return "";
+  const double k1 = intrinsics[4], k4 = intrinsics[9];
+  // Both grown: a wide lens may need one of them large, the valley moves both.
+  if (!(std::abs(k1) > 10 && std::abs(k4) > 10)) return "";
+  return "; " + lensmodel +
+         "'s rational distortion may be creeping along a valley where its numerator and "
+         "denominator grow together (now " +
+         Fmt("k1 = %.4g, k4 = %.4g", k1, k4) +
+         "); LENSMODEL_OPENCV5 and the splined models have no such valley";
 }
 
 std::string ResolveLensModel(const std::string& lensmodel, int width, int height, double focal_px) {

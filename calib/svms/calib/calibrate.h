@@ -64,6 +64,15 @@ struct CalibrationOptions {
 // (intrinsics + 6 x views)^2 doubles, and the eigen-decomposition's time grows as its cube).
 Status CheckCalibrationRequest(const std::string& lensmodel, int num_views);
 
+// What to add to the message of a solve that did not converge, given its lens model and its
+// last intrinsics (mrcal's order): for LENSMODEL_OPENCV8 and OPENCV12 with both k1 and k4
+// beyond 10 in magnitude, a sentence naming the valley of their rational distortion, where
+// numerator and denominator grow together and the projection hardly changes (with k1..k3 and
+// k4..k6 growing alike the ratio tends to a finite function; docs/conventions.md measures how
+// far calibrations wander along it). Otherwise "".
+std::string RationalDistortionValleyHint(const std::string& lensmodel,
+                                         const std::vector<double>& intrinsics);
+
 struct CalibrationResult {
   CameraModel camera;
   std::vector<int> views;  // indices (into the input) of the views used, in order
