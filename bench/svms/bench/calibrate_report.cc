@@ -366,7 +366,7 @@ void ChecksSection(const CalibrationData& data, const CalibrateFindings& f, std:
       << "). A single calibration's error is one draw, correlated over the image; this checks "
          "the propagation itself.\n";
   // One sentence each: the solver's messages carry their own semicolons and parentheses.
-  for (const std::string& why : mc.failures) *md << "\nMonte-Carlo " << why << "\n";
+  for (const std::string& why : mc.failures) *md << "\nMonte-Carlo " << why << ".\n";
   *md << "\nThe boards differ: the SVMS board gives " << a.r.num_inliers << " corners ("
       << a.r.num_outliers << " rejected as outliers) in " << a.r.views.size() << " of "
       << data.views << " views, the chessboard " << 63 * f.chess.corners.size() << " corners in "

@@ -649,7 +649,7 @@ TEST(ViewGraph, RobustAverageKeepsSamplesNearAHalfTurn) {
   ASSERT_GT(opposite, 0);  // the case this checks
   const RelativePoseAverage a = RobustAverage(samples, 1 * M_PI / 180, 0.05);
   EXPECT_EQ(a.inliers, 5);
-  EXPECT_LT(AngleBetweenRad(a.a_from_b, samples[2]), 5e-3);
+  EXPECT_LT(AngleBetweenRad(a.a_from_b, samples[2]), 2e-3);  // the average: 1.6e-3 from it
 }
 
 }  // namespace

@@ -362,7 +362,7 @@ TEST(Calibrate, RationalDistortionValleyHint) {
   const std::string h = RationalDistortionValleyHint("LENSMODEL_OPENCV8", valley);
   EXPECT_NE(h.find("LENSMODEL_OPENCV8's rational distortion"), std::string::npos) << h;
   EXPECT_NE(h.find("(now k1 = 3.295e+04, k4 = 3.291e+04)"), std::string::npos) << h;
-  valley.resize(14, 0.0);  // OPENCV12: k1..k6, s1..s4 after the core
+  valley.resize(16, 0.0);  // OPENCV12: k1 k2 p1 p2 k3 k4 k5 k6 s1..s4 after the core
   EXPECT_NE(RationalDistortionValleyHint("LENSMODEL_OPENCV12", valley).find("OPENCV12"),
             std::string::npos);
   EXPECT_EQ(RationalDistortionValleyHint("LENSMODEL_OPENCV5", valley), "");
