@@ -29,6 +29,14 @@ std::vector<double> RowMajor(const Matrix& m) {
   return v;
 }
 
+// The share of a pose's covariance common to every frame (ObjectPose::bias_factor times its
+// transpose), row-major; null when the covariance has none (no calibration's or extrinsics'
+// uncertainty in it).
+nlohmann::json CommonCovarianceJson(const ObjectPose& p) {
+  if (p.bias_columns() == 0) return nullptr;
+  return RowMajor(Eigen::Matrix<double, 6, 6>(p.bias_factor() * p.bias_factor().transpose()));
+}
+
 // How well one object's fit went: the fields every pose line carries after its markers.
 void AddFitQuality(const ObjectPose& p, nlohmann::json* j) {
   (*j)["points_rejected"] = p.points_rejected;
@@ -81,6 +89,7 @@ nlohmann::json FrameJson(const FrameResult& r, size_t object) {
   if (p.valid) {
     j["cam_from_object"] = PoseWithQuaternionJson(p.cam_from_object);
     j["covariance"] = RowMajor(p.covariance);
+    j["covariance_common"] = CommonCovarianceJson(p);
     if (p.alternative_cam_from_object) {
       j["alternative"] = PoseWithQuaternionJson(*p.alternative_cam_from_object);
       j["alternative"]["weight"] = p.alternative_weight;
@@ -111,6 +120,7 @@ nlohmann::json RigFrameJson(const RigFrameResult& r, const CameraRig& rig, size_
   if (p.valid) {
     j["rig_from_object"] = PoseWithQuaternionJson(p.cam_from_object);
     j["covariance"] = RowMajor(p.covariance);
+    j["covariance_common"] = CommonCovarianceJson(p);
   } else {
     j["rig_from_object"] = nullptr;
     j["covariance"] = nullptr;

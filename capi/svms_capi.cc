@@ -123,6 +123,11 @@ void FillPose(const svms::ObjectPose& p, double timestamp, double latency_ms, bo
   PoseOut(p.cam_from_object, out->rvec, out->tvec, out->quaternion);
   for (int a = 0; a < 6; ++a)
     for (int b = 0; b < 6; ++b) out->covariance[a * 6 + b] = p.covariance(a, b);
+  if (p.bias_columns() > 0) {
+    const Eigen::Matrix<double, 6, 6> common = p.bias_factor() * p.bias_factor().transpose();
+    for (int a = 0; a < 6; ++a)
+      for (int b = 0; b < 6; ++b) out->covariance_common[a * 6 + b] = common(a, b);
+  }
   if (p.alternative_cam_from_object) {
     out->has_alternative = 1;
     PoseOut(*p.alternative_cam_from_object, out->alternative_rvec, out->alternative_tvec,

@@ -64,8 +64,8 @@ typedef enum svms_status {
 
 typedef struct svms_options {
   double corner_sigma_px; /* pixel noise of a detected corner, each axis (default 0.1) */
-  double budget_ms; /* time budget per frame, milliseconds, the conversion to linear light
-                     * included; 0: none (default 0) */
+  double budget_ms;       /* time budget per frame, milliseconds, the conversion to linear light
+                           * included; 0: none (default 0) */
 } svms_options;
 
 typedef struct svms_pose {
@@ -100,6 +100,13 @@ typedef struct svms_pose {
   double alternative_tvec[3];
   double alternative_quaternion[4];
   double alternative_weight;
+  /* The share of `covariance` that is one error common to every frame (the camera
+   * calibration's with SVMS_FLAG_CALIBRATION_IN_COVARIANCE, a rig's extrinsics' with
+   * SVMS_FLAG_EXTRINSICS_IN_COVARIANCE; zero without either), 6x6 row-major as `covariance`.
+   * covariance - covariance_common is the frame's own noise. A filter that fuses frames must
+   * treat the common part as a bias (one draw for the whole sequence), not average it down.
+   * Added in 0.4.0 (svms_pose grew: rebuild). */
+  double covariance_common[36];
 } svms_pose;
 
 /* What one frame of svms_process_frame_multi gives besides the objects' poses. */

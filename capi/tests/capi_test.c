@@ -379,6 +379,7 @@ int main(int argc, char** argv) {
   }
   CHECK(pose.latency_ms > 0);
   CHECK((pose.flags & SVMS_FLAG_CALIBRATION_IN_COVARIANCE) == 0);
+  for (int i = 0; i < 36; ++i) CHECK(pose.covariance_common[i] == 0);
   CHECK((pose.flags & SVMS_FLAG_AMBIGUOUS) == 0 && pose.has_alternative == 0);
   CHECK(pose.alternative_weight == 0);
 
@@ -397,6 +398,13 @@ int main(int argc, char** argv) {
   CHECK(pc.valid && (pc.flags & SVMS_FLAG_CALIBRATION_IN_COVARIANCE) != 0);
   CHECK(memcmp(pc.tvec, pose.tvec, sizeof pose.tvec) == 0);
   for (int r = 0; r < 6; ++r) CHECK(pc.covariance[r * 6 + r] > pose.covariance[r * 6 + r]);
+  /* The widening is the calibration's share, common to every frame: what it adds. */
+  for (int r = 0; r < 6; ++r) {
+    CHECK(pc.covariance_common[r * 6 + r] > 0);
+    for (int c = 0; c < 6; ++c)
+      CHECK(fabs(pc.covariance[r * 6 + c] - pc.covariance_common[r * 6 + c] -
+                 pose.covariance[r * 6 + c]) <= 1e-9 * pc.covariance[r * 6 + r]);
+  }
   svms_destroy(calibrated);
   /* A sidecar whose covariance overflows, and a layout with a duplicate key: refused at load. */
   char over_path[4096], dup_path[4096];

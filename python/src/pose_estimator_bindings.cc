@@ -105,6 +105,11 @@ void BindPoseEstimator(py::module_& m) {
       .def_readonly("alternative_cam_from_object", &ObjectPose::alternative_cam_from_object)
       .def_readonly("alternative_weight", &ObjectPose::alternative_weight)
       .def_readonly("calibration_in_covariance", &ObjectPose::calibration_in_covariance)
+      .def_property_readonly(
+          "bias_factor", [](const ObjectPose& p) { return Eigen::MatrixXd(p.bias_factor()); },
+          "6 x k: the share of `covariance` common to every frame (the calibration's, a rig's "
+          "extrinsics') is bias_factor @ bias_factor.T; column j is the same error in every "
+          "frame of one estimator (k = 0 without either)")
       .def_readonly("from_marker_pose", &ObjectPose::from_marker_pose,
                     "the pose is its one marker's own, with its stripe and decal edges")
       .def_readonly("edge_rows", &ObjectPose::edge_rows,

@@ -63,6 +63,7 @@ class PoseEstimatorTest(unittest.TestCase):
         np.testing.assert_array_equal(r.pose.cam_from_object.rvec, j["cam_from_object"]["rvec"])
         np.testing.assert_array_equal(r.pose.cam_from_object.tvec, j["cam_from_object"]["tvec"])
         np.testing.assert_array_equal(r.pose.covariance.ravel(), j["covariance"])
+        self.assertIsNone(j["covariance_common"])  # no calibration's uncertainty here
         self.assertEqual(r.pose.ids_used, j["markers"])
 
     def test_calibration_covariance_from_the_sidecar(self):
@@ -73,6 +74,13 @@ class PoseEstimatorTest(unittest.TestCase):
         plain = svms.PoseEstimator(self.camera, self.layout).estimate(self.frame).pose
         # The calibration's error widens the range's variance.
         self.assertGreater(p.covariance[5, 5], plain.covariance[5, 5])
+        # By its share common to every frame, one column per component of the intrinsics'
+        # error: the same pose, so what remains is the plain covariance.
+        B = p.bias_factor
+        self.assertEqual(B.shape, (6, e.camera.intrinsics_covariance_factor.shape[1]))
+        np.testing.assert_allclose(p.covariance - B @ B.T, plain.covariance,
+                                   rtol=0, atol=1e-9 * np.abs(plain.covariance).max())
+        self.assertEqual(plain.bias_factor.shape, (6, 0))
 
     def test_threads_and_bad_input(self):
         e = svms.PoseEstimator(self.camera, self.layout)

@@ -190,6 +190,8 @@ void EstimateFrames(const std::vector<cv::Mat>& images,
       row.error = PoseError(truth[i].second, r.pose.cam_from_object);
       row.sigma = r.pose.covariance.diagonal().cwiseSqrt();
       row.nees = Nees(truth[i].second, r.pose.cam_from_object, r.pose.covariance);
+      row.covariance = r.pose.covariance;
+      row.bias_factor = r.pose.bias_factor();
       row.position_mm = 1000 * row.error.tail<3>().norm();
       row.orientation_deg = row.error.head<3>().norm() * 180 / M_PI;
       row.range_error_mm = 1000 * (r.pose.cam_from_object.tvec.norm() - row.range);

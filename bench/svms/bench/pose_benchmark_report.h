@@ -28,6 +28,10 @@ struct FrameRow {
   Eigen::Matrix<double, 6, 1> sigma = Eigen::Matrix<double, 6, 1>::Zero();
   double nees = std::nan("");
   double nees_without_calibration = std::nan("");  // the same pose without the calibration term
+  // The fused pose's covariance and the share of it common to every frame (ObjectPose::
+  // bias_factor; no columns without a calibration's or extrinsics' covariance).
+  PoseCovariance covariance = PoseCovariance::Zero();
+  Eigen::Matrix<double, 6, Eigen::Dynamic> bias_factor;
   // With a given camera: against the truth carried into its frame (AlignCameraFrames).
   double aligned_nees = std::nan(""), aligned_position_mm = std::nan(""),
          aligned_orientation_deg = std::nan("");

@@ -1,6 +1,7 @@
 #include "svms/fusion/object_pose.h"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -30,6 +31,15 @@ using MatRR = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxRows,
 // When the fused pose's Gauss-Newton stops (PoseGaussNewtonStep): steps below 1e-10 (radians;
 // translation relative to the range). Every rotation step is applied.
 constexpr PoseStepTolerances kObjectPoseTolerances{1e-10, 0, 0};
+
+// The symmetric square root of a covariance, V sqrt(max(0, Lambda)) V^T (round-off's negative
+// eigenvalues taken as zero): its columns are the independent unit-variance components of the
+// error ObjectPose::bias_factor carries for a rig_from_cam covariance.
+Mat6 SymmetricSquareRoot(const Mat6& covariance) {
+  const Eigen::SelfAdjointEigenSolver<Mat6> es(covariance);
+  return es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() *
+         es.eigenvectors().transpose();
+}
 
 // The angle between two poses' rotations, radians (AngleBetweenRad, svms/geometry/pose.h).
 double AngleBetween(const Pose& a, const Pose& b) { return AngleBetweenRad(a, b); }
@@ -346,8 +356,11 @@ void ResetResult(ObjectPose* out) {
   std::vector<int> cameras_used = std::move(out->cameras_used),
                    cameras_rejected = std::move(out->cameras_rejected);
   std::string message = std::move(out->message);
+  std::vector<double> bias_factor_values = std::move(out->bias_factor_values);
   *out = ObjectPose{};
   ObjectPose& result = *out;
+  result.bias_factor_values = std::move(bias_factor_values);
+  result.bias_factor_values.clear();
   result.cameras_used = std::move(cameras_used);
   result.cameras_used.clear();
   result.cameras_rejected = std::move(cameras_rejected);
@@ -633,6 +646,22 @@ bool AccumulateInformation(const std::vector<View>& views, const ObjectPoseOptio
   return true;
 }
 
+// Where camera c's block of ObjectPose::bias_factor's columns starts: its calibration's
+// (extrinsics false) or its rig_from_cam's (true). Every camera's calibration block comes
+// first, in camera order (its intrinsics_covariance_factor's columns, when G[c] is filled),
+// then every camera's rig_from_cam block (6 columns, when the fit includes its covariance).
+// c = views.size() with extrinsics true gives the number of columns.
+int BiasColumn(const std::vector<View>& views, const FitInformation& info,
+               const std::vector<Eigen::MatrixXd>& G, size_t c, bool extrinsics) {
+  int column = 0;
+  for (size_t k = 0; k < views.size() && (extrinsics || k < c); ++k)
+    if (info.with_calibration && G[k].size() > 0)
+      column += static_cast<int>(views[k].camera->intrinsics_covariance_factor().cols());
+  for (size_t k = 0; extrinsics && k < std::min(c, views.size()); ++k)
+    if (info.with_extrinsics && views[k].extrinsics_covariance) column += 6;
+  return column;
+}
+
 // The covariance of the fused pose ([rotation, translation], camera axes) from step 4's sums:
 // the inverse information, scaled by the variance factor, plus the calibration's share and,
 // for a single marker, the detector's widening for its mirror solution. False (with
@@ -662,21 +691,32 @@ bool FusedCovariance(const std::vector<View>& views, const ObjectPoseOptions& o,
                                                           (o.variance_prior_dof + std::max(0, dof))
                                                     : 1.0;
   result.covariance *= result.variance_factor;
+  // The errors common to every frame, one block of ObjectPose::bias_factor's columns each.
+  const int bias_columns = BiasColumn(views, info, G, views.size(), true);
+  result.bias_factor_values.assign(6 * static_cast<size_t>(bias_columns), 0.0);
+  Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>> B(result.bias_factor_values.data(), 6,
+                                                         bias_columns);
+  int column = 0;
   if (info.with_calibration) {
-    // The calibration's error moves the optimum by d pose = S d intrinsics, S = -H_points^-1 G
-    // (the implicit function theorem at J^T W r = 0, over the corners and tips: FitInformation);
-    // its covariance S L L^T S^T is added after the variance factor (not the frame's noise).
-    // The same error is in every frame, so it is a bias along a sequence, not noise that
-    // averages away.
-    // Each camera's calibration is its own, independent error.
-    thread_local Eigen::MatrixXd HG, SL;
+    // The calibration's error d intrinsics = L z moves the optimum by d pose = S L z, S =
+    // -H_points^-1 G (the implicit function theorem at J^T W r = 0, over the corners and tips:
+    // FitInformation); its covariance S L L^T S^T is added after the variance factor (not the
+    // frame's noise). The same error is in every frame, so it is a bias along a sequence, not
+    // noise that averages away. Each camera's calibration is its own, independent error.
+    // The columns are H_points^-1 G L = -S L: a model whose intrinsics are the true ones plus
+    // L z puts the object at -S L z from the truth, so PoseError's truth minus estimate is
+    // +H_points^-1 G L z (CalibrationBiasFactorIsTheErrorOfTheDraw holds the sign).
+    thread_local Eigen::MatrixXd HG;
     Mat6 H_points_inv = H_inv;
     InvertFullPivLu(info.H_points, &H_points_inv);
     for (size_t c = 0; c < views.size(); ++c) {
       if (G[c].size() == 0) continue;
+      const Eigen::MatrixXd& L = views[c].camera->intrinsics_covariance_factor();
       HG.noalias() = H_points_inv * G[c];
-      SL.noalias() = HG * views[c].camera->intrinsics_covariance_factor();
+      auto SL = B.middleCols(column, L.cols());
+      SL.noalias() = HG * L;
       result.covariance.noalias() += SL * SL.transpose();
+      column += static_cast<int>(L.cols());
     }
     result.calibration_in_covariance = true;
   }
@@ -688,6 +728,10 @@ bool FusedCovariance(const std::vector<View>& views, const ObjectPoseOptions& o,
       if (!views[c].extrinsics_covariance) continue;
       const Mat6 S = H_inv * G_extrinsics[c];
       result.covariance.noalias() += S * *views[c].extrinsics_covariance * S.transpose();
+      // A camera truly at exp([e_rot]) R_rc, t_rc + e_trans leaves the object truly moved by
+      // -S e from where the fit puts it (PoseError's truth minus estimate).
+      B.middleCols<6>(column) = -S * SymmetricSquareRoot(*views[c].extrinsics_covariance);
+      column += 6;
     }
     result.extrinsics_in_covariance = true;
   }
@@ -719,7 +763,10 @@ bool FusedCovariance(const std::vector<View>& views, const ObjectPoseOptions& o,
 // share exactly when this fit's would. In a rig it is composed with the camera's
 // rig_from_cam (rig axes), whose covariance, if any, is added to first order: an error (a, c)
 // of it moves rig_from_object by [a, c - [R_rc t_co]x a].
-void UseMarkerPoseWithEdges(const ObjectPoseOptions& o, const FitInformation& info,
+// The extrinsics' columns of ObjectPose::bias_factor are then those of this rule; the
+// calibration's stay the fit's (the detector does not give its sensitivity).
+void UseMarkerPoseWithEdges(const std::vector<View>& views, const ObjectPoseOptions& o,
+                            const FitInformation& info, const std::vector<Eigen::MatrixXd>& G,
                             Eigen::Matrix3d* R, Eigen::Vector3d* t, ObjectPose* out) {
   ObjectPose& result = *out;
   const MarkerObservation* m = info.last;
@@ -733,6 +780,7 @@ void UseMarkerPoseWithEdges(const ObjectPoseOptions& o, const FitInformation& in
   PoseCovariance covariance;
   if (!ObjectPoseFromMarker(*m, o.use_layout_covariance, &cam_from_object, &covariance)) return;
   const View& v = *info.last_view;
+  std::optional<Mat6> extrinsics_columns;
   if (!v.identity) {
     Mat6 A = Mat6::Zero();
     A.topLeftCorner<3, 3>() = v.R_rc;
@@ -742,6 +790,7 @@ void UseMarkerPoseWithEdges(const ObjectPoseOptions& o, const FitInformation& in
       Mat6 JE = Mat6::Identity();
       JE.bottomLeftCorner<3, 3>() = -Skew(v.R_rc * cam_from_object.tvec);
       covariance += JE * *v.extrinsics_covariance * JE.transpose();
+      extrinsics_columns = JE * SymmetricSquareRoot(*v.extrinsics_covariance);
     }
     cam_from_object = v.rig_from_cam * cam_from_object;
   }
@@ -750,6 +799,13 @@ void UseMarkerPoseWithEdges(const ObjectPoseOptions& o, const FitInformation& in
   *t = cam_from_object.tvec;
   result.covariance = covariance;
   result.from_marker_pose = true;
+  if (extrinsics_columns) {
+    const size_t c = static_cast<size_t>(&v - views.data());
+    const int column = BiasColumn(views, info, G, c, true);
+    Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>> B(result.bias_factor_values.data(), 6,
+                                                           result.bias_columns());
+    B.middleCols<6>(column) = *extrinsics_columns;
+  }
 }
 
 // The rest of the result at the fused pose (R, t): residual statistics, the single marker's
@@ -953,7 +1009,7 @@ void Solve(const std::vector<View>& views, const std::vector<MarkerObservation>&
   FitInformation info;
   if (!AccumulateInformation(views, o, &blocks, R, t, &info, &G, &G_extrinsics, &result)) return;
   if (!FusedCovariance(views, o, info, G, G_extrinsics, R, t, &result)) return;
-  UseMarkerPoseWithEdges(o, info, &R, &t, &result);
+  UseMarkerPoseWithEdges(views, o, info, G, &R, &t, &result);
   DescribeResult(o, info, R, t, &result);
 }
 }  // namespace

@@ -196,6 +196,30 @@ struct ObjectPose {
   // still describe the refit over its corners, tip and edges.
   bool from_marker_pose = false;
   std::string message;  // why not valid
+
+  // The share of `covariance` that is one error common to every frame of a sequence, not
+  // noise: the camera calibration's (calibration_in_covariance) and the rig extrinsics'
+  // (extrinsics_in_covariance), as B B^T with B = bias_factor() (6 x bias_columns()). The
+  // columns keep their meaning from frame to frame of one estimator: first each camera's
+  // calibration, the columns of its CameraModel::intrinsics_covariance_factor L (camera order),
+  // then each camera's rig_from_cam, 6 columns of the symmetric square root of its covariance
+  // Sigma^(1/2) (camera order); a camera that sees no marker in a frame keeps its columns, as
+  // zeros. If each model's intrinsics are the true ones plus L z_c and each camera truly sits
+  // at exp([e_rot]) R, t + e_trans with e = Sigma^(1/2) z_e, the pose's error PoseError(truth,
+  // estimate) is B z plus the frame's noise, to first order, z the z_c and z_e stacked in the
+  // columns' order. So the errors of a sequence are e_f = B_f z + n_f with one draw z ~ N(0, I)
+  // for all its frames: a filter must not average that part away, and a test of a sequence's
+  // mean NEES must allow for the one draw (sequence_nees.h). Where the pose is the one marker's own
+  // (from_marker_pose), the calibration columns are this fit's sensitivity over the marker's
+  // corners and tip, which the detector's own share in `covariance` is computed from by the same
+  // rule but with the detector's point sigmas: close, not identical. No columns when neither error
+  // is in the covariance. Stored column-major in bias_factor_values, whose capacity a reused
+  // ObjectPose keeps (no allocation once warmed up).
+  std::vector<double> bias_factor_values;
+  int bias_columns() const { return static_cast<int>(bias_factor_values.size() / 6); }
+  Eigen::Map<const Eigen::Matrix<double, 6, Eigen::Dynamic>> bias_factor() const {
+    return {bias_factor_values.data(), 6, bias_columns()};
+  }
 };
 
 // Observations from detections: every detection whose ID is in the layout (as a marker, or

@@ -236,18 +236,44 @@ TEST(ObjectPose, LayoutUncertaintyIsPropagated) {
   EXPECT_GT(nees_without / trials, 12.0);  // the layout's error dominates here
 }
 
-// A camera whose intrinsics are off by draws from its calibration's covariance (correlated,
-// the focal lengths and principal point by about 1 px, the distortion by 2e-3): with that
-// covariance on the camera, NEES stays at 6; without it, the pose is overconfident.
-TEST(ObjectPose, CalibrationUncertaintyIsPropagated) {
-  const Rig rig;
-  const CameraModel& truth = rig.camera;
-  const int n = static_cast<int>(truth.intrinsics().size());
+// A calibration's covariance factor L (n x n) for n intrinsics: the focal lengths and principal
+// point by about 1 px, the distortion by 2e-3, neighbours correlated by 0.4.
+Eigen::MatrixXd CalibrationFactor(int n) {
   Eigen::VectorXd sigma = Eigen::VectorXd::Constant(n, 2e-3);
   sigma.head<4>() << 1.0, 1.2, 0.8, 0.9;
   Eigen::MatrixXd correlation = Eigen::MatrixXd::Identity(n, n);
   for (int i = 0; i + 1 < n; ++i) correlation(i, i + 1) = correlation(i + 1, i) = 0.4;
-  const Eigen::MatrixXd L = sigma.asDiagonal() * Eigen::MatrixXd(correlation.llt().matrixL());
+  return sigma.asDiagonal() * Eigen::MatrixXd(correlation.llt().matrixL());
+}
+
+// `truth` with its intrinsics moved by `off` and the calibration covariance factor L.
+CameraModel Calibrated(const CameraModel& truth, const Eigen::VectorXd& off,
+                       const Eigen::MatrixXd& L) {
+  std::vector<double> intrinsics = truth.intrinsics();
+  for (size_t k = 0; k < intrinsics.size(); ++k) intrinsics[k] += off[static_cast<Eigen::Index>(k)];
+  CameraModel calibrated;
+  EXPECT_TRUE(
+      CameraModel::Create(truth.lensmodel(), intrinsics, truth.width(), truth.height(), &calibrated)
+          .ok());
+  EXPECT_TRUE(calibrated.set_intrinsics_covariance_factor(L).ok());
+  return calibrated;
+}
+
+Eigen::VectorXd StandardNormal(std::mt19937_64* rng, int n) {
+  std::normal_distribution<double> g(0, 1);
+  Eigen::VectorXd z(n);
+  for (int k = 0; k < n; ++k) z[k] = g(*rng);
+  return z;
+}
+
+// A camera whose intrinsics are off by draws from its calibration's covariance
+// (CalibrationFactor): with that covariance on the camera, NEES stays at 6; without it, the
+// pose is overconfident.
+TEST(ObjectPose, CalibrationUncertaintyIsPropagated) {
+  const Rig rig;
+  const CameraModel& truth = rig.camera;
+  const int n = static_cast<int>(truth.intrinsics().size());
+  const Eigen::MatrixXd L = CalibrationFactor(n);
   std::mt19937_64 rng(13);
   std::normal_distribution<double> g(0, 1);
   ObjectPoseOptions with, without;
@@ -258,14 +284,7 @@ TEST(ObjectPose, CalibrationUncertaintyIsPropagated) {
   for (int i = 0; i < trials; ++i) {
     Eigen::VectorXd z(n);
     for (int k = 0; k < n; ++k) z[k] = g(rng);
-    const Eigen::VectorXd off = L * z;
-    std::vector<double> intrinsics = truth.intrinsics();
-    for (int k = 0; k < n; ++k) intrinsics[k] += off[k];
-    CameraModel calibrated;
-    ASSERT_TRUE(CameraModel::Create(truth.lensmodel(), intrinsics, truth.width(), truth.height(),
-                                    &calibrated)
-                    .ok());
-    ASSERT_TRUE(calibrated.set_intrinsics_covariance_factor(L).ok());
+    const CameraModel calibrated = Calibrated(truth, L * z, L);
     std::vector<MarkerObservation> obs = rig.ObserveAll();  // through the true camera
     for (auto& m : obs) AddNoise(&rng, 0.1, 0.3, &m);
     const ObjectPose a = SolveObjectPose(calibrated, obs, with);
@@ -278,6 +297,36 @@ TEST(ObjectPose, CalibrationUncertaintyIsPropagated) {
   }
   EXPECT_NEAR(nees_with / trials, 6.0, 0.35);
   EXPECT_GT(nees_without / trials, 12.0);  // the calibration's error dominates here
+}
+
+// ObjectPose::bias_factor B holds the calibration's share of the covariance (B B^T is what the
+// share adds) and is the pose's response to the calibration's error: with a camera model whose
+// intrinsics are the true ones plus L z and exact pixels through the true camera, the error
+// PoseError(truth, estimate) is B z to first order, for every draw z.
+TEST(ObjectPose, CalibrationBiasFactorIsTheErrorOfTheDraw) {
+  const Rig rig;
+  const int n = static_cast<int>(rig.camera.intrinsics().size());
+  const Eigen::MatrixXd L = CalibrationFactor(n);
+  std::mt19937_64 rng(5);
+  ObjectPoseOptions without;
+  without.use_calibration_covariance = false;
+  const std::vector<MarkerObservation> obs = rig.ObserveAll();
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::VectorXd z = StandardNormal(&rng, n);
+    const CameraModel calibrated = Calibrated(rig.camera, L * z, L);
+    const ObjectPose a = SolveObjectPose(calibrated, obs, ObjectPoseOptions{});
+    const ObjectPose b = SolveObjectPose(calibrated, obs, without);
+    ASSERT_TRUE(a.valid && b.valid) << a.message << b.message;
+    ASSERT_EQ(a.bias_columns(), L.cols());
+    EXPECT_EQ(b.bias_columns(), 0);
+    const PoseCovariance share = a.bias_factor() * a.bias_factor().transpose();
+    EXPECT_LT((share - (a.covariance - b.covariance)).norm(), 1e-9 * share.norm());
+    const Eigen::Matrix<double, 6, 1> predicted = a.bias_factor() * z;
+    const Eigen::Matrix<double, 6, 1> error = PoseError(rig.cam_from_object, a.cam_from_object);
+    // About 1 px of intrinsics error: first order to a few per cent.
+    EXPECT_LT((error - predicted).norm(), 0.05 * predicted.norm())
+        << "error " << error.transpose() << "\npredicted " << predicted.transpose();
+  }
 }
 
 // More markers, more information: the fused covariance is below every single marker's.
@@ -784,6 +833,88 @@ TEST(RigObjectPose, ExtrinsicsCovarianceMatchesFiniteDifferences) {
                                                                  << added << "\nexpected\n"
                                                                  << expected;
   }
+}
+
+// The same in a rig, where the columns are each camera's calibration, then each camera's
+// rig_from_cam: a draw of all four errors moves the rig's pose by B z, and a camera that sees
+// nothing keeps its (zero) columns, so that column j means the same error in every frame. Where
+// the pose is a lone marker's own (with its edges), its extrinsics columns are those of the
+// marker's rigid move with its camera, as the fit's own are.
+TEST(RigObjectPose, BiasFactorColumnsAreEachCamerasCalibrationThenExtrinsics) {
+  const TwoCameras rig;
+  const int n = static_cast<int>(rig.scene.camera.intrinsics().size());
+  const Eigen::MatrixXd L = CalibrationFactor(n);
+  PoseCovariance sigma = PoseCovariance::Zero();
+  sigma.diagonal() << 4e-8, 1e-8, 2e-8, 1e-8, 4e-8, 9e-8;
+  sigma(0, 4) = sigma(4, 0) = 1e-8;
+  const Eigen::SelfAdjointEigenSolver<PoseCovariance> es(sigma);
+  const PoseCovariance root =
+      es.eigenvectors() * es.eigenvalues().cwiseSqrt().asDiagonal() * es.eigenvectors().transpose();
+  std::mt19937_64 rng(8);
+  // The least-squares fit itself, every marker kept: the robust weights and the rejection tests
+  // count the extrinsics' pixel spread, which would make the two fits below weigh the cameras
+  // apart, and the draws move pixels by about a pixel.
+  ObjectPoseOptions all;
+  all.robust_k = all.point_reject_sigma = std::numeric_limits<double>::infinity();
+  all.reject_quantile = 1;
+  all.corner_sigma_px = all.min_tip_sigma_px = 2;
+  ObjectPoseOptions none = all;
+  none.use_calibration_covariance = false;
+  none.use_extrinsics_covariance = false;
+  for (int trial = 0; trial < 10; ++trial) {
+    const Eigen::VectorXd z = StandardNormal(&rng, 2 * n + 12);
+    std::array<CameraModel, 2> models;
+    std::array<Pose, 2> truth;
+    std::vector<RigCameraView> views(2);
+    for (int c = 0; c < 2; ++c) {
+      models[c] = Calibrated(rig.scene.camera, L * z.segment(c * n, n), L);
+      const Eigen::Matrix<double, 6, 1> e = root * z.segment<6>(2 * n + 6 * c);
+      truth[c] = Pose::FromRotation(Exp(e.head<3>()) * rig.rig_from_cam[c].Rotation(),
+                                    rig.rig_from_cam[c].tvec + e.tail<3>());
+      views[c] = {&models[c], rig.rig_from_cam[c], sigma};
+    }
+    const std::vector<MarkerObservation> obs = rig.ObserveAll(truth);
+    const ObjectPose a = SolveRigObjectPose(views, obs, all);
+    const ObjectPose b = SolveRigObjectPose(views, obs, none);
+    ASSERT_TRUE(a.valid && b.valid) << a.message << b.message;
+    ASSERT_EQ(a.bias_columns(), 2 * n + 12);
+    EXPECT_EQ(a.markers_used, 6);
+    EXPECT_EQ(b.markers_used, 6);
+    const PoseCovariance share = a.bias_factor() * a.bias_factor().transpose();
+    EXPECT_LT((share - (a.covariance - b.covariance)).norm(), 1e-9 * share.norm());
+    const Eigen::Matrix<double, 6, 1> predicted = a.bias_factor() * z;
+    const Eigen::Matrix<double, 6, 1> error = PoseError(rig.rig_from_object, a.cam_from_object);
+    EXPECT_LT((error - predicted).norm(), 0.05 * predicted.norm())
+        << "error " << error.transpose() << "\npredicted " << predicted.transpose();
+    // Camera 0 sees nothing: its columns stay, as zeros.
+    const std::vector<MarkerObservation> only1(obs.begin() + 3, obs.end());
+    const ObjectPose c1 = SolveRigObjectPose(views, only1, ObjectPoseOptions{});
+    ASSERT_TRUE(c1.valid) << c1.message;
+    ASSERT_EQ(c1.bias_columns(), 2 * n + 12);
+    EXPECT_EQ(c1.bias_factor().leftCols(n).norm(), 0);
+    EXPECT_EQ(c1.bias_factor().middleCols<6>(2 * n).norm(), 0);
+    EXPECT_GT(c1.bias_factor().middleCols(n, n).norm(), 0);
+    EXPECT_GT(c1.bias_factor().rightCols<6>().norm(), 0);
+  }
+  // A lone marker of camera 1 with edges: its own pose, and the extrinsics columns of the
+  // marker's rigid move, which the fit over its corners and tip gives too.
+  std::vector<RigCameraView> views = rig.Views(sigma);
+  MarkerObservation m = rig.ObserveAll(rig.rig_from_cam)[3];
+  m.marker_covariance = PoseCovariance::Identity() * 1e-6;
+  m.edge_points = 90;
+  const ObjectPose own = SolveRigObjectPose(views, {m}, ObjectPoseOptions{});
+  ObjectPoseOptions fit;
+  fit.use_marker_pose_with_edges = false;
+  const ObjectPose refit = SolveRigObjectPose(views, {m}, fit);
+  ASSERT_TRUE(own.valid && refit.valid) << own.message << refit.message;
+  EXPECT_TRUE(own.from_marker_pose);
+  EXPECT_FALSE(refit.from_marker_pose);
+  ASSERT_EQ(own.bias_columns(), 12);
+  ASSERT_EQ(refit.bias_columns(), 12);
+  EXPECT_LT((own.bias_factor() - refit.bias_factor()).norm(), 1e-6 * refit.bias_factor().norm())
+      << "own\n"
+      << own.bias_factor() << "\nrefit\n"
+      << refit.bias_factor();
 }
 
 // NEES of the two-camera solve ~ chi-square(6): with pixel noise only, and with the cameras
