@@ -103,8 +103,10 @@ typedef struct svms_pose {
   /* The share of `covariance` that is one error common to every frame (the camera
    * calibration's with SVMS_FLAG_CALIBRATION_IN_COVARIANCE, a rig's extrinsics' with
    * SVMS_FLAG_EXTRINSICS_IN_COVARIANCE; zero without either), 6x6 row-major as `covariance`.
-   * covariance - covariance_common is the frame's own noise. A filter that fuses frames must
-   * treat the common part as a bias (one draw for the whole sequence), not average it down.
+   * covariance - covariance_common is the frame's own noise and the layout's error (which is
+   * also the same in every frame, but not given apart: docs/flight-interface.md). A filter that
+   * fuses frames must treat the common part as a bias (one draw for the whole sequence), not
+   * average it down.
    * Added in 0.4.0 (svms_pose grew: rebuild). */
   double covariance_common[36];
 } svms_pose;
