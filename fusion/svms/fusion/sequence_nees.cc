@@ -8,56 +8,74 @@
 #include "svms/base/statistics.h"
 
 namespace svms {
+namespace {
 
-bool ComputeSequenceNeesBand(
-    const std::vector<PoseCovariance>& covariance,
-    const std::vector<Eigen::Matrix<double, 6, Eigen::Dynamic>>& bias_factor,
-    const SequenceNeesOptions& options, SequenceNeesBand* band, std::string* error) {
-  using Mat6 = Eigen::Matrix<double, 6, 6>;
-  using Mat6X = Eigen::Matrix<double, 6, Eigen::Dynamic>;
-  *band = SequenceNeesBand{};
-  const size_t n = covariance.size();
-  if (n == 0 || bias_factor.size() != n) {
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Mat6X = Eigen::Matrix<double, 6, Eigen::Dynamic>;
+
+bool CheckSizes(size_t covariances, size_t bias_factors, std::string* error) {
+  if (covariances == 0 || bias_factors != covariances) {
     *error = "expected one bias factor per covariance and at least one frame (got " +
-             std::to_string(n) + " covariances, " + std::to_string(bias_factor.size()) +
+             std::to_string(covariances) + " covariances, " + std::to_string(bias_factors) +
              " bias factors)";
     return false;
   }
+  return true;
+}
+
+// Checks frame f's covariance and bias factor (k columns, as the first frame's) and gives the
+// Cholesky factor of its covariance, its own share N_f = Sigma_f - B_f B_f^T and the symmetric
+// square root of that share (round-off's negative eigenvalues taken as zero).
+bool SplitFrame(size_t f, const PoseCovariance& covariance, const Mat6X& bias_factor,
+                Eigen::Index k, Eigen::LLT<Mat6>* llt, Mat6* noise, Mat6* noise_root,
+                std::string* error) {
+  const std::string frame = "frame " + std::to_string(f);
+  if (bias_factor.cols() != k) {
+    *error = frame + ": its bias factor has " + std::to_string(bias_factor.cols()) +
+             " columns; expected " + std::to_string(k) + " as the first frame's";
+    return false;
+  }
+  llt->compute(covariance);
+  if (!covariance.allFinite() || llt->info() != Eigen::Success) {
+    *error = frame + ": its covariance is not positive definite";
+    return false;
+  }
+  *noise = covariance - bias_factor * bias_factor.transpose();
+  const Eigen::SelfAdjointEigenSolver<Mat6> es(*noise);
+  if (es.eigenvalues().minCoeff() < -1e-9 * covariance.diagonal().maxCoeff()) {
+    *error = frame + ": its bias factor's share exceeds its covariance (the rest has eigenvalue " +
+             std::to_string(es.eigenvalues().minCoeff()) + ")";
+    return false;
+  }
+  *noise_root = es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() *
+                es.eigenvectors().transpose();
+  return true;
+}
+
+}  // namespace
+
+bool ComputeSequenceNeesBand(const std::vector<PoseCovariance>& covariance,
+                             const std::vector<Mat6X>& bias_factor,
+                             const SequenceNeesOptions& options, SequenceNeesBand* band,
+                             std::string* error) {
+  *band = SequenceNeesBand{};
+  const size_t n = covariance.size();
+  if (!CheckSizes(n, bias_factor.size(), error)) return false;
   if (options.trials < 2 || !(options.probability > 0 && options.probability < 1)) {
     *error = "expected at least 2 trials and a probability in (0, 1)";
     return false;
   }
   const Eigen::Index k = bias_factor[0].cols();
   // Each frame whitened by its covariance's Cholesky factor C (Sigma = C C^T): NEES = |C^-1 e|^2
-  // with e = Sigma_noise^(1/2) w + B z, so the trials need W = C^-1 Sigma_noise^(1/2) and
-  // V = C^-1 B only.
+  // with e = N^(1/2) w + B z, so the trials need W = C^-1 N^(1/2) and V = C^-1 B only.
   std::vector<Mat6> W(n);
   std::vector<Mat6X> V(n);
   double share = 0;
   for (size_t f = 0; f < n; ++f) {
-    const std::string frame = "frame " + std::to_string(f);
-    if (bias_factor[f].cols() != k) {
-      *error = frame + ": its bias factor has " + std::to_string(bias_factor[f].cols()) +
-               " columns; expected " + std::to_string(k) + " as the first frame's";
+    Eigen::LLT<Mat6> llt;
+    Mat6 noise, noise_root;
+    if (!SplitFrame(f, covariance[f], bias_factor[f], k, &llt, &noise, &noise_root, error))
       return false;
-    }
-    const Eigen::LLT<Mat6> llt(covariance[f]);
-    if (!covariance[f].allFinite() || llt.info() != Eigen::Success) {
-      *error = frame + ": its covariance is not positive definite";
-      return false;
-    }
-    const Mat6 noise = covariance[f] - bias_factor[f] * bias_factor[f].transpose();
-    const Eigen::SelfAdjointEigenSolver<Mat6> es(noise);
-    const double scale = covariance[f].diagonal().maxCoeff();
-    if (es.eigenvalues().minCoeff() < -1e-9 * scale) {
-      *error = frame +
-               ": its bias factor's share exceeds its covariance (the rest has eigenvalue " +
-               std::to_string(es.eigenvalues().minCoeff()) + ")";
-      return false;
-    }
-    const Mat6 noise_root = es.eigenvectors() *
-                            es.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() *
-                            es.eigenvectors().transpose();
     W[f] = llt.matrixL().solve(noise_root);
     V[f] = llt.matrixL().solve(bias_factor[f]);
     share += V[f].squaredNorm() / 6;
@@ -90,6 +108,62 @@ bool ComputeSequenceNeesBand(
   band->independent_lo = ChiSquareQuantile(tail, dof) / static_cast<double>(n);
   band->independent_hi = ChiSquareQuantile(1 - tail, dof) / static_cast<double>(n);
   band->common_share = share / static_cast<double>(n);
+  return true;
+}
+
+bool EstimateCommonDraw(const std::vector<Eigen::Matrix<double, 6, 1>>& errors,
+                        const std::vector<PoseCovariance>& covariance,
+                        const std::vector<Mat6X>& bias_factor, CommonDrawEstimate* estimate,
+                        std::string* error) {
+  *estimate = CommonDrawEstimate{};
+  const size_t n = covariance.size();
+  if (!CheckSizes(n, bias_factor.size(), error)) return false;
+  if (errors.size() != n) {
+    *error = "expected one error per covariance (got " + std::to_string(errors.size()) +
+             " errors, " + std::to_string(n) + " covariances)";
+    return false;
+  }
+  const Eigen::Index k = bias_factor[0].cols();
+  std::vector<Mat6> noise_inv(n);
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(k, k);
+  Eigen::VectorXd b = Eigen::VectorXd::Zero(k);
+  for (size_t f = 0; f < n; ++f) {
+    Eigen::LLT<Mat6> llt;
+    Mat6 noise, noise_root;
+    if (!SplitFrame(f, covariance[f], bias_factor[f], k, &llt, &noise, &noise_root, error))
+      return false;
+    const Eigen::LLT<Mat6> own(noise);
+    if (own.info() != Eigen::Success || own.matrixL().toDenseMatrix().diagonal().minCoeff() <=
+                                            1e-6 * std::sqrt(covariance[f].diagonal().maxCoeff())) {
+      *error = "frame " + std::to_string(f) +
+               ": its own share of the covariance (less the common error's) is singular";
+      return false;
+    }
+    noise_inv[f] = own.solve(Mat6::Identity());
+    A.noalias() += bias_factor[f].transpose() * noise_inv[f] * bias_factor[f];
+    b.noalias() += bias_factor[f].transpose() * noise_inv[f] * errors[f];
+  }
+  // A's eigenvalues below 1e-9 of its largest are directions of z the sequence does not see.
+  // In A's eigenbasis z_hat = diag(1 / lambda) U^T b on the seen directions, and under honest
+  // covariances each of its components there is N(0, 1 + 1 / lambda).
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(A);
+  const Eigen::VectorXd& lambda = es.eigenvalues();
+  const double floor = k > 0 ? 1e-9 * std::max(lambda.maxCoeff(), 0.0) : 0.0;
+  const Eigen::VectorXd ub = es.eigenvectors().transpose() * b;
+  Eigen::VectorXd zu = Eigen::VectorXd::Zero(k);
+  for (Eigen::Index j = 0; j < k; ++j) {
+    if (!(lambda[j] > floor)) continue;
+    zu[j] = ub[j] / lambda[j];
+    estimate->chi2 += zu[j] * zu[j] / (1 + 1 / lambda[j]);
+    ++estimate->rank;
+  }
+  estimate->z = es.eigenvectors() * zu;
+  double own = 0;
+  for (size_t f = 0; f < n; ++f) {
+    const Eigen::Matrix<double, 6, 1> r = errors[f] - bias_factor[f] * estimate->z;
+    own += r.dot(noise_inv[f] * r);
+  }
+  estimate->own_nees_mean = own / static_cast<double>(n);
   return true;
 }
 

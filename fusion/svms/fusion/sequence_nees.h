@@ -58,4 +58,27 @@ bool ComputeSequenceNeesBand(
     const std::vector<Eigen::Matrix<double, 6, Eigen::Dynamic>>& bias_factor,
     const SequenceNeesOptions& options, SequenceNeesBand* band, std::string* error);
 
+// The common draw z as a sequence's errors against the truth show it, and what is left of each
+// frame's error once it is taken out. With e_f = B_f z + n_f, n_f ~ N(0, N_f), N_f = Sigma_f -
+// B_f B_f^T, the generalised least-squares estimate is z_hat = A^+ sum_f B_f^T N_f^-1 e_f, A =
+// sum_f B_f^T N_f^-1 B_f. Only the part of z in A's range is seen (a pose does not tell every
+// intrinsic apart), and if the covariances are honest that part of z_hat is N(0, P + A^+)
+// (P the projector onto the range): `chi2` on `rank` degrees of freedom tests the common
+// error's covariance (the calibration's) against its draw, and `own_nees_mean`, the mean of
+// (e_f - B_f z_hat)^T N_f^-1 (e_f - B_f z_hat), tests the frames' own share (6 - rank / N on
+// average when honest). So one run tells which of the two is off.
+struct CommonDrawEstimate {
+  Eigen::VectorXd z;  // z_hat (k)
+  int rank = 0;       // of A: the components of z the sequence sees
+  double chi2 = 0;    // z_hat^T (P + A^+)^+ z_hat, chi-square(rank) when honest
+  double own_nees_mean = 0;
+};
+
+// False with *error when the inputs do not fit (as ComputeSequenceNeesBand, and one 6-vector
+// error per frame: PoseError(truth, estimate)).
+bool EstimateCommonDraw(const std::vector<Eigen::Matrix<double, 6, 1>>& errors,
+                        const std::vector<PoseCovariance>& covariance,
+                        const std::vector<Eigen::Matrix<double, 6, Eigen::Dynamic>>& bias_factor,
+                        CommonDrawEstimate* estimate, std::string* error);
+
 }  // namespace svms

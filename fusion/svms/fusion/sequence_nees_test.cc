@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
+#include <cstdio>
 #include <random>
 
 #include "svms/base/statistics.h"
@@ -82,6 +83,86 @@ TEST(SequenceNees, HalfCommonIsThreePlusHalfAChiSquareSixDraw) {
   EXPECT_NEAR(band.mean, 6.0, 0.15);
 }
 
+// A sequence of frames with their own noise N_f and a common error B_f z, drawn with the noise
+// scaled by `noise_scale` and z by `draw_scale` (1: as the covariances say).
+struct Sequence {
+  std::vector<PoseCovariance> covariance;
+  std::vector<Mat6X> bias;
+  std::vector<Eigen::Matrix<double, 6, 1>> errors;
+  Eigen::VectorXd z;
+};
+Sequence DrawSequence(std::mt19937_64* rng, int frames, int k, double noise_scale,
+                      double draw_scale, int unseen_columns = 0) {
+  std::normal_distribution<double> g(0, 1);
+  Sequence s;
+  s.z.resize(k);
+  for (int j = 0; j < k; ++j) s.z[j] = draw_scale * g(*rng);
+  for (int f = 0; f < frames; ++f) {
+    const PoseCovariance noise = RandomCovariance(rng);
+    Mat6X B(6, k);
+    for (int i = 0; i < 6; ++i)
+      for (int j = 0; j < k; ++j) B(i, j) = (j < k - unseen_columns ? 1e-3 * g(*rng) : 0.0);
+    s.covariance.push_back(noise + B * B.transpose());
+    s.bias.push_back(B);
+    const Eigen::Matrix<double, 6, 6> root = noise.llt().matrixL();
+    Eigen::Matrix<double, 6, 1> w;
+    for (int i = 0; i < 6; ++i) w[i] = g(*rng);
+    s.errors.push_back(noise_scale * root * w + B * s.z);
+  }
+  return s;
+}
+
+// With honest covariances the draw's chi-square is chi-square(rank) and the frames' own NEES
+// 6 - rank / N on average; the estimate finds z; columns no frame responds to are not counted.
+TEST(CommonDraw, HonestCovariancesGiveChiSquareOfTheSeenComponents) {
+  std::mt19937_64 rng(4);
+  double chi2 = 0, own = 0, z_error = 0, z_norm = 0;
+  const int trials = 200, frames = 100, k = 8;
+  for (int t = 0; t < trials; ++t) {
+    const Sequence s = DrawSequence(&rng, frames, k, 1, 1, 1);
+    CommonDrawEstimate e;
+    std::string error;
+    ASSERT_TRUE(EstimateCommonDraw(s.errors, s.covariance, s.bias, &e, &error)) << error;
+    ASSERT_EQ(e.rank, k - 1);
+    chi2 += e.chi2;
+    own += e.own_nees_mean;
+    z_error += (e.z - s.z).head(k - 1).squaredNorm();
+    z_norm += s.z.head(k - 1).squaredNorm();
+    EXPECT_EQ(e.z[k - 1], 0);  // the unseen component is not guessed
+  }
+  std::printf("honest: chi2 %.3f (rank 7), own NEES %.3f, |z_hat - z|^2 / |z|^2 %.4f\n",
+              chi2 / trials, own / trials, z_error / z_norm);
+  // chi-square(7) over 200 sequences: 7 +- 0.26; own NEES 6 - 7 / 100 = 5.93 +- 0.02.
+  EXPECT_NEAR(chi2 / trials, 7.0, 0.8);
+  EXPECT_NEAR(own / trials, 5.93, 0.08);
+  EXPECT_LT(z_error, 0.2 * z_norm);  // the sequence sees z well
+}
+
+// Which part is off: a draw twice as large as its covariance says doubles the chi-square and
+// leaves the frames' own NEES; noise twice as large in variance doubles the own NEES and
+// leaves the chi-square near rank.
+TEST(CommonDraw, TellsTheCommonErrorsScaleFromTheFramesOwn) {
+  std::mt19937_64 rng(5);
+  const int trials = 200, frames = 100, k = 6;
+  double chi2_draw = 0, own_draw = 0, chi2_noise = 0, own_noise = 0;
+  for (int t = 0; t < trials; ++t) {
+    CommonDrawEstimate e;
+    std::string error;
+    const Sequence a = DrawSequence(&rng, frames, k, 1, std::sqrt(2.0));
+    ASSERT_TRUE(EstimateCommonDraw(a.errors, a.covariance, a.bias, &e, &error)) << error;
+    chi2_draw += e.chi2, own_draw += e.own_nees_mean;
+    const Sequence b = DrawSequence(&rng, frames, k, std::sqrt(2.0), 1);
+    ASSERT_TRUE(EstimateCommonDraw(b.errors, b.covariance, b.bias, &e, &error)) << error;
+    chi2_noise += e.chi2, own_noise += e.own_nees_mean;
+  }
+  std::printf("draw x2: chi2 %.3f, own NEES %.3f; noise x2: chi2 %.3f, own NEES %.3f\n",
+              chi2_draw / trials, own_draw / trials, chi2_noise / trials, own_noise / trials);
+  EXPECT_NEAR(chi2_draw / trials, 12.0, 1.5);
+  EXPECT_NEAR(own_draw / trials, 5.94, 0.1);
+  EXPECT_LT(chi2_noise / trials, 7.5);
+  EXPECT_NEAR(own_noise / trials, 2 * 5.94, 0.2);
+}
+
 TEST(SequenceNees, InputsThatDoNotFitAreErrorsNamingTheFrame) {
   const PoseCovariance identity = PoseCovariance::Identity();
   SequenceNeesBand band;
@@ -99,6 +180,13 @@ TEST(SequenceNees, InputsThatDoNotFitAreErrorsNamingTheFrame) {
   EXPECT_NE(error.find("frame 0: its bias factor's share exceeds its covariance"),
             std::string::npos)
       << error;
+  CommonDrawEstimate e;
+  EXPECT_FALSE(EstimateCommonDraw({}, {identity}, {Mat6X(6, 0)}, &e, &error));
+  EXPECT_NE(error.find("one error per covariance"), std::string::npos) << error;
+  // All of the covariance common: no own share to weigh the frames by.
+  EXPECT_FALSE(EstimateCommonDraw({Eigen::Matrix<double, 6, 1>::Zero()}, {identity},
+                                  {Mat6X(identity)}, &e, &error));
+  EXPECT_NE(error.find("frame 0: its own share of the covariance"), std::string::npos) << error;
 }
 
 }  // namespace
