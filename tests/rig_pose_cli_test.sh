@@ -69,6 +69,7 @@ names = [c["name"] for c in a["cameras"]]
 assert names == ["narrow", "wide"], names
 assert all(len(c["markers"]) > 0 for c in a["cameras"]), a["cameras"]
 assert a["flags"]["extrinsics_in_covariance"] is False
+assert a["covariance_common"] is None  # no calibration's or extrinsics' uncertainty here
 p = a["rig_from_object"]
 R_t = Rotation.from_rotvec(truth["rvec"]).as_matrix()
 R_e = Rotation.from_rotvec(p["rvec"]).as_matrix()
@@ -81,6 +82,34 @@ print(f"rig: NEES {nees:.2f}, error {np.linalg.norm(e[:3])*1e3:.3f} mrad "
 assert nees < 22.46, nees
 assert b["valid"] and b["timestamp"] == 2.5 and b["images"][0] is None, b
 assert b["cameras"][0]["markers"] == [] and len(b["cameras"][1]["markers"]) > 0, b["cameras"]
+PY
+
+# The narrow camera's rig_from_cam with a covariance (0.1 mrad, 0.1 mm): flagged, and its share,
+# common to every frame, given apart in covariance_common (within the covariance, and what the
+# covariance gained over the run without it on the same frame's poses).
+sed 's/"tvec": \[-0.25, 0.0, 0.0\]}}/"tvec": [-0.25, 0.0, 0.0]}, "covariance": [[1e-8,0,0,0,0,0],[0,1e-8,0,0,0,0],[0,0,1e-8,0,0,0],[0,0,0,1e-8,0,0],[0,0,0,0,1e-8,0],[0,0,0,0,0,1e-8]]}/' \
+  "$tmp/port.rig" > "$tmp/cov.rig"
+grep -q '"covariance"' "$tmp/cov.rig" || fail "cov.rig: the sed did not add the covariance"
+"$svms" pose --rig "$tmp/cov.rig" --layout "$tmp/ds/true_layout.json" \
+  --frames-list "$tmp/frames.txt" --quiet > "$tmp/cov.jsonl" || fail "svms pose --rig cov.rig exited $?"
+"$py" - "$tmp" <<'PY' || fail "svms pose --rig with an extrinsics covariance"
+import json, sys, numpy as np
+tmp = sys.argv[1]
+plain = [json.loads(l) for l in open(f"{tmp}/out.jsonl")]
+cov = [json.loads(l) for l in open(f"{tmp}/cov.jsonl")]
+a = cov[0]
+assert a["valid"] and a["flags"]["extrinsics_in_covariance"] is True, a["flags"]
+C = np.array(a["covariance"]).reshape(6, 6)
+S = np.array(a["covariance_common"]).reshape(6, 6)
+assert np.linalg.eigvalsh(S).min() > -1e-12 * S.max(), S
+assert np.linalg.eigvalsh(S).max() > 0, S
+assert np.linalg.eigvalsh(C - S).min() > -1e-12 * C.max(), (C, S)
+# The second line's pose rests on the wide camera alone, whose rig_from_cam has no covariance:
+# no common share is needed there, but its columns stay (zeros), as every frame's do.
+b = cov[1]
+assert b["valid"], b
+Sb = np.array(b["covariance_common"]).reshape(6, 6)
+assert np.abs(Sb).max() <= 1e-12 * np.abs(np.array(b["covariance"])).max(), Sb
 PY
 
 # A line that does not fit the rig: an error in its line, the stream goes on, exit 1.
