@@ -37,6 +37,20 @@ nlohmann::json CommonCovarianceJson(const ObjectPose& p) {
   return RowMajor(Eigen::Matrix<double, 6, 6>(p.bias_factor() * p.bias_factor().transpose()));
 }
 
+// Its factor B (ObjectPose::bias_factor), 6 rows of k numbers: column j is the same error in
+// every line of the stream, so two frames' common errors are correlated by B_f B_g^T. Null
+// without columns.
+nlohmann::json BiasFactorJson(const ObjectPose& p) {
+  if (p.bias_columns() == 0) return nullptr;
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 6; ++r) {
+    std::vector<double> row(static_cast<size_t>(p.bias_columns()));
+    for (int c = 0; c < p.bias_columns(); ++c) row[static_cast<size_t>(c)] = p.bias_factor()(r, c);
+    rows.push_back(row);
+  }
+  return rows;
+}
+
 // How well one object's fit went: the fields every pose line carries after its markers.
 void AddFitQuality(const ObjectPose& p, nlohmann::json* j) {
   (*j)["points_rejected"] = p.points_rejected;
@@ -90,6 +104,7 @@ nlohmann::json FrameJson(const FrameResult& r, size_t object) {
     j["cam_from_object"] = PoseWithQuaternionJson(p.cam_from_object);
     j["covariance"] = RowMajor(p.covariance);
     j["covariance_common"] = CommonCovarianceJson(p);
+    j["bias_factor"] = BiasFactorJson(p);
     if (p.alternative_cam_from_object) {
       j["alternative"] = PoseWithQuaternionJson(*p.alternative_cam_from_object);
       j["alternative"]["weight"] = p.alternative_weight;
@@ -97,6 +112,8 @@ nlohmann::json FrameJson(const FrameResult& r, size_t object) {
   } else {
     j["cam_from_object"] = nullptr;
     j["covariance"] = nullptr;
+    j["covariance_common"] = nullptr;
+    j["bias_factor"] = nullptr;
     j["message"] = p.message;
   }
   j["markers"] = p.ids_used;
@@ -121,9 +138,12 @@ nlohmann::json RigFrameJson(const RigFrameResult& r, const CameraRig& rig, size_
     j["rig_from_object"] = PoseWithQuaternionJson(p.cam_from_object);
     j["covariance"] = RowMajor(p.covariance);
     j["covariance_common"] = CommonCovarianceJson(p);
+    j["bias_factor"] = BiasFactorJson(p);
   } else {
     j["rig_from_object"] = nullptr;
     j["covariance"] = nullptr;
+    j["covariance_common"] = nullptr;
+    j["bias_factor"] = nullptr;
     j["message"] = p.message;
   }
   nlohmann::json cameras = nlohmann::json::array();

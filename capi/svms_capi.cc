@@ -229,6 +229,50 @@ svms_status Process(const char* fn, svms_estimator* e, const void* pixels, int w
   return status;
 }
 
+
+// svms_last_bias_factor and svms_last_rig_bias_factor: the handle checked and claimed as
+// Process claims it (under the registry's lock, then its busy flag), the last frame's result
+// of layout `object` copied out.
+template <typename Handle>
+svms_status LastBiasFactor(const char* fn, Handle* e, const std::unordered_set<const Handle*>& live,
+                           int object, double* out, int capacity_columns, int* columns) {
+  if (!e || !columns)
+    return Fail(SVMS_ERR_NULL_ARGUMENT,
+                std::string(fn) + ": " + (!e ? "estimator" : "columns") + " is NULL");
+  *columns = 0;
+  {
+    std::lock_guard<std::mutex> lock(registry_mutex);
+    if (!live.count(e) || e->magic != Handle::kMagic || !e->impl)
+      return Fail(SVMS_ERR_BAD_HANDLE,
+                  std::string(fn) +
+                      ": the estimator is not one from its create function, or was destroyed");
+    bool expected = false;
+    if (!e->busy.compare_exchange_strong(expected, true))
+      return Fail(SVMS_ERR_BUSY, std::string(fn) + ": the estimator is in use by another thread");
+  }
+  struct Release {
+    Handle* e;
+    ~Release() { e->busy.store(false); }
+  } release{e};
+  const int layouts = static_cast<int>(e->impl->layouts().size());
+  if (object < 0 || object >= layouts)
+    return Fail(SVMS_ERR_INVALID_ARGUMENT, std::string(fn) + ": object is " +
+                                               std::to_string(object) + ", expected 0 to " +
+                                               std::to_string(layouts - 1));
+  if (static_cast<size_t>(object) > e->scratch->more_poses.size()) return SVMS_OK;  // no frame
+  const svms::ObjectPose& p = e->scratch->object(static_cast<size_t>(object));
+  const int k = p.valid ? p.bias_columns() : 0;
+  *columns = k;
+  if (k > capacity_columns)
+    return Fail(SVMS_ERR_INVALID_ARGUMENT,
+                std::string(fn) + ": capacity_columns is " + std::to_string(capacity_columns) +
+                    ", the factor has " + std::to_string(k) + " columns");
+  if (k > 0 && !out) return Fail(SVMS_ERR_NULL_ARGUMENT, std::string(fn) + ": out is NULL");
+  std::copy(p.bias_factor_values.begin(), p.bias_factor_values.begin() + 6 * k, out);
+  return SVMS_OK;
+}
+
+
 }  // namespace
 
 extern "C" {
@@ -371,6 +415,22 @@ svms_status svms_process_frame_multi_u16(svms_estimator* e, const uint16_t* pixe
   return Guarded("svms_process_frame_multi_u16", [&]() -> svms_status {
     return Process("svms_process_frame_multi_u16", e, pixels, width, height, stride, 2, timestamp,
                    poses, n_poses, true, info);
+  });
+}
+
+svms_status svms_last_bias_factor(svms_estimator* e, int object, double* out, int capacity_columns,
+                                  int* columns) {
+  return Guarded("svms_last_bias_factor", [&]() -> svms_status {
+    return LastBiasFactor<svms_estimator>("svms_last_bias_factor", e, Live(), object, out,
+                                          capacity_columns, columns);
+  });
+}
+
+svms_status svms_last_rig_bias_factor(svms_rig_estimator* e, int object, double* out,
+                                      int capacity_columns, int* columns) {
+  return Guarded("svms_last_rig_bias_factor", [&]() -> svms_status {
+    return LastBiasFactor<svms_rig_estimator>("svms_last_rig_bias_factor", e, LiveRigs(), object,
+                                              out, capacity_columns, columns);
   });
 }
 

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # End-to-end tests of the `svms` binary: outputs, exit codes and one-line errors.
-# Usage: tests/cli_test.sh path/to/svms
+# Usage: tests/cli_test.sh path/to/svms VERSION (the project's, from CMake)
 set -uo pipefail
-svms=${1:?usage: cli_test.sh SVMS}
+svms=${1:?usage: cli_test.sh SVMS VERSION}
+version=${2:?usage: cli_test.sh SVMS VERSION}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 source "$(dirname "$0")/expect.sh"
@@ -14,7 +15,7 @@ expect_err_lines() {
   [ "$lines" -eq "$n" ] && pass || fail "$* -> $lines stderr lines, expected $n"
 }
 
-expect 0 "svms 0.3.0" "$svms" --version
+expect 0 "svms $version" "$svms" --version
 expect 0 "codec" "$svms" --help
 for sub in "codec stats" "codec encode" "codec decode" "codec read" "model check" "generate marker" "generate sheet"; do
   # shellcheck disable=SC2086

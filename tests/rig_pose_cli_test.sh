@@ -104,6 +104,9 @@ S = np.array(a["covariance_common"]).reshape(6, 6)
 assert np.linalg.eigvalsh(S).min() > -1e-12 * S.max(), S
 assert np.linalg.eigvalsh(S).max() > 0, S
 assert np.linalg.eigvalsh(C - S).min() > -1e-12 * C.max(), (C, S)
+B = np.array(a["bias_factor"])  # 6 x k, k = 6 (the narrow camera's rig_from_cam)
+assert B.shape == (6, 6), B.shape
+assert np.abs(B @ B.T - S).max() <= 1e-12 * np.abs(S).max(), (B @ B.T, S)
 # The second line's pose rests on the wide camera alone, whose rig_from_cam has no covariance:
 # no common share is needed there, but its columns stay (zeros), as every frame's do.
 b = cov[1]

@@ -106,9 +106,11 @@ typedef struct svms_pose {
    * covariance - covariance_common is the frame's own noise and the layout's error (which is
    * also the same in every frame, but not given apart: docs/flight-interface.md). A filter that
    * fuses frames must treat the common part as a bias (one draw for the whole sequence), not
-   * average it down.
+   * average it down; its factor, whose columns keep their meaning from frame to frame (so two
+   * frames' common errors are correlated by B_f B_g^T), comes from svms_last_bias_factor.
    * Added in 0.4.0 (svms_pose grew: rebuild). */
   double covariance_common[36];
+  double reserved[8]; /* zero; room for fields a later minor version adds without a new layout */
 } svms_pose;
 
 /* What one frame of svms_process_frame_multi gives besides the objects' poses. */
@@ -205,6 +207,20 @@ svms_status svms_rig_camera_count(const svms_rig_estimator* estimator, int* n_ca
  * one camera, plus SVMS_FLAG_EXTRINSICS_IN_COVARIANCE. One estimator per thread, as above. */
 svms_status svms_process_rig_frame(svms_rig_estimator* estimator, const svms_rig_frame* frames,
                                    int n_frames, double timestamp, svms_pose* out);
+
+/* The factor B of the last processed frame's covariance_common for layout `object` (0 for a
+ * single-layout handle): covariance_common = B B^T, B 6 x k, written column-major into
+ * out[0 .. 6 k), k into *columns. Column j is the same error (one component of the camera
+ * calibration's or a rig camera's extrinsics' error, unit variance) in every frame of the
+ * handle, so the errors of two frames f and g share B_f B_g^T: what a filter needs to carry
+ * the common error as one bias instead of noise (docs/flight-interface.md). k is 0 without a
+ * calibration's or extrinsics' uncertainty, or before the first frame, or after an invalid one.
+ * With capacity_columns < k nothing is written to out, *columns is k and the status
+ * SVMS_ERR_INVALID_ARGUMENT: call again with room for k columns. No allocation. Added in 0.4.0. */
+svms_status svms_last_bias_factor(svms_estimator* estimator, int object, double* out,
+                                  int capacity_columns, int* columns);
+svms_status svms_last_rig_bias_factor(svms_rig_estimator* estimator, int object, double* out,
+                                      int capacity_columns, int* columns);
 
 /* Destroys a rig's estimator; NULL is accepted (SVMS_OK). Like svms_destroy, a destroyed one
  * stays detectable (SVMS_ERR_BAD_HANDLE). */

@@ -3,10 +3,11 @@
 // posix_memalign or malloc). Usage: svms_capi_alloc_test FIXTURE_DIR.
 //
 // What it checks (the C API's promise: no allocation at all after the first frames): after
-// warm-up on a fixture frame, 8-bit and 16-bit, every svms_process_frame makes no heap
-// allocation at all; nor does svms_process_frame_multi with two layouts on the two-object frame.
-// And, with every allocation failing, an entry point that has to word an error returns a status
-// instead of letting std::bad_alloc cross into C (which would end this program).
+// warm-up on a fixture frame, 8-bit and 16-bit, every svms_process_frame (and
+// svms_last_bias_factor after it) makes no heap allocation at all; nor does
+// svms_process_frame_multi with two layouts on the two-object frame. And, with every allocation
+// failing, an entry point that has to word an error returns a status instead of letting
+// std::bad_alloc cross into C (which would end this program).
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
@@ -104,9 +105,18 @@ int main(int argc, char** argv) {
     frees = 0;
     counting = true;
     const svms_status s = process(i);
+    // The frame's common error's factor too (the calibration's 12 columns fit in 64).
+    double factor[6 * 64];
+    int columns = 0;
+    const svms_status sf = svms_last_bias_factor(e, 0, factor, 64, &columns);
     counting = false;
     if (s != SVMS_OK || !pose.valid || !(pose.flags & SVMS_FLAG_CALIBRATION_IN_COVARIANCE)) {
       std::fprintf(stderr, "frame %d: %s %s\n", i, svms_status_string(s), svms_last_error());
+      return 1;
+    }
+    if (sf != SVMS_OK || columns <= 0) {
+      std::fprintf(stderr, "frame %d: svms_last_bias_factor: %s, %d columns: %s\n", i,
+                   svms_status_string(sf), columns, svms_last_error());
       return 1;
     }
     per_frame.push_back(allocations.load());

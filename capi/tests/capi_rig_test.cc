@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <vector>
 
 #include "svms/fusion/rig_pose_estimator.h"
 #include "svms/svms.h"
@@ -77,6 +78,21 @@ TEST(CapiRig, ProcessRigFrameIsTheRigPoseEstimators) {
   for (int i = 0; i < 36; ++i) EXPECT_EQ(pose.covariance[i], r.pose.covariance(i / 6, i % 6));
   EXPECT_EQ(pose.markers_used, r.pose.markers_used);
   EXPECT_LT(svms::Nees(a.rig_from_module, r.pose.cam_from_object, r.pose.covariance), 22.46);
+  // The extrinsics' share, common to every frame, and its factor: the RigPoseEstimator's.
+  ASSERT_GT(r.pose.bias_columns(), 0);
+  const Eigen::Matrix<double, 6, 6> common =
+      r.pose.bias_factor() * r.pose.bias_factor().transpose();
+  for (int i = 0; i < 36; ++i) EXPECT_EQ(pose.covariance_common[i], common(i / 6, i % 6));
+  std::vector<double> factor(6 * 64, -1);
+  int columns = -1;
+  ASSERT_EQ(svms_last_rig_bias_factor(est, 0, factor.data(), 64, &columns), SVMS_OK)
+      << svms_last_error();
+  ASSERT_EQ(columns, r.pose.bias_columns());
+  for (int i = 0; i < 6 * columns; ++i) EXPECT_EQ(factor[i], r.pose.bias_factor_values[i]);
+  EXPECT_EQ(svms_last_rig_bias_factor(est, 1, factor.data(), 64, &columns),
+            SVMS_ERR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(svms_last_error()).find("object is 1, expected 0 to 0"), std::string::npos)
+      << svms_last_error();
 
   // The wide camera alone (no narrow frame).
   svms_rig_frame wide_only[2] = {{nullptr, 0, 0, 0}, frames[1]};

@@ -398,6 +398,27 @@ int main(int argc, char** argv) {
   CHECK(pc.valid && (pc.flags & SVMS_FLAG_CALIBRATION_IN_COVARIANCE) != 0);
   CHECK(memcmp(pc.tvec, pose.tvec, sizeof pose.tvec) == 0);
   for (int r = 0; r < 6; ++r) CHECK(pc.covariance[r * 6 + r] > pose.covariance[r * 6 + r]);
+  /* Its factor: B B^T is covariance_common; asked with too little room, the call says how much. */
+  {
+    int k = -1;
+    CHECK_STATUS(svms_last_bias_factor(calibrated, 0, NULL, 0, &k), SVMS_ERR_INVALID_ARGUMENT);
+    CHECK(k > 0 && k <= 64);
+    double B[6 * 64];
+    int k2 = -1;
+    CHECK_STATUS(svms_last_bias_factor(calibrated, 0, B, 64, &k2), SVMS_OK);
+    CHECK(k2 == k);
+    for (int r = 0; r < 6; ++r)
+      for (int c = 0; c < 6; ++c) {
+        double bb = 0;
+        for (int j = 0; j < k; ++j) bb += B[j * 6 + r] * B[j * 6 + c];
+        CHECK(fabs(bb - pc.covariance_common[r * 6 + c]) <= 1e-12 * pc.covariance[r * 6 + r]);
+      }
+    CHECK_STATUS(svms_last_bias_factor(calibrated, 1, B, 64, &k2), SVMS_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(svms_last_bias_factor(calibrated, 0, B, 64, NULL), SVMS_ERR_NULL_ARGUMENT);
+    int k0 = -1;
+    CHECK_STATUS(svms_last_bias_factor(est, 0, B, 64, &k0), SVMS_OK); /* no calibration's */
+    CHECK(k0 == 0);
+  }
   /* The widening is the calibration's share, common to every frame: what it adds. */
   for (int r = 0; r < 6; ++r) {
     CHECK(pc.covariance_common[r * 6 + r] > 0);

@@ -64,6 +64,7 @@ class PoseEstimatorTest(unittest.TestCase):
         np.testing.assert_array_equal(r.pose.cam_from_object.tvec, j["cam_from_object"]["tvec"])
         np.testing.assert_array_equal(r.pose.covariance.ravel(), j["covariance"])
         self.assertIsNone(j["covariance_common"])  # no calibration's uncertainty here
+        self.assertIsNone(j["bias_factor"])
         self.assertEqual(r.pose.ids_used, j["markers"])
 
     def test_calibration_covariance_from_the_sidecar(self):

@@ -33,8 +33,8 @@ using MatRR = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxRows,
 constexpr PoseStepTolerances kObjectPoseTolerances{1e-10, 0, 0};
 
 // The symmetric square root of a covariance, V sqrt(max(0, Lambda)) V^T (round-off's negative
-// eigenvalues taken as zero): its columns are the independent unit-variance components of the
-// error ObjectPose::bias_factor carries for a rig_from_cam covariance.
+// eigenvalues taken as zero): an error with that covariance is Sigma^(1/2) z with z of unit
+// variance, the z that ObjectPose::bias_factor's columns for a rig_from_cam covariance answer.
 Mat6 SymmetricSquareRoot(const Mat6& covariance) {
   const Eigen::SelfAdjointEigenSolver<Mat6> es(covariance);
   return es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() *
@@ -646,18 +646,17 @@ bool AccumulateInformation(const std::vector<View>& views, const ObjectPoseOptio
   return true;
 }
 
-// Where camera c's block of ObjectPose::bias_factor's columns starts: its calibration's
-// (extrinsics false) or its rig_from_cam's (true). Every camera's calibration block comes
-// first, in camera order (its intrinsics_covariance_factor's columns, when G[c] is filled),
-// then every camera's rig_from_cam block (6 columns, when the fit includes its covariance).
-// c = views.size() with extrinsics true gives the number of columns.
-int BiasColumn(const std::vector<View>& views, const FitInformation& info,
-               const std::vector<Eigen::MatrixXd>& G, size_t c, bool extrinsics) {
+// Where camera c's rig_from_cam block of ObjectPose::bias_factor's columns starts. Every
+// camera's calibration block comes first, in camera order (its intrinsics_covariance_factor's
+// columns, when G[c] is filled), then every camera's rig_from_cam block (6 columns, when the fit
+// includes its covariance); c = views.size() gives the number of columns.
+int ExtrinsicsBiasColumn(const std::vector<View>& views, const FitInformation& info,
+                         const std::vector<Eigen::MatrixXd>& G, size_t c) {
   int column = 0;
-  for (size_t k = 0; k < views.size() && (extrinsics || k < c); ++k)
+  for (size_t k = 0; k < views.size(); ++k)
     if (info.with_calibration && G[k].size() > 0)
       column += static_cast<int>(views[k].camera->intrinsics_covariance_factor().cols());
-  for (size_t k = 0; extrinsics && k < std::min(c, views.size()); ++k)
+  for (size_t k = 0; k < std::min(c, views.size()); ++k)
     if (info.with_extrinsics && views[k].extrinsics_covariance) column += 6;
   return column;
 }
@@ -692,7 +691,7 @@ bool FusedCovariance(const std::vector<View>& views, const ObjectPoseOptions& o,
                                                     : 1.0;
   result.covariance *= result.variance_factor;
   // The errors common to every frame, one block of ObjectPose::bias_factor's columns each.
-  const int bias_columns = BiasColumn(views, info, G, views.size(), true);
+  const int bias_columns = ExtrinsicsBiasColumn(views, info, G, views.size());
   result.bias_factor_values.assign(6 * static_cast<size_t>(bias_columns), 0.0);
   Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>> B(result.bias_factor_values.data(), 6,
                                                          bias_columns);
@@ -801,7 +800,7 @@ void UseMarkerPoseWithEdges(const std::vector<View>& views, const ObjectPoseOpti
   result.from_marker_pose = true;
   if (extrinsics_columns) {
     const size_t c = static_cast<size_t>(&v - views.data());
-    const int column = BiasColumn(views, info, G, c, true);
+    const int column = ExtrinsicsBiasColumn(views, info, G, c);
     Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic>> B(result.bias_factor_values.data(), 6,
                                                            result.bias_columns());
     B.middleCols<6>(column) = *extrinsics_columns;

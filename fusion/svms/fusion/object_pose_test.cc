@@ -911,6 +911,14 @@ TEST(RigObjectPose, BiasFactorColumnsAreEachCamerasCalibrationThenExtrinsics) {
   EXPECT_FALSE(refit.from_marker_pose);
   ASSERT_EQ(own.bias_columns(), 12);
   ASSERT_EQ(refit.bias_columns(), 12);
+  // The lone marker's own covariance gains exactly its camera's extrinsics block of B B^T.
+  const ObjectPose own_plain =
+      SolveRigObjectPose(rig.Views(std::nullopt), {m}, ObjectPoseOptions{});
+  ASSERT_TRUE(own_plain.valid && own_plain.from_marker_pose) << own_plain.message;
+  const auto B1 = own.bias_factor().rightCols<6>();
+  const PoseCovariance added = own.covariance - own_plain.covariance;
+  EXPECT_LT((added - B1 * B1.transpose()).norm(), 1e-9 * added.norm());
+  EXPECT_EQ(own.bias_factor().leftCols<6>().norm(), 0);  // camera 0 sees nothing
   EXPECT_LT((own.bias_factor() - refit.bias_factor()).norm(), 1e-6 * refit.bias_factor().norm())
       << "own\n"
       << own.bias_factor() << "\nrefit\n"

@@ -41,12 +41,18 @@ bool SplitFrame(size_t f, const PoseCovariance& covariance, const Mat6X& bias_fa
     return false;
   }
   *noise = covariance - bias_factor * bias_factor.transpose();
-  const Eigen::SelfAdjointEigenSolver<Mat6> es(*noise);
-  if (es.eigenvalues().minCoeff() < -1e-9 * covariance.diagonal().maxCoeff()) {
-    *error = frame + ": its bias factor's share exceeds its covariance (the rest has eigenvalue " +
-             std::to_string(es.eigenvalues().minCoeff()) + ")";
+  // In the covariance's whitened coordinates (free of the rad^2 / m^2 scales) the own share is
+  // I - V V^T, V = C^-1 B: its eigenvalues must not go below round-off.
+  const Mat6X V = llt->matrixL().solve(bias_factor);
+  const Eigen::SelfAdjointEigenSolver<Mat6> whitened(Mat6::Identity() - V * V.transpose());
+  if (whitened.eigenvalues().minCoeff() < -1e-9) {
+    *error =
+        frame +
+        ": its bias factor's share exceeds its covariance (whitened, the rest has eigenvalue " +
+        std::to_string(whitened.eigenvalues().minCoeff()) + ")";
     return false;
   }
+  const Eigen::SelfAdjointEigenSolver<Mat6> es(*noise);
   *noise_root = es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() *
                 es.eigenvectors().transpose();
   return true;
@@ -143,12 +149,18 @@ bool EstimateCommonDraw(const std::vector<Eigen::Matrix<double, 6, 1>>& errors,
     A.noalias() += bias_factor[f].transpose() * noise_inv[f] * bias_factor[f];
     b.noalias() += bias_factor[f].transpose() * noise_inv[f] * errors[f];
   }
+  if (k == 0) {  // no common error: every frame's NEES is its own
+    double own = 0;
+    for (size_t f = 0; f < n; ++f) own += errors[f].dot(noise_inv[f] * errors[f]);
+    estimate->own_nees_mean = own / static_cast<double>(n);
+    return true;
+  }
   // A's eigenvalues below 1e-9 of its largest are directions of z the sequence does not see.
   // In A's eigenbasis z_hat = diag(1 / lambda) U^T b on the seen directions, and under honest
   // covariances each of its components there is N(0, 1 + 1 / lambda).
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(A);
   const Eigen::VectorXd& lambda = es.eigenvalues();
-  const double floor = k > 0 ? 1e-9 * std::max(lambda.maxCoeff(), 0.0) : 0.0;
+  const double floor = 1e-9 * std::max(lambda.maxCoeff(), 0.0);
   const Eigen::VectorXd ub = es.eigenvectors().transpose() * b;
   Eigen::VectorXd zu = Eigen::VectorXd::Zero(k);
   for (Eigen::Index j = 0; j < k; ++j) {
