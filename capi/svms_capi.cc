@@ -192,6 +192,10 @@ svms_status Process(const char* fn, svms_estimator* e, const void* pixels, int w
     svms_estimator* e;
     ~Release() { e->busy.store(false); }
   } release{e};
+  // Until this frame's poses are in, the last ones are no longer this handle's last frame
+  // (svms_last_bias_factor must not give them after a call that failed).
+  e->scratch->pose.valid = false;
+  for (svms::ObjectPose& p : e->scratch->more_poses) p.valid = false;
   const int layouts = static_cast<int>(e->impl->layouts().size());
   if (all_objects && n_poses != layouts)
     return Fail(SVMS_ERR_INVALID_ARGUMENT,
@@ -229,7 +233,6 @@ svms_status Process(const char* fn, svms_estimator* e, const void* pixels, int w
   return status;
 }
 
-
 // svms_last_bias_factor and svms_last_rig_bias_factor: the handle checked and claimed as
 // Process claims it (under the registry's lock, then its busy flag), the last frame's result
 // of layout `object` copied out.
@@ -254,6 +257,10 @@ svms_status LastBiasFactor(const char* fn, Handle* e, const std::unordered_set<c
     Handle* e;
     ~Release() { e->busy.store(false); }
   } release{e};
+  if (capacity_columns < 0)
+    return Fail(SVMS_ERR_INVALID_ARGUMENT, std::string(fn) + ": capacity_columns is " +
+                                               std::to_string(capacity_columns) +
+                                               ", expected 0 or more");
   const int layouts = static_cast<int>(e->impl->layouts().size());
   if (object < 0 || object >= layouts)
     return Fail(SVMS_ERR_INVALID_ARGUMENT, std::string(fn) + ": object is " +
@@ -263,6 +270,7 @@ svms_status LastBiasFactor(const char* fn, Handle* e, const std::unordered_set<c
   const svms::ObjectPose& p = e->scratch->object(static_cast<size_t>(object));
   const int k = p.valid ? p.bias_columns() : 0;
   *columns = k;
+  if (!out && capacity_columns == 0) return SVMS_OK;  // the size query
   if (k > capacity_columns)
     return Fail(SVMS_ERR_INVALID_ARGUMENT,
                 std::string(fn) + ": capacity_columns is " + std::to_string(capacity_columns) +
@@ -271,7 +279,6 @@ svms_status LastBiasFactor(const char* fn, Handle* e, const std::unordered_set<c
   std::copy(p.bias_factor_values.begin(), p.bias_factor_values.begin() + 6 * k, out);
   return SVMS_OK;
 }
-
 
 }  // namespace
 
@@ -523,7 +530,8 @@ svms_status svms_rig_camera_count(const svms_rig_estimator* e, int* n_cameras) {
 svms_status svms_process_rig_frame(svms_rig_estimator* e, const svms_rig_frame* frames,
                                    int n_frames, double timestamp, svms_pose* out) {
   return Guarded("svms_process_rig_frame", [&]() -> svms_status {
-    const std::string fn = "svms_process_rig_frame";
+    // Static: longer than a short string's inline buffer, it would allocate every frame.
+    static const std::string fn = "svms_process_rig_frame";
     if (!e || !frames || !out)
       return Fail(SVMS_ERR_NULL_ARGUMENT, fn + ": " +
                                               (!e        ? "estimator"
@@ -545,6 +553,8 @@ svms_status svms_process_rig_frame(svms_rig_estimator* e, const svms_rig_frame* 
       svms_rig_estimator* e;
       ~Release() { e->busy.store(false); }
     } release{e};
+    e->scratch->pose.valid = false;  // as in Process
+    for (svms::ObjectPose& p : e->scratch->more_poses) p.valid = false;
     const int cameras = static_cast<int>(e->impl->num_cameras());
     if (n_frames != cameras)
       return Fail(SVMS_ERR_INVALID_ARGUMENT, fn + ": n_frames is " + std::to_string(n_frames) +

@@ -70,6 +70,7 @@ assert names == ["narrow", "wide"], names
 assert all(len(c["markers"]) > 0 for c in a["cameras"]), a["cameras"]
 assert a["flags"]["extrinsics_in_covariance"] is False
 assert a["covariance_common"] is None  # no calibration's or extrinsics' uncertainty here
+assert a["bias_factor"] is None
 p = a["rig_from_object"]
 R_t = Rotation.from_rotvec(truth["rvec"]).as_matrix()
 R_e = Rotation.from_rotvec(p["rvec"]).as_matrix()
@@ -113,6 +114,7 @@ b = cov[1]
 assert b["valid"], b
 Sb = np.array(b["covariance_common"]).reshape(6, 6)
 assert np.abs(Sb).max() <= 1e-12 * np.abs(np.array(b["covariance"])).max(), Sb
+assert np.array(b["bias_factor"]).shape == (6, 6) and not np.any(b["bias_factor"]), b["bias_factor"]
 PY
 
 # A line that does not fit the rig: an error in its line, the stream goes on, exit 1.

@@ -107,8 +107,8 @@ typedef struct svms_pose {
    * also the same in every frame, but not given apart: docs/flight-interface.md). A filter that
    * fuses frames must treat the common part as a bias (one draw for the whole sequence), not
    * average it down; its factor, whose columns keep their meaning from frame to frame (so two
-   * frames' common errors are correlated by B_f B_g^T), comes from svms_last_bias_factor.
-   * Added in 0.4.0 (svms_pose grew: rebuild). */
+   * frames' common errors are correlated by B_f B_g^T), comes from svms_last_bias_factor
+   * (svms_last_rig_bias_factor for a rig). Added in 0.4.0 (svms_pose grew: rebuild). */
   double covariance_common[36];
   double reserved[8]; /* zero; room for fields a later minor version adds without a new layout */
 } svms_pose;
@@ -214,9 +214,10 @@ svms_status svms_process_rig_frame(svms_rig_estimator* estimator, const svms_rig
  * calibration's or a rig camera's extrinsics' error, unit variance) in every frame of the
  * handle, so the errors of two frames f and g share B_f B_g^T: what a filter needs to carry
  * the common error as one bias instead of noise (docs/flight-interface.md). k is 0 without a
- * calibration's or extrinsics' uncertainty, or before the first frame, or after an invalid one.
- * With capacity_columns < k nothing is written to out, *columns is k and the status
- * SVMS_ERR_INVALID_ARGUMENT: call again with room for k columns. No allocation. Added in 0.4.0. */
+ * calibration's or extrinsics' uncertainty, before the first frame, and after a frame without a
+ * pose or a processing call that failed. out = NULL with capacity_columns = 0 asks for k only
+ * (SVMS_OK); with 0 <= capacity_columns < k nothing is written to out, *columns is k and the
+ * status SVMS_ERR_INVALID_ARGUMENT. No allocation but in wording an error. Added in 0.4.0. */
 svms_status svms_last_bias_factor(svms_estimator* estimator, int object, double* out,
                                   int capacity_columns, int* columns);
 svms_status svms_last_rig_bias_factor(svms_rig_estimator* estimator, int object, double* out,

@@ -401,9 +401,14 @@ int main(int argc, char** argv) {
   /* Its factor: B B^T is covariance_common; asked with too little room, the call says how much. */
   {
     int k = -1;
-    CHECK_STATUS(svms_last_bias_factor(calibrated, 0, NULL, 0, &k), SVMS_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(svms_last_bias_factor(calibrated, 0, NULL, 0, &k), SVMS_OK); /* size query */
     CHECK(k > 0 && k <= 64);
     double B[6 * 64];
+    int k1 = -1;
+    B[0] = 12345;
+    CHECK_STATUS(svms_last_bias_factor(calibrated, 0, B, k - 1, &k1), SVMS_ERR_INVALID_ARGUMENT);
+    CHECK(k1 == k && B[0] == 12345); /* too little room: nothing written, k said */
+    CHECK_STATUS(svms_last_bias_factor(calibrated, 0, B, -1, &k1), SVMS_ERR_INVALID_ARGUMENT);
     int k2 = -1;
     CHECK_STATUS(svms_last_bias_factor(calibrated, 0, B, 64, &k2), SVMS_OK);
     CHECK(k2 == k);
@@ -418,6 +423,12 @@ int main(int argc, char** argv) {
     int k0 = -1;
     CHECK_STATUS(svms_last_bias_factor(est, 0, B, 64, &k0), SVMS_OK); /* no calibration's */
     CHECK(k0 == 0);
+    /* A call that failed leaves no last frame: k is 0 after it, not the frame before's. */
+    CHECK_STATUS(svms_process_frame(calibrated, frame, W - 1, H, W, 1.2, &pc),
+                 SVMS_ERR_INVALID_ARGUMENT);
+    CHECK_STATUS(svms_last_bias_factor(calibrated, 0, B, 64, &k0), SVMS_OK);
+    CHECK(k0 == 0);
+    CHECK_STATUS(svms_process_frame(calibrated, frame, W, H, W, 1.1, &pc), SVMS_OK);
   }
   /* The widening is the calibration's share, common to every frame: what it adds. */
   for (int r = 0; r < 6; ++r) {
@@ -427,6 +438,11 @@ int main(int argc, char** argv) {
                  pose.covariance[r * 6 + c]) <= 1e-9 * pc.covariance[r * 6 + r]);
   }
   svms_destroy(calibrated);
+  {
+    int k = -1;
+    CHECK_STATUS(svms_last_bias_factor(calibrated, 0, NULL, 0, &k), SVMS_ERR_BAD_HANDLE);
+    CHECK(k == 0);
+  }
   /* A sidecar whose covariance overflows, and a layout with a duplicate key: refused at load. */
   char over_path[4096], dup_path[4096];
   snprintf(over_path, sizeof over_path, "%s/overflow.cameramodel", fixture_dir);

@@ -28,7 +28,7 @@ bool CheckSizes(size_t covariances, size_t bias_factors, std::string* error) {
 // square root of that share (round-off's negative eigenvalues taken as zero).
 bool SplitFrame(size_t f, const PoseCovariance& covariance, const Mat6X& bias_factor,
                 Eigen::Index k, Eigen::LLT<Mat6>* llt, Mat6* noise, Mat6* noise_root,
-                std::string* error) {
+                std::string* error, double* whitened_min = nullptr) {
   const std::string frame = "frame " + std::to_string(f);
   if (bias_factor.cols() != k) {
     *error = frame + ": its bias factor has " + std::to_string(bias_factor.cols()) +
@@ -52,6 +52,7 @@ bool SplitFrame(size_t f, const PoseCovariance& covariance, const Mat6X& bias_fa
         std::to_string(whitened.eigenvalues().minCoeff()) + ")";
     return false;
   }
+  if (whitened_min) *whitened_min = whitened.eigenvalues().minCoeff();
   const Eigen::SelfAdjointEigenSolver<Mat6> es(*noise);
   *noise_root = es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() *
                 es.eigenvectors().transpose();
@@ -136,11 +137,13 @@ bool EstimateCommonDraw(const std::vector<Eigen::Matrix<double, 6, 1>>& errors,
   for (size_t f = 0; f < n; ++f) {
     Eigen::LLT<Mat6> llt;
     Mat6 noise, noise_root;
-    if (!SplitFrame(f, covariance[f], bias_factor[f], k, &llt, &noise, &noise_root, error))
+    double whitened_min = 0;
+    if (!SplitFrame(f, covariance[f], bias_factor[f], k, &llt, &noise, &noise_root, error,
+                    &whitened_min))
       return false;
+    // Singular where, whitened by the covariance, some direction is all common error.
     const Eigen::LLT<Mat6> own(noise);
-    if (own.info() != Eigen::Success || own.matrixL().toDenseMatrix().diagonal().minCoeff() <=
-                                            1e-6 * std::sqrt(covariance[f].diagonal().maxCoeff())) {
+    if (own.info() != Eigen::Success || whitened_min <= 1e-12) {
       *error = "frame " + std::to_string(f) +
                ": its own share of the covariance (less the common error's) is singular";
       return false;
