@@ -13,6 +13,14 @@ namespace {
 using Mat6 = Eigen::Matrix<double, 6, 6>;
 using Mat6X = Eigen::Matrix<double, 6, Eigen::Dynamic>;
 
+// C^-1 B for the covariance's Cholesky factor C. Eigen's triangular solve reads the first
+// coefficient of its right-hand side even when it has no columns (undefined behaviour on the
+// null data of an empty matrix), so an empty B gives an empty result without it.
+Mat6X WhitenedBias(const Eigen::LLT<Mat6>& llt, const Mat6X& bias_factor) {
+  if (bias_factor.cols() == 0) return Mat6X(6, 0);
+  return llt.matrixL().solve(bias_factor);
+}
+
 bool CheckSizes(size_t covariances, size_t bias_factors, std::string* error) {
   if (covariances == 0 || bias_factors != covariances) {
     *error = "expected one bias factor per covariance and at least one frame (got " +
@@ -43,7 +51,7 @@ bool SplitFrame(size_t f, const PoseCovariance& covariance, const Mat6X& bias_fa
   *noise = covariance - bias_factor * bias_factor.transpose();
   // In the covariance's whitened coordinates (free of the rad^2 / m^2 scales) the own share is
   // I - V V^T, V = C^-1 B: its eigenvalues must not go below round-off.
-  const Mat6X V = llt->matrixL().solve(bias_factor);
+  const Mat6X V = WhitenedBias(*llt, bias_factor);
   const Eigen::SelfAdjointEigenSolver<Mat6> whitened(Mat6::Identity() - V * V.transpose());
   if (whitened.eigenvalues().minCoeff() < -1e-9) {
     *error =
@@ -84,7 +92,7 @@ bool ComputeSequenceNeesBand(const std::vector<PoseCovariance>& covariance,
     if (!SplitFrame(f, covariance[f], bias_factor[f], k, &llt, &noise, &noise_root, error))
       return false;
     W[f] = llt.matrixL().solve(noise_root);
-    V[f] = llt.matrixL().solve(bias_factor[f]);
+    V[f] = WhitenedBias(llt, bias_factor[f]);
     share += V[f].squaredNorm() / 6;
   }
   std::mt19937_64 rng(options.seed);
