@@ -4,6 +4,7 @@
 #include "commands.h"
 #include "detect_batch.h"
 #include "photometry_options.h"
+#include "svms/detect/detector.h"
 
 namespace svms::cli {
 
@@ -24,6 +25,12 @@ void AddDetectCommands(CLI::App& app, int* exit_code) {
   det->add_option("--frame-threads", o->frame_threads,
                   "Threads sharing each image (large frames; same detections as 1)")
       ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  det->add_option("--decimate", o->decimate,
+                  "Find edges and quads on the image averaged over N x N blocks (faster, for "
+                  "markers of about 6 N px and more; their corners and poses still from the full "
+                  "image)")
+      ->check(CLI::Range(1, kMaxDecimate))
       ->capture_default_str();
   det->add_option("--max-megapixels", o->max_megapixels,
                   "Refuse larger images (checked from the file header, before decoding)")

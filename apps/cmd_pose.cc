@@ -7,6 +7,7 @@
 #include "photometry_options.h"
 #include "pose_stream.h"
 #include "rig_pose_stream.h"
+#include "svms/detect/detector.h"
 
 namespace svms::cli {
 
@@ -49,6 +50,11 @@ void AddPoseCommands(CLI::App& app, int* exit_code) {
   cmd->add_option("--frame-threads", o->frame_threads,
                   "Threads sharing each frame (large frames; same poses as 1)")
       ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  cmd->add_option("--decimate", o->decimate,
+                  "Find edges and quads on the frame averaged over N x N blocks (faster, for "
+                  "markers of about 6 N px and more; corners and poses still from the full frame)")
+      ->check(CLI::Range(1, kMaxDecimate))
       ->capture_default_str();
   cmd->add_option("--overlay", o->overlay, "Write overlay PNGs to this directory");
   cmd->add_option("--max-megapixels", o->max_megapixels, "Refuse larger images")
@@ -100,6 +106,7 @@ void AddPoseCommands(CLI::App& app, int* exit_code) {
       rig->corner_sigma_px = o->corner_sigma_px;
       rig->budget_ms = o->budget_ms;
       rig->frame_threads = o->frame_threads;
+      rig->decimate = o->decimate;
       rig->max_megapixels = o->max_megapixels;
       rig->quiet = o->quiet;
       *exit_code = RunRigPose(*rig);

@@ -93,6 +93,7 @@ int Prepare(Batch* b) {
   DetectorOptions dopt;
   dopt.debug_pictures = !o.debug.empty();
   dopt.threads = o.frame_threads;
+  dopt.decimate = o.decimate;
   dopt.refine.max_row_window_px = b->photometry.CornerRowWindowPx();
   b->detector = std::make_unique<Detector>(dopt, b->camera, b->models);
   for (const MarkerModel& m : b->models) {

@@ -18,6 +18,7 @@ struct DetectOptions {
   std::string overlay, debug;       // output directories ("" = none)
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   int frame_threads = 1;  // threads sharing one image (DetectorOptions::threads)
+  int decimate = 1;       // steps 1-4 on N x N block averages (DetectorOptions::decimate)
   double max_megapixels = kDefaultMaxImagePixels / 1e6;
   PhotometryOptions photometry;
   bool quiet = false;

@@ -61,6 +61,7 @@ int Prepare(Stream* s) {
   options.fusion.corner_sigma_px = o.corner_sigma_px;
   options.budget_ms = o.budget_ms;
   options.detector.threads = o.frame_threads;
+  options.detector.decimate = o.decimate;
   options.detector.refine.max_row_window_px = s->photometry.CornerRowWindowPx();
   options.detector.known_ids_only = !o.unknown_ids;
   if (o.layouts.empty()) return BadInput("svms pose", "--layout: expected a layout file");

@@ -23,6 +23,7 @@ struct PoseOptions {
   double corner_sigma_px = ObjectPoseOptions{}.corner_sigma_px;
   double budget_ms = 0;   // per frame; 0 = none
   int frame_threads = 1;  // threads sharing one frame (DetectorOptions::threads)
+  int decimate = 1;       // steps 1-4 on N x N block averages (DetectorOptions::decimate)
   double max_megapixels = 100;
   PhotometryOptions photometry;
 };

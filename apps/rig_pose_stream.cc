@@ -57,6 +57,7 @@ int RunRigPose(const RigPoseOptions& o) {
   if (o.corner_sigma_px > 0) options.fusion.corner_sigma_px = o.corner_sigma_px;
   options.budget_ms = o.budget_ms;
   options.detector.threads = o.frame_threads;
+  options.detector.decimate = o.decimate;
   options.detector.known_ids_only = true;
   std::unique_ptr<RigPoseEstimator> est;
   if (Status s = RigPoseEstimator::CreateFromFiles(o.rig, o.layouts, options, &est); !s)

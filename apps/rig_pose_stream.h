@@ -21,6 +21,7 @@ struct RigPoseOptions {
   double corner_sigma_px = 0;  // 0: the default (ObjectPoseOptions)
   double budget_ms = 0;        // per camera and frame; 0 = none
   int frame_threads = 1;       // threads sharing one frame (DetectorOptions::threads)
+  int decimate = 1;            // steps 1-4 on N x N block averages (DetectorOptions::decimate)
   double max_megapixels = 100;
   bool quiet = false;
 };

@@ -154,26 +154,34 @@ Rendered RenderFamilies(const Scene& scene, int threads, std::string* error) {
 }
 
 // The timed systems: svms (its whole family, like the peers, no camera, no models: detection
-// and corners) and the standard peers.
+// and corners) with its defaults and with steps 1-4 on a 2x decimated image (as AprilTag's
+// decimate 2), then the standard peers.
 struct Systems {
-  std::unique_ptr<Detector> svms;
+  std::vector<std::unique_ptr<Detector>> svms;  // "svms", "svms_d2"
   std::vector<std::unique_ptr<PeerDetector>> peers;
-  std::vector<std::string> names;  // svms first, then the peers
+  std::vector<std::string> names;  // the svms configurations first, then the peers
 };
 
 Systems MakeSystems(SpeedRun* run) {
   Systems sys;
-  DetectorOptions o;
-  o.known_ids_only = false;
-  sys.svms = std::make_unique<Detector>(o, CameraModel{}, std::vector<MarkerModel>{});
-  sys.names.push_back("svms");
-  run->settings.push_back({{"name", "svms"},
-                           {"family", "svms44"},
-                           {"library", "svms::Detector (this repository)"},
-                           {"id_count", o.id_count},
-                           {"known_ids_only", false},
-                           {"camera", "none (no undistortion, no pose)"},
-                           {"other_options", "DetectorOptions defaults"}});
+  for (const int decimate : {1, 2}) {
+    DetectorOptions o;
+    o.known_ids_only = false;
+    o.decimate = decimate;
+    sys.svms.push_back(std::make_unique<Detector>(o, CameraModel{}, std::vector<MarkerModel>{}));
+    const std::string name = decimate == 1 ? "svms" : "svms_d" + std::to_string(decimate);
+    sys.names.push_back(name);
+    run->settings.push_back(
+        {{"name", name},
+         {"family", "svms44"},
+         {"library", "svms::Detector (this repository)"},
+         {"id_count", o.id_count},
+         {"known_ids_only", false},
+         {"camera", "none (no undistortion, no pose)"},
+         {"other_options", decimate == 1 ? "DetectorOptions defaults"
+                                         : "DetectorOptions defaults, decimate " +
+                                               std::to_string(decimate) + " (steps 1-4)"}});
+  }
   for (const PeerDetectorConfig& c : StandardPeerConfigs()) {
     sys.peers.push_back(std::make_unique<PeerDetector>(c));
     sys.names.push_back(c.name);
@@ -186,23 +194,24 @@ Systems MakeSystems(SpeedRun* run) {
 
 // The family index (kFamilies) whose image system `k` (Systems::names order) reads.
 int FamilyOf(const Systems& sys, size_t k) {
-  if (k == 0) return 0;
-  return sys.peers[k - 1]->config().family() == kTag36h11 ? 1 : 2;
+  if (k < sys.svms.size()) return 0;
+  return sys.peers[k - sys.svms.size()]->config().family() == kTag36h11 ? 1 : 2;
 }
 
-// Runs system `k` (or svms under `budget_ms` > 0) on `img` and times the call.
+// Runs system `k` (or svms with its defaults under `budget_ms` > 0) on `img` and times the call.
 std::vector<FoundMarker> RunOne(const Systems& sys, size_t k, double budget_ms, const cv::Mat& img,
                                 SpeedRecord* rec) {
   std::vector<FoundMarker> found;
   const auto t0 = std::chrono::steady_clock::now();
-  if (k == 0) {
+  if (k < sys.svms.size()) {
     DetectionStats stats;
+    const Detector& det = *sys.svms[k];
     const std::vector<Detection> dets =
         budget_ms > 0
-            ? sys.svms->Detect(img, &stats,
-                               t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                        std::chrono::duration<double, std::milli>(budget_ms)))
-            : sys.svms->Detect(img, &stats);
+            ? det.Detect(img, &stats,
+                         t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                  std::chrono::duration<double, std::milli>(budget_ms)))
+            : det.Detect(img, &stats);
     rec->ms = Ms(std::chrono::steady_clock::now() - t0);
     rec->budget_exceeded = stats.budget_exceeded;
     rec->step_ms = stats.ms;
@@ -210,7 +219,7 @@ std::vector<FoundMarker> RunOne(const Systems& sys, size_t k, double budget_ms, 
       found.push_back(
           FoundMarker{d.id, d.corners, std::nullopt, false, std::nullopt, std::nullopt, 0});
   } else {
-    const std::vector<PeerDetection> dets = sys.peers[k - 1]->Detect(img);
+    const std::vector<PeerDetection> dets = sys.peers[k - sys.svms.size()]->Detect(img);
     rec->ms = Ms(std::chrono::steady_clock::now() - t0);
     for (const PeerDetection& d : dets)
       found.push_back(

@@ -1,5 +1,6 @@
 #include "svms/detect/detector.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <memory>
@@ -46,6 +47,7 @@ Eigen::Matrix3d UnitHomography(const std::array<Eigen::Vector2d, 4>& q) {
 // Buffers of Detect, kept per thread between calls (no allocation once grown).
 struct DetectScratch {
   cv::Mat gray, gray8, gx, gy, stabilised;
+  cv::Mat decimated;  // DetectorOptions::decimate: steps 1-3's coarse image
   std::vector<Segment> segments;
   std::vector<Quad> quads;
   std::vector<Detection> decoded, accepted, pending;
@@ -162,9 +164,11 @@ bool PrepareImages(const cv::Mat& input, DetectScratch* sc, StepImages* im) {
 // clipped at 0 and saturated glints left out), and the edges are searched on a scale where it is
 // the same everywhere. False when `deadline` passed before every edge chain was processed
 // (sc->segments then holds a part, or nothing), the noise estimate and the edge map included.
+// With `decimate` > 1 (DetectorOptions::decimate) the edges are those of the image averaged over
+// decimate x decimate blocks, and the segments are returned in full-image pixels.
 bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, DetectScratch* sc,
                       DetectionStats* stats, Clock::time_point deadline, WorkerPool* pool,
-                      const NoiseModel* given_noise) {
+                      const NoiseModel* given_noise, int decimate) {
   const cv::Mat* edge_image = &im.gray;
   SegmentOptions segment_options = options;
   if (im.measure.depth() == CV_16U) {
@@ -187,8 +191,29 @@ bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, Detec
       edge_image = &sc->stabilised;
     }
   }
+  // DetectorOptions::decimate: the edges of the block-averaged image (INTER_AREA on the same
+  // scale the edges are searched on), its segments mapped back to full-image pixels.
+  const int f = std::clamp(decimate, 1, kMaxDecimate);
+  const bool coarse = f > 1 && edge_image->cols / f >= 16 && edge_image->rows / f >= 16;
+  if (coarse) {
+    if (deadline != Clock::time_point::max() && Clock::now() >= deadline) return false;
+    cv::resize(*edge_image, sc->decimated, cv::Size(edge_image->cols / f, edge_image->rows / f), 0,
+               0, cv::INTER_AREA);
+    edge_image = &sc->decimated;
+  }
   const bool complete =
       FindSegments(*edge_image, segment_options, &sc->gx, &sc->gy, &sc->segments, deadline, pool);
+  if (coarse) {
+    // Coarse pixel q's centre is full pixel f q + (f - 1) / 2: p = f q + h, so the line
+    // n.q + c = 0 becomes n.p + f c - n.h = 0. Contrast: grey levels per full pixel.
+    const double h = 0.5 * (f - 1);
+    for (Segment& s : sc->segments) {
+      s.a = f * s.a + Eigen::Vector2d(h, h);
+      s.b = f * s.b + Eigen::Vector2d(h, h);
+      s.line.z() = f * s.line.z() - h * (s.line.x() + s.line.y());
+      s.contrast /= f;
+    }
+  }
   stats->segments = static_cast<int>(sc->segments.size());
   return complete;
 }
@@ -650,7 +675,7 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   // the edges or quads would find the markers of a part of the image, which a caller could not
   // tell from a frame without the others.
   const bool edges_complete =
-      FindEdgeSegments(im, o.segments, &sc, &stats, deadline, pool_.get(), noise);
+      FindEdgeSegments(im, o.segments, &sc, &stats, deadline, pool_.get(), noise, o.decimate);
   im.noise = stats.noise;
   auto t1 = Clock::now();
   stats.ms[0] = Ms(t0, t1);
@@ -660,10 +685,15 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
     return;
   }
 
-  // 4. Quads.
+  // 4. Quads. From a decimated image's segments the ends may miss a corner by whole coarse
+  // pixels (a blunted corner's few pixels fall under the segments' minimum length there): the
+  // join distance's floor is in coarse pixels.
+  QuadOptions quad_options = o.quads;
+  if (std::clamp(o.decimate, 1, kMaxDecimate) > 1)
+    quad_options.join_min_px *= std::clamp(o.decimate, 1, kMaxDecimate);
   std::vector<Quad>& quads = sc.quads;
   const bool quads_complete =
-      FindQuads(sc.segments, o.quads, im.gray.cols, im.gray.rows, &quads, deadline);
+      FindQuads(sc.segments, quad_options, im.gray.cols, im.gray.rows, &quads, deadline);
   stats.quads = static_cast<int>(quads.size());
   auto t2 = Clock::now();
   stats.ms[1] = Ms(t1, t2);

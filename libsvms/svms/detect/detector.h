@@ -148,8 +148,20 @@ struct DetectorOptions {
   // step 11 stay on the calling thread.
   // At most kMaxDetectorThreads (more are taken as that many).
   int threads = 1;
+  // Steps 1-4 (edges, segments, quads) on the image averaged over decimate x decimate pixel
+  // blocks (cv::resize INTER_AREA), as AprilTag's quad_decimate: about decimate^2 times fewer
+  // pixels and, on texture, fewer and longer edges, for markers whose black square spans at
+  // least about 6 decimate pixels (a quad from 6 px, segments from 4 px, on the coarse image).
+  // The segments are mapped to the full image (pixel centres at integers: coarse pixel q covers
+  // full pixels decimate q .. decimate q + decimate - 1), and every later step (reading,
+  // corners, tip, pose) works on the full image as with decimate 1: the corners and poses of a
+  // marker found either way come from the same full-resolution fit. 1 (default): off. Values
+  // are taken in [1, kMaxDecimate]; images under 16 x 16 coarse pixels are not decimated.
+  // The block average is OpenCV's, which may allocate per call (the C API has no such field).
+  int decimate = 1;
 };
 constexpr int kMaxDetectorThreads = 64;
+constexpr int kMaxDecimate = 4;
 
 struct DetectionStats {
   static constexpr int kSteps = 6;
