@@ -852,6 +852,38 @@ TEST(Detector, TenPixelMarkersAreReadAfterTheirCornersAreRefined) {
   EXPECT_GT(with_7b, without_7b);
 }
 
+// Markers of 28-31 px at decimate 2, through an ordinary camera (0.7 px of blur, sRGB at 8 bits),
+// turned 0-1.5 rad: on the coarse image their squares are 14-15 px with corners blunted by about a
+// coarse pixel; every marker the full-resolution search finds is found. (The quad search's join
+// floor in coarse pixels, detector.cc step 4, was set on a bench speed photograph whose 30 px
+// marker's side ended 10 px short of its corner; these renders pass with the plain floor too.)
+TEST(Detector, DecimatedSearchFindsThirtyPixelMarkersAtEveryTurn) {
+  // Two rows of eight, turned in steps of 0.1 rad (0 to 1.5), through an ordinary camera.
+  const MarkerRow row = MakeMarkerRow(60, 16, 0.025, 0.1, [](int i) {
+    return Eigen::Vector3d(-0.7 + 0.2 * (i % 8), i < 8 ? -0.2 : 0.2, 0);
+  });
+  const CameraModel cam = CameraModel::Pinhole(600, 800, 400);
+  const Rendered r =
+      RenderThroughAnOrdinaryCamera(Base(cam, row.markers, Look({0.05, -0.3, 2.0}, {0, 0, 0})));
+  for (const MarkerTruth& t : r.truth.markers) {
+    ASSERT_GT(t.side_px, 24);
+    ASSERT_LT(t.side_px, 34);
+  }
+  auto found = [&](int decimate) {
+    DetectorOptions o;
+    o.decimate = decimate;
+    int right = 0, wrong = 0;
+    for (const Detection& d : Detector(o, cam, row.models).Detect(r.image))
+      (d.id >= 60 && d.id < 76 ? right : wrong)++;
+    EXPECT_EQ(wrong, 0);
+    return right;
+  };
+  // One of the 16 (ID 72, 28.9 px, turned 1.2 rad) is not found at full resolution either.
+  const int full = found(1);
+  EXPECT_GE(full, 15);
+  EXPECT_EQ(found(2), full);
+}
+
 // Twelve flat 0.1 m markers of 8-10 px through an ordinary camera (sRGB, 0.7 px of blur): each
 // bit cell is 1.3-1.7 px, and a plain threshold reads white cells between black ones as black
 // (and the other way round). Without a post there is no tip to stand as evidence for a decode
