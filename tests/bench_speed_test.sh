@@ -46,13 +46,13 @@ grep -q '^- 0 false positives on every photograph' "$r/report.md" || fail "no fa
 # per budget, and rendered with markers once.
 crops=$(awk '/: [0-9]+ crops$/ {n += $(NF - 1)} END {print n + 0}' "$out/stderr.txt")
 [[ $crops -gt 0 ]] || fail "no crops"
-for sys in svms apriltag_d2 apriltag_d1 aruco_subpix aruco3 svms_b5 svms_b10; do
+for sys in svms svms_d2 apriltag_d2 apriltag_d1 aruco_subpix aruco3 svms_b5 svms_b10; do
   n=$(grep -c "^photo_[0-9]*,[^,]*,[^,]*,$sys," "$r/images.csv" || true)
   m=$(grep -c "^markers_[0-9]*,[^,]*,[^,]*,$sys," "$r/images.csv" || true)
   [[ $n -eq $crops ]] || fail "$sys timed on $n marker-free crops, expected $crops"
   [[ $m -eq $crops ]] || fail "$sys timed on $m crops with markers, expected $crops"
 done
-for sys in svms apriltag_d2 apriltag_d1 aruco_subpix aruco3; do
+for sys in svms svms_d2 apriltag_d2 apriltag_d1 aruco_subpix aruco3; do
   grep -q "^| photo_1024 | $sys | [0-9]* | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]* |" "$r/report.md" ||
     fail "report.md has no timing row for $sys on photo_1024"
 done

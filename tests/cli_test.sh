@@ -194,7 +194,7 @@ expect 2 "--frame-threads" "$svms" detect "$tmp/det/a.png" --frame-threads 0
 ids() { python3 -c "import json,sys; [print(sorted(d['id'] for d in json.loads(l)['detections'])) for l in sys.stdin]"; }
 one=$("$svms" detect "$tmp"/range/range_000[0-2].png --quiet | ids)
 two=$("$svms" detect "$tmp"/range/range_000[0-2].png --quiet --decimate 2 | ids)
-[ -n "$one" ] && [ "$one" == "$two" ] && pass || fail "detect --decimate 2 finds other markers: $two against $one"
+grep -q "[0-9]" <<<"$one" && [ "$one" == "$two" ] && pass || fail "detect --decimate 2 finds other markers: $two against $one"
 expect 2 "--decimate" "$svms" detect "$tmp/det/a.png" --decimate 5
 expect 2 "--decimate" "$svms" pose --stdin --camera "$tmp/range/true.cameramodel" --layout "$tmp/range_layout.json" --decimate 0
 printf '%s 12.5\n/nonexistent.png 13\n' "$(head -1 "$tmp/frames.txt")" > "$tmp/frames2.txt"

@@ -182,7 +182,8 @@ void BindDetector(py::module_& m) {
       .def_readwrite("equalize_rings", &DetectorOptions::equalize_rings)
       .def_readwrite("deconvolve_rings", &DetectorOptions::deconvolve_rings)
       .def_readwrite("post_silhouette_margin_px", &DetectorOptions::post_silhouette_margin_px)
-      .def_readwrite("threads", &DetectorOptions::threads);
+      .def_readwrite("threads", &DetectorOptions::threads)
+      .def_readwrite("decimate", &DetectorOptions::decimate);
 
   py::class_<PyDetector>(
       m, "Detector",

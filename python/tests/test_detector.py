@@ -160,6 +160,24 @@ class DetectorTest(unittest.TestCase):
             for a, b in zip(r, e):
                 np.testing.assert_array_equal(a, b)
 
+    def test_decimate_option(self):
+        # Steps 1-4 on 2 x 2 block averages: the range's markers (tens of pixels) found with the
+        # same IDs and, from the same full-image corner fit, corners within 0.01 px.
+        options = svms.DetectorOptions()
+        self.assertEqual(options.decimate, 1)
+        options.decimate = 2
+        coarse = svms.Detector(self.camera, os.path.join(self.dir, "markers.json"), options)
+        found = 0
+        for path in self.images[:3]:
+            image = load(path)
+            a = {d.id: d for d in coarse.detect(image)}
+            b = {d.id: d for d in self.detector.detect(image)}
+            self.assertEqual(sorted(a), sorted(b), path)
+            for i in a:
+                found += 1
+                np.testing.assert_allclose(a[i].corners, b[i].corners, atol=0.01)
+        self.assertGreater(found, 0)
+
     def test_markers_argument(self):
         models = svms.read_markers(os.path.join(self.dir, "markers.json"))
         self.assertTrue(all(isinstance(m, svms.MarkerModel) for m in models))

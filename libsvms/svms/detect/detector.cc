@@ -159,16 +159,42 @@ bool PrepareImages(const cv::Mat& input, DetectScratch* sc, StepImages* im) {
   return gray.cols >= 8 && gray.rows >= 8;
 }
 
+// The mean of each f x f block of an 8-bit image (rounded to the nearest level), the last
+// cols % f columns and rows % f rows left out, so that coarse pixel q is exactly full pixels
+// f q .. f q + f - 1 and its centre full pixel f q + (f - 1) / 2. Not cv::resize(INTER_AREA):
+// where f does not divide the size its blocks are cols / (cols / f) pixels wide, and the mapping
+// drifts by up to cols % f pixels across the image; and it runs on OpenCV's thread pool, which
+// allocates per call. False when `deadline` passed (read every 64 coarse rows).
+bool BlockAverage(const cv::Mat& in, int f, cv::Mat* out, Clock::time_point deadline) {
+  const int cols = in.cols / f, rows = in.rows / f, area = f * f;
+  out->create(rows, cols, CV_8U);
+  for (int y = 0; y < rows; ++y) {
+    if (y % 64 == 63 && deadline != Clock::time_point::max() && Clock::now() >= deadline)
+      return false;
+    uint8_t* o = out->ptr<uint8_t>(y);
+    for (int x = 0; x < cols; ++x) {
+      int sum = 0;
+      for (int dy = 0; dy < f; ++dy) {
+        const uint8_t* r = in.ptr<uint8_t>(y * f + dy) + x * f;
+        for (int dx = 0; dx < f; ++dx) sum += r[dx];
+      }
+      o[x] = static_cast<uint8_t>((sum + area / 2) / area);
+    }
+  }
+  return true;
+}
+
 // 1-3. Edges, chains, segments into sc->segments. A 16-bit image's noise is `given_noise` when
 // valid, else estimated from the image at its full depth (noise_model.h: black backgrounds
 // clipped at 0 and saturated glints left out), and the edges are searched on a scale where it is
 // the same everywhere. False when `deadline` passed before every edge chain was processed
 // (sc->segments then holds a part, or nothing), the noise estimate and the edge map included.
 // With `decimate` > 1 (DetectorOptions::decimate) the edges are those of the image averaged over
-// decimate x decimate blocks, and the segments are returned in full-image pixels.
+// decimate x decimate blocks (BlockAverage), and the segments are returned in full-image pixels;
+// *decimated_by is the factor used (1 where the image is too small to decimate).
 bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, DetectScratch* sc,
                       DetectionStats* stats, Clock::time_point deadline, WorkerPool* pool,
-                      const NoiseModel* given_noise, int decimate) {
+                      const NoiseModel* given_noise, int decimate, int* decimated_by) {
   const cv::Mat* edge_image = &im.gray;
   SegmentOptions segment_options = options;
   if (im.measure.depth() == CV_16U) {
@@ -191,14 +217,14 @@ bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, Detec
       edge_image = &sc->stabilised;
     }
   }
-  // DetectorOptions::decimate: the edges of the block-averaged image (INTER_AREA on the same
-  // scale the edges are searched on), its segments mapped back to full-image pixels.
+  // DetectorOptions::decimate: the edges of the block-averaged image (of the grey levels, or of
+  // a 16-bit image's stabilised copy), its segments mapped back to full-image pixels.
   const int f = std::clamp(decimate, 1, kMaxDecimate);
-  const bool coarse = f > 1 && edge_image->cols / f >= 16 && edge_image->rows / f >= 16;
+  const bool coarse = f > 1 && edge_image->type() == CV_8UC1 && edge_image->cols / f >= 16 &&
+                      edge_image->rows / f >= 16;
+  *decimated_by = coarse ? f : 1;
   if (coarse) {
-    if (deadline != Clock::time_point::max() && Clock::now() >= deadline) return false;
-    cv::resize(*edge_image, sc->decimated, cv::Size(edge_image->cols / f, edge_image->rows / f), 0,
-               0, cv::INTER_AREA);
+    if (!BlockAverage(*edge_image, f, &sc->decimated, deadline)) return false;
     edge_image = &sc->decimated;
   }
   const bool complete =
@@ -674,8 +700,9 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   // Past the deadline in steps 1-4 the frame ends there, flagged, with no detections: a part of
   // the edges or quads would find the markers of a part of the image, which a caller could not
   // tell from a frame without the others.
-  const bool edges_complete =
-      FindEdgeSegments(im, o.segments, &sc, &stats, deadline, pool_.get(), noise, o.decimate);
+  int decimated_by = 1;
+  const bool edges_complete = FindEdgeSegments(im, o.segments, &sc, &stats, deadline, pool_.get(),
+                                               noise, o.decimate, &decimated_by);
   im.noise = stats.noise;
   auto t1 = Clock::now();
   stats.ms[0] = Ms(t0, t1);
@@ -691,8 +718,9 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   // join distance's floor is that, in coarse pixels (5 at the defaults: a 30 px marker's corner
   // at decimate 2 was missed by 10 full pixels on a photograph of bench speed).
   QuadOptions quad_options = o.quads;
-  if (const int f = std::clamp(o.decimate, 1, kMaxDecimate); f > 1)
-    quad_options.join_min_px = f * std::max(o.quads.join_min_px, o.segments.min_length + 1);
+  if (decimated_by > 1)
+    quad_options.join_min_px =
+        decimated_by * std::max(o.quads.join_min_px, o.segments.min_length + 1);
   std::vector<Quad>& quads = sc.quads;
   const bool quads_complete =
       FindQuads(sc.segments, quad_options, im.gray.cols, im.gray.rows, &quads, deadline);

@@ -149,15 +149,19 @@ struct DetectorOptions {
   // At most kMaxDetectorThreads (more are taken as that many).
   int threads = 1;
   // Steps 1-4 (edges, segments, quads) on the image averaged over decimate x decimate pixel
-  // blocks (cv::resize INTER_AREA), as AprilTag's quad_decimate: about decimate^2 times fewer
-  // pixels and, on texture, fewer and longer edges, for markers whose black square spans at
-  // least about 6 decimate pixels (a quad from 6 px, segments from 4 px, on the coarse image).
-  // The segments are mapped to the full image (pixel centres at integers: coarse pixel q covers
-  // full pixels decimate q .. decimate q + decimate - 1), and every later step (reading,
-  // corners, tip, pose) works on the full image as with decimate 1: the corners and poses of a
-  // marker found either way come from the same full-resolution fit. 1 (default): off. Values
-  // are taken in [1, kMaxDecimate]; images under 16 x 16 coarse pixels are not decimated.
-  // The block average is OpenCV's, which may allocate per call (the C API has no such field).
+  // blocks, as AprilTag's quad_decimate: about decimate^2 times fewer pixels and, on texture,
+  // fewer and longer edges. The segments (at least 4 coarse pixels long) are mapped to the full
+  // image (pixel centres at integers: coarse pixel q is full pixels decimate q .. decimate q +
+  // decimate - 1, the last cols % decimate columns and rows % decimate rows left out of the
+  // search), and every later step (reading, corners, tip, pose) works on the full image as with
+  // decimate 1: the corners and poses of a marker found either way come from the same
+  // full-resolution fit. What it costs is the small markers: a side must give a segment of 4
+  // coarse pixels after its corners' blunting, so squares under about 6 decimate pixels are
+  // lost, and step 4b (complete_below_px, full pixels) sees no sides under 4 decimate pixels
+  // (at 3 and more, none under its 12). The edge thresholds are those of full resolution:
+  // averaging lowers the noise and steepens a marker's edge per pixel, so fewer noise edges pass
+  // them and a marker's edges pass more easily. 1 (default): off. Values are taken in [1,
+  // kMaxDecimate]; an image under 16 x 16 coarse pixels is not decimated.
   int decimate = 1;
 };
 constexpr int kMaxDetectorThreads = 64;
