@@ -161,26 +161,16 @@ bool PrepareImages(const cv::Mat& input, DetectScratch* sc, StepImages* im) {
 
 // The mean of each f x f block of an 8-bit image (rounded to the nearest level), the last
 // cols % f columns and rows % f rows left out, so that coarse pixel q is exactly full pixels
-// f q .. f q + f - 1 and its centre full pixel f q + (f - 1) / 2. Not cv::resize(INTER_AREA):
-// where f does not divide the size its blocks are cols / (cols / f) pixels wide, and the mapping
-// drifts by up to cols % f pixels across the image; and it runs on OpenCV's thread pool, which
-// allocates per call. False when `deadline` passed (read every 64 coarse rows).
+// f q .. f q + f - 1 and its centre full pixel f q + (f - 1) / 2. OpenCV's area resize of the
+// part f divides: on the whole image, where f does not divide its size, its blocks would be
+// cols / (cols / f) pixels wide and the mapping drift by up to cols % f pixels across the image.
+// (A plain loop, which would keep OpenCV's thread pool out, took 0.9 ms at 1024 x 1024 against
+// its 0.04.) False when `deadline` had passed.
 bool BlockAverage(const cv::Mat& in, int f, cv::Mat* out, Clock::time_point deadline) {
-  const int cols = in.cols / f, rows = in.rows / f, area = f * f;
-  out->create(rows, cols, CV_8U);
-  for (int y = 0; y < rows; ++y) {
-    if (y % 64 == 63 && deadline != Clock::time_point::max() && Clock::now() >= deadline)
-      return false;
-    uint8_t* o = out->ptr<uint8_t>(y);
-    for (int x = 0; x < cols; ++x) {
-      int sum = 0;
-      for (int dy = 0; dy < f; ++dy) {
-        const uint8_t* r = in.ptr<uint8_t>(y * f + dy) + x * f;
-        for (int dx = 0; dx < f; ++dx) sum += r[dx];
-      }
-      o[x] = static_cast<uint8_t>((sum + area / 2) / area);
-    }
-  }
+  if (deadline != Clock::time_point::max() && Clock::now() >= deadline) return false;
+  const int cols = in.cols / f, rows = in.rows / f;
+  cv::resize(in(cv::Rect(0, 0, cols * f, rows * f)), *out, cv::Size(cols, rows), 0, 0,
+             cv::INTER_AREA);
   return true;
 }
 
