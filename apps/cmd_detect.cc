@@ -26,10 +26,11 @@ void AddDetectCommands(CLI::App& app, int* exit_code) {
                   "Threads sharing each image (large frames; same detections as 1)")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
-  det->add_option("--decimate", o->decimate,
-                  "Find edges and quads on the image averaged over N x N blocks (faster, for "
-                  "markers of about 6 N px and more; their corners and poses still from the full "
-                  "image)")
+  det->add_option(
+         "--decimate", o->decimate,
+         "Find edges and quads on the image averaged over N x N blocks (faster, for "
+         "markers of 8 N px and more, most of them; their corners and poses still from the full "
+         "image)")
       ->check(CLI::Range(1, kMaxDecimate))
       ->capture_default_str();
   det->add_option("--max-megapixels", o->max_megapixels,

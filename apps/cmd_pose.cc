@@ -51,9 +51,10 @@ void AddPoseCommands(CLI::App& app, int* exit_code) {
                   "Threads sharing each frame (large frames; same poses as 1)")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
-  cmd->add_option("--decimate", o->decimate,
-                  "Find edges and quads on the frame averaged over N x N blocks (faster, for "
-                  "markers of about 6 N px and more; corners and poses still from the full frame)")
+  cmd->add_option(
+         "--decimate", o->decimate,
+         "Find edges and quads on the frame averaged over N x N blocks (faster, for "
+         "markers of 8 N px and more, most of them; corners and poses still from the full frame)")
       ->check(CLI::Range(1, kMaxDecimate))
       ->capture_default_str();
   cmd->add_option("--overlay", o->overlay, "Write overlay PNGs to this directory");

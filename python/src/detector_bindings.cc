@@ -183,7 +183,14 @@ void BindDetector(py::module_& m) {
       .def_readwrite("deconvolve_rings", &DetectorOptions::deconvolve_rings)
       .def_readwrite("post_silhouette_margin_px", &DetectorOptions::post_silhouette_margin_px)
       .def_readwrite("threads", &DetectorOptions::threads)
-      .def_readwrite("decimate", &DetectorOptions::decimate);
+      .def_property(
+          "decimate", [](const DetectorOptions& o) { return o.decimate; },
+          [](DetectorOptions& o, int n) {
+            if (n < 1 || n > kMaxDecimate)
+              throw py::value_error("DetectorOptions.decimate: " + std::to_string(n) +
+                                    "; expected 1 to " + std::to_string(kMaxDecimate));
+            o.decimate = n;
+          });
 
   py::class_<PyDetector>(
       m, "Detector",

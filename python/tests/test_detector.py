@@ -165,6 +165,9 @@ class DetectorTest(unittest.TestCase):
         # same IDs and, from the same full-image corner fit, corners within 0.01 px.
         options = svms.DetectorOptions()
         self.assertEqual(options.decimate, 1)
+        for bad in (0, 5):
+            with self.assertRaises(ValueError):
+                options.decimate = bad
         options.decimate = 2
         coarse = svms.Detector(self.camera, os.path.join(self.dir, "markers.json"), options)
         found = 0
