@@ -159,7 +159,7 @@ bool PrepareImages(const cv::Mat& input, DetectScratch* sc, StepImages* im) {
   return gray.cols >= 8 && gray.rows >= 8;
 }
 
-// The mean of each f x f block of an 8-bit image (rounded to the nearest level), the last
+// The mean of each f x f block of an 8-bit image (rounded, halves to even), the last
 // cols % f columns and rows % f rows left out, so that coarse pixel q is exactly full pixels
 // f q .. f q + f - 1 and its centre full pixel f q + (f - 1) / 2. OpenCV's area resize of the
 // part f divides: on the whole image, where f does not divide its size, its blocks would be
