@@ -265,17 +265,23 @@ TEST(Detector, ADeadlinePassedBeforeTheEdgesEndsTheFrameFlaggedAndEmpty) {
   Pose pa;
   pa.rvec = Eigen::Vector3d(0, 0, 0.4);
   const Rendered r = Render(Base(Distorted(), {{a, pa}}, Look({0.05, -0.2, 0.7}, {0, 0, 0})));
-  const Detector det(DetectorOptions{}, r.scene.camera, {a});
-  DetectionStats stats;
-  ASSERT_FALSE(det.Detect(r.image, &stats).empty());
-  EXPECT_FALSE(stats.budget_exceeded);
-  const auto past = std::chrono::steady_clock::now() - std::chrono::seconds(1);
-  EXPECT_TRUE(det.Detect(r.image, &stats, past).empty());
-  EXPECT_TRUE(stats.budget_exceeded);
-  EXPECT_EQ(stats.quads, 0);  // the quad search never ran
-  const auto later = std::chrono::steady_clock::now() + std::chrono::hours(1);
-  EXPECT_EQ(det.Detect(r.image, &stats, later).size(), det.Detect(r.image).size());
-  EXPECT_FALSE(stats.budget_exceeded);
+  // Decimated too: the block average is a step the deadline stops before.
+  for (const int decimate : {1, 2}) {
+    SCOPED_TRACE("decimate " + std::to_string(decimate));
+    DetectorOptions o;
+    o.decimate = decimate;
+    const Detector det(o, r.scene.camera, {a});
+    DetectionStats stats;
+    ASSERT_FALSE(det.Detect(r.image, &stats).empty());
+    EXPECT_FALSE(stats.budget_exceeded);
+    const auto past = std::chrono::steady_clock::now() - std::chrono::seconds(1);
+    EXPECT_TRUE(det.Detect(r.image, &stats, past).empty());
+    EXPECT_TRUE(stats.budget_exceeded);
+    EXPECT_EQ(stats.quads, 0);  // the quad search never ran
+    const auto later = std::chrono::steady_clock::now() + std::chrono::hours(1);
+    EXPECT_EQ(det.Detect(r.image, &stats, later).size(), det.Detect(r.image).size());
+    EXPECT_FALSE(stats.budget_exceeded);
+  }
 }
 
 // The time of the edge map's steps that a deadline must interrupt, alone (fastest of two
@@ -1239,6 +1245,44 @@ TEST(Detector, SixteenBitAndColourImagesWork) {
   r.image.convertTo(eight, CV_8U, 1.0 / 256);
   cv::cvtColor(eight, colour, cv::COLOR_GRAY2BGR);
   ASSERT_EQ(det.Detect(colour).size(), 1u);
+}
+
+// A 16-bit frame is decimated after its variance-stabilising rescale to 8 bits: the coarse
+// search finds the marker with the same corners. An image under 16 coarse pixels on a side is
+// searched whole: at decimate 4 a 64 x 60 crop (16 x 15 coarse) gives the same segments and
+// corners as decimate 1, where its 24 px square, 6 coarse pixels, would not be found coarse.
+TEST(Detector, SixteenBitFramesAreDecimatedAndTooSmallImagesAreNot) {
+  const Rendered r = SixteenBitFrame();
+  ASSERT_EQ(r.image.depth(), CV_16U);
+  auto detect = [](const cv::Mat& image, int decimate, DetectionStats* stats) {
+    DetectorOptions o;
+    o.decimate = decimate;
+    return Detector(o, CameraModel{}, {}).Detect(image, stats);
+  };
+  auto same_corners = [](const std::vector<Detection>& x, const std::vector<Detection>& y) {
+    ASSERT_EQ(x.size(), 1u);
+    ASSERT_EQ(y.size(), 1u);
+    EXPECT_EQ(x[0].id, y[0].id);
+    for (int k = 0; k < 4; ++k) EXPECT_LT((x[0].corners[k] - y[0].corners[k]).norm(), 0.01);
+  };
+  DetectionStats full, coarse;
+  const std::vector<Detection> at1 = detect(r.image, 1, &full), at2 = detect(r.image, 2, &coarse);
+  same_corners(at1, at2);
+  EXPECT_LT(coarse.segments, full.segments);
+
+  const MarkerModel a = MarkerModel::Standard(56, 0.1, 0.025);
+  Pose p;
+  p.rvec = Eigen::Vector3d(0, 0, 0.3);
+  const Rendered small =
+      Render(Base(CameraModel::Pinhole(600, 64, 60), {{a, p}}, Look({0, -0.1, 2.5}, {0, 0, 0})));
+  ASSERT_EQ(small.truth.markers.size(), 1u);
+  ASSERT_GT(small.truth.markers[0].side_px, 20);
+  ASSERT_LT(small.truth.markers[0].side_px, 28);
+  DetectionStats whole, at4_stats;
+  const std::vector<Detection> small1 = detect(small.image, 1, &whole),
+                               small4 = detect(small.image, 4, &at4_stats);
+  same_corners(small1, small4);
+  EXPECT_EQ(at4_stats.segments, whole.segments);
 }
 
 const NoiseModel kNoNoise;  // invalid (bins 0)
