@@ -320,10 +320,12 @@ bool InferredSideMatches(const cv::Mat& gray, const Quad& q) {
 // (DetectorOptions::refine_corners); its corners are fitted before anything is read, and it is
 // not deconvolved. The detection (ID, rotation, corners in the marker's order, grey levels), or
 // nullopt; nullopt with *out_of_time set where 7d was due after `deadline` (the quad is then
-// unfinished, not rejected).
+// unfinished, not rejected). `decimated_by`: the factor the quad's segments were found at
+// (FindEdgeSegments); their corners are whole coarse pixels accurate, so 7b retries quads up to
+// decimated_by times small_quad_refine_px.
 std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorOptions& o,
-                                    const CameraModel* cam, Clock::time_point deadline,
-                                    bool* out_of_time) {
+                                    int decimated_by, const CameraModel* cam,
+                                    Clock::time_point deadline, bool* out_of_time) {
   static const MarkerModel unit = MarkerModel::Standard(0, 1.0, 0);
   if (q.completed) {
     // 4b's quad: two corners are guesses 1-3 px off, at which the bits mean nothing (a scratch
@@ -350,9 +352,11 @@ std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorO
   // where the edges are searched on the noise's square-root scale), its outer bit cells are
   // read toward the stripe, and 3-5 of them flip; the marker would then be turned away for
   // want of a tip. The re-read replaces a decode that failed, or the same ID and rotation read
-  // with fewer corrections.
+  // with fewer corrections. From a decimated search the corners are as far off, relative to the
+  // side, as a square decimated_by times smaller's (a 34 px marker's at decimate 2 flipped bits
+  // of its ring on bench speed's photographs, and was lost).
   const bool weak = !m.accepted() || m.bit_errors > o.max_unsupported_corrections;
-  if (weak && o.refine_corners && q.min_side() < o.small_quad_refine_px &&
+  if (weak && o.refine_corners && q.min_side() < o.small_quad_refine_px * decimated_by &&
       bits.white - bits.black >= o.small_quad_min_contrast &&
       bits.separated_refs >= o.small_quad_min_separated_refs) {
     // Step 8's own fit: the gates above keep texture's quads out of this retry, and on a
@@ -448,7 +452,7 @@ void PoseMarker(const StepImages& im, const CameraModel& camera, const MarkerMod
 // has a few markers among many quads, and a marker's two halves cost about the same: with two
 // parts per quad a thread that has finished one marker's corners poses another's meanwhile,
 // where with one part per quad three markers on two threads would take two markers' time.
-void MeasureQuadsInParallel(const StepImages& im, const std::vector<Quad>& quads,
+void MeasureQuadsInParallel(const StepImages& im, const std::vector<Quad>& quads, int decimated_by,
                             const DetectorOptions& o, const CameraModel& camera,
                             const std::map<int, MarkerModel>& models,
                             const std::map<int, int>& outer_of, Clock::time_point deadline,
@@ -481,7 +485,7 @@ void MeasureQuadsInParallel(const StepImages& im, const std::vector<Quad>& quads
       }
       bool out_of_time = false;
       std::optional<Detection> decoded =
-          DecodeQuad(im.gray, quads[part], o, cam, deadline, &out_of_time);
+          DecodeQuad(im.gray, quads[part], o, decimated_by, cam, deadline, &out_of_time);
       if (out_of_time) slot.state = Slot::kUnfinished;
       if (!decoded) return;
       Detection& d = slot.detection;
@@ -727,8 +731,8 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
     // 5-10 per quad on the pool's threads.
     sc.accepted.clear();
     sc.pending.clear();
-    MeasureQuadsInParallel(im, quads, o, camera_, models_, outer_of_, deadline, pool_.get(), &sc,
-                           &stats);
+    MeasureQuadsInParallel(im, quads, decimated_by, o, camera_, models_, outer_of_, deadline,
+                           pool_.get(), &sc, &stats);
     AcceptNestedInOuter(outer_of_, &sc.pending, &sc.accepted, &stats.rejected_for_evidence);
     const auto t5 = Clock::now();
     stats.ms[2] = Ms(t2, t5);
@@ -745,7 +749,8 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
   for (size_t qi = 0; qi < quads.size(); ++qi) {
     if (qi % 8 == 0 && past_deadline()) break;
     bool out_of_time = false;
-    std::optional<Detection> d = DecodeQuad(im.gray, quads[qi], o, cam, deadline, &out_of_time);
+    std::optional<Detection> d =
+        DecodeQuad(im.gray, quads[qi], o, decimated_by, cam, deadline, &out_of_time);
     if (out_of_time) {
       stats.budget_exceeded = true;
       break;

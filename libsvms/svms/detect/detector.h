@@ -101,7 +101,8 @@ struct DetectorOptions {
   // retried in the comparison's size sweep score 44. The segments' corners are only whole-pixel
   // accurate (their edge points are pixels): 0.6-1.0 px off on a 16 px marker behind 0.7 px of blur
   // (sRGB renders), a third of a bit cell (a sixth of the side); 32 px keeps that under a
-  // fifth.
+  // fifth. With decimate N the bar is N times this: the corners are then whole coarse pixels
+  // accurate.
   double small_quad_refine_px = 32;
   double small_quad_min_contrast = 20;
   int small_quad_min_separated_refs = 40;

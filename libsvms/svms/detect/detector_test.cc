@@ -875,6 +875,40 @@ TEST(Detector, TenPixelMarkersAreReadAfterTheirCornersAreRefined) {
   EXPECT_GT(with_7b, without_7b);
 }
 
+// At decimate 2 the segments' corners are whole coarse pixels accurate: a 17-22 px marker's as far
+// off, relative to its side, as a 9-11 px marker's at full resolution, and its bits are read
+// right only after step 7b's fit, which takes quads up to decimate times small_quad_refine_px.
+// With that bar at 12 px (24 at decimate 2) every marker is found as with the default; without
+// the retry (0) most are not.
+TEST(Detector, TwentyPixelMarkersAtDecimateTwoAreReadAfterTheirCornersAreRefined) {
+  const MarkerRow row = MakeMarkerRow(40, 12, 0.025, 0.25, [](int i) {
+    return Eigen::Vector3d(-0.75 + 0.27 * (i % 6), -0.2 + 0.4 * (i / 6), 0);
+  });
+  const CameraModel cam = CameraModel::Pinhole(600, 640, 360);
+  const Rendered r = Render(Base(cam, row.markers, Look({0.05, -0.3, 2.9}, {0, 0, 0})));
+  for (const MarkerTruth& t : r.truth.markers) {
+    ASSERT_GT(t.side_px, 16);
+    ASSERT_LT(t.side_px, 23);
+  }
+  auto found_ids = [&](double refine_px) {
+    DetectorOptions o;
+    o.decimate = 2;
+    o.small_quad_refine_px = refine_px;
+    int right = 0, wrong = 0;
+    for (const Detection& d : Detector(o, cam, row.models).Detect(r.image))
+      (d.id >= 40 && d.id < 52 ? right : wrong)++;
+    EXPECT_EQ(wrong, 0);
+    return right;
+  };
+  const int by_default = found_ids(DetectorOptions{}.small_quad_refine_px);
+  const int below_24 = found_ids(12), without = found_ids(0);
+  RecordProperty("found", by_default);
+  RecordProperty("found_without_7b", without);
+  EXPECT_GE(by_default, 11);
+  EXPECT_EQ(below_24, by_default);
+  EXPECT_LT(without, by_default - 3);
+}
+
 // Markers of 28-31 px at decimate 2, through an ordinary camera (0.7 px of blur, sRGB at 8 bits),
 // turned 0-1.5 rad: on the coarse image their squares are 14-15 px with corners blunted by about a
 // coarse pixel; every marker the full-resolution search finds is found. (The quad search's join
@@ -906,6 +940,62 @@ TEST(Detector, DecimatedSearchFindsThirtyPixelMarkersAtEveryTurn) {
   };
   EXPECT_EQ(found(1), 16);
   EXPECT_EQ(found(2), 16);
+}
+
+// A background edge in line with a marker's side, beginning just past its ring (a circuit
+// board's trace, a panel's edge) with the same polarity (dark above, bright below): the
+// collinear merge joins the side to it across the stripe and the ring, and without the pieces
+// kept (segments.h, merge_gap_px) the quad search had no segment ending at the square's corner
+// and the marker was lost (in 3 of these 8 views at full resolution, 4 at decimate 2; a 50 px
+// marker on bench speed's circuit-board photograph at decimate 2).
+TEST(Detector, ASideInLineWithABackgroundEdgeStillClosesItsSquare) {
+  const MarkerModel a = MarkerModel::Standard(23, 0.1, 0.025);
+  const CameraModel cam = CameraModel::Pinhole(500, 320, 240);
+  for (const double roll : {0.0, 0.08}) {
+    Pose pa;
+    pa.rvec = Eigen::Vector3d(0, 0, roll);
+    const Rendered r = Render(Base(cam, {{a, pa}}, Look({0, -0.0001, 1.0}, {0, 0, 0})));
+    ASSERT_EQ(r.truth.markers.size(), 1u);
+    const MarkerTruth& t = r.truth.markers[0];
+    // The square's lower side, p0 its left end; the edge is drawn leftwards from half a side
+    // beyond p0 (the ring's outer edge), `offset` px below the side's line, turned by `turn`.
+    int k = 0;
+    for (int j = 1; j < 4; ++j)
+      if (t.corners[j].pixel.y() + t.corners[(j + 1) % 4].pixel.y() >
+          t.corners[k].pixel.y() + t.corners[(k + 1) % 4].pixel.y())
+        k = j;
+    Eigen::Vector2d p0 = t.corners[k].pixel, p1 = t.corners[(k + 1) % 4].pixel;
+    if (p0.x() > p1.x()) std::swap(p0, p1);
+    const double side = (p1 - p0).norm();
+    ASSERT_NEAR(side, 50, 2);
+    for (const double offset : {1.2, 2.0})
+      for (const double turn_deg : {0.0, 2.0}) {
+        SCOPED_TRACE("roll " + std::to_string(roll) + " offset " + std::to_string(offset) +
+                     " turn " + std::to_string(turn_deg));
+        const Eigen::Vector2d d =
+            Eigen::Rotation2Dd(turn_deg * M_PI / 180) * (p1 - p0).normalized();
+        Eigen::Vector2d n(-d.y(), d.x());
+        if (n.y() < 0) n = -n;  // downwards
+        cv::Mat image = r.image.clone();
+        for (int y = 0; y < image.rows; ++y)
+          for (int x = 0; x < image.cols; ++x) {
+            const Eigen::Vector2d v = Eigen::Vector2d(x, y) - (p0 + offset * n);
+            const double along = -v.dot(d), across = v.dot(n);
+            if (along > 0.5 * side && along < 1.9 * side && std::abs(across) < 12)
+              image.at<uint8_t>(y, x) = across < 0 ? 15 : 200;
+          }
+        for (const int decimate : {1, 2}) {
+          DetectorOptions o;
+          o.decimate = decimate;
+          const std::vector<Detection> found = Detector(o, cam, {a}).Detect(image);
+          EXPECT_EQ(found.size(), 1u) << "decimate " << decimate;
+          if (found.size() != 1) continue;
+          EXPECT_EQ(found[0].id, 23);
+          for (int c = 0; c < 4; ++c)
+            EXPECT_LT((found[0].corners[c] - t.corners[c].pixel).norm(), 0.1) << c;
+        }
+      }
+  }
 }
 
 // Twelve flat 0.1 m markers of 8-10 px through an ordinary camera (sRGB, 0.7 px of blur): each

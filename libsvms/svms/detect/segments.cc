@@ -193,6 +193,7 @@ struct SegmentScratch {
   StartGrid grid;
   std::vector<char> gone;
   std::vector<Segment> kept;
+  std::vector<Segment> wide_pieces;        // MergeCollinear: the pieces of joins across wide gaps
   std::vector<double> length;              // by piece
   std::vector<int> changed, changed_next;  // joins by cell
   std::vector<int> bridged;                // BridgeKinks: one piece's partners, sorted positions
@@ -650,6 +651,8 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
   // and since this sweep began (`changed_next`, the next sweep's `changed`).
   std::vector<int>&changed = sc.changed, &changed_next = sc.changed_next;
   changed.assign(cells, 0);
+  std::vector<Segment>& wide_pieces = sc.wide_pieces;
+  wide_pieces.clear();
   bool merged = true;
   for (bool first = true; merged; first = false) {
     merged = false;
@@ -726,6 +729,13 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
           }
         }
         if (best >= 0) {
+          // Across a gap wider than merge_gap_px the pieces are kept too: a marker's side and a
+          // background edge that lines up with it beyond its stripe and ring (a circuit board's
+          // trace, a panel's edge) are joined, and the side alone is what the quad search needs.
+          if ((v[best].a - s.b).dot(di) > o.merge_gap_px) {
+            wide_pieces.push_back(s);
+            wide_pieces.push_back(v[best]);
+          }
           v[i] = JoinSegments(s, v[best]);
           len[i] = v[i].length();
           gone[best] = 1;
@@ -740,6 +750,7 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
   kept.clear();
   for (size_t i = 0; i < n; ++i)
     if (!gone[i]) kept.push_back(v[i]);
+  kept.insert(kept.end(), wide_pieces.begin(), wide_pieces.end());
   segs->swap(kept);
   return true;
 }

@@ -59,7 +59,9 @@ struct SegmentOptions {
   // joined when they point the same way within merge_angle_deg (a short piece: within the
   // angle that moves its far end by merge_offset_px), the shorter piece's ends lie within
   // merge_offset_px of the longer's line, and the gap is at most merge_gap_fraction of the
-  // shorter piece (or merge_gap_px).
+  // shorter piece (or merge_gap_px). A join across a gap wider than merge_gap_px keeps its two
+  // pieces as well: a marker's side may line up with a background edge beyond its stripe and
+  // ring, and the quad search needs the side alone.
   double merge_angle_deg = 4;
   double merge_offset_px = 1.5;
   double merge_gap_fraction = 0.5;
@@ -76,7 +78,9 @@ struct SegmentOptions {
 // its contrast their length-weighted mean (how MergeCollinear and BridgeKinks join pieces).
 Segment JoinSegments(const Segment& s, const Segment& t);
 
-// Step 3b: joins collinear pieces (see SegmentOptions); the result replaces `segments`.
+// Step 3b: joins collinear pieces (see SegmentOptions); the result replaces `segments`: the
+// pieces left and joined, in their order, then the pieces of each join across a gap wider than
+// merge_gap_px, in the order of the joins.
 // `deadline` is read every 256 pieces of each sweep: once it has passed the result is false and
 // *segments a part-merged list fit for nothing but discarding.
 bool MergeCollinear(

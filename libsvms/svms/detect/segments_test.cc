@@ -117,13 +117,15 @@ TEST(Segments, MergeJoinsPiecesOfOneEdgeButNotACorner) {
 // The oracle for MergeCollinear's grid: the same tests on every start within reach in x, at
 // any y, first in x order (the merge without its grid),
 // joined with the merge's own JoinSegments (the joined line decides later joins).
-void MergeCollinearByXWindow(const SegmentOptions& o, std::vector<Segment>* segs) {
+// Returns how many pieces of joins across wide gaps it appended (they are not joins).
+size_t MergeCollinearByXWindow(const SegmentOptions& o, std::vector<Segment>* segs) {
   const double cos_max = std::cos(o.merge_angle_deg * M_PI / 180);
   const double both_long = 4 * o.merge_offset_px / std::tan(o.merge_angle_deg * M_PI / 180);
   const double offset2 = o.merge_offset_px * o.merge_offset_px;
   auto dist = [](const Segment& s, const Eigen::Vector2d& p) {
     return std::abs(s.line.head<2>().dot(p) + s.line.z());
   };
+  std::vector<Segment> wide;  // the pieces of joins across gaps over merge_gap_px, kept too
   for (bool merged = true; merged;) {
     merged = false;
     std::vector<Segment>& v = *segs;
@@ -167,6 +169,10 @@ void MergeCollinearByXWindow(const SegmentOptions& o, std::vector<Segment>* segs
           if (shorter > both_long && (dist(other, longer.a) > o.merge_offset_px ||
                                       dist(other, longer.b) > o.merge_offset_px))
             continue;
+          if (gap > o.merge_gap_px) {
+            wide.push_back(s);
+            wide.push_back(t);
+          }
           v[i] = JoinSegments(s, t);
           len[i] = v[i].length();
           gone[j] = 1;
@@ -182,6 +188,8 @@ void MergeCollinearByXWindow(const SegmentOptions& o, std::vector<Segment>* segs
       segs->swap(kept);
     }
   }
+  segs->insert(segs->end(), wide.begin(), wide.end());
+  return wide.size();
 }
 
 // Appends `count` short pieces (4-12 px, any direction) starting where `pos` draws: what
@@ -235,9 +243,9 @@ size_t CompareMergeWithXWindowScan(double extent, int clutter, int trials, uint3
     *cell_px = std::max(*cell_px,
                         std::max(8.0, (hi - lo).maxCoeff() / (2 * std::sqrt(double(pieces)) + 1)));
     std::vector<Segment> expected = v;
-    MergeCollinearByXWindow(SegmentOptions{}, &expected);
+    const size_t wide = MergeCollinearByXWindow(SegmentOptions{}, &expected);
     EXPECT_TRUE(MergeCollinear(SegmentOptions{}, &v));
-    joins += pieces - v.size();
+    joins += pieces + wide - v.size();
     EXPECT_EQ(v.size(), expected.size()) << "extent " << extent << " trial " << trial;
     if (v.size() != expected.size()) return joins;
     for (size_t i = 0; i < v.size(); ++i) {
@@ -297,10 +305,18 @@ TEST(Segments, MergeSearchesOnFromAPiecesNewEndInLaterSweeps) {
   std::vector<Segment> v = {make({0, 0}, {10, 0}), make({14, 0}, {19, 0}), make({20, 0}, {74, 0}),
                             make({106, 0}, {176, 0})};
   std::vector<Segment> expected = v;
-  MergeCollinearByXWindow(SegmentOptions{}, &expected);
-  ASSERT_EQ(expected.size(), 1u);  // the oracle joins all four
+  // The oracle joins all four; the joins across 4 and 32 px (over merge_gap_px) keep their
+  // pieces too: the first and the second-to-third's, then the first-to-third's and the fourth.
+  ASSERT_EQ(MergeCollinearByXWindow(SegmentOptions{}, &expected), 4u);
+  ASSERT_EQ(expected.size(), 5u);
+  EXPECT_EQ(expected[1].a, v[0].a);
+  EXPECT_EQ(expected[1].b, v[0].b);
+  EXPECT_EQ(expected[2].b, v[2].b);
+  EXPECT_EQ(expected[4].a, v[3].a);
+  EXPECT_EQ(expected[4].b, v[3].b);
   EXPECT_TRUE(MergeCollinear(SegmentOptions{}, &v));
-  ASSERT_EQ(v.size(), 1u);
+  ASSERT_EQ(v.size(), 5u);
+  for (size_t i = 1; i < v.size(); ++i) EXPECT_EQ(v[i].line, expected[i].line) << i;
   EXPECT_EQ(v[0].a, expected[0].a);
   EXPECT_EQ(v[0].b, expected[0].b);
   EXPECT_EQ(v[0].line, expected[0].line);
@@ -329,9 +345,9 @@ TEST(Segments, MergeSearchesOnFromAPiecesNewEndInLaterSweeps) {
       t += len + gap;
     }
     std::vector<Segment> want = w;
-    MergeCollinearByXWindow(SegmentOptions{}, &want);
+    const size_t wide = MergeCollinearByXWindow(SegmentOptions{}, &want);
     EXPECT_TRUE(MergeCollinear(SegmentOptions{}, &w));
-    joined_all += want.size() == 1;
+    joined_all += want.size() - wide == 1;
     ASSERT_EQ(w.size(), want.size()) << "trial " << trial;
     for (size_t i = 0; i < w.size(); ++i) {
       EXPECT_EQ(w[i].a, want[i].a) << "trial " << trial;
