@@ -12,6 +12,7 @@
 #include "svms/bench/profiles_benchmark.h"
 #include "svms/bench/speed_benchmark.h"
 #include "svms/bench/survey_benchmark.h"
+#include "svms/detect/detector.h"
 #include "svms/sim/scene.h"
 
 namespace svms::cli {
@@ -214,6 +215,11 @@ void AddBenchProfiles(CLI::App& bench, int* exit_code) {
                 "pose (default: kCornerCovarianceScale with --correlated-corners, else "
                 "kCornerFitScale; marker_pose.h)")
       ->check(CLI::NonNegativeNumber);
+  c->add_option("--decimate", o->decimate,
+                "Search edges and quads on N x N block averages (DetectorOptions::decimate) to "
+                "see what that loses on each profile")
+      ->capture_default_str()
+      ->check(CLI::Range(1, kMaxDecimate));
   c->footer("Example:\n  svms bench profiles --out out/bench/profiles");
   c->callback([o, exit_code] { *exit_code = RunProfilesBenchmark(*o); });
 }

@@ -5,7 +5,8 @@
 # markers in that size range (the well-exposed sets; the dim set apart); the dim set's found
 # count and the corner RMS over the markers every profile found; the report's median row shows
 # the summary's medians. And a profile that does not exist ends with one line, exit 2. The
-# options --correlated-corners and --corner-fit-scale (each alone) change the poses as they say.
+# options --correlated-corners and --corner-fit-scale (each alone) change the poses as they say,
+# --decimate what is found.
 set -euo pipefail
 svms="$1"
 py=/usr/bin/python3
@@ -181,5 +182,29 @@ assert (sj["corner_fit_scale"], sj["correlated_corners"]) == (1.06, True), sj["c
 assert (s2["corner_fit_scale"], s2["correlated_corners"]) == (2, False), s2["corner_fit_scale"]
 a, b = s0["per_profile"]["linear"]["nees_mean"], s2["per_profile"]["linear"]["nees_mean"]
 assert b < 0.6 * a, (a, b)
+PY
+# --decimate 2: the report's title and the summary say so, and the coarse search loses markers
+# under 20 px (a side of 4-10 coarse pixels) where the default run finds them, and none at
+# 30 px and more (at 20-30 px 26 or 27 of 27, as the profiles run with it); a factor out of 1-4 is refused (CLI11's line naming it, exit 2).
+rc=0
+"$svms" bench profiles --quick --profiles linear --decimate 5 --out "$out/dec5" > /dev/null \
+  2> "$out/dec5.txt" || rc=$?
+[[ $rc -eq 2 ]] && grep -q '^--decimate: Value 5 not in range 1 to 4' "$out/dec5.txt" ||
+  fail "--decimate 5: exit $rc, $(cat "$out/dec5.txt")"
+rc=0
+"$svms" bench profiles --quick --profiles linear --decimate 2 --out "$out/dec2" \
+  > /dev/null 2> "$out/dec2_stderr.txt" || rc=$?
+[[ $rc -eq 0 || $rc -eq 3 ]] || { cat "$out/dec2_stderr.txt" >&2; fail "--decimate 2: exit code $rc"; }
+grep -q '^## Sensor profiles (`svms bench profiles --quick --decimate 2`)' "$out/dec2/report.md" ||
+  fail "--decimate 2: not in the report's title"
+"$py" - "$out/run" "$out/dec2" <<'PY' || fail "--decimate 2: summary (above)"
+import json, sys
+s1, s2 = (json.load(open(f"{d}/summary.json")) for d in sys.argv[1:3])
+assert (s1["decimate"], s2["decimate"]) == (1, 2), (s1["decimate"], s2["decimate"])
+def found(s, keep):
+    return sum(b["found"] for b in s["per_profile"]["linear"]["rate_by_size"] if keep(b))
+small, large = (lambda b: b["hi"] <= 20), (lambda b: b["lo"] >= 30)
+assert found(s2, small) < found(s1, small), (found(s2, small), found(s1, small))
+assert found(s2, large) == found(s1, large), (found(s2, large), found(s1, large))
 PY
 echo PASS

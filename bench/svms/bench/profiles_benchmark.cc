@@ -176,6 +176,7 @@ Status RunSet(const SetRun& run, const ProfilesBenchmarkOptions& o,
       DetectorOptions options;
       options.refine.max_row_window_px = CornerRowWindowPx(readers.back().model());
       options.pose.corner_covariance_from_fit = o.correlated_corners;
+      options.decimate = o.decimate;
       if (o.corner_fit_scale > 0) {  // both, as the fusion's CornerFitScale does: a marker
         // without a joint covariance falls back to the independent corners
         options.pose.corner_fit_scale = o.corner_fit_scale;

@@ -34,6 +34,9 @@ struct ProfilesBenchmarkOptions {
   // correlated_corners the joint covariance's scale as well). 0: the defaults, kCornerFitScale
   // (kCornerCovarianceScale for the joint covariance; marker_pose.h).
   double corner_fit_scale = 0;
+  // DetectorOptions::decimate: steps 1-4 on N x N block averages, to see what a faster search
+  // loses on each profile (the targets are judged as for the defaults).
+  int decimate = 1;
 };
 
 // Runs the benchmark. Returns an exit code (exit_codes.h): 3 when a target was missed, 2 for an

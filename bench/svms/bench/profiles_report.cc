@@ -218,7 +218,7 @@ void Table(const ProfilesBenchmarkOptions& o, const std::vector<std::string>& pr
   *md << "## Sensor profiles (`svms bench profiles" << (o.quick ? " --quick" : "")
       << (o.correlated_corners ? " --correlated-corners" : "")
       << (o.corner_fit_scale > 0 ? " --corner-fit-scale " + Cell(o.corner_fit_scale, 3) : "")
-      << "`)\n\n";
+      << (o.decimate > 1 ? " --decimate " + std::to_string(o.decimate) : "") << "`)\n\n";
   *md << "Every view of the range, angle and small sets rendered once and exposed through "
          "each profile's camera pipeline and codec (docs/simulator.md), read back into linear "
          "light with the camera's photometric model (photometric.h), then detected; "
@@ -442,6 +442,7 @@ int WriteProfilesReport(const ProfilesBenchmarkOptions& o, const std::vector<std
   summary["seed"] = o.seed;
   summary["quick"] = o.quick;
   summary["correlated_corners"] = o.correlated_corners;
+  summary["decimate"] = o.decimate;
   // The corner sigma's scale the single-marker pose used.
   summary["corner_fit_scale"] =
       o.corner_fit_scale > 0 ? o.corner_fit_scale
