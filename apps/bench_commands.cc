@@ -216,8 +216,8 @@ void AddBenchProfiles(CLI::App& bench, int* exit_code) {
                 "kCornerFitScale; marker_pose.h)")
       ->check(CLI::NonNegativeNumber);
   c->add_option("--decimate", o->decimate,
-                "Search edges and quads on N x N block averages (DetectorOptions::decimate) to "
-                "see what that loses on each profile")
+                "Find edges and quads on the images averaged over N x N blocks "
+                "(DetectorOptions::decimate), to see what that loses on each profile")
       ->capture_default_str()
       ->check(CLI::Range(1, kMaxDecimate));
   c->footer("Example:\n  svms bench profiles --out out/bench/profiles");

@@ -185,7 +185,8 @@ assert b < 0.6 * a, (a, b)
 PY
 # --decimate 2: the report's title and the summary say so, and the coarse search loses markers
 # under 20 px (a side of 4-10 coarse pixels) where the default run finds them, and none at
-# 30 px and more (at 20-30 px 26 or 27 of 27, as the profiles run with it); a factor out of 1-4 is refused (CLI11's line naming it, exit 2).
+# 30 px and more (at 20-30 px, 26 of 27 with linear alone and 27 with all five profiles in
+# one run). A factor out of 1-4 is refused (CLI11's line naming it, exit 2).
 rc=0
 "$svms" bench profiles --quick --profiles linear --decimate 5 --out "$out/dec5" > /dev/null \
   2> "$out/dec5.txt" || rc=$?

@@ -316,6 +316,11 @@ int RunBenchmark(const ProfilesBenchmarkOptions& o) {
       return kExitBadInput;
     }
   }
+  if (o.decimate < 1 || o.decimate > kMaxDecimate) {
+    std::cerr << "svms bench profiles: --decimate: " << o.decimate << " is not a factor in 1-"
+              << kMaxDecimate << "\n";
+    return kExitBadInput;
+  }
   if (Status s = PrepareOutputDirectory("--out", o.out); !s) {
     std::cerr << "svms bench profiles: " << s.message() << "\n";
     return kExitBadInput;

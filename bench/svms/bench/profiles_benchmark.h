@@ -35,7 +35,8 @@ struct ProfilesBenchmarkOptions {
   // (kCornerCovarianceScale for the joint covariance; marker_pose.h).
   double corner_fit_scale = 0;
   // DetectorOptions::decimate: steps 1-4 on N x N block averages, to see what a faster search
-  // loses on each profile (the targets are judged as for the defaults).
+  // loses on each profile (the targets are judged as for the defaults). In [1, kMaxDecimate]:
+  // another value ends the run before it starts (exit 2).
   int decimate = 1;
 };
 

@@ -353,8 +353,8 @@ std::optional<Detection> DecodeQuad(const cv::Mat& gray, Quad q, const DetectorO
   // read toward the stripe, and 3-5 of them flip; the marker would then be turned away for
   // want of a tip. The re-read replaces a decode that failed, or the same ID and rotation read
   // with fewer corrections. From a decimated search the corners are as far off, relative to the
-  // side, as a square decimated_by times smaller's (a 34 px marker's at decimate 2 flipped bits
-  // of its ring on bench speed's photographs, and was lost).
+  // side, as a square decimated_by times smaller's: without the retry a 34 px marker's at
+  // decimate 2 can flip bits of its ring (three on bench speed's photographs).
   const bool weak = !m.accepted() || m.bit_errors > o.max_unsupported_corrections;
   if (weak && o.refine_corners && q.min_side() < o.small_quad_refine_px * decimated_by &&
       bits.white - bits.black >= o.small_quad_min_contrast &&

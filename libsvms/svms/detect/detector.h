@@ -101,8 +101,8 @@ struct DetectorOptions {
   // retried in the comparison's size sweep score 44. The segments' corners are only whole-pixel
   // accurate (their edge points are pixels): 0.6-1.0 px off on a 16 px marker behind 0.7 px of blur
   // (sRGB renders), a third of a bit cell (a sixth of the side); 32 px keeps that under a
-  // fifth. With decimate N the bar is N times this: the corners are then whole coarse pixels
-  // accurate.
+  // fifth. Where the image is decimated by N (decimate, when the image is large enough) the bar
+  // is N times this: the corners are then whole coarse pixels accurate.
   double small_quad_refine_px = 32;
   double small_quad_min_contrast = 20;
   int small_quad_min_separated_refs = 40;
@@ -155,17 +155,18 @@ struct DetectorOptions {
   // image (pixel centres at integers: coarse pixel q is full pixels decimate q .. decimate q +
   // decimate - 1, the last cols % decimate columns and rows % decimate rows left out of the
   // search), and every later step (reading, corners, tip, pose) works on the full image as with
-  // decimate 1: the corners and poses of a marker found either way come from the same
-  // full-resolution fit. What it costs is the small markers: a side must give a segment of 4
-  // coarse pixels after its corners' blunting, so squares under about 8 decimate pixels are
-  // mostly lost (at 2, on bench speed's photographs: 26 of 64 found under 16 px, 64 of 66 at
-  // 16-24 px, and 5 of 129 lost at 24-70 px), and step 4b (complete_below_px, full pixels) sees no
-  // sides under 4 decimate pixels (at 3 and more, none under its 12). The edge thresholds are those
-  // of full resolution: averaging lowers the noise and steepens a marker's edge per pixel, so fewer
-  // noise edges pass them and a marker's edges pass more easily. Unlike the rest of Detect, the
-  // block average (OpenCV's area resize) may allocate, and use OpenCV's thread pool, on every call;
-  // the C API, which promises no allocation, has no such field. 1 (default): off. Values are taken
-  // in [1, kMaxDecimate]; an image under 16 x 16 coarse pixels is not decimated.
+  // decimate 1 (step 7b's size bar aside: small_quad_refine_px): the corners and poses of a
+  // marker found either way come from the same full-resolution fit. What it costs is the small
+  // markers: a side must give a segment of 4 coarse pixels after its corners' blunting, so
+  // squares under about 8 decimate pixels are mostly lost (at 2, on bench speed's photographs:
+  // 26 of 64 found under 16 px, 64 of 66 at 16-24 px, and 1 of 129 lost at 24-70 px), and step 4b
+  // (complete_below_px, full pixels) sees no sides under 4 decimate pixels (at 3 and more, none
+  // under its 12). The edge thresholds are those of full resolution: averaging lowers the noise and
+  // steepens a marker's edge per pixel, so fewer noise edges pass them and a marker's edges pass
+  // more easily. Unlike the rest of Detect, the block average (OpenCV's area resize) may allocate,
+  // and use OpenCV's thread pool, on every call; the C API, which promises no allocation, has no
+  // such field. 1 (default): off. Values are taken in [1, kMaxDecimate]; an image under 16 x 16
+  // coarse pixels is not decimated.
   int decimate = 1;
 };
 constexpr int kMaxDetectorThreads = 64;

@@ -79,8 +79,9 @@ struct SegmentOptions {
 Segment JoinSegments(const Segment& s, const Segment& t);
 
 // Step 3b: joins collinear pieces (see SegmentOptions); the result replaces `segments`: the
-// pieces left and joined, in their order, then the pieces of each join across a gap wider than
-// merge_gap_px, in the order of the joins.
+// pieces left and joined, in their order, then the two pieces of each join across a gap wider
+// than merge_gap_px as they were when joined (either may be an earlier join's result; the piece
+// extended first, then the one joined to its end), in the order of the joins.
 // `deadline` is read every 256 pieces of each sweep: once it has passed the result is false and
 // *segments a part-merged list fit for nothing but discarding.
 bool MergeCollinear(

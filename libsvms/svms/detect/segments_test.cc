@@ -316,7 +316,11 @@ TEST(Segments, MergeSearchesOnFromAPiecesNewEndInLaterSweeps) {
   EXPECT_EQ(expected[4].b, v[3].b);
   EXPECT_TRUE(MergeCollinear(SegmentOptions{}, &v));
   ASSERT_EQ(v.size(), 5u);
-  for (size_t i = 1; i < v.size(); ++i) EXPECT_EQ(v[i].line, expected[i].line) << i;
+  for (size_t i = 1; i < v.size(); ++i) {
+    EXPECT_EQ(v[i].a, expected[i].a) << i;
+    EXPECT_EQ(v[i].b, expected[i].b) << i;
+    EXPECT_EQ(v[i].line, expected[i].line) << i;
+  }
   EXPECT_EQ(v[0].a, expected[0].a);
   EXPECT_EQ(v[0].b, expected[0].b);
   EXPECT_EQ(v[0].line, expected[0].line);
