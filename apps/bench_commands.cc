@@ -247,7 +247,8 @@ void AddBenchSpeed(CLI::App& bench, int* exit_code) {
   c->add_option("--photo-root", o->photo_root,
                 "Look for the photographs' packages under this directory instead of /");
   c->add_flag("--save-images", o->save_images,
-              "Also write every image with markers (DIR/images/) and every crop (DIR/backdrops/)");
+              "Also write every image with markers (DIR/images/) and every crop (DIR/backdrops/), "
+              "8 bits linear in light as the detectors read them (svms detect --response linear)");
   c->footer(
       "Photographs: plasma-workspace-wallpapers, ukui-wallpapers (scripts/install_bench_photos) "
       "and opencv-doc; the run uses those present.\nExample:\n  svms bench speed --out "
