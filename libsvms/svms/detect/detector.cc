@@ -716,8 +716,8 @@ void Detector::Detect(const cv::Mat& input, DetectionStats* stats_out, Clock::ti
     quad_options.join_min_px =
         decimated_by * std::max(o.quads.join_min_px, o.segments.min_length + 1);
   std::vector<Quad>& quads = sc.quads;
-  const bool quads_complete =
-      FindQuads(sc.segments, quad_options, im.gray.cols, im.gray.rows, &quads, deadline);
+  const bool quads_complete = FindQuads(sc.segments, quad_options, im.gray.cols, im.gray.rows,
+                                        &quads, deadline, pool_.get());
   stats.quads = static_cast<int>(quads.size());
   auto t2 = Clock::now();
   stats.ms[1] = Ms(t1, t2);

@@ -142,11 +142,11 @@ struct DetectorOptions {
   // writes no files: where pictures go is the caller's business).
   bool debug_pictures = false;
   // Threads per frame (>= 1). Above 1, one frame is shared by that many threads: the edge map
-  // in bands of rows and the edge chains in parts (segments.h), steps 5-8 and 9-10 of each
-  // candidate quad as two parts, each part into a slot of its own merged in the serial order.
-  // The detections are the same, to the last bit, as with one thread (unless a deadline
-  // passes). Images under 128 rows, the edge linking, the collinear merge, the quad search and
-  // step 11 stay on the calling thread.
+  // in bands of rows and the edge chains in parts (segments.h), the quad search by first side
+  // (quads.h), steps 5-8 and 9-10 of each candidate quad as two parts, each part into a slot of
+  // its own merged in the serial order. The detections are the same, to the last bit, as with
+  // one thread (unless a deadline passes). Images under 128 rows, the edge linking, the
+  // collinear merge and step 11 stay on the calling thread.
   // At most kMaxDetectorThreads (more are taken as that many).
   int threads = 1;
   // Steps 1-4 (edges, segments, quads) on the image averaged over decimate x decimate pixel

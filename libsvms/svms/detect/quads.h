@@ -26,6 +26,8 @@
 
 namespace svms {
 
+class WorkerPool;
+
 struct Quad {
   // Corners clockwise on screen, in pixels: corner k is where side k - 1 meets side k.
   std::array<Eigen::Vector2d, 4> corners;
@@ -58,10 +60,14 @@ std::vector<Quad> FindQuads(const std::vector<Segment>& segments, const QuadOpti
 // The same into *quads (replaced); with *quads kept by the caller, and this thread's scratch
 // kept between calls, no allocation once they have grown. `deadline`: checked every 256
 // segments; once it has passed, the quads found so far are returned and the result is false.
+// `pool` (may be null): with more than one thread and at least 512 segments, the search is
+// split by first side over its threads, and the quads are the same, in the same order, as on
+// one thread (a deadline aside).
 bool FindQuads(
     const std::vector<Segment>& segments, const QuadOptions& options, int width, int height,
     std::vector<Quad>* quads,
-    std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max());
+    std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max(),
+    WorkerPool* pool = nullptr);
 
 // Intersection of two lines (nx, ny, c); false if they are parallel.
 bool Intersect(const Eigen::Vector3d& l1, const Eigen::Vector3d& l2, Eigen::Vector2d* p);

@@ -4,6 +4,9 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <random>
+
+#include "svms/detect/worker_pool.h"
 
 namespace svms {
 namespace {
@@ -177,6 +180,70 @@ TEST(Quads, OnlySmallThreeSidedChainsAreCompleted) {
   const SmallSquare at_edge = MakeSmallSquare({50, 3}, 9, 0, 1.5);
   const std::vector<Segment> edge_three(at_edge.sides.begin() + 1, at_edge.sides.end());
   EXPECT_TRUE(FindQuads(edge_three, QuadOptions{}, 100, 80).empty());
+}
+
+// The quad search on several threads (by first side, each part's quads put end to end) gives
+// the serial quads in the serial order, to the last bit, for 2, 3 and 7 threads: with the
+// search whole, and with max_quads cutting it within the 4-cycles and within step 4b's
+// completed quads (the serial search stops starting first sides at that count).
+TEST(Quads, SeveralThreadsFindTheSameQuadsInTheSameOrder) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<Segment> segs;
+  // 500 squares of 6-40 px, a fifth of them under 12 px with a side missing (4b's case), in a
+  // 640 x 480 frame, among 1,500 random segments of 4-30 px.
+  for (int k = 0; k < 500; ++k) {
+    const double side = 6 + 34 * u(rng);
+    SmallSquare sq = MakeSmallSquare(Eigen::Vector2d(20 + 600 * u(rng), 20 + 440 * u(rng)), side,
+                                     90 * u(rng), 0.15 * side * u(rng));
+    const bool three_sided = side < 12 && u(rng) < 0.5;
+    for (int e = 0; e < (three_sided ? 3 : 4); ++e) segs.push_back(sq.sides[e]);
+  }
+  for (int k = 0; k < 1500; ++k) {
+    const Eigen::Vector2d a(640 * u(rng), 480 * u(rng));
+    const double length = 4 + 26 * u(rng), t = 6.2832 * u(rng);
+    segs.push_back(MakeSegment(a, a + length * Eigen::Vector2d(std::cos(t), std::sin(t))));
+  }
+  std::shuffle(segs.begin(), segs.end(), rng);
+  const auto same = [](const std::vector<Quad>& p, const std::vector<Quad>& q,
+                       const std::string& what) {
+    ASSERT_EQ(p.size(), q.size()) << what;
+    for (size_t i = 0; i < p.size(); ++i) {
+      ASSERT_EQ(p[i].sides, q[i].sides) << what << ", quad " << i;
+      ASSERT_EQ(p[i].completed, q[i].completed) << what << ", quad " << i;
+      for (int e = 0; e < 4; ++e)
+        ASSERT_EQ(p[i].corners[e], q[i].corners[e]) << what << ", quad " << i;
+    }
+  };
+  QuadOptions whole;
+  whole.max_quads = 1000000;
+  std::vector<Quad> serial;
+  ASSERT_TRUE(FindQuads(segs, whole, 640, 480, &serial));
+  int cycles = 0;
+  for (const Quad& q : serial) cycles += !q.completed;
+  const int completed = static_cast<int>(serial.size()) - cycles;
+  ASSERT_GT(cycles, 300);
+  ASSERT_GT(completed, 40);
+  // Caps: none, within the 4-cycles, within the completed quads.
+  for (const int cap : {whole.max_quads, cycles / 2, cycles + completed / 2}) {
+    QuadOptions o = whole;
+    o.max_quads = cap;
+    std::vector<Quad> one, several;
+    ASSERT_TRUE(FindQuads(segs, o, 640, 480, &one));
+    if (cap < whole.max_quads) {
+      ASSERT_GE(static_cast<int>(one.size()), cap);
+      ASSERT_LT(one.size(), serial.size());
+    }
+    for (const int threads : {2, 3, 7}) {
+      WorkerPool pool(threads);
+      for (int frame = 0; frame < 2; ++frame) {  // the second on warmed-up buffers
+        ASSERT_TRUE(FindQuads(segs, o, 640, 480, &several,
+                              std::chrono::steady_clock::time_point::max(), &pool));
+        same(one, several,
+             "cap " + std::to_string(cap) + ", " + std::to_string(threads) + " threads");
+      }
+    }
+  }
 }
 
 }  // namespace
