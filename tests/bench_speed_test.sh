@@ -46,17 +46,23 @@ grep -q '^- 0 false positives on every photograph' "$r/report.md" || fail "no fa
 # per budget, and rendered with markers once.
 crops=$(awk '/: [0-9]+ crops$/ {n += $(NF - 1)} END {print n + 0}' "$out/stderr.txt")
 [[ $crops -gt 0 ]] || fail "no crops"
-for sys in svms svms_d2 apriltag_d2 apriltag_d1 aruco_subpix aruco3 svms_b5 svms_b10; do
+for sys in svms svms_d2 svms_t2 apriltag_d2 apriltag_d1 aruco_subpix aruco3 svms_b5 svms_b10; do
   n=$(grep -c "^photo_[0-9]*,[^,]*,[^,]*,$sys," "$r/images.csv" || true)
   m=$(grep -c "^markers_[0-9]*,[^,]*,[^,]*,$sys," "$r/images.csv" || true)
   [[ $n -eq $crops ]] || fail "$sys timed on $n marker-free crops, expected $crops"
   [[ $m -eq $crops ]] || fail "$sys timed on $m crops with markers, expected $crops"
 done
-for sys in svms svms_d2 apriltag_d2 apriltag_d1 aruco_subpix aruco3; do
+for sys in svms svms_d2 svms_t2 apriltag_d2 apriltag_d1 aruco_subpix aruco3; do
   grep -q "^| photo_1024 | $sys | [0-9]* | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]* |" "$r/report.md" ||
     fail "report.md has no timing row for $sys on photo_1024"
 done
 grep -q '^| markers_640 | 10 | [0-9]* | ' "$r/report.md" || fail "report.md has no budget row"
+# svms on two threads against one, image by image: a row per class, the same detection counts.
+for cls in photo_1024 photo_640 markers_1024 markers_640; do
+  grep -q "^| $cls | [0-9]* | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]* | [0-9.]* | 0 |$" "$r/report.md" ||
+    fail "report.md has no two-thread row for $cls with the same detections"
+done
+grep -q '^- svms on 2 threads at least 1.6x faster than on one' "$r/report.md" || fail "no two-thread target"
 grep -q '^| photo_1024 | [a-z-]* | [0-9]* | [0-9.]* | [0-9.]* | ' "$r/report.md" || fail "report.md has no row by source"
 head -1 "$r/images.csv" | grep -q ',segments_ms,quads_ms,decode_ms,refine_ms,pose_ms,nesting_ms$' ||
   fail "images.csv has no step times"

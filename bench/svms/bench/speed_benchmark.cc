@@ -154,10 +154,11 @@ Rendered RenderFamilies(const Scene& scene, int threads, std::string* error) {
 }
 
 // The timed systems: svms (its whole family, like the peers, no camera, no models: detection
-// and corners) with its defaults and with steps 1-4 on a 2x decimated image (as AprilTag's
-// decimate 2), then the standard peers.
+// and corners) with its defaults, with steps 1-4 on a 2x decimated image (as AprilTag's
+// decimate 2) and with its defaults on two threads per frame (DetectorOptions::threads), then
+// the standard peers.
 struct Systems {
-  std::vector<std::unique_ptr<Detector>> svms;  // "svms", "svms_d2"
+  std::vector<std::unique_ptr<Detector>> svms;  // "svms", "svms_d2", "svms_t2"
   std::vector<std::unique_ptr<PeerDetector>> peers;
   std::vector<std::string> names;  // the svms configurations first, then the peers
 };
@@ -181,6 +182,22 @@ Systems MakeSystems(SpeedRun* run) {
          {"other_options", decimate == 1 ? "DetectorOptions defaults"
                                          : "DetectorOptions defaults, decimate " +
                                                std::to_string(decimate) + " (steps 1-4)"}});
+  }
+  {
+    DetectorOptions o;
+    o.known_ids_only = false;
+    o.threads = 2;
+    sys.svms.push_back(std::make_unique<Detector>(o, CameraModel{}, std::vector<MarkerModel>{}));
+    sys.names.push_back("svms_t2");
+    run->settings.push_back({{"name", "svms_t2"},
+                             {"family", "svms44"},
+                             {"library", "svms::Detector (this repository)"},
+                             {"id_count", o.id_count},
+                             {"known_ids_only", false},
+                             {"camera", "none (no undistortion, no pose)"},
+                             {"other_options",
+                              "DetectorOptions defaults, threads 2 (one frame "
+                              "shared by two threads)"}});
   }
   for (const PeerDetectorConfig& c : StandardPeerConfigs()) {
     sys.peers.push_back(std::make_unique<PeerDetector>(c));

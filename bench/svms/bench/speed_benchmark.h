@@ -3,10 +3,11 @@
 // crops with markers 12-200 px rendered into them by the simulator (the crop as the scene's
 // image background; SVMS markers for svms, each peer's own tags for the peers). Every image
 // goes through svms and the peers (AprilTag 3 decimate 2 and 1, ArUco with sub-pixel corners
-// and in ArUco3 mode) on one thread, interleaved in one run (the order rotated per image), and
-// through svms under a per-frame deadline of 5 and 10 ms. Each system detects and locates
-// corners only: no pose. Writes report.md, summary.json, images.csv, markers.csv, the
-// distribution plot speed_times.png/.svg and its data to options.out.
+// and in ArUco3 mode) on one thread, interleaved in one run (the order rotated per image),
+// through svms under a per-frame deadline of 5 and 10 ms, and through svms on two threads per
+// frame (svms_t2: DetectorOptions::threads, its speed-up over one thread per image). Each system
+// detects and locates corners only: no pose. Writes report.md, summary.json, images.csv,
+// markers.csv, the distribution plot speed_times.png/.svg and its data to options.out.
 #pragma once
 
 #include <cstdint>
@@ -19,7 +20,7 @@ struct SpeedBenchmarkOptions {
   bool quick = false;      // two photographs per source, one crop per size (a smoke test, < 60 s)
   uint64_t seed = 1;       // of the crops' positions and of the rendered markers and noise
   int crops_per_size = 2;  // crops of each size per photograph (one when it fits only once)
-  int threads = 2;         // rendering only; every detector runs on one core
+  int threads = 2;         // rendering only; every detector runs on one core (svms_t2 on two)
   // Where the photographs' packages install them: "" is the file system itself; a test lays
   // out a tree under another root.
   std::string photo_root;
