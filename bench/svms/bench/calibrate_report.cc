@@ -43,8 +43,8 @@ void WriteTables(const CalibrateBenchmarkOptions& o, const CalibrationData& data
   csv << "tool,ok,views,reprojection_rms_px,region_error_rms_px,region_error_worst_px,"
          "region_predicted_rms_px,error_rms_px,error_worst_px,direct_error_rms_px,"
          "predicted_rms_px,seconds\n";
-  for (const ToolResult* tp :
-       {&f.tools[0], &f.tools[1], &f.tools[2], &f.response.gamma, &f.response.linear}) {
+  for (const ToolResult* tp : {&f.tools[0], &f.tools[1], &f.tools[2], &f.response.gamma,
+                               &f.response.linear, &f.response.known}) {
     const ToolResult& t = *tp;
     if (t.name.empty()) continue;  // a response-check run that did not start
     csv << '"' << t.name << "\"," << t.ok << "," << t.r.cam_from_board.size() << "," << t.rms_reproj
@@ -134,8 +134,12 @@ void WriteJson(const CalibrateBenchmarkOptions& o, const CalibrationData& data,
       {"linear_twin_corner_error_mean_px",
        {figure(r.linear.ok, r.linear_corners.mean_x),
         figure(r.linear.ok, r.linear_corners.mean_y)}},
+      {"true_curve_region_error_rms_px", figure(r.known.ok, r.known.region_err_rms)},
+      {"true_curve_region_predicted_rms_px", figure(r.known.ok, r.known.region_pred_rms)},
+      {"true_curve_corner_error_rms_per_axis_px", figure(r.known.ok, r.known_corners.rms)},
       {"gamma_seconds", r.gamma.seconds},
-      {"linear_twin_seconds", r.linear.seconds}};
+      {"linear_twin_seconds", r.linear.seconds},
+      {"true_curve_seconds", r.known.seconds}};
   OutputFile(fs::path(o.out) / "calibrate.json") << j.dump(2) << "\n";
 }
 
@@ -248,7 +252,7 @@ void ToolsSection(const CalibrateBenchmarkOptions& o, const CalibrationData& dat
   }
   if (f.pass1.ok) *md << ToolRow(f.pass1, true);
   const ResponseCheck& r = f.response;
-  for (const ToolResult* t : {&r.gamma, &r.linear}) {
+  for (const ToolResult* t : {&r.gamma, &r.linear, &r.known}) {
     if (t->ok)
       *md << ToolRow(*t, false);
     else if (!t->name.empty())
@@ -259,7 +263,7 @@ void ToolsSection(const CalibrateBenchmarkOptions& o, const CalibrationData& dat
       << Fixed(kCheckedGamma, 1) << " and through its linear twin, both behind "
       << Fixed(kCheckedDefocusPx, 1)
       << " px of defocus, calibrated with `--response estimate` and `--response linear` (the "
-         "table's last rows). ";
+         "table's last rows, the very last a diagnostic). ";
   if (r.ok) {
     *md << "The response estimated from the board: gamma " << Fixed(r.estimate.gamma, 3) << " +- "
         << Fixed(r.estimate.sigma, 3) << " from " << r.estimate.patches
@@ -271,6 +275,21 @@ void ToolsSection(const CalibrateBenchmarkOptions& o, const CalibrationData& dat
         << SignedFixed(r.linear_corners.mean_x, 4) << ", "
         << SignedFixed(r.linear_corners.mean_y, 4) << ") px, a-posteriori "
         << Fixed(r.linear.r.noise_sigma_px, 4) << " px.\n";
+    if (r.known.ok && r.gamma.ok && r.linear.ok) {
+      // The diagnostic row: the same gamma views with the curve they were encoded with.
+      *md << "\nWith the true curve declared instead of estimated (the table's last row, a "
+             "diagnostic): region error "
+          << Fixed(r.known.region_err_rms, 4) << " px, "
+          << Fixed(r.known.region_err_rms / r.linear.region_err_rms, 2)
+          << "x the twin's (the encoding alone: the same light in 8-bit codes spaced "
+             "unevenly), where the estimated curve gave "
+          << Fixed(r.gamma.region_err_rms / r.linear.region_err_rms, 2)
+          << "x (the encoding and the estimate's error of "
+          << SignedFixed(r.estimate.gamma - kCheckedGamma, 3)
+          << " in gamma); corners against the truth " << Fixed(r.known_corners.rms, 4)
+          << " px RMS per axis, mean (" << SignedFixed(r.known_corners.mean_x, 4) << ", "
+          << SignedFixed(r.known_corners.mean_y, 4) << ") px.\n";
+    }
   } else {
     *md << "Failed: " << r.failure << ".\n";
   }
@@ -400,7 +419,7 @@ void PrintSummary(const CalibrationData& data, const CalibrateFindings& f) {
               << Fixed(f.pass1.region_pred_rms, 4) << "; corner noise a-posteriori "
               << Fixed(f.pass1.r.noise_sigma_px, 4) << " px, true "
               << Fixed(f.pass1_corner_noise.rms, 4) << " px\n";
-  for (const ToolResult* t : {&f.response.gamma, &f.response.linear})
+  for (const ToolResult* t : {&f.response.gamma, &f.response.linear, &f.response.known})
     if (t->ok)
       std::cout << PadRight(t->name, 38) << " region: error RMS " << Fixed(t->region_err_rms, 4)
                 << " px, predicted " << Fixed(t->region_pred_rms, 4) << "\n";

@@ -51,9 +51,15 @@ ResponseCheck RunResponseCheck(const CalibrateBenchmarkOptions& o, const Calibra
                 &gamma_out);
   check.linear =
       calibrate(linear_dir, "linear", "svms calibrate --response linear (its twin)", &linear_out);
+  CalibrateRunOutcome known_out;
+  const std::string true_curve = "gamma:" + Fixed(kCheckedGamma, 1);
+  check.known =
+      calibrate(gamma_dir, true_curve,
+                "svms calibrate --response " + true_curve + " (the true curve)", &known_out);
   check.estimate = gamma_out.response;
   check.gamma_corners = MeasureCornerNoise(data.truth, check.gamma, gamma_out.views);
   check.linear_corners = MeasureCornerNoise(data.truth, check.linear, linear_out.views);
+  check.known_corners = MeasureCornerNoise(data.truth, check.known, known_out.views);
   check.ok = check.gamma.ok && check.linear.ok;
   if (!check.ok) check.failure = check.gamma.ok ? check.linear.failure : check.gamma.failure;
   return check;

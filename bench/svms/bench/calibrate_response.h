@@ -6,7 +6,11 @@
 // more, through the same optics with 0.7 px of defocus: once encoded with gamma 2.2 and once
 // linear (its twin: same light, same noise draws before encoding). svms calibrate runs on the
 // gamma views with --response estimate and on the twin with --response linear; both solutions
-// are measured on the benchmark's region against the true camera like the other tools.
+// are measured on the benchmark's region against the true camera like the other tools. A third
+// calibration of the gamma views with the true curve declared (--response gamma:2.2) is a
+// diagnostic, not a target: against the twin it shows what the encoding itself costs (8-bit
+// codes spaced unevenly in light), and against the estimate's what the estimated curve's own
+// error costs.
 #pragma once
 
 #include <string>
@@ -27,6 +31,8 @@ struct ResponseCheck {
   ResponseEstimate estimate;                  // from the gamma views
   ToolResult gamma, linear;                   // the two calibrations, measured (Measure)
   CornerNoise gamma_corners, linear_corners;  // their board corners against the truth
+  ToolResult known;                           // the gamma views with the true curve declared
+  CornerNoise known_corners;
 };
 
 // Renders OUT/data/board_gamma2.2 and OUT/data/board_linear_defocus unless their images are
