@@ -9,6 +9,7 @@
 #include <cstring>
 #include <limits>
 #include <opencv2/imgproc.hpp>
+#include <thread>
 
 #include "svms/base/thread_scratch.h"
 #include "svms/detect/canny.h"
@@ -201,8 +202,7 @@ struct SegmentScratch {
   // segments of each part of the chains.
   EdgeBandsScratch bands;
   std::vector<ReadNoiseTally> tallies;
-  std::vector<int> part_begin;
-  std::vector<std::vector<Segment>> part_segments;
+  std::vector<std::vector<Segment>> part_segments;  // by chunk of chains
 };
 SegmentScratch& Scratch() { return ThreadScratch<SegmentScratch>(); }
 
@@ -213,9 +213,11 @@ SegmentScratch& Scratch() { return ThreadScratch<SegmentScratch>(); }
 // neighbour test: with one, linking takes 0.34 ms of the detector benchmark's 640 x 480 frame
 // (4,300 chained pixels on a textured plate).
 // False when `past` (checked every 32 rows) said the deadline had passed: the chains are then
-// those of the rows before.
-template <typename Past>
-bool LinkChains(cv::Mat& edges, SegmentScratch* sc, const Past& past) {
+// those of the rows before. `publish(c)` is called once chain c - 1 is complete, with chains
+// 0 .. c - 1 final in sc->points and sc->chain_begin (for threads that fit them meanwhile,
+// which needs both vectors' capacity reserved beforehand so that neither moves).
+template <typename Past, typename Publish>
+bool LinkChains(cv::Mat& edges, SegmentScratch* sc, const Past& past, const Publish& publish) {
   std::vector<cv::Point>& points = sc->points;
   points.clear();
   sc->chain_begin.assign(1, 0);
@@ -278,6 +280,7 @@ bool LinkChains(cv::Mat& edges, SegmentScratch* sc, const Past& past) {
     points.insert(points.begin() + static_cast<std::ptrdiff_t>(begin), sc->backward.rbegin(),
                   sc->backward.rend());
     sc->chain_begin.push_back(static_cast<int>(points.size()));
+    publish(static_cast<int>(sc->chain_begin.size()) - 1);
   };
   // The second pass looks only at the rows where the first left a pixel (one with more than one
   // neighbour): the first pass only clears pixels and clears every start it follows, so no
@@ -563,39 +566,74 @@ bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
     if (!CannyFromDerivatives(*gx, *gy, low, high, true, &sc.canny, &sc.edges, deadline))
       return false;
   }
-  if (past() || !LinkChains(sc.edges, &sc, past)) return false;
-  const int chains = static_cast<int>(sc.chain_begin.size()) - 1;
+  if (past()) return false;
   if (parallel) {
-    // Parts of about equal numbers of chained pixels, each fitted on its own into its own
-    // list; the lists put end to end are the serial order.
-    const int parts = std::min(chains, 4 * pool->threads());
-    sc.part_begin.assign(1, 0);
-    const int64_t total = sc.chain_begin.back();
-    for (int c = 0, k = 1; k < parts; ++k) {
-      while (c < chains && static_cast<int64_t>(sc.chain_begin[c]) * parts < total * k) ++c;
-      sc.part_begin.push_back(std::max(c, sc.part_begin.back()));
-    }
-    sc.part_begin.push_back(chains);
-    if (sc.part_segments.size() < static_cast<size_t>(parts)) sc.part_segments.resize(parts);
-    std::atomic<bool> stopped{false};
-    pool->Run(parts, [&](int k) {
+    // Linking and fitting overlap: one thread links the chains and publishes each as it is
+    // complete, while the others (and the linker, once done) fit them in chunks of
+    // kChunkChains, each chunk into its own list; the lists put end to end are the serial
+    // order. The linking is serial (which chain takes a pixel depends on the order of the
+    // walks), and on textured frames it costs about half as much as the fits.
+    constexpr int kChunkChains = 16;
+    // No chain is shorter than 4 pixels and no pixel is in two: the vectors the fitting threads
+    // read while the linker appends are reserved to what the edge map can fill, so they do not
+    // move.
+    const int edge_pixels = cv::countNonZero(sc.edges);
+    sc.points.reserve(static_cast<size_t>(edge_pixels));
+    sc.chain_begin.reserve(static_cast<size_t>(edge_pixels) / 4 + 2);
+    const size_t max_chunks = static_cast<size_t>(edge_pixels) / 4 / kChunkChains + 1;
+    if (sc.part_segments.size() < max_chunks) sc.part_segments.resize(max_chunks);
+    cv::Point* const points = sc.points.data();  // FitChain may turn a closed chain in place
+    const int* const chain_begin = sc.chain_begin.data();
+    std::atomic<int> published{0}, next_chunk{0};
+    std::atomic<bool> linked{false}, stopped{false};
+    pool->Run(pool->threads(), [&](int part) {
+      if (part == 0) {
+        const bool complete = LinkChains(sc.edges, &sc, past, [&](int chains) {
+          published.store(chains, std::memory_order_release);
+        });
+        published.store(static_cast<int>(sc.chain_begin.size()) - 1, std::memory_order_release);
+        if (!complete) stopped = true;
+        linked.store(true, std::memory_order_release);
+      }
       // This thread's own buffers for the pieces (the chains are the caller's).
       SegmentScratch& mine = Scratch();
-      std::vector<Segment>& part = sc.part_segments[k];
-      part.clear();
-      for (int c = sc.part_begin[k]; c < sc.part_begin[k + 1]; ++c) {
-        if ((c - sc.part_begin[k]) % 64 == 63 && past()) {
-          stopped = true;
-          return;
+      for (int spins = 0;;) {
+        if (stopped.load(std::memory_order_relaxed)) return;
+        const int k = next_chunk.fetch_add(1, std::memory_order_relaxed);
+        const int lo = k * kChunkChains;
+        int hi = lo + kChunkChains;
+        // Wait for the chunk's chains.
+        for (;;) {
+          const bool done = linked.load(std::memory_order_acquire);
+          const int ready = published.load(std::memory_order_acquire);
+          if (ready >= hi) break;
+          if (done) {
+            hi = ready;
+            break;
+          }
+          if (++spins % 64 == 0) std::this_thread::yield();
         }
-        FitChain(sc.points.data() + sc.chain_begin[c], sc.chain_begin[c + 1] - sc.chain_begin[c], o,
-                 *gx, *gy, &mine.pieces, &mine.merged, &part);
+        if (lo >= hi || stopped.load(std::memory_order_relaxed)) return;
+        std::vector<Segment>& chunk = sc.part_segments[static_cast<size_t>(k)];
+        chunk.clear();
+        for (int c = lo; c < hi; ++c) {
+          if (c % 64 == 63 && past()) {
+            stopped = true;
+            return;
+          }
+          FitChain(points + chain_begin[c], chain_begin[c + 1] - chain_begin[c], o, *gx, *gy,
+                   &mine.pieces, &mine.merged, &chunk);
+        }
       }
     });
     if (stopped) return false;
-    for (int k = 0; k < parts; ++k)
-      out.insert(out.end(), sc.part_segments[k].begin(), sc.part_segments[k].end());
+    const int chains = static_cast<int>(sc.chain_begin.size()) - 1;
+    for (int k = 0; k * kChunkChains < chains; ++k)
+      out.insert(out.end(), sc.part_segments[static_cast<size_t>(k)].begin(),
+                 sc.part_segments[static_cast<size_t>(k)].end());
   } else {
+    if (!LinkChains(sc.edges, &sc, past, [](int) {})) return false;
+    const int chains = static_cast<int>(sc.chain_begin.size()) - 1;
     for (int c = 0; c < chains; ++c) {
       if (c % 64 == 63 && past()) return false;
       FitChain(sc.points.data() + sc.chain_begin[c], sc.chain_begin[c + 1] - sc.chain_begin[c], o,

@@ -112,9 +112,10 @@ std::vector<Segment> FindSegments(const cv::Mat& gray8, const SegmentOptions& op
 // interrupted; part-merged where the merge had not finished). True when every chain was
 // processed. Without a deadline the whole-image path runs (cv::spatialGradient, then Canny),
 // about 10 % faster.
-// With `pool` (2 threads or more) the edge map is computed in bands of rows (edge_bands.h) and
-// the chains are fitted in parts on its threads: the same segments in the same order, value
-// for value (the chains are still linked on the calling thread).
+// With `pool` (2 threads or more) the edge map is computed in bands of rows (edge_bands.h), and
+// the chains are fitted in chunks on its threads while one of them links them (the linking
+// itself stays on one thread: which chain takes a pixel depends on the walks' order): the same
+// segments in the same order, value for value.
 bool FindSegments(
     const cv::Mat& gray8, const SegmentOptions& options, cv::Mat* gradient_x, cv::Mat* gradient_y,
     std::vector<Segment>* segments,
