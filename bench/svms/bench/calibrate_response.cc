@@ -30,9 +30,11 @@ ResponseCheck RunResponseCheck(const CalibrateBenchmarkOptions& o, const Calibra
     return check;
   }
   check.rendered = true;
-  auto calibrate = [&](const std::string& subdir, const std::string& response,
-                       const std::string& name, CalibrateRunOutcome* out) {
-    CalibrateRunOptions ro = SvmsCalibrateOptions(o, data, subdir, subdir);
+  // `output`: the name of the run's camera model in OUT (each run its own).
+  auto calibrate = [&](const std::string& subdir, const std::string& output,
+                       const std::string& response, const std::string& name,
+                       CalibrateRunOutcome* out) {
+    CalibrateRunOptions ro = SvmsCalibrateOptions(o, data, subdir, output);
     ro.photometry.response = response;
     ro.quiet = true;
     ro.mrcal_inputs = false;
@@ -46,15 +48,15 @@ ResponseCheck RunResponseCheck(const CalibrateBenchmarkOptions& o, const Calibra
   };
   CalibrateRunOutcome gamma_out, linear_out;
   check.gamma =
-      calibrate(gamma_dir, "estimate",
+      calibrate(gamma_dir, gamma_dir, "estimate",
                 "svms calibrate --response estimate (gamma " + Fixed(kCheckedGamma, 1) + " camera)",
                 &gamma_out);
-  check.linear =
-      calibrate(linear_dir, "linear", "svms calibrate --response linear (its twin)", &linear_out);
+  check.linear = calibrate(linear_dir, linear_dir, "linear",
+                           "svms calibrate --response linear (its twin)", &linear_out);
   CalibrateRunOutcome known_out;
   const std::string true_curve = "gamma:" + Fixed(kCheckedGamma, 1);
   check.known =
-      calibrate(gamma_dir, true_curve,
+      calibrate(gamma_dir, gamma_dir + "_true_curve", true_curve,
                 "svms calibrate --response " + true_curve + " (the true curve)", &known_out);
   check.estimate = gamma_out.response;
   check.gamma_corners = MeasureCornerNoise(data.truth, check.gamma, gamma_out.views);

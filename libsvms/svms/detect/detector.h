@@ -145,8 +145,9 @@ struct DetectorOptions {
   // in bands of rows and the edge chains in parts (segments.h), the quad search by first side
   // (quads.h), steps 5-8 and 9-10 of each candidate quad as two parts, each part into a slot of
   // its own merged in the serial order. The detections are the same, to the last bit, as with
-  // one thread (unless a deadline passes). Images under 128 rows, the edge linking, the
-  // collinear merge and step 11 stay on the calling thread.
+  // one thread (unless a deadline passes). Images under 128 rows stay on the calling thread;
+  // the edge linking (which the chains' fits overlap), the collinear merge and step 11 run on
+  // one thread.
   // At most kMaxDetectorThreads (more are taken as that many).
   int threads = 1;
   // Steps 1-4 (edges, segments, quads) on the image averaged over decimate x decimate pixel

@@ -245,8 +245,10 @@ bool FindQuads(const std::vector<Segment>& segs, const QuadOptions& o, int width
   const double small = o.complete_below_px;
   const double cos_max_skew = std::cos(o.complete_max_skew_deg * M_PI / 180);
   // Each part's quads (i the smallest index of its cycle) and completed quads (i the first
-  // side), i in the part's range. A part stops starting new i once it alone holds max_quads:
-  // put together, the search keeps no further i past that count either (AppendQuadsUpToCap).
+  // side), i in the part's range. A part stops starting new i once it alone holds max_quads
+  // (its completed quads counting its quads, as the serial search counts them): put together,
+  // the search keeps no further i past that count either (AppendQuadsUpToCap). With one part
+  // this is the serial search itself.
   run([&](int part) {
     std::vector<Quad>& quads = sc.part_quads[part];
     std::vector<Quad>& completed = sc.part_completed[part];
@@ -278,7 +280,9 @@ bool FindQuads(const std::vector<Segment>& segs, const QuadOptions& o, int width
         }
       }
     }
-    for (int i = i0; i < i1 && small > 0 && static_cast<int>(completed.size()) < o.max_quads; ++i) {
+    for (int i = i0;
+         i < i1 && small > 0 && static_cast<int>(quads.size() + completed.size()) < o.max_quads;
+         ++i) {
       if (i % 256 == 255 && past()) {
         stopped = true;
         return;

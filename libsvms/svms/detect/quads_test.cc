@@ -185,7 +185,8 @@ TEST(Quads, OnlySmallThreeSidedChainsAreCompleted) {
 // The quad search on several threads (by first side, each part's quads put end to end) gives
 // the serial quads in the serial order, to the last bit, for 2, 3 and 7 threads: with the
 // search whole, and with max_quads cutting it within the 4-cycles and within step 4b's
-// completed quads (the serial search stops starting first sides at that count).
+// completed quads (the serial search stops starting first sides at that count), each capped
+// list checked against the whole one cut by that rule.
 TEST(Quads, SeveralThreadsFindTheSameQuadsInTheSameOrder) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(0, 1);
@@ -224,16 +225,30 @@ TEST(Quads, SeveralThreadsFindTheSameQuadsInTheSameOrder) {
   const int completed = static_cast<int>(serial.size()) - cycles;
   ASSERT_GT(cycles, 300);
   ASSERT_GT(completed, 40);
-  // Caps: none, within the 4-cycles, within the completed quads.
-  for (const int cap : {whole.max_quads, cycles / 2, cycles + completed / 2}) {
+  // What a cap leaves of the whole list, by the serial search's rule written out here: first
+  // sides in increasing order, a side's quads taken whole, no further first side once the list
+  // holds the cap; the completed quads after the 4-cycles, counting them.
+  const auto capped = [&](int cap) {
+    std::vector<Quad> out;
+    bool in_completed = false;
+    int current = -1;
+    size_t before = 0;
+    for (const Quad& q : serial) {
+      if (q.completed && !in_completed) in_completed = true, current = -1;
+      if (q.sides[0] != current) current = q.sides[0], before = out.size();
+      if (static_cast<int>(before) < cap) out.push_back(q);
+    }
+    return out;
+  };
+  // Caps: none, within the first part's 4-cycles (each part then stops on its own count),
+  // within the 4-cycles, within the completed quads.
+  for (const int cap : {whole.max_quads, cycles / 20, cycles / 2, cycles + completed / 2}) {
     QuadOptions o = whole;
     o.max_quads = cap;
     std::vector<Quad> one, several;
     ASSERT_TRUE(FindQuads(segs, o, 640, 480, &one));
-    if (cap < whole.max_quads) {
-      ASSERT_GE(static_cast<int>(one.size()), cap);
-      ASSERT_LT(one.size(), serial.size());
-    }
+    same(capped(cap), one, "cap " + std::to_string(cap) + ", one thread");
+    if (cap < whole.max_quads) ASSERT_LT(one.size(), serial.size());
     for (const int threads : {2, 3, 7}) {
       WorkerPool pool(threads);
       for (int frame = 0; frame < 2; ++frame) {  // the second on warmed-up buffers

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cassert>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -584,16 +585,31 @@ bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
     if (sc.part_segments.size() < max_chunks) sc.part_segments.resize(max_chunks);
     cv::Point* const points = sc.points.data();  // FitChain may turn a closed chain in place
     const int* const chain_begin = sc.chain_begin.data();
-    std::atomic<int> published{0}, next_chunk{0};
-    std::atomic<bool> linked{false}, stopped{false};
+    // The linker writes `published` once per chain: the fitters' claim counter and flags sit on
+    // cache lines of their own.
+    alignas(64) std::atomic<int> published{0};
+    alignas(64) std::atomic<int> next_chunk{0};
+    alignas(64) std::atomic<bool> linked{false};
+    std::atomic<bool> stopped{false};
     pool->Run(pool->threads(), [&](int part) {
       if (part == 0) {
+        // `linked` is set however the linking ends (an exception included: the pool rethrows
+        // it once every part has returned), so that no fitter waits for ever.
+        struct Done {
+          std::atomic<bool>* stopped;
+          std::atomic<bool>* linked;
+          bool returned = false;
+          ~Done() {
+            if (!returned) stopped->store(true);
+            linked->store(true, std::memory_order_release);
+          }
+        } done{&stopped, &linked};
         const bool complete = LinkChains(sc.edges, &sc, past, [&](int chains) {
           published.store(chains, std::memory_order_release);
         });
         published.store(static_cast<int>(sc.chain_begin.size()) - 1, std::memory_order_release);
         if (!complete) stopped = true;
-        linked.store(true, std::memory_order_release);
+        done.returned = true;
       }
       // This thread's own buffers for the pieces (the chains are the caller's).
       SegmentScratch& mine = Scratch();
@@ -611,7 +627,10 @@ bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
             hi = ready;
             break;
           }
+          // Yielding now and then, so that a machine with more threads than cores lets the
+          // linker run.
           if (++spins % 64 == 0) std::this_thread::yield();
+          CpuRelax();
         }
         if (lo >= hi || stopped.load(std::memory_order_relaxed)) return;
         std::vector<Segment>& chunk = sc.part_segments[static_cast<size_t>(k)];
@@ -628,6 +647,8 @@ bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
     });
     if (stopped) return false;
     const int chains = static_cast<int>(sc.chain_begin.size()) - 1;
+    // The reservation above is what kept the fitters' pointers valid.
+    assert(sc.points.data() == points && sc.chain_begin.data() == chain_begin);
     for (int k = 0; k * kChunkChains < chains; ++k)
       out.insert(out.end(), sc.part_segments[static_cast<size_t>(k)].begin(),
                  sc.part_segments[static_cast<size_t>(k)].end());

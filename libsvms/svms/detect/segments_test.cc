@@ -518,11 +518,11 @@ TEST(Segments, APassedDeadlineStopsTheEdgeChainsAndTheQuadSearch) {
   EXPECT_LT(some.size(), quads.size());
 }
 
-// Steps 1-3 on several threads (the edge map in bands of rows, the chains fitted in parts,
-// each part's segments put end to end) give the serial segments in the serial order, to the
-// last bit, for 2, 3 and 7 threads; the order matters (the collinear merge joins in it). The
-// image has closed chains across the bands' borders, junctions, long lines through every band
-// and thousands of short chains.
+// Steps 1-3 on several threads (the edge map in bands of rows, the chains fitted in chunks
+// while they are linked, each chunk's segments put end to end) give the serial segments in the
+// serial order, to the last bit, for 2, 3 and 7 threads, and from inside a task of the pool; the
+// order matters (the collinear merge joins in it). The image has closed chains across the bands'
+// borders, junctions, long lines through every band and thousands of short chains.
 TEST(Segments, SeveralThreadsFindTheSameSegmentsInTheSameOrder) {
   // Clutter: 2,000 random grey quadrilaterals of 4-40 px over 60 squares (the detector
   // benchmark's busy frame, smaller), thin lines and rings through every strip.
@@ -554,19 +554,32 @@ TEST(Segments, SeveralThreadsFindTheSameSegmentsInTheSameOrder) {
   std::vector<Segment> serial, parallel;
   ASSERT_TRUE(FindSegments(img, SegmentOptions{}, &gx, &gy, &serial));
   ASSERT_GT(serial.size(), 2000u);
+  const auto same = [&](const std::string& what) {
+    ASSERT_EQ(parallel.size(), serial.size()) << what;
+    for (size_t i = 0; i < serial.size(); ++i) {
+      ASSERT_EQ(parallel[i].a, serial[i].a) << what << ", segment " << i;
+      ASSERT_EQ(parallel[i].b, serial[i].b) << what << ", segment " << i;
+      ASSERT_EQ(parallel[i].line, serial[i].line) << what << ", segment " << i;
+      ASSERT_EQ(parallel[i].contrast, serial[i].contrast) << what << ", segment " << i;
+    }
+  };
   for (const int threads : {2, 3, 7}) {
     WorkerPool pool(threads);
     for (int frame = 0; frame < 2; ++frame) {  // the second on warmed-up buffers
       ASSERT_TRUE(FindSegments(img, SegmentOptions{}, &gx, &gy, &parallel,
                                std::chrono::steady_clock::time_point::max(), &pool));
-      ASSERT_EQ(parallel.size(), serial.size()) << threads << " threads";
-      for (size_t i = 0; i < serial.size(); ++i) {
-        ASSERT_EQ(parallel[i].a, serial[i].a) << threads << " threads, segment " << i;
-        ASSERT_EQ(parallel[i].b, serial[i].b) << threads << " threads, segment " << i;
-        ASSERT_EQ(parallel[i].line, serial[i].line) << threads << " threads, segment " << i;
-        ASSERT_EQ(parallel[i].contrast, serial[i].contrast) << threads << " threads, segment " << i;
-      }
+      same(std::to_string(threads) + " threads");
     }
+    // From inside one of the pool's own tasks the pool is busy, and every part of the frame
+    // runs on that thread in order: the linking part first, then the fits that wait for it.
+    bool nested_ok = false;
+    pool.Run(2, [&](int part) {
+      if (part == 0)
+        nested_ok = FindSegments(img, SegmentOptions{}, &gx, &gy, &parallel,
+                                 std::chrono::steady_clock::time_point::max(), &pool);
+    });
+    ASSERT_TRUE(nested_ok);
+    same(std::to_string(threads) + " threads, called from the pool's own task");
   }
 }
 

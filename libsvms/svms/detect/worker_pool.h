@@ -1,8 +1,10 @@
 // A small fixed set of threads that share the parts of one job with the thread that asks.
 //
-// The detector splits one frame into independent parts (bands of rows of the edge map, ranges
-// of edge chains, candidate quads) whose results go to slots of their own and are put
-// together in a fixed order afterwards: which thread ran which part never shows in a result.
+// The detector splits one frame into parts (bands of rows of the edge map, chunks of edge
+// chains, candidate quads) whose results go to slots of their own and are put together in a
+// fixed order afterwards: which thread ran which part never shows in a result. A part may wait
+// for an earlier one (the chains' fits for the linking, a quad's pose for its corners): parts
+// are handed out in order, so the one waited for has always been started.
 // The pool only hands the parts out. Its threads live as long as the pool, so whatever they
 // keep per thread (the detector's thread_local scratch buffers) is grown once and reused, and
 // a job allocates nothing on the heap. An idle worker watches for the next job for half a
