@@ -411,7 +411,8 @@ int WriteSpeedReport(const SpeedBenchmarkOptions& o, const SpeedRun& run) {
     const std::string measured =
         big.empty() ? std::string("no images")
                     : Cell(Median(big), 2) + "x over " + std::to_string(big.size()) + " images; " +
-                          std::to_string(differ) + " images with other detection counts";
+                          std::to_string(differ) +
+                          " images of all four classes with other detection counts";
     if (o.quick || big.empty())
       targets.NotJudged(what, o.quick ? why_quick : measured);
     else
