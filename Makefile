@@ -28,34 +28,37 @@ test: build
 # with libFuzzer.
 #   make test-sanitize  what .ci/run runs after `make test`: test-asan, then fuzz
 #   make test-asan      the unit tests (ctest label "unit") under ASan + UBSan, less those in
-#                       SANITIZE_SKIP: each repeats, many times, code paths that faster tests
-#                       run under ASan too, and costs from half a minute to 9 min there (CI has
-#                       60 min for all of .ci/run). They run in `make test`. Pure integer decoding: every ID
-#                       with two flipped bits, samples of four flips, every five-flip pattern of
-#                       the strong subset. Monte Carlo: the rendered NEES statistics (48 and
-#                       12 renders, and the approach's fused NEES against its measure), the
-#                       corners' joint covariance (150 noisy squares), the small quad's sigmas
-#                       (300), Student's widening (400), correlated edge points and JPEG
-#                       blocks (120 squares each), the small blurred marker's inward bias,
-#                       the survey's repeated corner error and calibration uncertainty (30
-#                       surveys each), the rig survey's Monte Carlo runs (300 solves), the
-#                       lone distant marker's fused pose. Renders: the two-camera rig
-#                       (CapiRig.ProcessRigFrameIsTheRigPoseEstimators runs its paths under
-#                       ASan), the shadow edge along a side
-#                       (the sun sweep's views), the threads' 16-marker bit-for-bit render and the
-#                       timed edge-map deadline on 1024 x 1024 texture (WorkerPool, EdgeBands and
-#                       the dual marker's 2-thread comparison run under ASan). And two whose
-#                       paths other tests run under ASan: the rendered approach's frames
-#                       (PoseEstimator.TheLatencyOfARawFrame... and TwoLayoutsShare... fuse
-#                       frames of the same approach), the small rendered survey (survey_test's
-#                       surveys run the solver; the detector runs in its own tests).
+#                       SANITIZE_SKIP: each repeats, many times, code paths that faster tests run
+#                       under ASan too, and costs from half a minute to 9 min there (CI has 60 min
+#                       for all of .ci/run). They run in `make test`. Pure integer decoding: every
+#                       ID with two flipped bits, samples of four flips, every five-flip pattern of
+#                       the strong subset, the family's statistics (a million random words). Monte
+#                       Carlo: the response estimate's shot-noise bias (16 rendered images of
+#                       squares; the other EstimateGammaFromEdges tests run its path), the rendered
+#                       NEES statistics (48 and 12 renders, and the approach's fused NEES against
+#                       its measure), the corners' joint covariance (150 noisy squares), the small
+#                       quad's sigmas (300), Student's widening (400), correlated edge points and
+#                       JPEG blocks (120 squares each), the small blurred marker's inward bias, the
+#                       survey's repeated corner error and calibration uncertainty (30 surveys
+#                       each), the rig survey's Monte Carlo runs (300 solves), the lone distant
+#                       marker's fused pose. Renders: the fine grid's reference (a camera 4 times
+#                       finer cast whole; every render casts the fine grid), the two-camera rig
+#                       (CapiRig.ProcessRigFrameIsTheRigPoseEstimators runs its paths under ASan),
+#                       the shadow edge along a side (the sun sweep's views), the threads' 16-marker
+#                       bit-for-bit render and the timed edge-map deadline on 1024 x 1024 texture
+#                       (WorkerPool, EdgeBands and the dual marker's 2-thread comparison run under
+#                       ASan). And two whose paths other tests run under ASan: the rendered
+#                       approach's frames (PoseEstimator.TheLatencyOfARawFrame... and
+#                       TwoLayoutsShare... fuse frames of the same approach), the small rendered
+#                       survey (survey_test's surveys run the solver; the detector runs in its own
+#                       tests).
 #   make fuzz           each libFuzzer target of fuzz/ for FUZZ_SECONDS from its seeds
 # Stack traces need file and line only: line tables instead of full debug info (of Eigen, Ceres
 # and OpenCV templates) keep the build shorter.
 SANITIZE_BUILD ?= build-sanitize
 FUZZ_SECONDS ?= 15
 SANITIZE_ENV = LSAN_OPTIONS=suppressions=$(CURDIR)/cmake/lsan.supp UBSAN_OPTIONS=print_stacktrace=1
-SANITIZE_SKIP = EveryIdTwoFlips|SampleFourFlips|StrongSubsetCorrectsEveryFiveFlipPattern|NeesIsNearSix|FusedNeesStaysWithinAFactorOfTwo|RefineCorners\.TheCornersJointCovariance|ASmallQuadsCornerSigmasAreHonest|WidenedByStudentsFactor|CorrelatedEdgePointsWidenTheCornerSigmas|ErrorsSharedWithinCodecBlocks|InwardBiasIsInItsCornerSigmas|Survey\.RepeatedCornerErrorIsPropagated|Survey\.CalibrationUncertaintyIsPropagated|SurveyRig.*MonteCarlo|ALoneDistantMarkersFusedPose|RenderedTwoCameraRig|AShadowEdgeAlongASideDoesNotMoveIt|SeveralThreadsGiveTheSameDetectionsToTheBit|ADeadlinePassedBeforeTheEdgeMapEnds|RenderedApproachFramesMatchTheTruthWithinTheirSigmas|SurveyRendered\.SmallRenderedScene
+SANITIZE_SKIP = EveryIdTwoFlips|SampleFourFlips|StrongSubsetCorrectsEveryFiveFlipPattern|NeesIsNearSix|FusedNeesStaysWithinAFactorOfTwo|RefineCorners\.TheCornersJointCovariance|ASmallQuadsCornerSigmasAreHonest|WidenedByStudentsFactor|CorrelatedEdgePointsWidenTheCornerSigmas|ErrorsSharedWithinCodecBlocks|InwardBiasIsInItsCornerSigmas|Survey\.RepeatedCornerErrorIsPropagated|Survey\.CalibrationUncertaintyIsPropagated|SurveyRig.*MonteCarlo|ALoneDistantMarkersFusedPose|RenderedTwoCameraRig|AShadowEdgeAlongASideDoesNotMoveIt|SeveralThreadsGiveTheSameDetectionsToTheBit|ADeadlinePassedBeforeTheEdgeMapEnds|RenderedApproachFramesMatchTheTruthWithinTheirSigmas|SurveyRendered\.SmallRenderedScene|CodecStats\.MeasuresTheFamily|ShotNoiseDoesNotBiasTheEstimate|TheFineGridIsRenderedWhereTheLightChangesWithinAPixel
 SANITIZE_UNIT = $(SANITIZE_ENV) ctest --test-dir $(SANITIZE_BUILD) -L unit -E "$(SANITIZE_SKIP)" \
   --output-on-failure -j $(JOBS)
 SANITIZE_FUZZ = $(SANITIZE_ENV) scripts/run_fuzz $(SANITIZE_BUILD) $(FUZZ_SECONDS)
