@@ -49,20 +49,13 @@ std::unordered_set<const svms_estimator*>& Live() {
 
 thread_local std::string last_error;
 
-svms_status Fail(svms_status s, const std::string& message) {
+// Sets svms_last_error() to the pieces (C or std::strings) joined, and returns s. The pieces
+// are joined inside the try, so the wording may run out of memory: the status still tells.
+template <typename... Pieces>
+svms_status Fail(svms_status s, const Pieces&... pieces) noexcept {
   try {
-    last_error = message;
-  } catch (...) {
-    // Out of memory while saying why: the status still tells.
-  }
-  return s;
-}
-
-// The same from pieces joined inside the try: usable where building the message may itself
-// run out of memory.
-svms_status Fail(svms_status s, const char* a, const char* b, const char* c = "") noexcept {
-  try {
-    last_error.assign(a).append(b).append(c);
+    last_error.clear();
+    (last_error.append(pieces), ...);
   } catch (...) {
   }
   return s;
@@ -82,6 +75,62 @@ svms_status Guarded(const char* fn, Body&& body) noexcept {
   } catch (...) {
     return Fail(SVMS_ERR_INTERNAL, fn, ": unknown failure");
   }
+}
+
+// What the registry knows of each kind of handle: its live handles and the function that
+// creates them (named in errors).
+template <typename Handle>
+struct HandleKind;
+template <>
+struct HandleKind<svms_estimator> {
+  static std::unordered_set<const svms_estimator*>& live() { return Live(); }
+  static constexpr const char* kCreator = "svms_create";
+};
+template <>
+struct HandleKind<svms_rig_estimator> {
+  static std::unordered_set<const svms_rig_estimator*>& live() { return LiveRigs(); }
+  static constexpr const char* kCreator = "svms_create_rig";
+};
+
+// Whether `e` came from its create function and has not been destroyed; the caller holds
+// registry_mutex. Otherwise SVMS_ERR_BAD_HANDLE, the call named by `fn`.
+template <typename Handle>
+svms_status CheckLiveLocked(const char* fn, const Handle* e) {
+  if (HandleKind<Handle>::live().count(e) && e->magic == Handle::kMagic && e->impl) return SVMS_OK;
+  return Fail(SVMS_ERR_BAD_HANDLE, fn, ": the estimator is not one from ",
+              HandleKind<Handle>::kCreator, ", or was destroyed");
+}
+
+// A handle one call holds: its busy flag, set by ClaimHandle, cleared when the claim ends.
+template <typename Handle>
+struct HandleClaim {
+  Handle* e = nullptr;
+  HandleClaim() = default;
+  HandleClaim(const HandleClaim&) = delete;
+  HandleClaim& operator=(const HandleClaim&) = delete;
+  ~HandleClaim() {
+    if (e) e->busy.store(false);
+  }
+};
+
+// Checks `e` and claims it for this call (`forever`: for its destroy, which also removes it
+// from the live handles), both under registry_mutex, the lock every check and claim takes: a
+// destroy can never free a handle between another call's check and its use, nor one a call is
+// using. SVMS_ERR_BAD_HANDLE (see CheckLiveLocked) or SVMS_ERR_BUSY for a handle another thread
+// is using, `fn` naming the call. No allocation but in wording an error.
+template <typename Handle>
+svms_status ClaimHandle(const char* fn, Handle* e, HandleClaim<Handle>* claim,
+                        bool forever = false) {
+  std::lock_guard<std::mutex> lock(registry_mutex);
+  if (const svms_status s = CheckLiveLocked(fn, e); s != SVMS_OK) return s;
+  bool expected = false;
+  if (!e->busy.compare_exchange_strong(expected, true))
+    return Fail(SVMS_ERR_BUSY, fn, ": the estimator is in use by another thread");
+  if (forever)
+    HandleKind<Handle>::live().erase(e);
+  else
+    claim->e = e;
+  return SVMS_OK;
 }
 
 // A pose as rvec[3], tvec[3] and quaternion[4] ([w, x, y, z]).
@@ -175,23 +224,9 @@ svms_status Process(const char* fn, svms_estimator* e, const void* pixels, int w
     *info = svms_frame_info{};
     info->timestamp = timestamp;
   }
-  // The handle is checked and claimed under the registry's lock, the lock svms_destroy takes
-  // to check and claim it too: a destroy can never free it between this check and its use.
-  {
-    std::lock_guard<std::mutex> lock(registry_mutex);
-    if (!Live().count(e) || e->magic != svms_estimator::kMagic || !e->impl)
-      return Fail(
-          SVMS_ERR_BAD_HANDLE,
-          std::string(fn) + ": the estimator is not one from svms_create, or was destroyed");
-    bool expected = false;
-    if (!e->busy.compare_exchange_strong(expected, true))
-      return Fail(SVMS_ERR_BUSY, std::string(fn) + ": the estimator is in use by another thread");
-  }
   // From here on this call holds the handle: every return releases it.
-  struct Release {
-    svms_estimator* e;
-    ~Release() { e->busy.store(false); }
-  } release{e};
+  HandleClaim<svms_estimator> claim;
+  if (const svms_status s = ClaimHandle(fn, e, &claim); s != SVMS_OK) return s;
   // Until this frame's poses are in, the last ones are no longer this handle's last frame
   // (svms_last_bias_factor must not give them after a call that failed).
   e->scratch->pose.valid = false;
@@ -234,29 +269,16 @@ svms_status Process(const char* fn, svms_estimator* e, const void* pixels, int w
 }
 
 // svms_last_bias_factor and svms_last_rig_bias_factor: the handle checked and claimed as
-// Process claims it (under the registry's lock, then its busy flag), the last frame's result
-// of layout `object` copied out.
+// Process claims it, the last frame's result of layout `object` copied out.
 template <typename Handle>
-svms_status LastBiasFactor(const char* fn, Handle* e, const std::unordered_set<const Handle*>& live,
-                           int object, double* out, int capacity_columns, int* columns) {
+svms_status LastBiasFactor(const char* fn, Handle* e, int object, double* out, int capacity_columns,
+                           int* columns) {
   if (!e || !columns)
     return Fail(SVMS_ERR_NULL_ARGUMENT,
                 std::string(fn) + ": " + (!e ? "estimator" : "columns") + " is NULL");
   *columns = 0;
-  {
-    std::lock_guard<std::mutex> lock(registry_mutex);
-    if (!live.count(e) || e->magic != Handle::kMagic || !e->impl)
-      return Fail(SVMS_ERR_BAD_HANDLE,
-                  std::string(fn) +
-                      ": the estimator is not one from its create function, or was destroyed");
-    bool expected = false;
-    if (!e->busy.compare_exchange_strong(expected, true))
-      return Fail(SVMS_ERR_BUSY, std::string(fn) + ": the estimator is in use by another thread");
-  }
-  struct Release {
-    Handle* e;
-    ~Release() { e->busy.store(false); }
-  } release{e};
+  HandleClaim<Handle> claim;
+  if (const svms_status s = ClaimHandle(fn, e, &claim); s != SVMS_OK) return s;
   if (capacity_columns < 0)
     return Fail(SVMS_ERR_INVALID_ARGUMENT, std::string(fn) + ": capacity_columns is " +
                                                std::to_string(capacity_columns) +
@@ -383,9 +405,7 @@ svms_status svms_layout_count(const svms_estimator* e, int* n_layouts) {
                                               (!e ? "estimator" : "n_layouts") + " is NULL");
     *n_layouts = 0;
     std::lock_guard<std::mutex> lock(registry_mutex);
-    if (!Live().count(e) || e->magic != svms_estimator::kMagic || !e->impl)
-      return Fail(SVMS_ERR_BAD_HANDLE,
-                  "svms_layout_count: the estimator is not one from svms_create, or was destroyed");
+    if (const svms_status s = CheckLiveLocked("svms_layout_count", e); s != SVMS_OK) return s;
     *n_layouts = static_cast<int>(e->impl->layouts().size());
     return SVMS_OK;
   });
@@ -428,33 +448,26 @@ svms_status svms_process_frame_multi_u16(svms_estimator* e, const uint16_t* pixe
 svms_status svms_last_bias_factor(svms_estimator* e, int object, double* out, int capacity_columns,
                                   int* columns) {
   return Guarded("svms_last_bias_factor", [&]() -> svms_status {
-    return LastBiasFactor<svms_estimator>("svms_last_bias_factor", e, Live(), object, out,
-                                          capacity_columns, columns);
+    return LastBiasFactor<svms_estimator>("svms_last_bias_factor", e, object, out, capacity_columns,
+                                          columns);
   });
 }
 
 svms_status svms_last_rig_bias_factor(svms_rig_estimator* e, int object, double* out,
                                       int capacity_columns, int* columns) {
   return Guarded("svms_last_rig_bias_factor", [&]() -> svms_status {
-    return LastBiasFactor<svms_rig_estimator>("svms_last_rig_bias_factor", e, LiveRigs(), object,
-                                              out, capacity_columns, columns);
+    return LastBiasFactor<svms_rig_estimator>("svms_last_rig_bias_factor", e, object, out,
+                                              capacity_columns, columns);
   });
 }
 
 svms_status svms_destroy(svms_estimator* e) {
   return Guarded("svms_destroy", [&]() -> svms_status {
     if (!e) return SVMS_OK;
-    {
-      // Checked and claimed under the lock Process takes: a call in progress keeps its handle.
-      std::lock_guard<std::mutex> lock(registry_mutex);
-      if (!Live().count(e))
-        return Fail(SVMS_ERR_BAD_HANDLE,
-                    "svms_destroy: the estimator is not one from svms_create, or was destroyed");
-      bool expected = false;
-      if (!e->busy.compare_exchange_strong(expected, true))
-        return Fail(SVMS_ERR_BUSY, "svms_destroy: the estimator is in use by another thread");
-      Live().erase(e);
-    }
+    // Claimed for good: a call in progress keeps its handle, and no later call gets it.
+    if (const svms_status s = ClaimHandle<svms_estimator>("svms_destroy", e, nullptr, true);
+        s != SVMS_OK)
+      return s;
     // Free everything but the shell (see the header): the address is never handed out again.
     e->impl.reset();
     delete e->scratch;
@@ -518,10 +531,7 @@ svms_status svms_rig_camera_count(const svms_rig_estimator* e, int* n_cameras) {
                                               (!e ? "estimator" : "n_cameras") + " is NULL");
     *n_cameras = 0;
     std::lock_guard<std::mutex> lock(registry_mutex);
-    if (!LiveRigs().count(e) || e->magic != svms_rig_estimator::kMagic || !e->impl)
-      return Fail(SVMS_ERR_BAD_HANDLE,
-                  "svms_rig_camera_count: the estimator is not one from svms_create_rig, or was "
-                  "destroyed");
+    if (const svms_status s = CheckLiveLocked("svms_rig_camera_count", e); s != SVMS_OK) return s;
     *n_cameras = static_cast<int>(e->impl->num_cameras());
     return SVMS_OK;
   });
@@ -540,19 +550,8 @@ svms_status svms_process_rig_frame(svms_rig_estimator* e, const svms_rig_frame* 
                                               " is NULL");
     *out = svms_pose{};
     out->timestamp = timestamp;
-    {
-      std::lock_guard<std::mutex> lock(registry_mutex);
-      if (!LiveRigs().count(e) || e->magic != svms_rig_estimator::kMagic || !e->impl)
-        return Fail(SVMS_ERR_BAD_HANDLE,
-                    fn + ": the estimator is not one from svms_create_rig, or was destroyed");
-      bool expected = false;
-      if (!e->busy.compare_exchange_strong(expected, true))
-        return Fail(SVMS_ERR_BUSY, fn + ": the estimator is in use by another thread");
-    }
-    struct Release {
-      svms_rig_estimator* e;
-      ~Release() { e->busy.store(false); }
-    } release{e};
+    HandleClaim<svms_rig_estimator> claim;
+    if (const svms_status s = ClaimHandle(fn.c_str(), e, &claim); s != SVMS_OK) return s;
     e->scratch->pose.valid = false;  // as in Process
     for (svms::ObjectPose& p : e->scratch->more_poses) p.valid = false;
     const int cameras = static_cast<int>(e->impl->num_cameras());
@@ -598,17 +597,9 @@ svms_status svms_process_rig_frame(svms_rig_estimator* e, const svms_rig_frame* 
 svms_status svms_destroy_rig(svms_rig_estimator* e) {
   return Guarded("svms_destroy_rig", [&]() -> svms_status {
     if (!e) return SVMS_OK;
-    {
-      std::lock_guard<std::mutex> lock(registry_mutex);
-      if (!LiveRigs().count(e))
-        return Fail(SVMS_ERR_BAD_HANDLE,
-                    "svms_destroy_rig: the estimator is not one from svms_create_rig, or was "
-                    "destroyed");
-      bool expected = false;
-      if (!e->busy.compare_exchange_strong(expected, true))
-        return Fail(SVMS_ERR_BUSY, "svms_destroy_rig: the estimator is in use by another thread");
-      LiveRigs().erase(e);
-    }
+    if (const svms_status s = ClaimHandle<svms_rig_estimator>("svms_destroy_rig", e, nullptr, true);
+        s != SVMS_OK)
+      return s;
     e->impl.reset();
     delete e->scratch;
     e->scratch = nullptr;

@@ -5,14 +5,20 @@
 // What it checks (the C API's promise: no allocation at all after the first frames): after
 // warm-up on a fixture frame, 8-bit and 16-bit, every svms_process_frame (and
 // svms_last_bias_factor after it) makes no heap allocation at all; nor does
-// svms_process_frame_multi with two layouts on the two-object frame. And, with every allocation
+// svms_process_frame_multi with two layouts on the two-object frame, nor svms_process_rig_frame
+// (and svms_last_rig_bias_factor) on a rig of two cameras, with both frames and with one. The
+// rig's two cameras are the fixture's camera at the same place (a rig file written here), so
+// that both see the fixture's frame. And, with every allocation
 // failing, an entry point that has to word an error returns a status instead of letting
 // std::bad_alloc cross into C (which would end this program).
+#include <unistd.h>
+
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <string>
 #include <vector>
 
 #include "svms/svms.h"
@@ -181,6 +187,68 @@ int main(int argc, char** argv) {
   }
   svms_destroy(e);
 
+  // A rig of two cameras, both the fixture's camera at the rig's origin, the first with an
+  // extrinsics covariance (its term in the pose's covariance, and a bias factor to copy out).
+  std::ifstream(dir + "/frame_11.raw", std::ios::binary)
+      .read(reinterpret_cast<char*>(frame.data()), frame.size());
+  char rig_dir[] = "/tmp/svms_capi_alloc_test.XXXXXX";
+  if (!mkdtemp(rig_dir)) {
+    std::perror("mkdtemp");
+    return 1;
+  }
+  const std::string rig_path = std::string(rig_dir) + "/two.rig";
+  {
+    char* cwd = getcwd(nullptr, 0);
+    const std::string model = dir.front() == '/'
+                                  ? dir + "/cal.cameramodel"
+                                  : std::string(cwd) + "/" + dir + "/cal.cameramodel";
+    std::free(cwd);
+    std::ofstream(rig_path)
+        << R"({"type": "svms.rig", "name": "alloc", "cameras": [{"name": "a", "cameramodel": ")"
+        << model << R"(", "rig_from_cam": {"rvec": [0,0,0], "tvec": [0,0,0]}, "covariance": )"
+        << R"([[1e-8,0,0,0,0,0],[0,1e-8,0,0,0,0],[0,0,1e-8,0,0,0],[0,0,0,1e-8,0,0],)"
+        << R"([0,0,0,0,1e-8,0],[0,0,0,0,0,1e-8]]}, {"name": "b", "cameramodel": ")" << model
+        << R"(", "rig_from_cam": {"rvec": [0,0,0], "tvec": [0,0,0]}}]})";
+  }
+  svms_rig_estimator* rig = nullptr;
+  const svms_status created = svms_create_rig(rig_path.c_str(), module.c_str(), nullptr, &rig);
+  std::remove(rig_path.c_str());
+  rmdir(rig_dir);
+  if (created != SVMS_OK) {
+    std::fprintf(stderr, "svms_create_rig: %s\n", svms_last_error());
+    return 1;
+  }
+  const svms_rig_frame both[2] = {{frame.data(), 1024, 1024, 1024},
+                                  {frame.data(), 1024, 1024, 1024}};
+  const svms_rig_frame second_only[2] = {{nullptr, 0, 0, 0}, both[1]};
+  auto process_rig = [&](int i) {
+    return svms_process_rig_frame(rig, i % 3 == 2 ? second_only : both, 2, i, &pose);
+  };
+  for (int i = 0; i < 6; ++i) process_rig(i);
+  for (int i = 0; i < 21; ++i) {
+    allocations = 0;
+    frees = 0;
+    counting = true;
+    const svms_status s = process_rig(i);
+    double factor[6 * 64];
+    int columns = 0;
+    const svms_status sf = svms_last_rig_bias_factor(rig, 0, factor, 64, &columns);
+    counting = false;
+    if (s != SVMS_OK || !pose.valid ||
+        (i % 3 != 2 && !(pose.flags & SVMS_FLAG_EXTRINSICS_IN_COVARIANCE))) {
+      std::fprintf(stderr, "rig, frame %d: %s %s\n", i, svms_status_string(s), svms_last_error());
+      return 1;
+    }
+    if (sf != SVMS_OK || columns <= 0) {
+      std::fprintf(stderr, "rig, frame %d: svms_last_rig_bias_factor: %s, %d columns: %s\n", i,
+                   svms_status_string(sf), columns, svms_last_error());
+      return 1;
+    }
+    per_frame.push_back(allocations.load());
+    unfreed.push_back(allocations.load() - frees.load());
+  }
+  svms_destroy_rig(rig);
+
   long lo = per_frame[0], hi = per_frame[0], leaked = 0;
   for (size_t i = 0; i < per_frame.size(); ++i) {
     lo = std::min(lo, per_frame[i]);
@@ -189,8 +257,8 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "svms_capi_alloc_test: %ld-%ld heap allocations per frame after warm-up (8- and 16-bit, one "
-      "layout and two), %ld not freed over 40 frames\n",
-      lo, hi, leaked);
+      "layout and two, a rig of two cameras), %ld not freed over %zu frames\n",
+      lo, hi, leaked, per_frame.size());
   int failed = 0;
   if (leaked != 0) std::fprintf(stderr, "FAIL: %ld allocations not freed\n", leaked), failed = 1;
   if (hi > 0) std::fprintf(stderr, "FAIL: up to %ld heap allocations per frame\n", hi), failed = 1;

@@ -350,8 +350,9 @@ bool Whitening(Block* b, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
   return true;
 }
 
-// A fresh result in *out that keeps the capacity of *out's vectors and message.
-void ResetResult(ObjectPose* out) {
+}  // namespace
+
+void ResetObjectPose(ObjectPose* out) {
   std::vector<int> ids_used = std::move(out->ids_used), ids_rejected = std::move(out->ids_rejected);
   std::vector<int> cameras_used = std::move(out->cameras_used),
                    cameras_rejected = std::move(out->cameras_rejected);
@@ -372,6 +373,8 @@ void ResetResult(ObjectPose* out) {
   result.message = std::move(message);
   result.message.clear();
 }
+
+namespace {
 
 // 1. Start: the per-marker candidate with the least robust cost over all markers, into (*R,
 // *t). With several markers, one flagged ambiguous offers both its planar poses (its kept one
@@ -974,7 +977,7 @@ namespace {
 template <typename CameraOf>
 void Solve(const std::vector<View>& views, const std::vector<MarkerObservation>& obs,
            CameraOf camera_of, const ObjectPoseOptions& o, ObjectPose* out) {
-  ResetResult(out);
+  ResetObjectPose(out);
   ObjectPose& result = *out;
   result.markers_seen = static_cast<int>(obs.size());
   if (obs.empty()) {
@@ -1052,7 +1055,7 @@ void SolveRigObjectPose(const std::vector<RigCameraView>& cameras,
   for (size_t i = 0; i < obs.size(); ++i) {
     if (obs[i].camera < 0 || obs[i].camera >= static_cast<int>(cameras.size()) ||
         !cameras[obs[i].camera].camera) {
-      ResetResult(out);
+      ResetObjectPose(out);
       out->markers_seen = static_cast<int>(obs.size());
       out->message = "observation " + std::to_string(i) + " names camera " +
                      std::to_string(obs[i].camera) + "; expected one of the rig's " +

@@ -260,6 +260,10 @@ double TipPixelSigma(const ObjectPoseOptions& options, const MarkerObservation& 
 bool ObjectPoseFromMarker(const MarkerObservation& m, bool with_layout, Pose* cam_from_object,
                           PoseCovariance* covariance);
 
+// Makes *pose a fresh ObjectPose{} while its vectors and message keep their capacity: a result
+// reused frame after frame allocates nothing once grown, even across frames with no pose.
+void ResetObjectPose(ObjectPose* pose);
+
 // Solves cam_from_object. Returns an invalid pose with a message when there is nothing to fit
 // (no observation, the camera cannot project, a singular problem).
 ObjectPose SolveObjectPose(const CameraModel& camera, const std::vector<MarkerObservation>& obs,

@@ -1004,7 +1004,9 @@ TEST(Detector, ASideInLineWithABackgroundEdgeStillClosesItsSquare) {
               side = side || (f - p0).norm() < 3;
             }
         joined_views += joined;
-        if (joined) EXPECT_TRUE(side);
+        if (joined) {
+          EXPECT_TRUE(side);
+        }
         for (const int decimate : {1, 2}) {
           DetectorOptions o;
           o.decimate = decimate;

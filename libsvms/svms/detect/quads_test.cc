@@ -248,7 +248,9 @@ TEST(Quads, SeveralThreadsFindTheSameQuadsInTheSameOrder) {
     std::vector<Quad> one, several;
     ASSERT_TRUE(FindQuads(segs, o, 640, 480, &one));
     same(capped(cap), one, "cap " + std::to_string(cap) + ", one thread");
-    if (cap < whole.max_quads) ASSERT_LT(one.size(), serial.size());
+    if (cap < whole.max_quads) {
+      ASSERT_LT(one.size(), serial.size());
+    }
     for (const int threads : {2, 3, 7}) {
       WorkerPool pool(threads);
       for (int frame = 0; frame < 2; ++frame) {  // the second on warmed-up buffers
