@@ -302,6 +302,69 @@ svms_status LastBiasFactor(const char* fn, Handle* e, int object, double* out, i
   return SVMS_OK;
 }
 
+// svms_process_rig_frame(_u16): `Frame` is svms_rig_frame or svms_rig_frame_u16, of
+// `bytes_per_pixel` 1 or 2. `fn` is a static string: longer than a short string's inline
+// buffer, a local one would allocate every frame.
+template <typename Frame>
+svms_status ProcessRig(const std::string& fn, svms_rig_estimator* e, const Frame* frames,
+                       int n_frames, int bytes_per_pixel, double timestamp, svms_pose* out) {
+  if (!e || !frames || !out)
+    return Fail(SVMS_ERR_NULL_ARGUMENT, fn + ": " +
+                                            (!e        ? "estimator"
+                                             : !frames ? "frames"
+                                                       : "out") +
+                                            " is NULL");
+  *out = svms_pose{};
+  out->timestamp = timestamp;
+  HandleClaim<svms_rig_estimator> claim;
+  if (const svms_status s = ClaimHandle(fn.c_str(), e, &claim); s != SVMS_OK) return s;
+  e->scratch->pose.valid = false;  // as in Process
+  for (svms::ObjectPose& p : e->scratch->more_poses) p.valid = false;
+  const int cameras = static_cast<int>(e->impl->num_cameras());
+  if (n_frames != cameras)
+    return Fail(SVMS_ERR_INVALID_ARGUMENT, fn + ": n_frames is " + std::to_string(n_frames) +
+                                               ", expected the rig's number of cameras, " +
+                                               std::to_string(cameras));
+  if (!std::isfinite(timestamp))
+    return Fail(SVMS_ERR_INVALID_ARGUMENT, fn + ": timestamp is not finite");
+  for (int c = 0; c < cameras; ++c) {
+    const Frame& f = frames[c];
+    (*e->frames)[c] = cv::Mat();
+    if (!f.pixels) continue;
+    const svms::CameraModel& cam = e->impl->camera(static_cast<size_t>(c)).camera();
+    if (f.width != cam.width() || f.height != cam.height())
+      return Fail(SVMS_ERR_INVALID_ARGUMENT,
+                  fn + ": frames[" + std::to_string(c) + "] is " + std::to_string(f.width) + "x" +
+                      std::to_string(f.height) + " pixels, camera '" +
+                      e->impl->rig().cameras[c].name + "' " + std::to_string(cam.width()) + "x" +
+                      std::to_string(cam.height()));
+    if (f.stride < static_cast<ptrdiff_t>(f.width) * bytes_per_pixel ||
+        f.stride % bytes_per_pixel != 0)
+      return Fail(SVMS_ERR_INVALID_ARGUMENT,
+                  fn + ": frames[" + std::to_string(c) + "].stride is " + std::to_string(f.stride) +
+                      " bytes, expected at least " +
+                      std::to_string(static_cast<long long>(f.width) * bytes_per_pixel) +
+                      " and a multiple of " + std::to_string(bytes_per_pixel));
+    // Zero-copy views of the caller's pixels.
+    (*e->frames)[c] = cv::Mat(f.height, f.width, bytes_per_pixel == 1 ? CV_8UC1 : CV_16UC1,
+                              const_cast<void*>(static_cast<const void*>(f.pixels)),
+                              static_cast<size_t>(f.stride));
+  }
+  try {
+    e->impl->Estimate(*e->frames, timestamp, e->scratch);
+    bool budget_exceeded = false;
+    for (const svms::FrameResult& r : e->scratch->cameras) budget_exceeded |= r.budget_exceeded;
+    FillPose(e->scratch->pose, timestamp, e->scratch->latency_ms, budget_exceeded, out);
+  } catch (const std::bad_alloc&) {
+    return Fail(SVMS_ERR_INTERNAL, fn + ": out of memory");
+  } catch (const std::exception& ex) {
+    return Fail(SVMS_ERR_INTERNAL, fn + ": " + ex.what());
+  } catch (...) {
+    return Fail(SVMS_ERR_INTERNAL, fn + ": unknown failure");
+  }
+  return SVMS_OK;
+}
+
 }  // namespace
 
 extern "C" {
@@ -540,57 +603,16 @@ svms_status svms_rig_camera_count(const svms_rig_estimator* e, int* n_cameras) {
 svms_status svms_process_rig_frame(svms_rig_estimator* e, const svms_rig_frame* frames,
                                    int n_frames, double timestamp, svms_pose* out) {
   return Guarded("svms_process_rig_frame", [&]() -> svms_status {
-    // Static: longer than a short string's inline buffer, it would allocate every frame.
     static const std::string fn = "svms_process_rig_frame";
-    if (!e || !frames || !out)
-      return Fail(SVMS_ERR_NULL_ARGUMENT, fn + ": " +
-                                              (!e        ? "estimator"
-                                               : !frames ? "frames"
-                                                         : "out") +
-                                              " is NULL");
-    *out = svms_pose{};
-    out->timestamp = timestamp;
-    HandleClaim<svms_rig_estimator> claim;
-    if (const svms_status s = ClaimHandle(fn.c_str(), e, &claim); s != SVMS_OK) return s;
-    e->scratch->pose.valid = false;  // as in Process
-    for (svms::ObjectPose& p : e->scratch->more_poses) p.valid = false;
-    const int cameras = static_cast<int>(e->impl->num_cameras());
-    if (n_frames != cameras)
-      return Fail(SVMS_ERR_INVALID_ARGUMENT, fn + ": n_frames is " + std::to_string(n_frames) +
-                                                 ", expected the rig's number of cameras, " +
-                                                 std::to_string(cameras));
-    if (!std::isfinite(timestamp))
-      return Fail(SVMS_ERR_INVALID_ARGUMENT, fn + ": timestamp is not finite");
-    for (int c = 0; c < cameras; ++c) {
-      const svms_rig_frame& f = frames[c];
-      (*e->frames)[c] = cv::Mat();
-      if (!f.pixels) continue;
-      const svms::CameraModel& cam = e->impl->camera(static_cast<size_t>(c)).camera();
-      if (f.width != cam.width() || f.height != cam.height())
-        return Fail(SVMS_ERR_INVALID_ARGUMENT,
-                    fn + ": frames[" + std::to_string(c) + "] is " + std::to_string(f.width) + "x" +
-                        std::to_string(f.height) + " pixels, camera '" +
-                        e->impl->rig().cameras[c].name + "' " + std::to_string(cam.width()) + "x" +
-                        std::to_string(cam.height()));
-      if (f.stride < static_cast<ptrdiff_t>(f.width))
-        return Fail(SVMS_ERR_INVALID_ARGUMENT,
-                    fn + ": frames[" + std::to_string(c) + "].stride is below its width");
-      (*e->frames)[c] = cv::Mat(f.height, f.width, CV_8UC1, const_cast<uint8_t*>(f.pixels),
-                                static_cast<size_t>(f.stride));
-    }
-    try {
-      e->impl->Estimate(*e->frames, timestamp, e->scratch);
-      bool budget_exceeded = false;
-      for (const svms::FrameResult& r : e->scratch->cameras) budget_exceeded |= r.budget_exceeded;
-      FillPose(e->scratch->pose, timestamp, e->scratch->latency_ms, budget_exceeded, out);
-    } catch (const std::bad_alloc&) {
-      return Fail(SVMS_ERR_INTERNAL, fn + ": out of memory");
-    } catch (const std::exception& ex) {
-      return Fail(SVMS_ERR_INTERNAL, fn + ": " + ex.what());
-    } catch (...) {
-      return Fail(SVMS_ERR_INTERNAL, fn + ": unknown failure");
-    }
-    return SVMS_OK;
+    return ProcessRig(fn, e, frames, n_frames, 1, timestamp, out);
+  });
+}
+
+svms_status svms_process_rig_frame_u16(svms_rig_estimator* e, const svms_rig_frame_u16* frames,
+                                       int n_frames, double timestamp, svms_pose* out) {
+  return Guarded("svms_process_rig_frame_u16", [&]() -> svms_status {
+    static const std::string fn = "svms_process_rig_frame_u16";
+    return ProcessRig(fn, e, frames, n_frames, 2, timestamp, out);
   });
 }
 

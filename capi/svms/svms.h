@@ -208,6 +208,22 @@ svms_status svms_rig_camera_count(const svms_rig_estimator* estimator, int* n_ca
 svms_status svms_process_rig_frame(svms_rig_estimator* estimator, const svms_rig_frame* frames,
                                    int n_frames, double timestamp, svms_pose* out);
 
+/* One camera's frame of a rig in 16-bit grey pixels (a raw frame as its camera stores it, for
+ * instance 12 bits in 16; the camera model's photometry says how its values map to light, as
+ * for svms_process_frame_u16): as svms_rig_frame, rows `stride` bytes apart (stride >= 2 *
+ * width, even). pixels NULL: that camera has no frame this time. Added in 0.4.1. */
+typedef struct svms_rig_frame_u16 {
+  const uint16_t* pixels;
+  int width;
+  int height;
+  ptrdiff_t stride;
+} svms_rig_frame_u16;
+
+/* svms_process_rig_frame for 16-bit frames: the same checks, pose and flags. Added in 0.4.1. */
+svms_status svms_process_rig_frame_u16(svms_rig_estimator* estimator,
+                                       const svms_rig_frame_u16* frames, int n_frames,
+                                       double timestamp, svms_pose* out);
+
 /* The factor B of the last processed frame's covariance_common for layout `object` (0 for a
  * single-layout handle): covariance_common = B B^T, B 6 x k, written column-major into
  * out[0 .. 6 k), k into *columns. Column j is the same error (one component of the camera

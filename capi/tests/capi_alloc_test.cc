@@ -2,15 +2,15 @@
 // executable (operator new goes through malloc in libstdc++, OpenCV's fastMalloc through
 // posix_memalign or malloc). Usage: svms_capi_alloc_test FIXTURE_DIR.
 //
-// What it checks (the C API's promise: no allocation at all after the first frames): after
-// warm-up on a fixture frame, 8-bit and 16-bit, every svms_process_frame (and
-// svms_last_bias_factor after it) makes no heap allocation at all; nor does
-// svms_process_frame_multi with two layouts on the two-object frame, nor svms_process_rig_frame
-// (and svms_last_rig_bias_factor) on a rig of two cameras, with both frames and with one. The
-// rig's two cameras are the fixture's camera at the same place (a rig file written here), so
-// that both see the fixture's frame. And, with every allocation
-// failing, an entry point that has to word an error returns a status instead of letting
-// std::bad_alloc cross into C (which would end this program).
+// What it checks (the C API's promise: no allocation at all after the first frames): after warm-up
+// on a fixture frame, 8-bit and 16-bit, every svms_process_frame (and svms_last_bias_factor after
+// it) makes no heap allocation at all; nor does svms_process_frame_multi with two layouts on the
+// two-object frame, nor svms_process_rig_frame and svms_process_rig_frame_u16 (and
+// svms_last_rig_bias_factor) on a rig of two cameras, with both frames, 8- and 16-bit, and with
+// one. The rig's two cameras are the fixture's camera at the same place (a rig file written here),
+// so that both see the fixture's frame. And, with every allocation failing, an entry point that has
+// to word an error returns a status instead of letting std::bad_alloc cross into C (which would end
+// this program).
 #include <unistd.h>
 
 #include <atomic>
@@ -218,11 +218,17 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "svms_create_rig: %s\n", svms_last_error());
     return 1;
   }
+  for (size_t i = 0; i < frame.size(); ++i) frame16[i] = static_cast<uint16_t>(frame[i] * 16);
   const svms_rig_frame both[2] = {{frame.data(), 1024, 1024, 1024},
                                   {frame.data(), 1024, 1024, 1024}};
   const svms_rig_frame second_only[2] = {{nullptr, 0, 0, 0}, both[1]};
+  const svms_rig_frame_u16 both16[2] = {{frame16.data(), 1024, 1024, 2048},
+                                        {frame16.data(), 1024, 1024, 2048}};
+  // 8-bit frames, 16-bit ones, then 8-bit ones with the first camera's missing.
   auto process_rig = [&](int i) {
-    return svms_process_rig_frame(rig, i % 3 == 2 ? second_only : both, 2, i, &pose);
+    return i % 3 == 0   ? svms_process_rig_frame(rig, both, 2, i, &pose)
+           : i % 3 == 1 ? svms_process_rig_frame_u16(rig, both16, 2, i, &pose)
+                        : svms_process_rig_frame(rig, second_only, 2, i, &pose);
   };
   for (int i = 0; i < 6; ++i) process_rig(i);
   for (int i = 0; i < 21; ++i) {

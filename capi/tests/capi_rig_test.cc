@@ -1,5 +1,6 @@
 // The C API's camera rig (svms_create_rig, svms_process_rig_frame, svms_destroy_rig) on the
-// renders of svms_testing/two_camera_rig.h: bit for bit the RigPoseEstimator's pose, the
+// renders of svms_testing/two_camera_rig.h: bit for bit the RigPoseEstimator's pose (8-bit
+// frames, and 16-bit through svms_process_rig_frame_u16), the
 // frames' count and sizes checked, a camera without a frame allowed, bad rig files refused
 // with the file and field, a destroyed handle detected.
 #include <gtest/gtest.h>
@@ -94,6 +95,42 @@ TEST(CapiRig, ProcessRigFrameIsTheRigPoseEstimators) {
   EXPECT_NE(std::string(svms_last_error()).find("object is 1, expected 0 to 0"), std::string::npos)
       << svms_last_error();
 
+  // 16-bit frames (the renders scaled to 12 bits, as a machine-vision camera stores its raw
+  // frames): svms_process_rig_frame_u16 gives the RigPoseEstimator's pose of the same frames.
+  std::vector<cv::Mat> images16(2);
+  svms_rig_frame_u16 frames16[2];
+  for (int c = 0; c < 2; ++c) {
+    a.images[c].convertTo(images16[c], CV_16U, 16);
+    frames16[c] = {images16[c].ptr<uint16_t>(), images16[c].cols, images16[c].rows,
+                   static_cast<ptrdiff_t>(images16[c].step)};
+  }
+  svms_pose pose16;
+  ASSERT_EQ(svms_process_rig_frame_u16(est, frames16, 2, 6, &pose16), SVMS_OK) << svms_last_error();
+  ASSERT_EQ(pose16.valid, 1);
+  EXPECT_EQ(pose16.timestamp, 6);
+  EXPECT_TRUE(pose16.flags & SVMS_FLAG_EXTRINSICS_IN_COVARIANCE);
+  svms::RigFrameResult r16;
+  cpp->Estimate(images16, 6, &r16);
+  ASSERT_TRUE(r16.pose.valid);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(pose16.rvec[i], r16.pose.cam_from_object.rvec[i]);
+    EXPECT_EQ(pose16.tvec[i], r16.pose.cam_from_object.tvec[i]);
+  }
+  for (int i = 0; i < 36; ++i) EXPECT_EQ(pose16.covariance[i], r16.pose.covariance(i / 6, i % 6));
+  EXPECT_EQ(pose16.markers_used, r16.pose.markers_used);
+  EXPECT_LT(svms::Nees(a.rig_from_module, r16.pose.cam_from_object, r16.pose.covariance), 22.46);
+  // A 16-bit frame's stride: at least two bytes per pixel, and even.
+  svms_rig_frame_u16 bad16[2] = {frames16[0], frames16[1]};
+  bad16[1].stride = bad16[1].width;
+  EXPECT_EQ(svms_process_rig_frame_u16(est, bad16, 2, 6, &pose16), SVMS_ERR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(svms_last_error()).find("frames[1].stride is"), std::string::npos)
+      << svms_last_error();
+  bad16[1].stride = frames16[1].stride + 1;
+  EXPECT_EQ(svms_process_rig_frame_u16(est, bad16, 2, 6, &pose16), SVMS_ERR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(svms_last_error()).find("a multiple of 2"), std::string::npos)
+      << svms_last_error();
+  EXPECT_EQ(svms_process_rig_frame_u16(est, nullptr, 2, 6, &pose16), SVMS_ERR_NULL_ARGUMENT);
+
   // The wide camera alone (no narrow frame).
   svms_rig_frame wide_only[2] = {{nullptr, 0, 0, 0}, frames[1]};
   ASSERT_EQ(svms_process_rig_frame(est, wide_only, 2, 5, &pose), SVMS_OK);
@@ -109,6 +146,12 @@ TEST(CapiRig, ProcessRigFrameIsTheRigPoseEstimators) {
 
   ASSERT_EQ(svms_destroy_rig(est), SVMS_OK);
   EXPECT_EQ(svms_process_rig_frame(est, frames, 2, 5, &pose), SVMS_ERR_BAD_HANDLE);
+  EXPECT_EQ(svms_process_rig_frame_u16(est, frames16, 2, 5, &pose), SVMS_ERR_BAD_HANDLE);
+  EXPECT_NE(std::string(svms_last_error())
+                .find("svms_process_rig_frame_u16: the estimator is not "
+                      "one from svms_create_rig"),
+            std::string::npos)
+      << svms_last_error();
   EXPECT_EQ(svms_destroy_rig(est), SVMS_ERR_BAD_HANDLE);
 
   // A bad rig file: SVMS_ERR_FILE naming the file and the field.
