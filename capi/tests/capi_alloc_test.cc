@@ -106,27 +106,40 @@ int main(int argc, char** argv) {
   };
   for (int i = 0; i < 6; ++i) process(i);
   std::vector<long> per_frame, unfreed;
-  for (int i = 0; i < 20; ++i) {
+  // One counted frame: `call(i)` processes frame i into `pose`, `factor(buffer, &columns)`
+  // copies its bias factor out (up to 64 columns); both must succeed, the pose valid with the
+  // flags `flags`, and the factor not empty. The allocations of both calls go to per_frame, those
+  // not freed to unfreed. False, after saying why, when a call failed.
+  auto count_frame = [&](const char* what, int i, uint32_t flags, auto&& call, auto&& factor) {
     allocations = 0;
     frees = 0;
     counting = true;
-    const svms_status s = process(i);
-    // The frame's common error's factor too (the calibration's 12 columns fit in 64).
-    double factor[6 * 64];
+    const svms_status s = call(i);
+    double buffer[6 * 64];
     int columns = 0;
-    const svms_status sf = svms_last_bias_factor(e, 0, factor, 64, &columns);
+    const svms_status sf = factor(buffer, &columns);
     counting = false;
-    if (s != SVMS_OK || !pose.valid || !(pose.flags & SVMS_FLAG_CALIBRATION_IN_COVARIANCE)) {
-      std::fprintf(stderr, "frame %d: %s %s\n", i, svms_status_string(s), svms_last_error());
-      return 1;
+    if (s != SVMS_OK || !pose.valid || (pose.flags & flags) != flags) {
+      std::fprintf(stderr, "%s, frame %d: %s %s\n", what, i, svms_status_string(s),
+                   svms_last_error());
+      return false;
     }
     if (sf != SVMS_OK || columns <= 0) {
-      std::fprintf(stderr, "frame %d: svms_last_bias_factor: %s, %d columns: %s\n", i,
+      std::fprintf(stderr, "%s, frame %d: the bias factor: %s, %d columns: %s\n", what, i,
                    svms_status_string(sf), columns, svms_last_error());
-      return 1;
+      return false;
     }
     per_frame.push_back(allocations.load());
     unfreed.push_back(allocations.load() - frees.load());
+    return true;
+  };
+  for (int i = 0; i < 20; ++i) {
+    // The frame's common error's factor too (the calibration's 12 columns fit in 64).
+    if (!count_frame("one layout", i, SVMS_FLAG_CALIBRATION_IN_COVARIANCE, process,
+                     [&](double* buffer, int* columns) {
+                       return svms_last_bias_factor(e, 0, buffer, 64, columns);
+                     }))
+      return 1;
   }
   // Out of memory while wording errors: a frame of the wrong size, a NULL rig estimator, files
   // that do not exist. Each message is longer than a short string's inline buffer.
@@ -232,26 +245,12 @@ int main(int argc, char** argv) {
   };
   for (int i = 0; i < 6; ++i) process_rig(i);
   for (int i = 0; i < 21; ++i) {
-    allocations = 0;
-    frees = 0;
-    counting = true;
-    const svms_status s = process_rig(i);
-    double factor[6 * 64];
-    int columns = 0;
-    const svms_status sf = svms_last_rig_bias_factor(rig, 0, factor, 64, &columns);
-    counting = false;
-    if (s != SVMS_OK || !pose.valid ||
-        (i % 3 != 2 && !(pose.flags & SVMS_FLAG_EXTRINSICS_IN_COVARIANCE))) {
-      std::fprintf(stderr, "rig, frame %d: %s %s\n", i, svms_status_string(s), svms_last_error());
+    // The second camera, alone on every third frame, has no extrinsics covariance.
+    if (!count_frame("rig", i, i % 3 == 2 ? 0u : SVMS_FLAG_EXTRINSICS_IN_COVARIANCE, process_rig,
+                     [&](double* buffer, int* columns) {
+                       return svms_last_rig_bias_factor(rig, 0, buffer, 64, columns);
+                     }))
       return 1;
-    }
-    if (sf != SVMS_OK || columns <= 0) {
-      std::fprintf(stderr, "rig, frame %d: svms_last_rig_bias_factor: %s, %d columns: %s\n", i,
-                   svms_status_string(sf), columns, svms_last_error());
-      return 1;
-    }
-    per_frame.push_back(allocations.load());
-    unfreed.push_back(allocations.load() - frees.load());
   }
   svms_destroy_rig(rig);
 
