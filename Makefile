@@ -29,17 +29,17 @@ test: build
 #   make test-sanitize  what .ci/run runs after `make test`: test-asan, then fuzz
 #   make test-asan      the unit tests (ctest label "unit") under ASan + UBSan, less those in
 #                       SANITIZE_SKIP: each repeats, many times, code paths that faster tests run
-#                       under ASan too, and costs from half a minute to 9 min there (CI has 60 min
-#                       for all of .ci/run). They run in `make test`. Pure integer decoding: every
-#                       ID with two flipped bits, samples of four flips, every five-flip pattern of
-#                       the strong subset, the family's statistics (a million random words). Monte
-#                       Carlo: the response estimate's shot-noise bias (16 rendered images of
-#                       squares; the other EstimateGammaFromEdges tests run its path), the rendered
-#                       NEES statistics (48 and 12 renders, and the approach's fused NEES against
-#                       its measure), the corners' joint covariance (150 noisy squares), the small
-#                       quad's sigmas (300), Student's widening (400), correlated edge points and
-#                       JPEG blocks (120 squares each), the small blurred marker's inward bias, the
-#                       survey's repeated corner error and calibration uncertainty (30 surveys
+#                       under ASan too, and costs from half a minute to about 5 min there (CI has 60
+#                       min for all of .ci/run). They run in `make test`. Pure integer decoding:
+#                       every ID with two flipped bits, samples of four flips, every five-flip
+#                       pattern of the strong subset, the family's statistics (a million random
+#                       words). Monte Carlo: the response estimate's shot-noise bias (16 rendered
+#                       images of squares; the other EstimateGammaFromEdges tests run its path), the
+#                       rendered NEES statistics (48 and 12 renders, and the approach's fused NEES
+#                       against its measure), the corners' joint covariance (150 noisy squares), the
+#                       small quad's sigmas (300), Student's widening (400), correlated edge points
+#                       and JPEG blocks (120 squares each), the small blurred marker's inward bias,
+#                       the survey's repeated corner error and calibration uncertainty (30 surveys
 #                       each), the rig survey's Monte Carlo runs (300 solves), the lone distant
 #                       marker's fused pose. Renders: the fine grid's reference (a camera 4 times
 #                       finer cast whole; every render casts the fine grid), the two-camera rig

@@ -113,24 +113,44 @@ struct HandleClaim {
   }
 };
 
-// Checks `e` and claims it for this call (`forever`: for its destroy, which also removes it
-// from the live handles), both under registry_mutex, the lock every check and claim takes: a
-// destroy can never free a handle between another call's check and its use, nor one a call is
-// using. SVMS_ERR_BAD_HANDLE (see CheckLiveLocked) or SVMS_ERR_BUSY for a handle another thread
-// is using, `fn` naming the call. No allocation but in wording an error.
+// Checks `e` and sets its busy flag, both under registry_mutex, the lock every check and claim
+// takes: a destroy can never free a handle between another call's check and its use, nor one a
+// call is using. SVMS_ERR_BAD_HANDLE (see CheckLiveLocked) or SVMS_ERR_BUSY for a handle another
+// thread is using, `fn` naming the call; the caller holds registry_mutex.
 template <typename Handle>
-svms_status ClaimHandle(const char* fn, Handle* e, HandleClaim<Handle>* claim,
-                        bool forever = false) {
-  std::lock_guard<std::mutex> lock(registry_mutex);
+svms_status SetBusyLocked(const char* fn, Handle* e) {
   if (const svms_status s = CheckLiveLocked(fn, e); s != SVMS_OK) return s;
   bool expected = false;
   if (!e->busy.compare_exchange_strong(expected, true))
     return Fail(SVMS_ERR_BUSY, fn, ": the estimator is in use by another thread");
-  if (forever)
-    HandleKind<Handle>::live().erase(e);
-  else
-    claim->e = e;
   return SVMS_OK;
+}
+
+// Claims `e` for this call (SetBusyLocked): *claim releases it when it ends. No allocation but
+// in wording an error.
+template <typename Handle>
+svms_status ClaimHandle(const char* fn, Handle* e, HandleClaim<Handle>* claim) {
+  std::lock_guard<std::mutex> lock(registry_mutex);
+  if (const svms_status s = SetBusyLocked(fn, e); s != SVMS_OK) return s;
+  claim->e = e;
+  return SVMS_OK;
+}
+
+// Claims `e` for its destroy, for good: it leaves the live handles, so that every later call
+// through it is SVMS_ERR_BAD_HANDLE, and its busy flag stays set.
+template <typename Handle>
+svms_status ClaimForDestroy(const char* fn, Handle* e) {
+  std::lock_guard<std::mutex> lock(registry_mutex);
+  if (const svms_status s = SetBusyLocked(fn, e); s != SVMS_OK) return s;
+  HandleKind<Handle>::live().erase(e);
+  return SVMS_OK;
+}
+
+// ", expected at least W and a multiple of B" for a frame's stride (the multiple only for
+// B > 1), `width` pixels of `bytes_per_pixel` bytes.
+std::string ExpectedStride(int width, int bytes_per_pixel) {
+  return ", expected at least " + std::to_string(static_cast<long long>(width) * bytes_per_pixel) +
+         (bytes_per_pixel > 1 ? " and a multiple of " + std::to_string(bytes_per_pixel) : "");
 }
 
 // A pose as rvec[3], tvec[3] and quaternion[4] ([w, x, y, z]).
@@ -243,11 +263,8 @@ svms_status Process(const char* fn, svms_estimator* e, const void* pixels, int w
                     std::to_string(height) + " pixels, the camera model " +
                     std::to_string(cam.width()) + "x" + std::to_string(cam.height()));
   if (stride < static_cast<ptrdiff_t>(width) * bytes_per_pixel || stride % bytes_per_pixel != 0)
-    return Fail(SVMS_ERR_INVALID_ARGUMENT,
-                std::string(fn) + ": stride " + std::to_string(stride) +
-                    " bytes, expected at least " +
-                    std::to_string(static_cast<long long>(width) * bytes_per_pixel) +
-                    " and a multiple of " + std::to_string(bytes_per_pixel));
+    return Fail(SVMS_ERR_INVALID_ARGUMENT, std::string(fn) + ": stride " + std::to_string(stride) +
+                                               " bytes" + ExpectedStride(width, bytes_per_pixel));
   if (!std::isfinite(timestamp))
     return Fail(SVMS_ERR_INVALID_ARGUMENT, std::string(fn) + ": timestamp is not finite");
   svms_status status = SVMS_OK;
@@ -302,14 +319,15 @@ svms_status LastBiasFactor(const char* fn, Handle* e, int object, double* out, i
   return SVMS_OK;
 }
 
-// svms_process_rig_frame(_u16): `Frame` is svms_rig_frame or svms_rig_frame_u16, of
-// `bytes_per_pixel` 1 or 2. `fn` is a static string: longer than a short string's inline
-// buffer, a local one would allocate every frame.
+// svms_process_rig_frame(_u16): `Frame` is svms_rig_frame (8-bit pixels) or svms_rig_frame_u16
+// (16-bit); `fn` names the call in errors (a std::string is built only on an error: a frame makes
+// no heap allocation).
 template <typename Frame>
-svms_status ProcessRig(const std::string& fn, svms_rig_estimator* e, const Frame* frames,
-                       int n_frames, int bytes_per_pixel, double timestamp, svms_pose* out) {
+svms_status ProcessRig(const char* fn, svms_rig_estimator* e, const Frame* frames, int n_frames,
+                       double timestamp, svms_pose* out) {
+  constexpr int bytes_per_pixel = sizeof(*Frame{}.pixels);
   if (!e || !frames || !out)
-    return Fail(SVMS_ERR_NULL_ARGUMENT, fn + ": " +
+    return Fail(SVMS_ERR_NULL_ARGUMENT, std::string(fn) + ": " +
                                             (!e        ? "estimator"
                                              : !frames ? "frames"
                                                        : "out") +
@@ -317,16 +335,16 @@ svms_status ProcessRig(const std::string& fn, svms_rig_estimator* e, const Frame
   *out = svms_pose{};
   out->timestamp = timestamp;
   HandleClaim<svms_rig_estimator> claim;
-  if (const svms_status s = ClaimHandle(fn.c_str(), e, &claim); s != SVMS_OK) return s;
+  if (const svms_status s = ClaimHandle(fn, e, &claim); s != SVMS_OK) return s;
   e->scratch->pose.valid = false;  // as in Process
   for (svms::ObjectPose& p : e->scratch->more_poses) p.valid = false;
   const int cameras = static_cast<int>(e->impl->num_cameras());
   if (n_frames != cameras)
-    return Fail(SVMS_ERR_INVALID_ARGUMENT, fn + ": n_frames is " + std::to_string(n_frames) +
-                                               ", expected the rig's number of cameras, " +
-                                               std::to_string(cameras));
+    return Fail(SVMS_ERR_INVALID_ARGUMENT,
+                std::string(fn) + ": n_frames is " + std::to_string(n_frames) +
+                    ", expected the rig's number of cameras, " + std::to_string(cameras));
   if (!std::isfinite(timestamp))
-    return Fail(SVMS_ERR_INVALID_ARGUMENT, fn + ": timestamp is not finite");
+    return Fail(SVMS_ERR_INVALID_ARGUMENT, std::string(fn) + ": timestamp is not finite");
   for (int c = 0; c < cameras; ++c) {
     const Frame& f = frames[c];
     (*e->frames)[c] = cv::Mat();
@@ -334,17 +352,16 @@ svms_status ProcessRig(const std::string& fn, svms_rig_estimator* e, const Frame
     const svms::CameraModel& cam = e->impl->camera(static_cast<size_t>(c)).camera();
     if (f.width != cam.width() || f.height != cam.height())
       return Fail(SVMS_ERR_INVALID_ARGUMENT,
-                  fn + ": frames[" + std::to_string(c) + "] is " + std::to_string(f.width) + "x" +
-                      std::to_string(f.height) + " pixels, camera '" +
-                      e->impl->rig().cameras[c].name + "' " + std::to_string(cam.width()) + "x" +
-                      std::to_string(cam.height()));
+                  std::string(fn) + ": frames[" + std::to_string(c) + "] is " +
+                      std::to_string(f.width) + "x" + std::to_string(f.height) +
+                      " pixels, camera '" + e->impl->rig().cameras[c].name + "' " +
+                      std::to_string(cam.width()) + "x" + std::to_string(cam.height()));
     if (f.stride < static_cast<ptrdiff_t>(f.width) * bytes_per_pixel ||
         f.stride % bytes_per_pixel != 0)
-      return Fail(SVMS_ERR_INVALID_ARGUMENT,
-                  fn + ": frames[" + std::to_string(c) + "].stride is " + std::to_string(f.stride) +
-                      " bytes, expected at least " +
-                      std::to_string(static_cast<long long>(f.width) * bytes_per_pixel) +
-                      " and a multiple of " + std::to_string(bytes_per_pixel));
+      return Fail(SVMS_ERR_INVALID_ARGUMENT, std::string(fn) + ": frames[" + std::to_string(c) +
+                                                 "].stride is " + std::to_string(f.stride) +
+                                                 " bytes" +
+                                                 ExpectedStride(f.width, bytes_per_pixel));
     // Zero-copy views of the caller's pixels.
     (*e->frames)[c] = cv::Mat(f.height, f.width, bytes_per_pixel == 1 ? CV_8UC1 : CV_16UC1,
                               const_cast<void*>(static_cast<const void*>(f.pixels)),
@@ -356,11 +373,11 @@ svms_status ProcessRig(const std::string& fn, svms_rig_estimator* e, const Frame
     for (const svms::FrameResult& r : e->scratch->cameras) budget_exceeded |= r.budget_exceeded;
     FillPose(e->scratch->pose, timestamp, e->scratch->latency_ms, budget_exceeded, out);
   } catch (const std::bad_alloc&) {
-    return Fail(SVMS_ERR_INTERNAL, fn + ": out of memory");
+    return Fail(SVMS_ERR_INTERNAL, std::string(fn) + ": out of memory");
   } catch (const std::exception& ex) {
-    return Fail(SVMS_ERR_INTERNAL, fn + ": " + ex.what());
+    return Fail(SVMS_ERR_INTERNAL, std::string(fn) + ": " + ex.what());
   } catch (...) {
-    return Fail(SVMS_ERR_INTERNAL, fn + ": unknown failure");
+    return Fail(SVMS_ERR_INTERNAL, std::string(fn) + ": unknown failure");
   }
   return SVMS_OK;
 }
@@ -528,9 +545,7 @@ svms_status svms_destroy(svms_estimator* e) {
   return Guarded("svms_destroy", [&]() -> svms_status {
     if (!e) return SVMS_OK;
     // Claimed for good: a call in progress keeps its handle, and no later call gets it.
-    if (const svms_status s = ClaimHandle<svms_estimator>("svms_destroy", e, nullptr, true);
-        s != SVMS_OK)
-      return s;
+    if (const svms_status s = ClaimForDestroy("svms_destroy", e); s != SVMS_OK) return s;
     // Free everything but the shell (see the header): the address is never handed out again.
     e->impl.reset();
     delete e->scratch;
@@ -603,25 +618,21 @@ svms_status svms_rig_camera_count(const svms_rig_estimator* e, int* n_cameras) {
 svms_status svms_process_rig_frame(svms_rig_estimator* e, const svms_rig_frame* frames,
                                    int n_frames, double timestamp, svms_pose* out) {
   return Guarded("svms_process_rig_frame", [&]() -> svms_status {
-    static const std::string fn = "svms_process_rig_frame";
-    return ProcessRig(fn, e, frames, n_frames, 1, timestamp, out);
+    return ProcessRig("svms_process_rig_frame", e, frames, n_frames, timestamp, out);
   });
 }
 
 svms_status svms_process_rig_frame_u16(svms_rig_estimator* e, const svms_rig_frame_u16* frames,
                                        int n_frames, double timestamp, svms_pose* out) {
   return Guarded("svms_process_rig_frame_u16", [&]() -> svms_status {
-    static const std::string fn = "svms_process_rig_frame_u16";
-    return ProcessRig(fn, e, frames, n_frames, 2, timestamp, out);
+    return ProcessRig("svms_process_rig_frame_u16", e, frames, n_frames, timestamp, out);
   });
 }
 
 svms_status svms_destroy_rig(svms_rig_estimator* e) {
   return Guarded("svms_destroy_rig", [&]() -> svms_status {
     if (!e) return SVMS_OK;
-    if (const svms_status s = ClaimHandle<svms_rig_estimator>("svms_destroy_rig", e, nullptr, true);
-        s != SVMS_OK)
-      return s;
+    if (const svms_status s = ClaimForDestroy("svms_destroy_rig", e); s != SVMS_OK) return s;
     e->impl.reset();
     delete e->scratch;
     e->scratch = nullptr;

@@ -21,8 +21,9 @@
  * one svms_pose per layout, each what a single-layout estimator of that object would give.
  *
  * Several cameras on one vehicle (a camera rig, docs/conventions.md "Camera rigs"):
- * svms_create_rig reads a rig file, and svms_process_rig_frame takes one frame per camera taken
- * at one time stamp and gives one svms_pose whose pose is rig_from_object.
+ * svms_create_rig reads a rig file, and svms_process_rig_frame (svms_process_rig_frame_u16 for
+ * 16-bit frames) takes one frame per camera taken at one time stamp and gives one svms_pose
+ * whose pose is rig_from_object.
  */
 #ifndef SVMS_SVMS_H_
 #define SVMS_SVMS_H_
@@ -181,8 +182,9 @@ svms_status svms_process_frame_multi_u16(svms_estimator* estimator, const uint16
 /* A camera rig's estimator (svms_create_rig). */
 typedef struct svms_rig_estimator svms_rig_estimator;
 
-/* One camera's frame of a rig: 8-bit grey pixels, `width` x `height`, rows `stride` bytes apart,
- * the size of that camera's model. pixels NULL: that camera has no frame this time. */
+/* One camera's frame of a rig: 8-bit grey pixels, `width` x `height`, rows `stride` bytes apart
+ * (stride >= width), the size of that camera's model. pixels NULL: that camera has no frame
+ * this time. */
 typedef struct svms_rig_frame {
   const uint8_t* pixels;
   int width;
@@ -219,7 +221,9 @@ typedef struct svms_rig_frame_u16 {
   ptrdiff_t stride;
 } svms_rig_frame_u16;
 
-/* svms_process_rig_frame for 16-bit frames: the same checks, pose and flags. Added in 0.4.1. */
+/* svms_process_rig_frame for 16-bit frames: the same checks, pose and flags. Added in 0.4.1: a
+ * program that calls it needs libsvms_c 0.4.1 or later, whose soname is 0.4's (check
+ * svms_version(), or link with -z now so that an older library is refused at start). */
 svms_status svms_process_rig_frame_u16(svms_rig_estimator* estimator,
                                        const svms_rig_frame_u16* frames, int n_frames,
                                        double timestamp, svms_pose* out);

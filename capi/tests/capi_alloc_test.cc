@@ -200,8 +200,9 @@ int main(int argc, char** argv) {
   }
   svms_destroy(e);
 
-  // A rig of two cameras, both the fixture's camera at the rig's origin, the first with an
-  // extrinsics covariance (its term in the pose's covariance, and a bias factor to copy out).
+  // A rig of two cameras, both the fixture's camera (with its calibration's covariance) at the
+  // rig's origin, the first with an extrinsics covariance too: the frames it sees carry
+  // SVMS_FLAG_EXTRINSICS_IN_COVARIANCE.
   std::ifstream(dir + "/frame_11.raw", std::ios::binary)
       .read(reinterpret_cast<char*>(frame.data()), frame.size());
   char rig_dir[] = "/tmp/svms_capi_alloc_test.XXXXXX";
@@ -212,7 +213,11 @@ int main(int argc, char** argv) {
   const std::string rig_path = std::string(rig_dir) + "/two.rig";
   {
     char* cwd = getcwd(nullptr, 0);
-    const std::string model = dir.front() == '/'
+    if (!cwd) {
+      std::perror("getcwd");
+      return 1;
+    }
+    const std::string model = !dir.empty() && dir.front() == '/'
                                   ? dir + "/cal.cameramodel"
                                   : std::string(cwd) + "/" + dir + "/cal.cameramodel";
     std::free(cwd);
@@ -237,11 +242,13 @@ int main(int argc, char** argv) {
   const svms_rig_frame second_only[2] = {{nullptr, 0, 0, 0}, both[1]};
   const svms_rig_frame_u16 both16[2] = {{frame16.data(), 1024, 1024, 2048},
                                         {frame16.data(), 1024, 1024, 2048}};
-  // 8-bit frames, 16-bit ones, then 8-bit ones with the first camera's missing.
+  const svms_rig_frame_u16 second_only16[2] = {{nullptr, 0, 0, 0}, both16[1]};
+  // 8-bit frames, 16-bit ones, then the second camera's alone (8- and 16-bit in turn).
   auto process_rig = [&](int i) {
-    return i % 3 == 0   ? svms_process_rig_frame(rig, both, 2, i, &pose)
-           : i % 3 == 1 ? svms_process_rig_frame_u16(rig, both16, 2, i, &pose)
-                        : svms_process_rig_frame(rig, second_only, 2, i, &pose);
+    if (i % 3 == 0) return svms_process_rig_frame(rig, both, 2, i, &pose);
+    if (i % 3 == 1) return svms_process_rig_frame_u16(rig, both16, 2, i, &pose);
+    return i % 2 == 0 ? svms_process_rig_frame(rig, second_only, 2, i, &pose)
+                      : svms_process_rig_frame_u16(rig, second_only16, 2, i, &pose);
   };
   for (int i = 0; i < 6; ++i) process_rig(i);
   for (int i = 0; i < 21; ++i) {

@@ -129,11 +129,17 @@ TEST(CapiRig, ProcessRigFrameIsTheRigPoseEstimators) {
   EXPECT_NE(std::string(svms_last_error()).find("a multiple of 2"), std::string::npos)
       << svms_last_error();
   EXPECT_EQ(svms_process_rig_frame_u16(est, nullptr, 2, 6, &pose16), SVMS_ERR_NULL_ARGUMENT);
+  EXPECT_NE(std::string(svms_last_error()).find("svms_process_rig_frame_u16: frames is NULL"),
+            std::string::npos)
+      << svms_last_error();
 
   // The wide camera alone (no narrow frame).
   svms_rig_frame wide_only[2] = {{nullptr, 0, 0, 0}, frames[1]};
   ASSERT_EQ(svms_process_rig_frame(est, wide_only, 2, 5, &pose), SVMS_OK);
   EXPECT_EQ(pose.valid, 1);
+  // Both again, after the narrow camera's result was emptied: the first frame's pose, to the bit.
+  ASSERT_EQ(svms_process_rig_frame(est, frames, 2, 4.5, &pose), SVMS_OK) << svms_last_error();
+  expect_same_pose(pose, r.pose);
   // Wrong count and size.
   EXPECT_EQ(svms_process_rig_frame(est, frames, 1, 5, &pose), SVMS_ERR_INVALID_ARGUMENT);
   EXPECT_NE(std::string(svms_last_error()).find("n_frames is 1"), std::string::npos);

@@ -168,6 +168,23 @@ Status PoseEstimator::CreateFromFiles(const std::string& camera_path,
   return CreateLabelled(camera, layouts, layout_paths, with_photometry, out);
 }
 
+void ResetFrameResult(size_t n_layouts, double timestamp, FrameResult* result) {
+  ObjectPose pose = std::move(result->pose);
+  std::vector<ObjectPose> more_poses = std::move(result->more_poses);
+  std::vector<Detection> detections = std::move(result->detections);
+  std::vector<int> unassigned_ids = std::move(result->unassigned_ids);
+  *result = FrameResult{};
+  result->timestamp = timestamp;
+  result->pose = std::move(pose);
+  result->more_poses = std::move(more_poses);
+  result->more_poses.resize(n_layouts - 1);
+  for (size_t i = 0; i < n_layouts; ++i) ResetObjectPose(&result->object(i));
+  result->detections = std::move(detections);
+  result->detections.clear();
+  result->unassigned_ids = std::move(unassigned_ids);
+  result->unassigned_ids.clear();
+}
+
 void PoseEstimator::Estimate(const cv::Mat& image, double timestamp, FrameResult* out) const {
   if (!options_.photometric) return EstimateLinear(image, timestamp, out);
   // The budget and the latency start here: the conversion to linear light and the stored-noise
@@ -181,13 +198,9 @@ void PoseEstimator::Estimate(const cv::Mat& image, double timestamp, FrameResult
       EstimateStoredNoise(image, *options_.photometric, deadline, &stored_noise);
   thread_local cv::Mat linear;  // reused: no allocation per frame of one size
   if (Status s = linearizer_.Apply(image, &linear); !s) {
-    *out = FrameResult();
-    out->timestamp = timestamp;
-    out->more_poses.resize(layouts_.size() - 1);
-    for (size_t i = 0; i < layouts_.size(); ++i) {
-      out->object(i).valid = false;
+    ResetFrameResult(layouts_.size(), timestamp, out);
+    for (size_t i = 0; i < layouts_.size(); ++i)
       out->object(i).message = "the frame cannot be converted to linear light: " + s.message();
-    }
     out->latency_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     return;
   }

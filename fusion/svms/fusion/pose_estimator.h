@@ -70,6 +70,12 @@ struct FrameResult {
   ObjectPose& object(size_t i) { return i == 0 ? pose : more_poses.at(i - 1); }
 };
 
+// Makes *result a fresh FrameResult{} for `n_layouts` objects at `timestamp` (every pose invalid,
+// no detections), while its vectors and messages keep their capacity: a result reused frame
+// after frame allocates nothing once grown, also across frames without a pose (a rig's camera
+// without a frame).
+void ResetFrameResult(size_t n_layouts, double timestamp, FrameResult* result);
+
 class PoseEstimator {
  public:
   // Checks the camera (not empty) and the layout (Layout::Validate, at least one marker);

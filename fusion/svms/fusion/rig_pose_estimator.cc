@@ -67,20 +67,10 @@ void RigPoseEstimator::Estimate(const std::vector<cv::Mat>& frames, double times
   }
   for (size_t c = 0; c < cameras_.size(); ++c) {
     if (frames[c].empty()) {
-      // Emptied in place, every vector keeping its capacity: a camera that drops out for a
-      // frame and comes back costs no allocation (the C API's promise).
-      FrameResult& r = out->cameras[c];
-      r.timestamp = timestamp;
-      r.detections.clear();
-      r.unassigned_ids.clear();
-      r.budget_exceeded = false;
-      r.latency_ms = r.detect_ms = r.fuse_ms = 0;
-      r.detection_passes = 0;
-      r.more_poses.resize(n_layouts - 1);
-      for (size_t i = 0; i < n_layouts; ++i) {
-        ResetObjectPose(&r.object(i));
-        r.object(i).message = "no frame";
-      }
+      // Emptied in place: a camera that drops out for a frame and comes back costs no
+      // allocation (the C API's promise).
+      ResetFrameResult(n_layouts, timestamp, &out->cameras[c]);
+      for (size_t i = 0; i < n_layouts; ++i) out->cameras[c].object(i).message = "no frame";
       continue;
     }
     cameras_[c]->Estimate(frames[c], timestamp, &out->cameras[c]);

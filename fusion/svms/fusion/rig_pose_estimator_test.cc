@@ -84,9 +84,31 @@ TEST(RigPoseEstimator, RenderedTwoCameraRigIsAtLeastAsGoodAsItsBetterCamera) {
   est->Estimate({a.images[0]}, 2, &r);
   EXPECT_FALSE(r.pose.valid);
   EXPECT_NE(r.pose.message.find("one per camera"), std::string::npos) << r.pose.message;
-  // One camera without a frame: the other still gives the pose.
+  // One camera without a frame: the other still gives the pose, and the missing camera's
+  // result (which held the last frame's) is empty.
+  est->Estimate(a.images, 2.5, &r);
+  ASSERT_TRUE(r.cameras[0].pose.valid);
+  ASSERT_FALSE(r.cameras[0].detections.empty());
+  const ObjectPose both = r.pose;
   est->Estimate({cv::Mat(), a.images[1]}, 3, &r);
   EXPECT_TRUE(r.pose.valid) << r.pose.message;
+  const FrameResult& none = r.cameras[0];
+  EXPECT_EQ(none.timestamp, 3);
+  EXPECT_FALSE(none.pose.valid);
+  EXPECT_EQ(none.pose.message, "no frame");
+  EXPECT_TRUE(none.pose.ids_used.empty());
+  EXPECT_EQ(none.pose.markers_used, 0);
+  EXPECT_TRUE(none.detections.empty());
+  EXPECT_TRUE(none.unassigned_ids.empty());
+  EXPECT_EQ(none.detection_passes, 0);
+  EXPECT_EQ(none.latency_ms, 0);
+  EXPECT_FALSE(none.budget_exceeded);
+  // Both again: the pose of both frames, to the bit.
+  est->Estimate(a.images, 2.5, &r);
+  ASSERT_TRUE(r.pose.valid);
+  EXPECT_EQ(r.pose.cam_from_object.rvec, both.cam_from_object.rvec);
+  EXPECT_EQ(r.pose.cam_from_object.tvec, both.cam_from_object.tvec);
+  EXPECT_EQ(r.pose.covariance, both.covariance);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   EXPECT_LT(seconds, 20);
