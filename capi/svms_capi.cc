@@ -367,18 +367,12 @@ svms_status ProcessRig(const char* fn, svms_rig_estimator* e, const Frame* frame
                               const_cast<void*>(static_cast<const void*>(f.pixels)),
                               static_cast<size_t>(f.stride));
   }
-  try {
-    e->impl->Estimate(*e->frames, timestamp, e->scratch);
-    bool budget_exceeded = false;
-    for (const svms::FrameResult& r : e->scratch->cameras) budget_exceeded |= r.budget_exceeded;
-    FillPose(e->scratch->pose, timestamp, e->scratch->latency_ms, budget_exceeded, out);
-  } catch (const std::bad_alloc&) {
-    return Fail(SVMS_ERR_INTERNAL, std::string(fn) + ": out of memory");
-  } catch (const std::exception& ex) {
-    return Fail(SVMS_ERR_INTERNAL, std::string(fn) + ": " + ex.what());
-  } catch (...) {
-    return Fail(SVMS_ERR_INTERNAL, std::string(fn) + ": unknown failure");
-  }
+  // What the estimator throws is caught by the caller's Guarded, with the same name, after the
+  // claim has released the handle.
+  e->impl->Estimate(*e->frames, timestamp, e->scratch);
+  bool budget_exceeded = false;
+  for (const svms::FrameResult& r : e->scratch->cameras) budget_exceeded |= r.budget_exceeded;
+  FillPose(e->scratch->pose, timestamp, e->scratch->latency_ms, budget_exceeded, out);
   return SVMS_OK;
 }
 
