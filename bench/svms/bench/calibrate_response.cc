@@ -1,21 +1,43 @@
 #include "svms/bench/calibrate_response.h"
 
+#include <filesystem>
+#include <utility>
+#include <vector>
+
 #include "svms/base/format.h"
 #include "svms/pipelines/exit_codes.h"
+#include "svms/pipelines/render_scene.h"
 
 namespace svms {
 namespace {
 
-// The board's scene through another camera pipeline, rendered into OUT/data/SUBDIR unless its
-// images are there. kExitOk to go on.
-int RenderBoard(const CalibrateBenchmarkOptions& o, const CalibrationData& data,
-                const std::string& subdir, const std::string& response) {
+namespace fs = std::filesystem;
+
+// The board's scene through the gamma camera and its linear twin, both behind the same defocus,
+// rendered into OUT/data/GAMMA_DIR and OUT/data/LINEAR_DIR unless their images are there: one
+// ray cast exposed through both sensors (RenderSceneThrough), as two renders would write them.
+// kExitOk to go on.
+int RenderBoards(const CalibrateBenchmarkOptions& o, const CalibrationData& data,
+                 const std::string& gamma_dir, const std::string& linear_dir) {
   Scene scene = data.dataset.scenes[0].second;
-  scene.sensor.response = response;
   scene.sensor.defocus_sigma_px = kCheckedDefocusPx;
-  return RenderUnlessPresent(
-      o, scene, subdir,
-      "board (" + response + ", " + Fixed(kCheckedDefocusPx, 1) + " px of defocus)");
+  std::vector<SensorOutput> outputs;
+  const std::pair<std::string, std::string> boards[] = {
+      {gamma_dir, "gamma:" + Fixed(kCheckedGamma, 1)}, {linear_dir, "linear"}};
+  for (const auto& [subdir, response] : boards) {
+    const fs::path dir = fs::path(o.out) / "data" / subdir;
+    bool have = true;
+    for (const View& v : scene.views) have &= fs::exists(dir / (v.name + ".png"));
+    if (have) continue;
+    SensorOutput out{scene.sensor, dir.string()};
+    out.sensor.response = response;
+    outputs.push_back(out);
+  }
+  if (outputs.empty()) return kExitOk;
+  std::cerr << "svms bench calibrate: rendering " << scene.views.size() << " board views ("
+            << Fixed(kCheckedDefocusPx, 1) << " px of defocus) through " << outputs.size()
+            << " camera response(s)\n";
+  return RenderSceneThrough(scene, outputs, "calibration/board", o.threads, false);
 }
 
 }  // namespace
@@ -24,8 +46,7 @@ ResponseCheck RunResponseCheck(const CalibrateBenchmarkOptions& o, const Calibra
   ResponseCheck check;
   const std::string gamma_dir = "board_gamma" + Fixed(kCheckedGamma, 1);
   const std::string linear_dir = "board_linear_defocus";
-  if (RenderBoard(o, data, gamma_dir, "gamma:" + Fixed(kCheckedGamma, 1)) != kExitOk ||
-      RenderBoard(o, data, linear_dir, "linear") != kExitOk) {
+  if (RenderBoards(o, data, gamma_dir, linear_dir) != kExitOk) {
     check.failure = "rendering the response check's boards failed";
     return check;
   }

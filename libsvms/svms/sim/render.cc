@@ -215,6 +215,11 @@ cv::Mat Renderer::RenderRadianceFine(int view) const {
   return impl_->RenderFine(*fine_, view);
 }
 
+bool SharesRadiance(const Sensor& a, const Sensor& b) {
+  return a.rays_per_pixel == b.rays_per_pixel && a.edge_rays_per_pixel == b.edge_rays_per_pixel &&
+         a.motion_blur == b.motion_blur && (a.defocus_sigma_px > 0) == (b.defocus_sigma_px > 0);
+}
+
 cv::Mat Renderer::RenderRadianceFor(int view, const Sensor& sensor) const {
   return sensor.defocus_sigma_px > 0 ? RenderRadianceFine(view) : RenderRadiance(view);
 }

@@ -72,6 +72,13 @@ ImageEncoding ViewImageEncoding(const Sensor& sensor);
 // Errors: the encoder or decoder failed (an image that is not what Expose makes for `sensor`).
 Status ThroughCodec(const Sensor& sensor, const cv::Mat& exposed, cv::Mat* decoded);
 
+// Whether a Renderer made for a scene with sensor `a` renders, for every view, the same
+// RenderRadianceFor(view, b) as for `a`: the same rays per pixel, on edges too, the same motion
+// blur, and a defocus blur in both or in neither (the grid the light is cast on). Exposing one
+// radiance through both then gives what two renders would (Expose's noise depends on the scene's
+// seed and the view only).
+bool SharesRadiance(const Sensor& a, const Sensor& b);
+
 // How much finer than the camera's pixels RenderRadianceFine renders: on a 1-D edge behind a
 // Gaussian of 0.7 px, a blur on the pixel grid errs by up to 4.0 % of the edge's contrast in a
 // pixel, on a grid 2 times finer by 0.8 %, 4 times finer by 0.2 % (docs/simulator.md).
