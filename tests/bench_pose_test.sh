@@ -4,18 +4,19 @@
 # that rotation (AlignCameraFrames, calib/), report the errors with and without it, and refuse a
 # camera of another image size with a one-line error. The NEES target is missed with the wrong
 # camera (exit 3): the covariance does not hide a 5 px error.
+# Usage: bench_pose_test.sh SVMS APPROACH (the quick approach's folder, ctest's fixture
+# approach_views; only read).
 set -uo pipefail
-svms="$1"
+svms=${1:?usage: bench_pose_test.sh SVMS APPROACH}
+approach=${2:?usage: bench_pose_test.sh SVMS APPROACH}
 out="$(mktemp -d)"
 trap 'rm -rf "$out"' EXIT
 source "$(dirname "$0")/expect.sh"
-
-"$svms" dataset approach --quick --threads 2 --out "$out/approach" > /dev/null 2>&1 ||
-  { echo "FAIL: rendering the quick approach" >&2; exit 1; }
-sed 's/515\.3, 508\.7/520.3, 508.7/' "$out/approach/true.cameramodel" > "$out/shifted.cameramodel"
+[ -s "$approach/truth.json" ] || { echo "FAIL: $approach: no rendered approach (truth.json)" >&2; exit 1; }
+sed 's/515\.3, 508\.7/520.3, 508.7/' "$approach/true.cameramodel" > "$out/shifted.cameramodel"
 grep -q '520\.3, 508\.7' "$out/shifted.cameramodel" || fail "the true camera's cx is not 515.3"
 expect 3 "the given camera's frame against the true camera's" "$svms" bench pose --quick \
-  --data "$out/approach" --layout "$out/approach/true_layout.json" \
+  --data "$approach" --layout "$approach/true_layout.json" \
   --camera "$out/shifted.cameramodel" --out "$out/bp"
 /usr/bin/python3 - "$out/bp/summary.json" <<'PY' && pass || fail "summary.json: frame_alignment"
 import json, sys
@@ -30,14 +31,14 @@ assert a["position_error_mm_median"] < 0.5 * s["position_error_mm_median"], (a, 
 assert a["orientation_error_deg_median"] < 0.1 < s["orientation_error_deg_median"], (a, s)
 PY
 # A camera of another image size: named, exit 2.
-sed 's/1024, 1024/640, 480/' "$out/approach/true.cameramodel" > "$out/small.cameramodel"
+sed 's/1024, 1024/640, 480/' "$approach/true.cameramodel" > "$out/small.cameramodel"
 expect 2 "imagersize: the models differ (1024x1024 and 640x480)" "$svms" bench pose --quick \
-  --data "$out/approach" --layout "$out/approach/true_layout.json" \
+  --data "$approach" --layout "$approach/true_layout.json" \
   --camera "$out/small.cameramodel" --out "$out/bp2"
 # A two-camera rig along the quick approach (--rig): every frame pair gets a rig pose that uses
 # both cameras' markers where both see some, consistent with the truth, and as good as the
 # better camera of each frame (the rig's RMS within 1.5 times that of the per-frame better one).
-"$svms" bench pose --quick --rig --data "$out/approach" --layout "$out/approach/true_layout.json" \
+"$svms" bench pose --quick --rig --data "$approach" --layout "$approach/true_layout.json" \
   --out "$out/bprig" > /dev/null 2>&1
 rc=$?
 { [ $rc -eq 0 ] || [ $rc -eq 3 ]; } || fail "bench pose --rig exited $rc"
@@ -60,7 +61,7 @@ assert rig < 1.5 * better, (rig, better)
 PY
 # No true camera in the dataset: the rest of the report, and a row saying why the frame rows are
 # missing (not a silent omission).
-cp -r "$out/approach" "$out/no_true" && rm "$out/no_true/true.cameramodel"
+cp -r "$approach" "$out/no_true" && rm "$out/no_true/true.cameramodel"
 expect 3 "warning: the given camera's frame is not aligned" "$svms" bench pose --quick \
   --data "$out/no_true" --layout "$out/no_true/true_layout.json" \
   --camera "$out/shifted.cameramodel" --out "$out/bp3"

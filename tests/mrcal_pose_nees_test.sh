@@ -7,19 +7,20 @@
 # sidecar is what does it). What one calibration's error adds to the NEES is that draw seen
 # through d pose / d intrinsics, which depends on how the fit weighs the corners: with the
 # corners' joint covariance (bench pose --correlated-corners) 5.23 and 3.00.
-# usage: mrcal_pose_nees_test.sh SVMS MRCAL_CAMERA
+# usage: mrcal_pose_nees_test.sh SVMS MRCAL_CAMERA APPROACH (the quick approach's folder, ctest's
+# fixture approach_views; only read)
 set -uo pipefail
 svms=${1:?svms}; mrcal_cam=${2:?camera-0.cameramodel of mrcal-calibrate-cameras}
+approach=${3:?usage: mrcal_pose_nees_test.sh SVMS MRCAL_CAMERA APPROACH}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 fail() { echo "FAIL: $*" >&2; exit 1; }
-"$svms" dataset approach --quick --threads 2 --out "$tmp/approach" > /dev/null 2>&1 ||
-  fail "rendering the quick approach"
+[ -s "$approach/truth.json" ] || fail "$approach: no rendered approach (truth.json)"
 cp "$mrcal_cam" "$tmp/mrcal.cameramodel"
 "$svms" camera import-uncertainty "$tmp/mrcal.cameramodel" || fail "import-uncertainty exited $?"
 run() {  # NAME CAMERA [options]: the benchmark exits 3 when its NEES band is missed
   local name=$1; shift
-  "$svms" bench pose --quick --data "$tmp/approach" --layout "$tmp/approach/true_layout.json" \
+  "$svms" bench pose --quick --data "$approach" --layout "$approach/true_layout.json" \
     "$@" --out "$tmp/$name" > "$tmp/$name.log" 2>&1
   local rc=$?
   [ $rc -eq 0 ] || [ $rc -eq 3 ] || fail "bench pose ($name) exited $rc: $(tail -3 "$tmp/$name.log")"

@@ -5,9 +5,12 @@
 # duplicate JSON keys, overflowing sidecars, unusable cameras, FIFOs as inputs, options
 # checked before work. Runs as any user: write failures come from `ulimit -f` (with SIGXFSZ
 # ignored, as the tools ignore it too), not from permissions.
-# Usage: tests/safe_outputs_test.sh path/to/svms
+# Usage: tests/safe_outputs_test.sh path/to/svms [MOCKUP]
+# MOCKUP: a render of `svms dataset mockup --quick` to copy (ctest's fixture mockup_views, which
+# bench_survey_quick renders); without it the test renders its own.
 set -uo pipefail
-svms=${1:?usage: safe_outputs_test.sh SVMS}
+svms=${1:?usage: safe_outputs_test.sh SVMS [MOCKUP]}
+mockup_src=${2:-}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 source "$(dirname "$0")/expect.sh"
@@ -15,7 +18,11 @@ cd "$tmp"
 
 # Inputs: the quick mockup (camera, marker set, true layout, 8 views) and the quick calibration
 # boards.
-"$svms" dataset mockup --quick --out mockup --quiet --threads 2 >/dev/null || { echo "dataset failed"; exit 1; }
+if [ -n "$mockup_src" ]; then
+  cp -r "$mockup_src" mockup && [ -s mockup/scene.json ] || { echo "no mockup in $mockup_src"; exit 1; }
+else
+  "$svms" dataset mockup --quick --out mockup --quiet --threads 2 >/dev/null || { echo "dataset failed"; exit 1; }
+fi
 "$svms" dataset calibration --quick --out calib --quiet --threads 2 >/dev/null || { echo "dataset failed"; exit 1; }
 M=mockup; cam=$M/true.cameramodel; markers=$M/markers.json; layout=$M/true_layout.json
 img=$M/mockup_0000.png
