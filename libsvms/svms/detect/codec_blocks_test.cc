@@ -219,7 +219,7 @@ TEST(SideLineVariance, IsTheFittedLinesScatterAtItsEnds) {
   const SideBlocks sums =
       SideBlockSums(px, std::vector<double>(n, 0), std::vector<char>(n, 1), a, b, &scratch);
   std::mt19937 rng(7);
-  for (const Eigen::Vector2d ac : {Eigen::Vector2d(1, 0), Eigen::Vector2d(0.5, 0.5)}) {
+  for (const Eigen::Vector2d& ac : {Eigen::Vector2d(1, 0), Eigen::Vector2d(0.5, 0.5)}) {
     const SideLineEnds ends = SideLineVariance(sums, ac);
     ASSERT_TRUE(ends.ok);
     const int draws = 20000;
