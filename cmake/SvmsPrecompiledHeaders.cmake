@@ -21,8 +21,8 @@
 # svms_pch_<kind>_<headers>, made when a target needs it.
 #
 # A target opts out with DISABLE_PRECOMPILE_HEADERS (the fuzz targets, whose own
-# -fsanitize=fuzzer no precompiled header matches) or by precompiling its own (the Python
-# module: pybind11's headers too), a source file with SKIP_PRECOMPILE_HEADERS. With SVMS_PCH=OFF
+# -fsanitize=fuzzer no precompiled header matches; the Python module, python/CMakeLists.txt says
+# why) or by precompiling its own, a source file with SKIP_PRECOMPILE_HEADERS. With SVMS_PCH=OFF
 # every file is compiled on its own includes: the build that shows a missing #include (a
 # precompiled header hides it).
 option(SVMS_PCH "Precompile the third-party headers most files include" ON)
@@ -31,9 +31,6 @@ set(SVMS_PCH_STD_HEADERS
   <algorithm> <array> <atomic> <chrono> <cmath> <cstdint> <cstdio> <cstdlib> <cstring>
   <filesystem> <fstream> <functional> <iostream> <limits> <map> <memory> <mutex> <optional>
   <random> <set> <sstream> <string> <thread> <vector>)
-# Every header a target of the build could be given (the Python module's own set).
-set(SVMS_PCH_HEADERS ${SVMS_PCH_STD_HEADERS} <Eigen/Dense> <opencv2/core.hpp>
-  <opencv2/imgproc.hpp> <nlohmann/json.hpp>)
 
 # GCC 12 (Debian 12's) warns of std::string's inlined copies as out of bounds or overflowing
 # (-Warray-bounds, -Wstringop-overflow, -Wstringop-overread, in char_traits.h under
