@@ -160,7 +160,8 @@ std::array<std::vector<Eigen::Vector2d>, 4> Square(std::array<Eigen::Vector2d, 4
 // mean of BlockVariances over the draws is (a, c) (the gate passes nearly every draw at an
 // equal share; it biases c up a little where it drops the low draws); with c = 0 the gate passes
 // a few per cent of them: one-sided 2 sigmas of a Gaussian would be 2.3 %, and the statistic,
-// a quadratic form of few blocks, has a heavier tail (97 of 3000 draws here, 3.2 %, as the test prints).
+// a quadratic form of few blocks, has a heavier tail (97 of 3000 draws here, 3.2 %, as the test
+// prints).
 TEST(BlockVariances, RecoversTheVariancesOfInjectedErrors) {
   std::array<Eigen::Vector2d, 4> corners;
   const auto sides = Square(&corners);
