@@ -1,5 +1,6 @@
 // svms calibrate: camera intrinsics from images of a marker board (or any surveyed layout).
 #include <iostream>
+#include <map>
 #include <memory>
 #include <thread>
 
@@ -23,9 +24,20 @@ struct CalibrateCliOptions {
   double range = 0, max_rms = 2.0;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   PhotometryOptions photometry;
+  std::string edge_bias = "auto";
 };
 
 int RunCalibrate(const CalibrateCliOptions& c) {
+  const std::map<std::string, CalibrateRunOptions::EdgeBias> edge_bias_modes = {
+      {"auto", CalibrateRunOptions::EdgeBias::kAuto},
+      {"on", CalibrateRunOptions::EdgeBias::kOn},
+      {"off", CalibrateRunOptions::EdgeBias::kOff}};
+  const auto edge_bias = edge_bias_modes.find(c.edge_bias);
+  if (edge_bias == edge_bias_modes.end()) {
+    std::cerr << "svms calibrate: --edge-bias \"" << c.edge_bias
+              << "\": expected auto, on or off\n";
+    return kExitBadInput;
+  }
   ModelFile f;
   if (Status s = ReadModelFile(c.board, &f); !s) {
     std::cerr << "svms calibrate: --board: " << s.message() << "\n";
@@ -52,6 +64,7 @@ int RunCalibrate(const CalibrateCliOptions& c) {
   o.quiet = c.quiet;
   o.redetect = !c.no_redetect;
   o.photometry = c.photometry;
+  o.edge_bias = edge_bias->second;
   o.python = c.python;
   o.mrcal_inputs = !c.no_mrcal_inputs;
   CalibrateRunOutcome out;
@@ -69,6 +82,10 @@ int RunCalibrate(const CalibrateCliOptions& c) {
     if (out.response.patches > 0)
       std::printf("response: gamma %.3f +- %.3f from %d edge patches (%s)\n", out.response.gamma,
                   out.response.sigma, out.response.patches, PhotometricPath(c.out).c_str());
+    if (r.edge_bias_sigma_px > 0)
+      std::printf(
+          "edge bias: %+.4f +- %.4f px (> 0: marker sides seen outside their black squares)\n",
+          r.edge_bias_px, r.edge_bias_sigma_px);
     // calib/svms/calib/frame_alignment.h: measured 0.43 deg against the true camera of the
     // simulated calibration set (docs/flight-interface.md, "The camera frame").
     if (r.camera.lensmodel().rfind("LENSMODEL_SPLINED", 0) == 0)
@@ -121,6 +138,11 @@ void AddCalibrateCommands(CLI::App& app, int* exit_code) {
           "The images' response curve: linear, srgb, gamma:G, table:FILE, or estimate (from "
           "the symmetry of the markers' edges; docs/detector.md). Given or estimated, it is "
           "stored with the camera as OUT.photometric.json");
+  cmd->add_option("--edge-bias", c->edge_bias,
+                  "Also fit one edge bias in pixels, every marker side seen that far outside its "
+                  "black square (what a response curve a little off does to blurred edges): "
+                  "auto (with --response estimate), on, off")
+      ->capture_default_str();
   cmd->add_option("--python", c->python,
                   "The Python (with numpy and mrcal 2.2) that writes the calibration into the "
                   "model as mrcal's optimization_inputs, for mrcal's own tools")

@@ -115,7 +115,12 @@ p = json.load(open(sys.argv[3]))
 assert p["response"].startswith("gamma:"), p
 a, b = mrcal.cameramodel(sys.argv[2]).intrinsics()[1], mrcal.cameramodel(sys.argv[4]).intrinsics()[1]
 assert abs(a[0] - b[0]) < 0.003 * b[0], (a, b)  # the focal lengths agree within 0.3 %
+# The edge bias is fitted with the estimate (calib/calibrate.h) and reported with its sigma.
+e = s["edge_bias_px"]
+assert 0 < e["sigma"] < 0.01 and abs(e["value"]) < 0.05, e
 PY
+grep -q "^edge bias: " <<<"$out" && pass || fail "svms calibrate prints no edge bias: $out"
+expect 2 '--edge-bias "sometimes": expected auto, on or off' "$svms" calibrate cal_linear --board cal/board_layout.json --edge-bias sometimes --out x.cameramodel
 out=$("$svms" calibrate "cal_gamma:2.2" --board cal/board_layout.json --lensmodel LENSMODEL_OPENCV4 --response linear --out asl.cameramodel --quiet 2>&1 | head -1)
 "$py" -c "import sys; rms = float(sys.argv[1].split('RMS ')[1].split()[0]); assert rms > 0.2, rms" "$out" && pass || fail "read as linear, the gamma boards should fit worse: $out"
 

@@ -43,7 +43,8 @@ std::vector<ViewObservations> Observe(const std::vector<cv::Mat>& images,
 
 CalibrationResult Calibration(const py::object& images, const py::object& board_arg,
                               const std::string& lensmodel, bool redetect, bool board_warp,
-                              int threads, const std::optional<std::vector<std::string>>& names,
+                              bool edge_bias, int threads,
+                              const std::optional<std::vector<std::string>>& names,
                               const std::optional<std::string>& response) {
   const Layout board = BoardFrom(board_arg);
   std::vector<py::array> keep;
@@ -68,6 +69,7 @@ CalibrationResult Calibration(const py::object& images, const py::object& board_
   co.lensmodel = lensmodel;
   co.width = mats[0].cols, co.height = mats[0].rows;
   co.board_warp = board_warp;
+  co.edge_bias = edge_bias;
   co.threads = std::max(1, threads);
   RaiseIfError(co.Check());
   CalibrationResult result;
@@ -89,8 +91,8 @@ CalibrationResult Calibration(const py::object& images, const py::object& board_
 }  // namespace
 
 void BindCalibration(py::module_& m) {
-  py::class_<CalibrationResult>(m, "CalibrationResult",
-                                "A calibrated camera and how well the board fits (calib/calibrate.h)")
+  py::class_<CalibrationResult>(
+      m, "CalibrationResult", "A calibrated camera and how well the board fits (calib/calibrate.h)")
       .def_readonly("camera", &CalibrationResult::camera,
                     "the Camera, with its intrinsics' covariance factor")
       .def_readonly("views", &CalibrationResult::views, "indices of the images used")
@@ -103,24 +105,30 @@ void BindCalibration(py::module_& m) {
       .def_readonly("num_outliers", &CalibrationResult::num_outliers)
       .def_readonly("covariance", &CalibrationResult::covariance,
                     "covariance of the state [intrinsics (N), cam_from_board per used view (6 "
-                    "each: rvec, tvec), warp (2, with board_warp)], units of the parameters; the "
+                    "each: rvec, tvec), warp (2, with board_warp), edge bias (1, with edge_bias)], "
+                    "units of the parameters; the "
                     "intrinsics' block is camera.intrinsics_covariance_factor's L L^T")
       .def_readonly("noise_sigma_px", &CalibrationResult::noise_sigma_px)
+      .def_readonly("edge_bias_px", &CalibrationResult::edge_bias_px,
+                    "with edge_bias: every marker side's shift out of its black square, px")
+      .def_readonly("edge_bias_sigma_px", &CalibrationResult::edge_bias_sigma_px,
+                    "its standard deviation, px (0 without edge_bias)")
       .def_readonly("report", &CalibrationResult::report, "the final solve's one line")
       .def("__repr__", [](const CalibrationResult& r) {
         return "<svms.CalibrationResult " + r.camera.Summary() + ", RMS " +
-               std::to_string(r.rms_px) + " px over " + std::to_string(r.views.size()) +
-               " views>";
+               std::to_string(r.rms_px) + " px over " + std::to_string(r.views.size()) + " views>";
       });
 
   m.def("calibrate", &Calibration, py::arg("images"), py::arg("board"), py::kw_only(),
         py::arg("lensmodel") = "LENSMODEL_OPENCV8", py::arg("redetect") = true,
-        py::arg("board_warp") = false, py::arg("threads") = 1, py::arg("names") = py::none(),
-        py::arg("response") = py::none(),
+        py::arg("board_warp") = false, py::arg("edge_bias") = false, py::arg("threads") = 1,
+        py::arg("names") = py::none(), py::arg("response") = py::none(),
         "Calibrates a camera from images of a marker board, as `svms calibrate` does: `images` "
         "a list of numpy arrays of one size (as for Detector.detect, used in place), `board` "
         "its layout (a Layout or the path of svms generate board's JSON), `lensmodel` mrcal's "
-        "name. Returns a CalibrationResult (.camera: the Camera, with its intrinsics' "
+        "name, `edge_bias` also fits one shift of every marker side in pixels (what a response "
+        "curve a little off leaves; `svms calibrate --edge-bias`). Returns a CalibrationResult "
+        "(.camera: the Camera, with its intrinsics' "
         "uncertainty). ValueError when it cannot be solved (with why).");
 }
 

@@ -63,6 +63,15 @@ class CalibrationTest(unittest.TestCase):
                                    atol=1e-9 * np.abs(r.covariance[:n, :n]).max())
         self.assertEqual(len(r.cam_from_board), len(r.views))
 
+    def test_edge_bias(self):
+        # On linear renders there is no bias to find: zero within its sigma, one more state.
+        r = svms.calibrate(self.images, self.board, edge_bias=True, redetect=False)
+        self.assertGreater(r.edge_bias_sigma_px, 0)
+        self.assertLess(abs(r.edge_bias_px), 4 * r.edge_bias_sigma_px + 1e-3)
+        n = len(r.camera.intrinsics)
+        self.assertEqual(r.covariance.shape[0], n + 6 * len(r.views) + 1)
+        self.assertEqual(self.result.edge_bias_sigma_px, 0)
+
     def test_bad_input(self):
         with self.assertRaises(ValueError) as e:
             svms.calibrate(self.images, self.board, lensmodel="LENSMODEL_NOSUCH")

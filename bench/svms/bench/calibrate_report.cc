@@ -124,6 +124,8 @@ void WriteJson(const CalibrateBenchmarkOptions& o, const CalibrationData& data,
       {"gamma_region_error_rms_px", figure(r.gamma.ok, r.gamma.region_err_rms)},
       {"gamma_region_predicted_rms_px", figure(r.gamma.ok, r.gamma.region_pred_rms)},
       {"gamma_a_posteriori_sigma_px", figure(r.gamma.ok, r.gamma.r.noise_sigma_px)},
+      {"gamma_edge_bias_px", figure(r.gamma.ok, r.gamma.r.edge_bias_px)},
+      {"gamma_edge_bias_sigma_px", figure(r.gamma.ok, r.gamma.r.edge_bias_sigma_px)},
       {"gamma_corner_error_rms_per_axis_px", figure(r.gamma.ok, r.gamma_corners.rms)},
       {"gamma_corner_error_mean_px",
        {figure(r.gamma.ok, r.gamma_corners.mean_x), figure(r.gamma.ok, r.gamma_corners.mean_y)}},
@@ -266,11 +268,16 @@ void ToolsSection(const CalibrateBenchmarkOptions& o, const CalibrationData& dat
          "table's last rows, the very last a diagnostic). ";
   if (r.ok) {
     *md << "The response estimated from the board: gamma " << Fixed(r.estimate.gamma, 3) << " +- "
-        << Fixed(r.estimate.sigma, 3) << " from " << r.estimate.patches
-        << " edge patches. Their corners against the true projections: "
-        << Fixed(r.gamma_corners.rms, 4) << " px RMS per axis, mean ("
-        << SignedFixed(r.gamma_corners.mean_x, 4) << ", " << SignedFixed(r.gamma_corners.mean_y, 4)
-        << ") px, a-posteriori sigma " << Fixed(r.gamma.r.noise_sigma_px, 4) << " px; the twin's "
+        << Fixed(r.estimate.sigma, 3) << " from " << r.estimate.patches << " edge patches";
+    if (r.gamma.ok && r.gamma.r.edge_bias_sigma_px > 0)
+      *md << "; the calibration with it fitted an edge bias (calibrate.h) of "
+          << SignedFixed(r.gamma.r.edge_bias_px, 5) << " +- "
+          << Fixed(r.gamma.r.edge_bias_sigma_px, 5)
+          << " px, the sides' shift out of their squares that the estimate's error leaves";
+    *md << ". Their corners against the true projections: " << Fixed(r.gamma_corners.rms, 4)
+        << " px RMS per axis, mean (" << SignedFixed(r.gamma_corners.mean_x, 4) << ", "
+        << SignedFixed(r.gamma_corners.mean_y, 4) << ") px, a-posteriori sigma "
+        << Fixed(r.gamma.r.noise_sigma_px, 4) << " px; the twin's "
         << Fixed(r.linear_corners.rms, 4) << " px, mean ("
         << SignedFixed(r.linear_corners.mean_x, 4) << ", "
         << SignedFixed(r.linear_corners.mean_y, 4) << ") px, a-posteriori "
@@ -285,8 +292,9 @@ void ToolsSection(const CalibrateBenchmarkOptions& o, const CalibrationData& dat
              "unevenly), where the estimated curve gave "
           << Fixed(r.gamma.region_err_rms / r.linear.region_err_rms, 2)
           << "x (the encoding and the estimate's error of "
-          << SignedFixed(r.estimate.gamma - kCheckedGamma, 3)
-          << " in gamma); corners against the truth " << Fixed(r.known_corners.rms, 4)
+          << SignedFixed(r.estimate.gamma - kCheckedGamma, 3) << " in gamma"
+          << (r.gamma.r.edge_bias_sigma_px > 0 ? ", less what the edge bias took up" : "")
+          << "); corners against the truth " << Fixed(r.known_corners.rms, 4)
           << " px RMS per axis, mean (" << SignedFixed(r.known_corners.mean_x, 4) << ", "
           << SignedFixed(r.known_corners.mean_y, 4) << ") px.\n";
     }
@@ -426,7 +434,13 @@ void PrintSummary(const CalibrationData& data, const CalibrateFindings& f) {
   if (f.response.ok)
     std::cout << "response estimated from the gamma " << Fixed(kCheckedGamma, 1)
               << " boards: gamma " << Fixed(f.response.estimate.gamma, 3) << " +- "
-              << Fixed(f.response.estimate.sigma, 3) << "\n";
+              << Fixed(f.response.estimate.sigma, 3)
+              << (f.response.gamma.ok && f.response.gamma.r.edge_bias_sigma_px > 0
+                      ? "; edge bias fitted with it " +
+                            SignedFixed(f.response.gamma.r.edge_bias_px, 5) + " +- " +
+                            Fixed(f.response.gamma.r.edge_bias_sigma_px, 5) + " px"
+                      : "")
+              << "\n";
   std::cout << "svms corner noise: a-posteriori " << Fixed(f.tools[0].r.noise_sigma_px, 4)
             << " px, true " << Fixed(f.corner_noise.rms, 4) << " px; Monte-Carlo ("
             << f.monte_carlo.solved << "/" << f.monte_carlo.trials << "): error "

@@ -35,6 +35,7 @@ struct State {
   std::vector<double> intrinsics;
   std::vector<std::array<double, 6>> rt;  // cam_from_board per used view
   std::array<double, 2> warp{0, 0};
+  double edge_bias = 0;  // pixels (CalibrationOptions::edge_bias)
 };
 
 struct Problem {
@@ -71,6 +72,7 @@ ceres::Solver::Summary Solve(const Problem& p, const std::vector<std::vector<boo
   ceres::Problem problem(po);
   const int n = p.lens->num_params();
   const bool warp = p.options.board_warp && !core_only;
+  const bool edge_bias = p.options.edge_bias && !core_only;
   problem.AddParameterBlock(s->intrinsics.data(), n);
   for (size_t v = 0; v < p.views.size(); ++v) {
     problem.AddParameterBlock(s->rt[v].data(), 6);
@@ -80,10 +82,14 @@ ceres::Solver::Summary Solve(const Problem& p, const std::vector<std::vector<boo
       auto* cost = new ProjectionCost(p.lens, o.point_in_board, o.pixel, Weight(o, ref_sigma), warp,
                                       p.extent);
       ceres::LossFunction* loss = robust ? new ceres::HuberLoss(p.options.huber_px) : nullptr;
-      if (warp) {
-        problem.AddResidualBlock(cost, loss, s->intrinsics.data(), s->rt[v].data(), s->warp.data());
+      std::vector<double*> blocks = {s->intrinsics.data(), s->rt[v].data()};
+      if (warp) blocks.push_back(s->warp.data());
+      if (edge_bias) {
+        blocks.push_back(&s->edge_bias);
+        problem.AddResidualBlock(
+            new EdgeBiasedProjectionCost(cost, o.edge_shift, Weight(o, ref_sigma)), loss, blocks);
       } else {
-        problem.AddResidualBlock(cost, loss, s->intrinsics.data(), s->rt[v].data());
+        problem.AddResidualBlock(cost, loss, blocks);
       }
     }
   }
@@ -98,6 +104,7 @@ ceres::Solver::Summary Solve(const Problem& p, const std::vector<std::vector<boo
   for (auto& rt : s->rt) ordering->AddElementToGroup(rt.data(), 0);
   ordering->AddElementToGroup(s->intrinsics.data(), 1);
   if (warp) ordering->AddElementToGroup(s->warp.data(), 1);
+  if (edge_bias) ordering->AddElementToGroup(&s->edge_bias, 1);
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_SCHUR;
   so.linear_solver_ordering.reset(ordering);
@@ -112,7 +119,8 @@ ceres::Solver::Summary Solve(const Problem& p, const std::vector<std::vector<boo
   return summary;
 }
 
-// Residuals (predicted - observed, unweighted pixels) of every point; false if one fails.
+// Residuals (predicted - observed, unweighted pixels, the prediction moved by the edge bias) of
+// every point; false if one fails.
 bool Residuals(const Problem& p, const State& s, std::vector<std::vector<Eigen::Vector2d>>* out) {
   out->assign(p.views.size(), {});
   bool ok = true;
@@ -125,7 +133,7 @@ bool Residuals(const Problem& p, const State& s, std::vector<std::vector<Eigen::
         r[0] = r[1] = 1e6;
         ok = false;
       }
-      (*out)[v].emplace_back(r[0], r[1]);
+      (*out)[v].push_back(Eigen::Vector2d(r[0], r[1]) + s.edge_bias * o.edge_shift);
     }
   }
   return ok;
@@ -344,7 +352,8 @@ void ResidualStatistics(const std::vector<std::vector<Eigen::Vector2d>>& res,
       inliers > 0 ? std::sqrt(std::max(0.0, sum2 / (2.0 * inliers) - mean_c * mean_c)) : 0;
 }
 
-// J^T J of the state [intrinsics, 6 per view (cam_from_board), warp (2, with board_warp)] at
+// J^T J of the state [intrinsics, 6 per view (cam_from_board), warp (2, with board_warp), edge
+// bias (1, with edge_bias)] at
 // the solution, from the analytic Jacobian of the inliers' weighted residuals (*JotJo) and
 // with the splined models' prior added (*JtJ).
 void StateInformation(const Problem& p, const State& s,
@@ -352,21 +361,23 @@ void StateInformation(const Problem& p, const State& s,
                       Eigen::MatrixXd* JtJ, Eigen::MatrixXd* JotJo) {
   const std::vector<const ViewObservations*>& views = p.views;
   const bool warp = p.options.board_warp;
+  const bool edge_bias = p.options.edge_bias;
   const int n = p.lens->num_params();
   const int nv = static_cast<int>(views.size());
-  const int nstate = n + 6 * nv + (warp ? 2 : 0);
+  const int nstate = n + 6 * nv + (warp ? 2 : 0) + (edge_bias ? 1 : 0);
   *JotJo = Eigen::MatrixXd::Zero(nstate, nstate);
   std::vector<double> ji(2 * n);
   double jrt[12], jw[4], r[2];
-  // Each point touches the intrinsics, its view's pose and the warp: accumulate the outer
-  // product of that compact row into those blocks only.
-  const int m = n + 6 + (warp ? 2 : 0);
+  // Each point touches the intrinsics, its view's pose, the warp and the edge bias: accumulate
+  // the outer product of that compact row into those blocks only.
+  const int m = n + 6 + (warp ? 2 : 0) + (edge_bias ? 1 : 0);
   Eigen::MatrixXd row(2, m);
   std::vector<int> index(m);
   for (int v = 0; v < nv; ++v) {
     for (int k = 0; k < n; ++k) index[k] = k;
     for (int k = 0; k < 6; ++k) index[n + k] = n + 6 * v + k;
     if (warp) index[n + 6] = n + 6 * nv, index[n + 7] = n + 6 * nv + 1;
+    if (edge_bias) index[m - 1] = nstate - 1;
     Eigen::MatrixXd block = Eigen::MatrixXd::Zero(m, m);
     for (size_t i = 0; i < views[v]->points.size(); ++i) {
       if (outlier[v][i]) continue;
@@ -380,6 +391,7 @@ void StateInformation(const Problem& p, const State& s,
         for (int k = 0; k < n; ++k) row(a, k) = ji[a * n + k];
         for (int k = 0; k < 6; ++k) row(a, n + k) = jrt[a * 6 + k];
         if (warp) row(a, n + 6) = jw[a * 2], row(a, n + 7) = jw[a * 2 + 1];
+        if (edge_bias) row(a, m - 1) = Weight(ob, ref_sigma) * ob.edge_shift(a);
       }
       block.noalias() += row.transpose() * row;
     }
@@ -483,7 +495,7 @@ Status CheckCalibrationRequest(const std::string& lensmodel, int num_views) {
                          "' gives no gradients in mrcal 2.2, which the calibration needs; "
                          "expected e.g. LENSMODEL_PINHOLE, LENSMODEL_OPENCV8, "
                          "LENSMODEL_SPLINED_STEREOGRAPHIC");
-  const double nstate = n + 6.0 * std::max(num_views, 1) + 2;
+  const double nstate = n + 6.0 * std::max(num_views, 1) + 3;
   return CheckMemory("a calibration of " + lensmodel + " (" + std::to_string(n) +
                          " intrinsics) over " + std::to_string(num_views) + " views",
                      12 * 8 * nstate * nstate);
@@ -551,6 +563,7 @@ Status Calibrate(const std::vector<ViewObservations>& all_views, const Calibrati
     result->cam_from_board.push_back(
         Pose{Eigen::Vector3d(rt[0], rt[1], rt[2]), Eigen::Vector3d(rt[3], rt[4], rt[5])});
   result->warp = Eigen::Vector2d(s.warp[0], s.warp[1]);
+  result->edge_bias_px = s.edge_bias;
   if (Status st = CameraModel::Create(lensmodel, s.intrinsics, o.width, o.height, &result->camera);
       !st)
     return Status::Error("the solve gave an invalid camera model: " + st.message());
@@ -574,6 +587,11 @@ Status Calibrate(const std::vector<ViewObservations>& all_views, const Calibrati
           CompactFactor(result->covariance_factor.topRows(n)));
       !st) {
     return st;
+  }
+  if (o.edge_bias) {
+    const int last = static_cast<int>(result->covariance.rows()) - 1;
+    result->edge_bias_sigma_px = std::sqrt(std::max(0.0, result->covariance(last, last)));
+    Log(o, Fmt("edge bias %+.5f +- %.5f px", s.edge_bias, result->edge_bias_sigma_px));
   }
   const double rel = std::sqrt(result->covariance(0, 0)) / s.intrinsics[0];
   if (!(rel <= o.max_focal_rel_sigma)) {

@@ -36,8 +36,16 @@ struct CalibrationOptions {
   // LENSMODEL_SPLINED_STEREOGRAPHIC (then order 3, Nx 16, Ny from the aspect ratio, and a
   // field of view 1.3 times the seed's).
   std::string lensmodel = "LENSMODEL_OPENCV8";
-  int width = 0, height = 0;       // the images' size, pixels
-  bool board_warp = false;         // also estimate the board's flatness deviation (two numbers)
+  int width = 0, height = 0;  // the images' size, pixels
+  bool board_warp = false;    // also estimate the board's flatness deviation (two numbers)
+  // Also estimate one edge bias (pixels): every marker side seen that far out of its black
+  // square (EdgeBiasedProjectionCost), whatever the view. A response curve a little off (an
+  // estimated gamma's own error, a camera's tone curve not quite sRGB) makes a blurred edge's
+  // linearised profile lopsided, and the side's fitted line moves toward the dark or the
+  // bright side by a share of the blur, on every marker alike. The board's geometry tells
+  // that apart from the lens (the markers' sizes against their spacing), so the lens model
+  // does not take it up. Costs one parameter; worth it where the response is not known.
+  bool edge_bias = false;
   double huber_px = 1.0;           // Huber loss scale during stages 1-3 (pixels)
   double outlier_threshold = 4.0;  // in standard deviations of the inlier residuals (each axis)
   double min_outlier_px = 0.2;     // never call a point with |residual| below this an outlier
@@ -79,9 +87,13 @@ struct CalibrationResult {
   std::vector<std::pair<int, std::string>> skipped;  // views not used, and why
   std::vector<Pose> cam_from_board;                  // per used view
   Eigen::Vector2d warp = Eigen::Vector2d::Zero();    // metres (zero without board_warp)
+  // With edge_bias: the fitted edge bias and its standard deviation, pixels (> 0: the sides
+  // are seen outside the black square's true edge). Zero without.
+  double edge_bias_px = 0, edge_bias_sigma_px = 0;
   BoardExtent extent;
   // Per used view and point (same order as the input's points): predicted - observed (pixels,
-  // unweighted) and whether the point was rejected as an outlier.
+  // unweighted; the prediction includes the edge bias) and whether the point was rejected as
+  // an outlier.
   std::vector<std::vector<Eigen::Vector2d>> residuals;
   std::vector<std::vector<bool>> outlier;
   double rms_px = 0;    // RMS of |residual| over the inliers (2-D norm)
@@ -91,7 +103,8 @@ struct CalibrationResult {
   int outlier_rounds = 0;
   int iterations = 0;  // Ceres iterations over all solves
   // Covariance of the state [intrinsics (N), cam_from_board per used view (6 each: rotation
-  // vector, translation), warp (2, with board_warp)]; units of the parameters. Also as a factor
+  // vector, translation), warp (2, with board_warp), edge bias (1, with edge_bias)]; units of
+  // the parameters. Also as a factor
   // F with covariance = F F^t (what ProjectionCovariance uses: positive semi-definite by
   // construction, where the dense matrix of a nearly degenerate model loses that to round-off).
   Eigen::MatrixXd covariance;

@@ -143,6 +143,78 @@ TEST(Calibrate, OpenCV8KnownAnswerWithNoise) {
   EXPECT_GT(err / pred, 1 / 3.0);
 }
 
+// Every marker's corners as if each side were seen `bias_px` further out of its black square
+// (PointObservation::edge_shift from the noise-free corners), and that shift recorded.
+std::vector<ViewObservations> WithEdgeBias(std::vector<ViewObservations> views, const BoardViews& s,
+                                           const CameraModel& cam, double bias_px) {
+  for (size_t v = 0; v < views.size(); ++v) {
+    for (size_t i = 0; i + 4 <= views[v].points.size(); i += 4) {
+      std::array<Eigen::Vector2d, 4> exact;
+      for (int k = 0; k < 4; ++k)
+        EXPECT_TRUE(cam.Project(s.cam_from_board[v] * views[v].points[i + k].point_in_board,
+                                &exact[k]));  // every synthesised point projected
+      const std::array<Eigen::Vector2d, 4> shift = QuadEdgeShifts(exact);
+      for (int k = 0; k < 4; ++k) {
+        views[v].points[i + k].pixel += bias_px * shift[k];
+        views[v].points[i + k].edge_shift = shift[k];
+      }
+    }
+  }
+  return views;
+}
+
+TEST(Calibrate, EdgeBiasIsFittedWithItsUncertainty) {
+  // Sides seen 0.01 px outside their squares (a response curve about 0.07 off in gamma at
+  // 0.7 px of blur, or 0.07 px of dot gain), corner noise 0.01 px. With the edge bias fitted,
+  // it is found within its predicted sigma, the a-posteriori noise is the corners' and the
+  // lens is as good as the noise allows. Without it, the bias stays in the residuals (the
+  // board's geometry keeps the lens from taking it up), where it inflates the noise estimate
+  // and with it every uncertainty the camera carries.
+  const BoardViews s = DatasetSetup(24);
+  CameraModel truth;
+  ASSERT_TRUE(CameraModel::Create("LENSMODEL_OPENCV4",
+                                  {1111, 1109, 515.3, 508.7, -0.12, 0.05, 0.0006, -0.0004}, 1024,
+                                  1024, &truth)
+                  .ok());
+  const double bias = 0.01, noise = 0.01;
+  const std::vector<ViewObservations> views =
+      WithEdgeBias(Synthesise(s, truth, noise, 11), s, truth, bias);
+  CalibrationOptions o = Options("LENSMODEL_OPENCV4");
+  o.edge_bias = true;
+  CalibrationResult fitted;
+  const Status st = Calibrate(views, o, &fitted);
+  ASSERT_TRUE(st.ok()) << st.message();
+  EXPECT_GT(fitted.edge_bias_sigma_px, 0);
+  EXPECT_LT(fitted.edge_bias_sigma_px, 0.001);
+  EXPECT_NEAR(fitted.edge_bias_px, bias, 4 * fitted.edge_bias_sigma_px);
+  EXPECT_NEAR(fitted.noise_sigma_px, noise, 0.05 * noise);
+  const int nstate = static_cast<int>(fitted.covariance.rows());
+  EXPECT_EQ(nstate, 8 + 6 * static_cast<int>(fitted.views.size()) + 1);
+  double err = 0, pred = 0;
+  CompareOverImage(fitted, truth, UsedTruth(s, fitted), 2.0, &err, &pred);
+  EXPECT_LT(err / pred, 3.0);
+  EXPECT_GT(err / pred, 1 / 3.0);
+
+  o.edge_bias = false;
+  CalibrationResult ignored;
+  ASSERT_TRUE(Calibrate(views, o, &ignored).ok());
+  EXPECT_EQ(ignored.edge_bias_px, 0);
+  EXPECT_EQ(ignored.edge_bias_sigma_px, 0);
+  EXPECT_EQ(ignored.covariance.rows(), nstate - 1);
+  // 0.01 px along each diagonal (sqrt(2) x 0.01 in 2-D) added to 0.01 px of noise per axis.
+  EXPECT_GT(ignored.noise_sigma_px, 1.3 * noise);
+}
+
+TEST(Calibrate, NoEdgeBiasIsFoundWhereThereIsNone) {
+  const BoardViews s = DatasetSetup(24);
+  const CameraModel truth = DistortedCamera();
+  CalibrationOptions o = Options("LENSMODEL_OPENCV8");
+  o.edge_bias = true;
+  CalibrationResult r;
+  ASSERT_TRUE(Calibrate(WithEdgeBias(Synthesise(s, truth, 0.05, 12), s, truth, 0.0), o, &r).ok());
+  EXPECT_NEAR(r.edge_bias_px, 0, 4 * r.edge_bias_sigma_px);
+}
+
 TEST(Calibrate, ProjectionCovarianceIsPositiveWhereTheModelExtrapolates) {
   // The dataset's views leave the image corners empty; there the rational model's projection
   // hangs on directions the data barely see (condition numbers near 1e15). The covariance must

@@ -1,6 +1,35 @@
 #include "svms/calib/observations.h"
 
+#include <cmath>
+
 namespace svms {
+
+std::array<Eigen::Vector2d, 4> QuadEdgeShifts(const std::array<Eigen::Vector2d, 4>& c) {
+  // Outward normal of the side from corner k to k + 1, whichever way the quad winds: the
+  // perpendicular that points away from the quad's centroid.
+  const Eigen::Vector2d centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
+  std::array<Eigen::Vector2d, 4> normal;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d d = c[(k + 1) % 4] - c[k];
+    const double len = d.norm();
+    normal[k] = len > 0 ? Eigen::Vector2d(Eigen::Vector2d(d.y(), -d.x()) / len)
+                        : Eigen::Vector2d(Eigen::Vector2d::Zero());
+    if (normal[k].dot(0.5 * (c[k] + c[(k + 1) % 4]) - centre) < 0) normal[k] = -normal[k];
+  }
+  std::array<Eigen::Vector2d, 4> shift;
+  for (int k = 0; k < 4; ++k) {
+    // Corner k is where side k - 1 (ending there) meets side k (starting there): the point v
+    // with n1.v = n2.v = 1 is (n1 + n2) / (1 + n1.n2) when |n1| = |n2| = 1.
+    const Eigen::Vector2d& n1 = normal[(k + 3) % 4];
+    const Eigen::Vector2d& n2 = normal[k];
+    const double denom = 1 + n1.dot(n2);
+    // Sides within about 8 degrees of parallel (or a zero normal): no stable intersection.
+    shift[k] = std::abs(n1.x() * n2.y() - n1.y() * n2.x()) > 0.14 && denom > 1e-6
+                   ? Eigen::Vector2d((n1 + n2) / denom)
+                   : Eigen::Vector2d::Zero();
+  }
+  return shift;
+}
 
 ViewObservations ObservationsFromDetections(const std::vector<Detection>& detections,
                                             const Layout& layout, const std::string& name,
@@ -16,9 +45,10 @@ ViewObservations ObservationsFromDetections(const std::vector<Detection>& detect
     const bool inner = e->marker.id != d.id;
     const MarkerModel model = inner ? *e->marker.InnerModel() : e->marker;
     const std::array<Eigen::Vector3d, 4> corners = model.Corners();
+    const std::array<Eigen::Vector2d, 4> shift = QuadEdgeShifts(d.corners);
     for (int k = 0; k < 4; ++k) {
       view.points.push_back(PointObservation{e->object_from_marker * corners[k], d.corners[k],
-                                             corner_sigma_px, d.id, k});
+                                             corner_sigma_px, d.id, k, shift[k]});
     }
     if (d.tip && !inner) {
       if (const auto tip = e->marker.PostTip()) {

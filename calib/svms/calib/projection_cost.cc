@@ -120,6 +120,27 @@ bool ProjectionCost::Evaluate(double const* const* parameters, double* residuals
   return true;
 }
 
+EdgeBiasedProjectionCost::EdgeBiasedProjectionCost(ProjectionCost* cost,
+                                                   const Eigen::Vector2d& edge_shift, double weight)
+    : cost_(cost), weighted_shift_(weight * edge_shift) {
+  set_num_residuals(2);
+  *mutable_parameter_block_sizes() = cost->parameter_block_sizes();
+  mutable_parameter_block_sizes()->push_back(1);
+}
+
+bool EdgeBiasedProjectionCost::Evaluate(double const* const* parameters, double* residuals,
+                                        double** jacobians) const {
+  if (!cost_->Evaluate(parameters, residuals, jacobians)) return false;
+  const size_t bias = cost_->parameter_block_sizes().size();
+  residuals[0] += weighted_shift_.x() * parameters[bias][0];
+  residuals[1] += weighted_shift_.y() * parameters[bias][0];
+  if (jacobians != nullptr && jacobians[bias] != nullptr) {
+    jacobians[bias][0] = weighted_shift_.x();
+    jacobians[bias][1] = weighted_shift_.y();
+  }
+  return true;
+}
+
 IntrinsicsPrior::IntrinsicsPrior(int num_intrinsics, std::vector<int> index,
                                  std::vector<double> target, std::vector<double> weight)
     : n_(num_intrinsics),

@@ -73,6 +73,25 @@ class ProjectionCost : public ceres::CostFunction {
   BoardExtent extent_;
 };
 
+// A ProjectionCost whose observation is also moved by an edge bias b (one more parameter
+// block, 1 double, pixels, after the cost's own): the point is expected at the projection plus
+// b * edge_shift (PointObservation::edge_shift), so the residual is
+// weight * (predicted + b * edge_shift - observed). It takes up what moves every marker side
+// out of (b > 0) or into its black square by the same amount in pixels: a response curve a
+// little off makes a blurred edge's linearised profile lopsided, and its fitted line moves
+// toward the dark or the bright side by a share of the blur (calibrate.h).
+class EdgeBiasedProjectionCost : public ceres::CostFunction {
+ public:
+  // Takes ownership of `cost`.
+  EdgeBiasedProjectionCost(ProjectionCost* cost, const Eigen::Vector2d& edge_shift, double weight);
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  std::unique_ptr<ProjectionCost> cost_;
+  Eigen::Vector2d weighted_shift_;
+};
+
 // A linear prior on intrinsics: residual k = weight * (intrinsics[index[k]] - target[k]).
 // Used to regularise splined lens models as mrcal does (their control points toward zero,
 // their centre toward the image centre).

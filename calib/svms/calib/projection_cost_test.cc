@@ -66,6 +66,36 @@ TEST(ProjectionCost, GradientsSplined) {
   CheckGradients(name, in, true, 1e-4);
 }
 
+TEST(EdgeBiasedProjectionCost, GradientsAndResidual) {
+  auto lens = LensModel::Parse("LENSMODEL_OPENCV8");
+  std::vector<double> in = {1111,   1109,    515.3, 508.7, -0.32, 0.12,
+                            0.0006, -0.0004, -0.02, 0.01,  0.005, 0.001};
+  const BoardExtent extent{-0.4, 0.4, -0.3, 0.3};
+  const Eigen::Vector3d point(0.1, -0.05, 0);
+  const Eigen::Vector2d observed(480, 420), shift(0.9, -1.2);
+  const double weight = 1.7;
+  double rt[6] = {0.1, -0.2, 0.05, 0.02, -0.03, 1.4};
+  double w[2] = {0.002, -0.001};
+  double bias = 0.03;
+  ProjectionCost plain(lens, point, observed, weight, true, extent);
+  EdgeBiasedProjectionCost cost(new ProjectionCost(lens, point, observed, weight, true, extent),
+                                shift, weight);
+  ASSERT_EQ(cost.parameter_block_sizes(), (std::vector<int32_t>{12, 6, 2, 1}));
+  const double* params[4] = {in.data(), rt, w, &bias};
+  double r0[2], r1[2];
+  ASSERT_TRUE(plain.Evaluate(params, r0, nullptr));
+  ASSERT_TRUE(cost.Evaluate(params, r1, nullptr));
+  // The prediction moves by bias * shift: the residual by weight times that.
+  EXPECT_NEAR(r1[0] - r0[0], weight * bias * shift.x(), 1e-9);
+  EXPECT_NEAR(r1[1] - r0[1], weight * bias * shift.y(), 1e-9);
+  ceres::NumericDiffOptions nd;
+  nd.relative_step_size = 1e-7;
+  const std::vector<const ceres::Manifold*>* none = nullptr;
+  ceres::GradientChecker checker(&cost, none, nd);
+  ceres::GradientChecker::ProbeResults results;
+  EXPECT_TRUE(checker.Probe(params, 1e-5, &results)) << results.error_log;
+}
+
 TEST(ProjectionCost, FailsBehindThePinholeCamera) {
   auto lens = LensModel::Parse("LENSMODEL_PINHOLE");
   std::vector<double> in = {1000, 1000, 512, 512};

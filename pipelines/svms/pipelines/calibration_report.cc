@@ -176,6 +176,8 @@ nlohmann::json Summary(const CalibrateRunOptions& o, const CalibrateRunOutcome& 
                       {"rms_px", out.uncertainty_rms},
                       {"max_px", out.uncertainty_max}};
   if (o.calib.board_warp) j["board_warp_m"] = {r.warp.x(), r.warp.y()};
+  if (o.calib.edge_bias)
+    j["edge_bias_px"] = {{"value", r.edge_bias_px}, {"sigma", r.edge_bias_sigma_px}};
   j["noise_sigma_px"] = r.noise_sigma_px;
   if (out.response.patches > 0)
     j["response_estimate"] = {{"gamma", out.response.gamma},

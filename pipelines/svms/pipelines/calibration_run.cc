@@ -329,6 +329,10 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
   *out = CalibrateRunOutcome();
   Photometry photometry;
   if (const int rc = CheckRequest(o, &photometry); rc != kExitOk) return rc;
+  CalibrateRunOptions run = o;
+  run.calib.edge_bias =
+      o.edge_bias == CalibrateRunOptions::EdgeBias::kOn ||
+      (o.edge_bias == CalibrateRunOptions::EdgeBias::kAuto && photometry.estimating());
   DetectionPass pass =
       DetectBoards(o.images, CameraModel(), "detected", o, photometry, photometry.estimating());
   if (photometry.estimating()) {
@@ -340,9 +344,9 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
   cv::Size size;
   std::vector<ViewObservations> views;
   if (const int rc = SelectViews(o, &pass, &size, &views, out); rc != kExitOk) return rc;
-  if (const int rc = Solve(o, size, photometry, std::move(views), out); rc != kExitOk) return rc;
-  out->uncertainty_range = UncertaintyRange(o, out->result);
-  if (const int rc = WriteOutputs(o, photometry, out); rc != kExitOk) return rc;
+  if (const int rc = Solve(run, size, photometry, std::move(views), out); rc != kExitOk) return rc;
+  out->uncertainty_range = UncertaintyRange(run, out->result);
+  if (const int rc = WriteOutputs(run, photometry, out); rc != kExitOk) return rc;
   return out->errors.empty() ? kExitOk : kExitFailed;
 }
 

@@ -26,6 +26,10 @@ struct CalibrateRunOptions {
   // the curved image of a marker's side does not bias them) and calibrate again.
   bool redetect = true;
   PhotometryOptions photometry;  // how the images become linear light (photometry.h)
+  // Whether the calibration also fits an edge bias (CalibrationOptions::edge_bias; its
+  // calib.edge_bias is set from this): kAuto fits it when the response is estimated, whose
+  // own error it takes up; a response declared is trusted.
+  enum class EdgeBias { kAuto, kOn, kOff } edge_bias = EdgeBias::kAuto;
   // Also store the calibration in the model as mrcal's optimization_inputs, written by this
   // Python (mrcal_optimization_inputs.h); when it cannot be, the model is written without them.
   bool mrcal_inputs = true;

@@ -122,7 +122,10 @@ Status MrcalOptimizationInputsText(const CalibrationResult& r,
       if (node[2] != -1)
         return Status::Error(view.name + ": two points on one node of mrcal's calibration object");
       const double weight = r.reference_sigma_px / p.sigma_px;
-      node[0] = p.pixel.x(), node[1] = p.pixel.y();
+      // mrcal has no edge bias: it gets the corners the bias accounts for, where SVMS's fit
+      // expects them without it (its residuals are then SVMS's).
+      const Eigen::Vector2d seen = p.pixel - r.edge_bias_px * p.edge_shift;
+      node[0] = seen.x(), node[1] = seen.y();
       if (r.outlier[k][i]) continue;  // stays at weight -1: mrcal's outlier
       node[2] = weight;
       sum_w2 += weight * weight * r.residuals[k][i].squaredNorm();

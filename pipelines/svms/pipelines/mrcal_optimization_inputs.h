@@ -7,12 +7,13 @@
 // regular calibration-object grid (board_grid.h: observations_board (views, H, W, 3) of x, y,
 // weight; the grid nodes that are no marker corner, and the outliers SVMS rejected, at weight
 // -1), weight = reference sigma / the point's sigma as in SVMS's own residuals, the board warp
-// (optimised only when SVMS optimised it), mrcal's regularisation off for the models SVMS
-// solves without a prior (it would add rows SVMS's covariance does not have) and on for the
-// splined models (which need one; mrcal's then differs from SVMS's spline prior). mrcal
-// re-evaluates this problem at the stored optimum, so its covariance is SVMS's up to
-// the estimate of the corner noise (mrcal: the residuals' standard deviation; SVMS: over the
-// degrees of freedom) and the splined models' prior.
+// (optimised only when SVMS optimised it), the corners moved by SVMS's fitted edge bias
+// (calibrate.h; mrcal has no such parameter, so its covariance lacks that one dimension), mrcal's
+// regularisation off for the models SVMS solves without a prior (it would add rows SVMS's
+// covariance does not have) and on for the splined models (which need one; mrcal's then differs
+// from SVMS's spline prior). mrcal re-evaluates this problem at the stored optimum, so its
+// covariance is SVMS's up to the estimate of the corner noise (mrcal: the residuals' standard
+// deviation; SVMS: over the degrees of freedom) and the splined models' prior.
 //
 // Written by mrcal's own Python (`/usr/bin/python3`, no shell: run_program.h): the key is a
 // base85-encoded compressed numpy archive that only numpy writes conveniently, and mrcal's
