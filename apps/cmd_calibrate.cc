@@ -79,9 +79,16 @@ int RunCalibrate(const CalibrateCliOptions& c) {
       std::printf("wrote %s%s and its intrinsics' covariance %s\n", c.out.c_str(),
                   out.has_optimization_inputs ? " (with mrcal's optimization_inputs)" : "",
                   CovarianceSidecarPath(c.out).c_str());
+    // The curve stored with the camera: the refined one when there is one.
     if (out.response.patches > 0)
-      std::printf("response: gamma %.3f +- %.3f from %d edge patches (%s)\n", out.response.gamma,
-                  out.response.sigma, out.response.patches, PhotometricPath(c.out).c_str());
+      std::printf("response: gamma %.3f +- %.3f from %d edge patches%s\n", out.response.gamma,
+                  out.response.sigma, out.response.patches,
+                  out.refined_gamma > 0 ? "" : (" (" + PhotometricPath(c.out) + ")").c_str());
+    if (out.refined_gamma > 0)
+      std::printf("response refined by the board's geometry: gamma %.4f +- %.4f (%s)\n",
+                  out.refined_gamma, out.refined_gamma_sigma, PhotometricPath(c.out).c_str());
+    else if (!out.refine_note.empty())
+      std::printf("response not refined: %s\n", out.refine_note.c_str());
     if (r.edge_bias_sigma_px > 0)
       std::printf(
           "edge bias: %+.4f +- %.4f px (> 0: marker sides seen outside their black squares)\n",

@@ -118,6 +118,11 @@ assert abs(a[0] - b[0]) < 0.003 * b[0], (a, b)  # the focal lengths agree within
 # The edge bias is fitted with the estimate (calib/calibrate.h) and reported with its sigma.
 e = s["edge_bias_px"]
 assert 0 < e["sigma"] < 0.01 and abs(e["value"]) < 0.05, e
+# ... and refines the curve that is stored (calibration_run.cc: RefineGammaFromEdgeBias).
+r = s["response_refined"]
+assert abs(r["gamma"] - 2.2) < max(0.01, 4 * r["sigma"]), r
+assert abs(r["gamma"] - 2.2) < abs(g - 2.2), (r, g)
+assert p["response"] == "gamma:%g" % r["gamma"] or abs(float(p["response"][6:]) - r["gamma"]) < 1e-4, p
 PY
 grep -q "^edge bias: " <<<"$out" && pass || fail "svms calibrate prints no edge bias: $out"
 expect 2 '--edge-bias "sometimes": expected auto, on or off' "$svms" calibrate cal_linear --board cal/board_layout.json --edge-bias sometimes --out x.cameramodel

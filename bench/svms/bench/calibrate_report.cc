@@ -121,6 +121,9 @@ void WriteJson(const CalibrateBenchmarkOptions& o, const CalibrationData& data,
       {"estimated_gamma", figure(r.estimate.patches > 0, r.estimate.gamma)},
       {"estimated_gamma_sigma", figure(r.estimate.patches > 0, r.estimate.sigma)},
       {"patches", r.estimate.patches},
+      {"refined_gamma", figure(r.refined_gamma > 0, r.refined_gamma)},
+      {"refined_gamma_sigma", figure(r.refined_gamma > 0, r.refined_sigma)},
+      {"refine_note", r.refine_note},
       {"gamma_region_error_rms_px", figure(r.gamma.ok, r.gamma.region_err_rms)},
       {"gamma_region_predicted_rms_px", figure(r.gamma.ok, r.gamma.region_pred_rms)},
       {"gamma_a_posteriori_sigma_px", figure(r.gamma.ok, r.gamma.r.noise_sigma_px)},
@@ -274,6 +277,12 @@ void ToolsSection(const CalibrateBenchmarkOptions& o, const CalibrationData& dat
           << SignedFixed(r.gamma.r.edge_bias_px, 5) << " +- "
           << Fixed(r.gamma.r.edge_bias_sigma_px, 5)
           << " px, the sides' shift out of their squares that the estimate's error leaves";
+    if (r.refined_gamma > 0)
+      *md << "; the curve refined by it (calibration_run.cc): gamma " << Fixed(r.refined_gamma, 4)
+          << " +- " << Fixed(r.refined_sigma, 4) << " ("
+          << SignedFixed(r.refined_gamma - kCheckedGamma, 4) << " from the truth)";
+    else if (!r.refine_note.empty())
+      *md << "; the curve not refined: " << r.refine_note;
     *md << ". Their corners against the true projections: " << Fixed(r.gamma_corners.rms, 4)
         << " px RMS per axis, mean (" << SignedFixed(r.gamma_corners.mean_x, 4) << ", "
         << SignedFixed(r.gamma_corners.mean_y, 4) << ") px, a-posteriori sigma "
@@ -439,6 +448,10 @@ void PrintSummary(const CalibrationData& data, const CalibrateFindings& f) {
                       ? "; edge bias fitted with it " +
                             SignedFixed(f.response.gamma.r.edge_bias_px, 5) + " +- " +
                             Fixed(f.response.gamma.r.edge_bias_sigma_px, 5) + " px"
+                      : "")
+              << (f.response.refined_gamma > 0
+                      ? "; refined by it " + Fixed(f.response.refined_gamma, 4) + " +- " +
+                            Fixed(f.response.refined_sigma, 4)
                       : "")
               << "\n";
   std::cout << "svms corner noise: a-posteriori " << Fixed(f.tools[0].r.noise_sigma_px, 4)

@@ -80,6 +80,9 @@ ResponseCheck RunResponseCheck(const CalibrateBenchmarkOptions& o, const Calibra
       calibrate(gamma_dir, gamma_dir + "_true_curve", true_curve,
                 "svms calibrate --response " + true_curve + " (the true curve)", &known_out);
   check.estimate = gamma_out.response;
+  check.refined_gamma = gamma_out.refined_gamma;
+  check.refined_sigma = gamma_out.refined_gamma_sigma;
+  check.refine_note = gamma_out.refine_note;
   check.gamma_corners = MeasureCornerNoise(data.truth, check.gamma, gamma_out.views);
   check.linear_corners = MeasureCornerNoise(data.truth, check.linear, linear_out.views);
   check.known_corners = MeasureCornerNoise(data.truth, check.known, known_out.views);

@@ -25,10 +25,14 @@ constexpr double kCheckedGamma = 2.2;
 constexpr double kCheckedDefocusPx = 0.7;
 
 struct ResponseCheck {
-  bool rendered = false;                      // both boards' images are there
-  bool ok = false;                            // both calibrations ran
-  std::string failure;                        // why not
-  ResponseEstimate estimate;                  // from the gamma views
+  bool rendered = false;      // both boards' images are there
+  bool ok = false;            // both calibrations ran
+  std::string failure;        // why not
+  ResponseEstimate estimate;  // from the gamma views
+  // The curve refined by the board's geometry (CalibrateRunOutcome::refined_gamma; 0: not
+  // refined, and why).
+  double refined_gamma = 0, refined_sigma = 0;
+  std::string refine_note;
   ToolResult gamma, linear;                   // the two calibrations, measured (Measure)
   CornerNoise gamma_corners, linear_corners;  // their board corners against the truth
   ToolResult known;                           // the gamma views with the true curve declared

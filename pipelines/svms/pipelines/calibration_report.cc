@@ -186,6 +186,12 @@ nlohmann::json Summary(const CalibrateRunOptions& o, const CalibrateRunOutcome& 
                               {"asymmetry", out.response.asymmetry},
                               {"asymmetry_as_linear", out.response.asymmetry_linear},
                               {"asymmetry_as_srgb", out.response.asymmetry_srgb}};
+  if (out.refined_gamma > 0)
+    j["response_refined"] = {{"gamma", out.refined_gamma},
+                             {"sigma", out.refined_gamma_sigma},
+                             {"edge_bias_px_per_gamma", out.edge_bias_per_gamma}};
+  else if (!out.refine_note.empty())
+    j["response_refined"] = {{"note", out.refine_note}};
   if (o.redetect)
     j["pass1"] = {{"what", "corners fitted in pixels, before re-detection with the lens model"},
                   {"rms_px", out.pass1.rms_px},

@@ -4,6 +4,7 @@
 #include <atomic>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <mutex>
 #include <set>
 #include <thread>
@@ -16,6 +17,7 @@
 #include "svms/imageio/image_io.h"
 #include "svms/pipelines/calibration_report.h"
 #include "svms/pipelines/exit_codes.h"
+#include "svms/pipelines/gamma_refinement.h"
 #include "svms/pipelines/item_failure.h"
 #include "svms/pipelines/mrcal_optimization_inputs.h"
 #include "svms/pipelines/output_checks.h"
@@ -256,6 +258,60 @@ int Solve(const CalibrateRunOptions& o, const cv::Size& size, const Photometry& 
   return kExitOk;
 }
 
+// With an estimated response and the edge bias fitted: the curve refined by the board's
+// geometry (gamma_refinement.h). The bias is what the estimated curve's error does to every
+// side; how far one unit of gamma moves them is measured on these images by detecting once more
+// through a curve kGammaStep higher and taking the corners' mean move along their edge_shift
+// (least squares). kExitOk, or the code of a failed re-reading.
+int RefineGammaFromEdgeBias(const CalibrateRunOptions& o, Photometry* photometry,
+                            CalibrateRunOutcome* out) {
+  constexpr double kGammaStep = 0.05;
+  const CalibrationResult& r = out->result;
+  if (!(r.edge_bias_sigma_px > 0) || out->response.patches == 0) return kExitOk;
+  Photometry stepped = *photometry;
+  stepped.UseResponse(Response::Gamma(out->response.gamma + kGammaStep));
+  // Through the lens model the corners in out->views were detected with, so that only the
+  // curve differs.
+  const CameraModel detected_with = o.redetect ? out->pass1.camera : CameraModel();
+  DetectionPass again = DetectBoards(out->image_of_view, detected_with,
+                                     "re-detected to measure the curve's effect", o, stepped);
+  double num = 0, den = 0;
+  for (size_t k = 0; k < r.views.size(); ++k) {
+    const int v = r.views[k];
+    if (!again.errors[v].empty()) {
+      std::cerr << kProg << again.errors[v] << " (on re-reading)\n";
+      return kExitFailed;
+    }
+    std::map<std::pair<int, int>, Eigen::Vector2d> moved;
+    for (const PointObservation& p : again.views[v].points)
+      moved[{p.marker_id, p.corner}] = p.pixel;
+    const std::vector<PointObservation>& points = out->views[v].points;
+    for (size_t i = 0; i < points.size(); ++i) {
+      const auto m = moved.find({points[i].marker_id, points[i].corner});
+      if (r.outlier[k][i] || m == moved.end()) continue;
+      num += points[i].edge_shift.dot(m->second - points[i].pixel);
+      den += points[i].edge_shift.squaredNorm();
+    }
+  }
+  const double per_gamma = den > 0 ? num / den / kGammaStep : 0;
+  out->edge_bias_per_gamma = per_gamma;
+  const GammaRefinement g = RefineGammaByEdgeBias(out->response.gamma, out->response.sigma,
+                                                  r.edge_bias_px, r.edge_bias_sigma_px, per_gamma);
+  out->refine_note = g.note;
+  if (!g.note.empty()) {
+    if (!o.quiet) std::cerr << kProg << "response not refined: " << g.note << "\n";
+    return kExitOk;
+  }
+  out->refined_gamma = g.gamma;
+  out->refined_gamma_sigma = g.sigma;
+  photometry->UseResponse(Response::Gamma(g.gamma));
+  if (!o.quiet)
+    std::cerr << kProg << "response refined by the board's geometry: gamma " << Fixed(g.gamma, 4)
+              << " +- " << Fixed(g.sigma, 4) << " (edge bias " << Fixed(r.edge_bias_px, 5)
+              << " px at " << Fixed(per_gamma, 3) << " px per unit of gamma)\n";
+  return kExitOk;
+}
+
 // The range for the uncertainty, metres: the median board distance unless given.
 double UncertaintyRange(const CalibrateRunOptions& o, const CalibrationResult& result) {
   if (o.uncertainty_range > 0) return o.uncertainty_range;
@@ -345,6 +401,7 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
   std::vector<ViewObservations> views;
   if (const int rc = SelectViews(o, &pass, &size, &views, out); rc != kExitOk) return rc;
   if (const int rc = Solve(run, size, photometry, std::move(views), out); rc != kExitOk) return rc;
+  if (const int rc = RefineGammaFromEdgeBias(run, &photometry, out); rc != kExitOk) return rc;
   out->uncertainty_range = UncertaintyRange(run, out->result);
   if (const int rc = WriteOutputs(run, photometry, out); rc != kExitOk) return rc;
   return out->errors.empty() ? kExitOk : kExitFailed;
