@@ -99,7 +99,8 @@ ceres::Solver::Summary Solve(const Problem& p, const std::vector<std::vector<boo
     for (int k = 4; k < n; ++k) fixed.push_back(k);
     problem.SetManifold(s->intrinsics.data(), new ceres::SubsetManifold(n, fixed));
   }
-  // Schur elimination of the board poses: the reduced system is the intrinsics (and warp).
+  // Schur elimination of the board poses: the reduced system is the intrinsics (and the warp
+  // and the edge bias).
   auto* ordering = new ceres::ParameterBlockOrdering;
   for (auto& rt : s->rt) ordering->AddElementToGroup(rt.data(), 0);
   ordering->AddElementToGroup(s->intrinsics.data(), 1);

@@ -42,7 +42,8 @@ struct CalibrationOptions {
   // square (EdgeBiasedProjectionCost), whatever the view. A response curve a little off (an
   // estimated gamma's own error, a camera's tone curve not quite sRGB) makes a blurred edge's
   // linearised profile lopsided, and the side's fitted line moves toward the dark or the
-  // bright side by a share of the blur, on every marker alike. The board's geometry tells
+  // bright side by a share of the blur, on every marker alike where the blur is alike (one b
+  // is the average where it varies from view to view). The board's geometry tells
   // that apart from the lens (the markers' sizes against their spacing), so the lens model
   // does not take it up. Costs one parameter; worth it where the response is not known.
   bool edge_bias = false;

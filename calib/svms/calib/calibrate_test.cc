@@ -63,7 +63,8 @@ std::vector<ViewObservations> Synthesise(const BoardViews& s, const CameraModel&
         Eigen::Vector2d q;
         if (!cam.Project(s.cam_from_board[v] * warped, &q)) break;
         if (q.x() < 0 || q.y() < 0 || q.x() > cam.width() - 1 || q.y() > cam.height() - 1) break;
-        pts.push_back(PointObservation{pb, q + noise * DrawVector2(g, rng), 0.1, e.marker.id, k});
+        pts.push_back(PointObservation{pb, q + noise * DrawVector2(g, rng), 0.1, e.marker.id, k,
+                                       Eigen::Vector2d::Zero()});
       }
       if (pts.size() == 4) {
         view.points.insert(view.points.end(), pts.begin(), pts.end());
@@ -164,10 +165,10 @@ std::vector<ViewObservations> WithEdgeBias(std::vector<ViewObservations> views, 
 }
 
 TEST(Calibrate, EdgeBiasIsFittedWithItsUncertainty) {
-  // Sides seen 0.01 px outside their squares (a response curve about 0.07 off in gamma at
-  // 0.7 px of blur, or 0.07 px of dot gain), corner noise 0.01 px. With the edge bias fitted,
-  // it is found within its predicted sigma, the a-posteriori noise is the corners' and the
-  // lens is as good as the noise allows. Without it, the bias stays in the residuals (the
+  // Sides seen 0.01 px outside their squares (a response curve about 0.04 off in gamma at
+  // 0.7 px of blur, docs/detector.md, or 0.01 px of dot gain), corner noise 0.01 px. With the edge
+  // bias fitted, it is found within its predicted sigma, the a-posteriori noise is the corners' and
+  // the lens is as good as the noise allows. Without it, the bias stays in the residuals (the
   // board's geometry keeps the lens from taking it up), where it inflates the noise estimate
   // and with it every uncertainty the camera carries.
   const BoardViews s = DatasetSetup(24);
@@ -212,7 +213,28 @@ TEST(Calibrate, NoEdgeBiasIsFoundWhereThereIsNone) {
   o.edge_bias = true;
   CalibrationResult r;
   ASSERT_TRUE(Calibrate(WithEdgeBias(Synthesise(s, truth, 0.05, 12), s, truth, 0.0), o, &r).ok());
+  EXPECT_GT(r.edge_bias_sigma_px, 0);
   EXPECT_NEAR(r.edge_bias_px, 0, 4 * r.edge_bias_sigma_px);
+}
+
+TEST(Calibrate, EdgeBiasWithTheBoardWarp) {
+  // Both optional parts of the state: [intrinsics, 6 per view, warp (2), edge bias (1)].
+  const BoardViews s = DatasetSetup(24);
+  const CameraModel truth = DistortedCamera();
+  const Eigen::Vector2d warp(0.002, -0.001);
+  CalibrationOptions o = Options("LENSMODEL_OPENCV8");
+  o.edge_bias = true;
+  o.board_warp = true;
+  CalibrationResult r;
+  const Status st =
+      Calibrate(WithEdgeBias(Synthesise(s, truth, 0.02, 13, warp), s, truth, 0.01), o, &r);
+  ASSERT_TRUE(st.ok()) << st.message();
+  EXPECT_EQ(r.covariance.rows(), 12 + 6 * static_cast<int>(r.views.size()) + 3);
+  EXPECT_NEAR(r.edge_bias_px, 0.01, 4 * r.edge_bias_sigma_px);
+  const int last = static_cast<int>(r.covariance.rows()) - 1;
+  EXPECT_NEAR(r.edge_bias_sigma_px, std::sqrt(r.covariance(last, last)), 1e-15);
+  EXPECT_NEAR(r.warp.x(), warp.x(), 4 * std::sqrt(r.covariance(last - 2, last - 2)));
+  EXPECT_NEAR(r.warp.y(), warp.y(), 4 * std::sqrt(r.covariance(last - 1, last - 1)));
 }
 
 TEST(Calibrate, ProjectionCovarianceIsPositiveWhereTheModelExtrapolates) {

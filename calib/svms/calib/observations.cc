@@ -53,7 +53,8 @@ ViewObservations ObservationsFromDetections(const std::vector<Detection>& detect
     if (d.tip && !inner) {
       if (const auto tip = e->marker.PostTip()) {
         view.points.push_back(PointObservation{e->object_from_marker * *tip, d.tip->pixel,
-                                               d.tip->sigma_px, d.id, PointObservation::kTip});
+                                               d.tip->sigma_px, d.id, PointObservation::kTip,
+                                               Eigen::Vector2d::Zero()});
       }
     }
     ++view.markers;

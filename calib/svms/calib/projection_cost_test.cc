@@ -94,6 +94,19 @@ TEST(EdgeBiasedProjectionCost, GradientsAndResidual) {
   ceres::GradientChecker checker(&cost, none, nd);
   ceres::GradientChecker::ProbeResults results;
   EXPECT_TRUE(checker.Probe(params, 1e-5, &results)) << results.error_log;
+
+  // Without the warp the bias is the third block; only the bias's Jacobian asked for.
+  EdgeBiasedProjectionCost no_warp(new ProjectionCost(lens, point, observed, weight, false, extent),
+                                   shift, weight);
+  ASSERT_EQ(no_warp.parameter_block_sizes(), (std::vector<int32_t>{12, 6, 1}));
+  const double* params3[3] = {in.data(), rt, &bias};
+  double r2[2], jb[2] = {0, 0};
+  double* jac[3] = {nullptr, nullptr, jb};
+  ASSERT_TRUE(no_warp.Evaluate(params3, r2, jac));
+  EXPECT_EQ(jb[0], weight * shift.x());
+  EXPECT_EQ(jb[1], weight * shift.y());
+  ceres::GradientChecker checker3(&no_warp, none, nd);
+  EXPECT_TRUE(checker3.Probe(params3, 1e-5, &results)) << results.error_log;
 }
 
 TEST(ProjectionCost, FailsBehindThePinholeCamera) {

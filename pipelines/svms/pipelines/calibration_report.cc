@@ -191,7 +191,8 @@ nlohmann::json Summary(const CalibrateRunOptions& o, const CalibrateRunOutcome& 
                              {"sigma", out.refined_gamma_sigma},
                              {"edge_bias_px_per_gamma", out.edge_bias_per_gamma}};
   else if (!out.refine_note.empty())
-    j["response_refined"] = {{"note", out.refine_note}};
+    j["response_refined"] = {{"note", out.refine_note},
+                             {"edge_bias_px_per_gamma", out.edge_bias_per_gamma}};
   if (o.redetect)
     j["pass1"] = {{"what", "corners fitted in pixels, before re-detection with the lens model"},
                   {"rms_px", out.pass1.rms_px},

@@ -262,12 +262,14 @@ int Solve(const CalibrateRunOptions& o, const cv::Size& size, const Photometry& 
 // geometry (gamma_refinement.h). The bias is what the estimated curve's error does to every
 // side; how far one unit of gamma moves them is measured on these images by detecting once more
 // through a curve kGammaStep higher and taking the corners' mean move along their edge_shift
-// (least squares). kExitOk, or the code of a failed re-reading.
-int RefineGammaFromEdgeBias(const CalibrateRunOptions& o, Photometry* photometry,
-                            CalibrateRunOutcome* out) {
-  constexpr double kGammaStep = 0.05;
+// (least squares over the inliers; a corner that moved more than kMaxMovePx found another edge
+// or corner, not the curve's effect of about 0.01 px, and is left out). Optional: an image that
+// cannot be read again leaves the edges' estimate in place, with the reason in refine_note.
+void RefineGammaFromEdgeBias(const CalibrateRunOptions& o, Photometry* photometry,
+                             CalibrateRunOutcome* out) {
+  constexpr double kGammaStep = 0.05, kMaxMovePx = 0.2;
   const CalibrationResult& r = out->result;
-  if (!(r.edge_bias_sigma_px > 0) || out->response.patches == 0) return kExitOk;
+  if (!(r.edge_bias_sigma_px > 0) || out->response.patches == 0) return;
   Photometry stepped = *photometry;
   stepped.UseResponse(Response::Gamma(out->response.gamma + kGammaStep));
   // Through the lens model the corners in out->views were detected with, so that only the
@@ -279,8 +281,9 @@ int RefineGammaFromEdgeBias(const CalibrateRunOptions& o, Photometry* photometry
   for (size_t k = 0; k < r.views.size(); ++k) {
     const int v = r.views[k];
     if (!again.errors[v].empty()) {
-      std::cerr << kProg << again.errors[v] << " (on re-reading)\n";
-      return kExitFailed;
+      out->refine_note = again.errors[v] + " (on re-reading); the edges' estimate is kept";
+      std::cerr << kProg << "response not refined: " << out->refine_note << "\n";
+      return;
     }
     std::map<std::pair<int, int>, Eigen::Vector2d> moved;
     for (const PointObservation& p : again.views[v].points)
@@ -289,6 +292,7 @@ int RefineGammaFromEdgeBias(const CalibrateRunOptions& o, Photometry* photometry
     for (size_t i = 0; i < points.size(); ++i) {
       const auto m = moved.find({points[i].marker_id, points[i].corner});
       if (r.outlier[k][i] || m == moved.end()) continue;
+      if ((m->second - points[i].pixel).norm() > kMaxMovePx) continue;
       num += points[i].edge_shift.dot(m->second - points[i].pixel);
       den += points[i].edge_shift.squaredNorm();
     }
@@ -300,7 +304,7 @@ int RefineGammaFromEdgeBias(const CalibrateRunOptions& o, Photometry* photometry
   out->refine_note = g.note;
   if (!g.note.empty()) {
     if (!o.quiet) std::cerr << kProg << "response not refined: " << g.note << "\n";
-    return kExitOk;
+    return;
   }
   out->refined_gamma = g.gamma;
   out->refined_gamma_sigma = g.sigma;
@@ -309,7 +313,6 @@ int RefineGammaFromEdgeBias(const CalibrateRunOptions& o, Photometry* photometry
     std::cerr << kProg << "response refined by the board's geometry: gamma " << Fixed(g.gamma, 4)
               << " +- " << Fixed(g.sigma, 4) << " (edge bias " << Fixed(r.edge_bias_px, 5)
               << " px at " << Fixed(per_gamma, 3) << " px per unit of gamma)\n";
-  return kExitOk;
 }
 
 // The range for the uncertainty, metres: the median board distance unless given.
@@ -401,7 +404,7 @@ int RunCalibration(const CalibrateRunOptions& o, CalibrateRunOutcome* out) {
   std::vector<ViewObservations> views;
   if (const int rc = SelectViews(o, &pass, &size, &views, out); rc != kExitOk) return rc;
   if (const int rc = Solve(run, size, photometry, std::move(views), out); rc != kExitOk) return rc;
-  if (const int rc = RefineGammaFromEdgeBias(run, &photometry, out); rc != kExitOk) return rc;
+  RefineGammaFromEdgeBias(run, &photometry, out);
   out->uncertainty_range = UncertaintyRange(run, out->result);
   if (const int rc = WriteOutputs(run, photometry, out); rc != kExitOk) return rc;
   return out->errors.empty() ? kExitOk : kExitFailed;

@@ -41,7 +41,8 @@ struct CalibrateRunOutcome {
   ResponseEstimate response;  // with --response estimate: the camera's response from the edges
   // With --response estimate and the edge bias fitted: the curve the board's geometry gives
   // (RefineGammaFromEdgeBias in calibration_run.cc), what the camera's photometric file then
-  // stores; 0 when not refined, and then refine_note says why ("" without a fitted edge bias).
+  // stores; 0 when not refined, and then refine_note says why ("" when no edge bias was
+  // fitted: a declared response, or --edge-bias off).
   double refined_gamma = 0, refined_gamma_sigma = 0;
   double edge_bias_per_gamma = 0;  // px per unit of gamma, measured on these images
   std::string refine_note;

@@ -19,7 +19,9 @@ struct GammaRefinement {
 // Refused (note set) when the sides do not move with the curve (|px_per_gamma| <= 1e-4), when
 // the bias was not fitted (bias_sigma_px <= 0), or when the refined curve lies more than 3 of
 // the edges' sigmas from their estimate: then the bias is not (only) the curve's error, e.g. a
-// print's dot gain, which moves the sides too.
+// print's dot gain, which moves the sides too. The sigma assumes the bias is the curve's alone:
+// a dot gain within the 3 sigmas is taken for the curve's error and moves the refined curve by
+// up to 3 of the edges' sigmas, which the refined sigma does not include.
 GammaRefinement RefineGammaByEdgeBias(double gamma, double gamma_sigma, double bias_px,
                                       double bias_sigma_px, double px_per_gamma);
 
