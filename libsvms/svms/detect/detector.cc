@@ -10,6 +10,7 @@
 #include "svms/base/thread_scratch.h"
 #include "svms/codec/svms44.h"
 #include "svms/detect/bit_sampler.h"
+#include "svms/detect/block_average.h"
 #include "svms/detect/noise_model.h"
 #include "svms/detect/ring_deconvolution.h"
 #include "svms/detect/ring_equalizer.h"
@@ -159,21 +160,6 @@ bool PrepareImages(const cv::Mat& input, DetectScratch* sc, StepImages* im) {
   return gray.cols >= 8 && gray.rows >= 8;
 }
 
-// The mean of each f x f block of an 8-bit image (rounded, halves to even), the last
-// cols % f columns and rows % f rows left out, so that coarse pixel q is exactly full pixels
-// f q .. f q + f - 1 and its centre full pixel f q + (f - 1) / 2. OpenCV's area resize of the
-// part f divides: on the whole image, where f does not divide its size, its blocks would be
-// cols / (cols / f) pixels wide and the mapping drift by up to cols % f pixels across the image.
-// (A plain loop, which would keep OpenCV's thread pool out, took 0.9 ms at 1024 x 1024 against
-// its 0.04.) False when `deadline` had passed.
-bool BlockAverage(const cv::Mat& in, int f, cv::Mat* out, Clock::time_point deadline) {
-  if (deadline != Clock::time_point::max() && Clock::now() >= deadline) return false;
-  const int cols = in.cols / f, rows = in.rows / f;
-  cv::resize(in(cv::Rect(0, 0, cols * f, rows * f)), *out, cv::Size(cols, rows), 0, 0,
-             cv::INTER_AREA);
-  return true;
-}
-
 // 1-3. Edges, chains, segments into sc->segments. A 16-bit image's noise is `given_noise` when
 // valid, else estimated from the image at its full depth (noise_model.h: black backgrounds
 // clipped at 0 and saturated glints left out), and the edges are searched on a scale where it is
@@ -214,7 +200,8 @@ bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, Detec
                       edge_image->rows / f >= 16;
   *decimated_by = coarse ? f : 1;
   if (coarse) {
-    if (!BlockAverage(*edge_image, f, &sc->decimated, deadline)) return false;
+    if (deadline != Clock::time_point::max() && Clock::now() >= deadline) return false;
+    BlockAverage(*edge_image, f, &sc->decimated);
     edge_image = &sc->decimated;
   }
   const bool complete =

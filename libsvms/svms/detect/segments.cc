@@ -191,6 +191,12 @@ struct SegmentScratch {
   std::vector<int> chain_begin;
   std::vector<uint8_t> rows_left;  // LinkChains: rows where its first pass left a pixel
   std::vector<std::pair<int, int>> pieces, merged;
+  // With a worker pool: the longest chain of the frames this scratch's thread has linked. A
+  // chain of n pixels splits into at most n - 1 pieces, and the fitting threads reserve their
+  // `pieces` and `merged` to it before each frame: which thread fits which chain changes from
+  // frame to frame, so buffers grown only by the chains a thread happened to get would still
+  // grow (and allocate) on a later frame of the same scene.
+  int longest_chain = 0;
   // MergeCollinear and BridgeKinks
   StartGrid grid;
   std::vector<char> gone;
@@ -591,6 +597,7 @@ bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
     alignas(64) std::atomic<int> next_chunk{0};
     alignas(64) std::atomic<bool> linked{false};
     std::atomic<bool> stopped{false};
+    const size_t longest_before = static_cast<size_t>(sc.longest_chain);
     pool->Run(pool->threads(), [&](int part) {
       if (part == 0) {
         // `linked` is set however the linking ends (an exception included: the pool rethrows
@@ -611,8 +618,11 @@ bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
         if (!complete) stopped = true;
         done.returned = true;
       }
-      // This thread's own buffers for the pieces (the chains are the caller's).
+      // This thread's own buffers for the pieces (the chains are the caller's), reserved to the
+      // longest chain of the frames before (see SegmentScratch::longest_chain).
       SegmentScratch& mine = Scratch();
+      if (mine.pieces.capacity() < longest_before) mine.pieces.reserve(longest_before);
+      if (mine.merged.capacity() < longest_before) mine.merged.reserve(longest_before);
       for (int spins = 0;;) {
         if (stopped.load(std::memory_order_relaxed)) return;
         const int k = next_chunk.fetch_add(1, std::memory_order_relaxed);
@@ -649,6 +659,8 @@ bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
     const int chains = static_cast<int>(sc.chain_begin.size()) - 1;
     // The reservation above is what kept the fitters' pointers valid.
     assert(sc.points.data() == points && sc.chain_begin.data() == chain_begin);
+    for (int c = 0; c < chains; ++c)
+      sc.longest_chain = std::max(sc.longest_chain, chain_begin[c + 1] - chain_begin[c]);
     for (int k = 0; k * kChunkChains < chains; ++k)
       out.insert(out.end(), sc.part_segments[static_cast<size_t>(k)].begin(),
                  sc.part_segments[static_cast<size_t>(k)].end());
