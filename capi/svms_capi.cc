@@ -319,6 +319,19 @@ svms_status LastBiasFactor(const char* fn, Handle* e, int object, double* out, i
   return SVMS_OK;
 }
 
+// svms_set_detection and svms_set_rig_detection: the handle claimed as Process claims it (a
+// frame in progress on another thread is SVMS_ERR_BUSY), then the estimator's detector made
+// anew with the values, or left as it was when they are out of range.
+template <typename Handle>
+svms_status SetDetection(const char* fn, Handle* e, int decimate, int frame_threads) {
+  if (!e) return Fail(SVMS_ERR_NULL_ARGUMENT, fn, ": estimator is NULL");
+  HandleClaim<Handle> claim;
+  if (const svms_status s = ClaimHandle(fn, e, &claim); s != SVMS_OK) return s;
+  if (const svms::Status s = e->impl->SetDetection(decimate, frame_threads); !s)
+    return Fail(SVMS_ERR_INVALID_ARGUMENT, fn, ": ", s.message());
+  return SVMS_OK;
+}
+
 // svms_process_rig_frame(_u16): `Frame` is svms_rig_frame (8-bit pixels) or svms_rig_frame_u16
 // (16-bit); `fn` names the call in errors (a std::string is built only on an error: a frame makes
 // no heap allocation).
@@ -532,6 +545,18 @@ svms_status svms_last_rig_bias_factor(svms_rig_estimator* e, int object, double*
   return Guarded("svms_last_rig_bias_factor", [&]() -> svms_status {
     return LastBiasFactor<svms_rig_estimator>("svms_last_rig_bias_factor", e, object, out,
                                               capacity_columns, columns);
+  });
+}
+
+svms_status svms_set_detection(svms_estimator* e, int decimate, int frame_threads) {
+  return Guarded("svms_set_detection", [&]() -> svms_status {
+    return SetDetection("svms_set_detection", e, decimate, frame_threads);
+  });
+}
+
+svms_status svms_set_rig_detection(svms_rig_estimator* e, int decimate, int frame_threads) {
+  return Guarded("svms_set_rig_detection", [&]() -> svms_status {
+    return SetDetection("svms_set_rig_detection", e, decimate, frame_threads);
   });
 }
 

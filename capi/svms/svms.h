@@ -228,6 +228,19 @@ svms_status svms_process_rig_frame_u16(svms_rig_estimator* estimator,
                                        const svms_rig_frame_u16* frames, int n_frames,
                                        double timestamp, svms_pose* out);
 
+/* How the estimator searches each frame for markers (docs/detector.md, docs/flight-interface.md):
+ * `decimate` 1 to 4 finds the edges and quads of steps 1-4 on the frame averaged over decimate x
+ * decimate blocks, as AprilTag's quad_decimate (1, the default: full resolution; 2 is several
+ * times faster on textured frames and loses most markers under about 16 px; corners and poses
+ * still come from the full frame); `frame_threads` 1 to 64 threads share each frame (1, the
+ * default; every count gives the same poses, docs/benchmarks.md says what two threads gain).
+ * Between frames: a call while another thread processes a frame through the same estimator is
+ * SVMS_ERR_BUSY. A value out of range is SVMS_ERR_INVALID_ARGUMENT, svms_last_error() names it,
+ * and the estimator keeps its settings. Starts the threads, so it allocates: call it before the
+ * loop. For a rig, every camera takes the values. Added in 0.4.2. */
+svms_status svms_set_detection(svms_estimator* estimator, int decimate, int frame_threads);
+svms_status svms_set_rig_detection(svms_rig_estimator* estimator, int decimate, int frame_threads);
+
 /* The factor B of the last processed frame's covariance_common for layout `object` (0 for a
  * single-layout handle): covariance_common = B B^T, B 6 x k, written column-major into
  * out[0 .. 6 k), k into *columns. Column j is the same error (one component of the camera

@@ -7,7 +7,8 @@
 // it) makes no heap allocation at all; nor does svms_process_frame_multi with two layouts on the
 // two-object frame, nor svms_process_rig_frame and svms_process_rig_frame_u16 (and
 // svms_last_rig_bias_factor) on a rig of two cameras, with both frames, 8- and 16-bit, and with
-// one. The rig's two cameras are the fixture's camera at the same place (a rig file written here),
+// one; nor does svms_process_frame with the 2 x 2 search (svms_set_detection). The rig's two
+// cameras are the fixture's camera at the same place (a rig file written here),
 // so that both see the fixture's frame. And, with every allocation failing, an entry point that has
 // to word an error returns a status instead of letting std::bad_alloc cross into C (which would end
 // this program).
@@ -161,6 +162,26 @@ int main(int argc, char** argv) {
   if (process(0) != SVMS_OK) {
     std::fprintf(stderr, "FAIL: after the out-of-memory calls: %s\n", svms_last_error());
     return 1;
+  }
+  svms_destroy(e);
+
+  // The 2 x 2 search (svms_set_detection) on one thread. Not with more threads per frame: each
+  // worker grows its buffers in the first frames where it gets a share of the work, and a worker
+  // that the machine's load keeps off its CPU may get none for many frames
+  // (docs/flight-interface.md, "Memory").
+  if (svms_create((dir + "/cal.cameramodel").c_str(), (dir + "/true_layout.json").c_str(), nullptr,
+                  &e) != SVMS_OK ||
+      svms_set_detection(e, 2, 1) != SVMS_OK) {
+    std::fprintf(stderr, "svms_create, svms_set_detection: %s\n", svms_last_error());
+    return 1;
+  }
+  for (int i = 0; i < 6; ++i) process(i);
+  for (int i = 0; i < 20; ++i) {
+    if (!count_frame("decimate 2", i, SVMS_FLAG_CALIBRATION_IN_COVARIANCE, process,
+                     [&](double* buffer, int* columns) {
+                       return svms_last_bias_factor(e, 0, buffer, 64, columns);
+                     }))
+      return 1;
   }
   svms_destroy(e);
 

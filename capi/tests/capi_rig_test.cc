@@ -149,7 +149,19 @@ TEST(CapiRig, ProcessRigFrameIsTheRigPoseEstimators) {
   EXPECT_NE(std::string(svms_last_error()).find("frames[1]"), std::string::npos);
   EXPECT_EQ(svms_process_rig_frame(est, nullptr, 2, 5, &pose), SVMS_ERR_NULL_ARGUMENT);
 
+  // Two threads per frame on every camera: the same pose to the bit; a value out of range is
+  // refused by name.
+  ASSERT_EQ(svms_set_rig_detection(est, 1, 2), SVMS_OK) << svms_last_error();
+  ASSERT_EQ(svms_process_rig_frame(est, frames, 2, 4.5, &pose), SVMS_OK) << svms_last_error();
+  expect_same_pose(pose, r.pose);
+  EXPECT_EQ(svms_set_rig_detection(est, 0, 2), SVMS_ERR_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(svms_last_error()).find("svms_set_rig_detection: decimate: expected 1"),
+            std::string::npos)
+      << svms_last_error();
+  EXPECT_EQ(svms_set_rig_detection(nullptr, 1, 1), SVMS_ERR_NULL_ARGUMENT);
+
   ASSERT_EQ(svms_destroy_rig(est), SVMS_OK);
+  EXPECT_EQ(svms_set_rig_detection(est, 1, 1), SVMS_ERR_BAD_HANDLE);
   EXPECT_EQ(svms_process_rig_frame(est, frames, 2, 5, &pose), SVMS_ERR_BAD_HANDLE);
   EXPECT_EQ(svms_process_rig_frame_u16(est, frames16, 2, 5, &pose), SVMS_ERR_BAD_HANDLE);
   EXPECT_NE(std::string(svms_last_error())

@@ -310,6 +310,34 @@ static void CheckTwoObjects(void) {
   free(pixels);
 }
 
+/* svms_set_detection: two threads per frame give the reference pose to the bit, a 2 x 2 search
+ * a pose as close to the truth; values out of range are refused by name, and keep the settings. */
+static void CheckSetDetection(const svms_pose* reference, const double* truth) {
+  CHECK_STATUS(svms_set_detection(NULL, 1, 1), SVMS_ERR_NULL_ARGUMENT);
+  svms_estimator* est = NULL;
+  CHECK_STATUS(svms_create(camera_path, layout_path, NULL, &est), SVMS_OK);
+  svms_pose p;
+  CHECK_STATUS(svms_set_detection(est, 1, 2), SVMS_OK);
+  CHECK_STATUS(svms_process_frame(est, frame, W, H, W, 1.1, &p), SVMS_OK);
+  CHECK(p.valid && memcmp(p.tvec, reference->tvec, sizeof p.tvec) == 0);
+  CHECK(memcmp(p.covariance, reference->covariance, sizeof p.covariance) == 0);
+  CHECK_STATUS(svms_set_detection(est, 2, 1), SVMS_OK);
+  CHECK_STATUS(svms_process_frame(est, frame, W, H, W, 1.1, &p), SVMS_OK);
+  CHECK(p.valid && p.markers_used == reference->markers_used);
+  double dt = 0;
+  for (int i = 0; i < 3; ++i) dt += (p.tvec[i] - truth[3 + i]) * (p.tvec[i] - truth[3 + i]);
+  CHECK(sqrt(dt) < 0.16e-3); /* the full search's limit (main) */
+  CHECK_STATUS(svms_set_detection(est, 5, 1), SVMS_ERR_INVALID_ARGUMENT);
+  CHECK(strstr(svms_last_error(), "svms_set_detection: decimate: expected 1 to 4, got 5") != NULL);
+  CHECK_STATUS(svms_set_detection(est, 1, 0), SVMS_ERR_INVALID_ARGUMENT);
+  CHECK(strstr(svms_last_error(), "frame_threads") != NULL);
+  svms_pose kept;
+  CHECK_STATUS(svms_process_frame(est, frame, W, H, W, 1.1, &kept), SVMS_OK);
+  CHECK(kept.valid && memcmp(kept.tvec, p.tvec, sizeof p.tvec) == 0); /* still 2 x 2 */
+  CHECK_STATUS(svms_destroy(est), SVMS_OK);
+  CHECK_STATUS(svms_set_detection(est, 1, 1), SVMS_ERR_BAD_HANDLE);
+}
+
 int main(int argc, char** argv) {
   if (argc != 2) {
     fprintf(stderr, "usage: svms_capi_c_test FIXTURE_DIR\n");
@@ -519,6 +547,8 @@ int main(int argc, char** argv) {
   CheckSharedHandle();
 
   CheckTwoObjects();
+
+  CheckSetDetection(&pose, truth);
 
   free(frame);
   free(padded);

@@ -111,6 +111,23 @@ Status PoseEstimator::CreateLabelled(const CameraModel& camera, const std::vecto
   return Status::Ok();
 }
 
+Status PoseEstimator::SetDetection(int decimate, int frame_threads) {
+  if (decimate < 1 || decimate > kMaxDecimate)
+    return Status::Error("decimate: expected 1 to " + std::to_string(kMaxDecimate) + ", got " +
+                         std::to_string(decimate));
+  if (frame_threads < 1 || frame_threads > kMaxDetectorThreads)
+    return Status::Error("frame_threads: expected 1 to " + std::to_string(kMaxDetectorThreads) +
+                         ", got " + std::to_string(frame_threads));
+  PoseEstimatorOptions changed = options_;
+  changed.detector.decimate = decimate;
+  changed.detector.threads = frame_threads;
+  // Made before anything changes, so that a failure to start threads leaves the estimator whole.
+  Detector detector(ForFrames(changed), camera_, Models(layouts_));
+  detector_ = std::move(detector);
+  options_ = std::move(changed);
+  return Status::Ok();
+}
+
 namespace {
 // The options with the camera's photometric file when there is one and options.photometric is
 // unset.

@@ -110,6 +110,15 @@ class PoseEstimator {
   void EstimateLinear(const cv::Mat& linear, double timestamp, FrameResult* out,
                       const NoiseModel* noise = nullptr) const;
 
+  // Changes how frames are searched for markers and keeps everything else:
+  // DetectorOptions::decimate (1 to kMaxDecimate: steps 1-4 on decimate x decimate block
+  // averages, faster on textured frames, most markers under 8 decimate px lost) and
+  // DetectorOptions::threads (1 to kMaxDetectorThreads threads per frame; every count gives the
+  // same poses). The detector, with its threads, is made anew. Between frames only: not while
+  // Estimate runs on another thread. A value out of range is an error naming it, and the
+  // estimator keeps its settings.
+  Status SetDetection(int decimate, int frame_threads);
+
   const CameraModel& camera() const { return camera_; }
   const Layout& layout() const { return layouts_.front(); }  // layout 0
   const std::vector<Layout>& layouts() const { return layouts_; }

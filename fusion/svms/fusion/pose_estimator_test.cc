@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <tuple>
 
 #include "svms/datasets/datasets.h"
 #include "svms/detect/detector.h"
@@ -325,6 +326,49 @@ TEST(PoseEstimator, TheLatencyOfARawFrameIncludesItsConversion) {
   est->Estimate(raw, 1.1, &r);
   ASSERT_TRUE(r.pose.valid) << r.pose.message;
   EXPECT_GT(r.latency_ms, r.detect_ms + r.fuse_ms);
+}
+
+// SetDetection between frames: more threads per frame give the same pose to the bit; a coarser
+// search loses the far frame's small markers (view 0, 12 m) and keeps the close frame's pose; a
+// value out of range is refused by name and leaves the settings as they were.
+TEST(PoseEstimator, SetDetectionChangesTheSearchAndRefusesValuesOutOfRange) {
+  const Approach& a = Shared();
+  std::unique_ptr<PoseEstimator> est;
+  ASSERT_TRUE(PoseEstimator::Create(a.camera(), a.layout, {}, &est).ok());
+  const cv::Mat close = a.Image(11), far = a.Image(0);
+  FrameResult one, far_full;
+  est->Estimate(close, 1.1, &one);
+  est->Estimate(far, 0.0, &far_full);
+  ASSERT_TRUE(one.pose.valid && far_full.pose.valid) << one.pose.message;
+
+  ASSERT_TRUE(est->SetDetection(1, 2).ok());
+  EXPECT_EQ(est->options().detector.threads, 2);
+  FrameResult two;
+  est->Estimate(close, 1.1, &two);
+  ASSERT_TRUE(two.pose.valid);
+  EXPECT_EQ(two.pose.ids_used, one.pose.ids_used);
+  EXPECT_EQ(two.pose.cam_from_object.tvec, one.pose.cam_from_object.tvec);
+  EXPECT_EQ(two.pose.covariance, one.pose.covariance);
+
+  ASSERT_TRUE(est->SetDetection(4, 1).ok());
+  EXPECT_EQ(est->options().detector.decimate, 4);
+  FrameResult coarse, far_coarse;
+  est->Estimate(close, 1.1, &coarse);
+  est->Estimate(far, 0.0, &far_coarse);
+  ASSERT_TRUE(coarse.pose.valid) << coarse.pose.message;
+  EXPECT_LT((coarse.pose.cam_from_object.tvec - a.Truth(11).tvec).norm(), 1e-3);
+  EXPECT_LT(far_coarse.detections.size(), far_full.detections.size());
+
+  for (const auto& [decimate, threads, name] :
+       {std::tuple{0, 1, "decimate"}, std::tuple{kMaxDecimate + 1, 1, "decimate"},
+        std::tuple{1, 0, "frame_threads"},
+        std::tuple{1, kMaxDetectorThreads + 1, "frame_threads"}}) {
+    const Status s = est->SetDetection(decimate, threads);
+    EXPECT_FALSE(s.ok());
+    EXPECT_NE(s.message().find(name), std::string::npos) << s.message();
+    EXPECT_EQ(est->options().detector.decimate, 4);
+    EXPECT_EQ(est->options().detector.threads, 1);
+  }
 }
 
 TEST(PoseEstimator, BadInputsAreRejectedWithTheirNames) {

@@ -49,6 +49,14 @@ Status RigPoseEstimator::CreateFromFiles(const std::string& rig_path,
   return Status::Ok();
 }
 
+Status RigPoseEstimator::SetDetection(int decimate, int frame_threads) {
+  // Every camera takes the same values, so the first refuses them if any would, before any
+  // camera has changed.
+  for (std::unique_ptr<PoseEstimator>& camera : cameras_)
+    if (Status s = camera->SetDetection(decimate, frame_threads); !s) return s;
+  return Status::Ok();
+}
+
 void RigPoseEstimator::Estimate(const std::vector<cv::Mat>& frames, double timestamp,
                                 RigFrameResult* out) const {
   const auto t0 = std::chrono::steady_clock::now();

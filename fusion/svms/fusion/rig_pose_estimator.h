@@ -56,6 +56,9 @@ class RigPoseEstimator {
   // other than the rig's cameras gives invalid poses whose message says so.
   void Estimate(const std::vector<cv::Mat>& frames, double timestamp, RigFrameResult* out) const;
 
+  // PoseEstimator::SetDetection for every camera: all of them, or (a value out of range) none.
+  Status SetDetection(int decimate, int frame_threads);
+
   const CameraRig& rig() const { return rig_; }
   size_t num_cameras() const { return cameras_.size(); }
   const PoseEstimator& camera(size_t c) const { return *cameras_.at(c); }
