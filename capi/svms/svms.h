@@ -233,11 +233,14 @@ svms_status svms_process_rig_frame_u16(svms_rig_estimator* estimator,
  * decimate blocks, as AprilTag's quad_decimate (1, the default: full resolution; 2 is several
  * times faster on textured frames and loses most markers under about 16 px; corners and poses
  * still come from the full frame); `frame_threads` 1 to 64 threads share each frame (1, the
- * default; every count gives the same poses, docs/benchmarks.md says what two threads gain).
+ * default; every count gives the same poses unless a budget runs out, docs/benchmarks.md says
+ * what two threads gain).
  * Between frames: a call while another thread processes a frame through the same estimator is
  * SVMS_ERR_BUSY. A value out of range is SVMS_ERR_INVALID_ARGUMENT, svms_last_error() names it,
  * and the estimator keeps its settings. Starts the threads, so it allocates: call it before the
- * loop. For a rig, every camera takes the values. Added in 0.4.2. */
+ * loop, and give a warm-up frame after it. For a rig, every camera takes the values; where
+ * starting a camera's threads fails (SVMS_ERR_INTERNAL) the cameras before it may have taken
+ * them: destroy the estimator. Added in 0.4.2. */
 svms_status svms_set_detection(svms_estimator* estimator, int decimate, int frame_threads);
 svms_status svms_set_rig_detection(svms_rig_estimator* estimator, int decimate, int frame_threads);
 

@@ -114,9 +114,9 @@ class PoseEstimator {
   // DetectorOptions::decimate (1 to kMaxDecimate: steps 1-4 on decimate x decimate block
   // averages, faster on textured frames, most markers under 8 decimate px lost) and
   // DetectorOptions::threads (1 to kMaxDetectorThreads threads per frame; every count gives the
-  // same poses). The detector, with its threads, is made anew. Between frames only: not while
-  // Estimate runs on another thread. A value out of range is an error naming it, and the
-  // estimator keeps its settings.
+  // same poses unless the budget runs out). The detector, with its threads, is made anew. Between
+  // frames only: not while Estimate runs on another thread. A value out of range is an error naming
+  // it, and the estimator keeps its settings.
   Status SetDetection(int decimate, int frame_threads);
 
   const CameraModel& camera() const { return camera_; }

@@ -56,7 +56,8 @@ class RigPoseEstimator {
   // other than the rig's cameras gives invalid poses whose message says so.
   void Estimate(const std::vector<cv::Mat>& frames, double timestamp, RigFrameResult* out) const;
 
-  // PoseEstimator::SetDetection for every camera: all of them, or (a value out of range) none.
+  // PoseEstimator::SetDetection for every camera: all of them, or (a value out of range) none;
+  // an exception (threads that cannot start) may leave the cameras before it changed.
   Status SetDetection(int decimate, int frame_threads);
 
   const CameraRig& rig() const { return rig_; }

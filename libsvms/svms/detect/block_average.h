@@ -13,9 +13,9 @@ namespace svms {
 // blocks (cv::resize with INTER_AREA on the part f divides): halves up at f = 2, to even at
 // f = 4 (none at f = 3); block_average_test.cc checks every block sum against it.
 //
-// Why not cv::resize itself: it allocates its tables on every call and may hand the rows to
-// OpenCV's thread pool, and the C API promises frames without heap allocation (capi_alloc_test)
-// and a detector that uses only its own threads. *out is reused when it has the size already.
+// Why not cv::resize itself: it allocates its tables on every call, and the C API promises frames
+// without heap allocation (capi_alloc_test); it may also hand the rows to OpenCV's thread pool,
+// beside the detector's own threads. *out is reused when it has the size already.
 // False (and *out untouched) for another image type or f.
 bool BlockAverage(const cv::Mat& in, int f, cv::Mat* out);
 

@@ -16,25 +16,30 @@ cv::Mat OpenCvBlocks(const cv::Mat& in, int f) {
   return out;
 }
 
-// Every block sum a block of f x f 8-bit pixels can have, 0 to 255 f^2, one block each (two
-// rows of blocks, odd leftover columns and rows left out): the same means as OpenCV's.
+// Every block sum a block of f x f 8-bit pixels can have, 0 to 255 f^2, one block each: the same
+// means as OpenCV's. Laid out in rows of `per_row` blocks (leftover columns and rows left out):
+// half the sums a row; 64 a row, which the f = 2 vector loop covers whole at 16, 32 or 64 lanes;
+// and one block wide, where every sum goes through its scalar tail.
 TEST(BlockAverage, EveryBlockSumRoundsAsOpenCvsAreaResize) {
-  for (int f = 2; f <= 4; ++f) {
-    SCOPED_TRACE("f " + std::to_string(f));
-    const int sums = 255 * f * f + 1, per_row = (sums + 1) / 2;
-    cv::Mat in(2 * f + 1, per_row * f + f - 1, CV_8UC1, cv::Scalar(77));
-    for (int s = 0; s < sums; ++s) {
-      const int bx = s % per_row, by = s / per_row;
-      const int q = s / (f * f), r = s % (f * f);  // r pixels of q + 1, the others q
-      for (int i = 0; i < f * f; ++i)
-        in.at<uint8_t>(by * f + i / f, bx * f + i % f) = static_cast<uint8_t>(q + (i < r));
+  for (int f = 2; f <= 4; ++f)
+    for (const int layout : {0, 1, 2}) {
+      SCOPED_TRACE("f " + std::to_string(f) + ", layout " + std::to_string(layout));
+      const int sums = 255 * f * f + 1;
+      const int per_row = layout == 0 ? (sums + 1) / 2 : layout == 1 ? 64 : 1;
+      const int block_rows = (sums + per_row - 1) / per_row;
+      cv::Mat in(block_rows * f + 1, per_row * f + f - 1, CV_8UC1, cv::Scalar(77));
+      for (int i = 0; i < sums; ++i) {
+        const int s = i, bx = i % per_row, by = i / per_row;
+        const int q = s / (f * f), r = s % (f * f);  // r pixels of q + 1, the others q
+        for (int p = 0; p < f * f; ++p)
+          in.at<uint8_t>(by * f + p / f, bx * f + p % f) = static_cast<uint8_t>(q + (p < r));
+      }
+      cv::Mat ours;
+      ASSERT_TRUE(BlockAverage(in, f, &ours));
+      const cv::Mat theirs = OpenCvBlocks(in, f);
+      ASSERT_EQ(ours.size(), theirs.size());
+      EXPECT_EQ(cv::countNonZero(ours != theirs), 0);
     }
-    cv::Mat ours;
-    ASSERT_TRUE(BlockAverage(in, f, &ours));
-    const cv::Mat theirs = OpenCvBlocks(in, f);
-    ASSERT_EQ(ours.size(), theirs.size());
-    EXPECT_EQ(cv::countNonZero(ours != theirs), 0);
-  }
 }
 
 // A random image, and the output buffer reused at its size: the same as OpenCV's again.

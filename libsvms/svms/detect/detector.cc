@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cassert>
 #include <chrono>
 #include <memory>
 #include <opencv2/imgproc.hpp>
@@ -201,7 +202,10 @@ bool FindEdgeSegments(const StepImages& im, const SegmentOptions& options, Detec
   *decimated_by = coarse ? f : 1;
   if (coarse) {
     if (deadline != Clock::time_point::max() && Clock::now() >= deadline) return false;
-    BlockAverage(*edge_image, f, &sc->decimated);
+    const bool averaged = BlockAverage(*edge_image, f, &sc->decimated);
+    static_assert(kMaxDecimate <= 4, "BlockAverage averages blocks of up to 4 x 4");
+    assert(averaged);  // an 8-bit image and f in [2, kMaxDecimate], as `coarse` requires
+    (void)averaged;
     edge_image = &sc->decimated;
   }
   const bool complete =

@@ -164,10 +164,9 @@ struct DetectorOptions {
   // (complete_below_px, full pixels) sees no sides under 4 decimate pixels (at 3 and more, none
   // under its 12). The edge thresholds are those of full resolution: averaging lowers the noise and
   // steepens a marker's edge per pixel, so fewer noise edges pass them and a marker's edges pass
-  // more easily. Unlike the rest of Detect, the block average (OpenCV's area resize) may allocate,
-  // and use OpenCV's thread pool, on every call; the C API, which promises no allocation, has no
-  // such field. 1 (default): off. Values are taken in [1, kMaxDecimate]; an image under 16 x 16
-  // coarse pixels is not decimated.
+  // more easily. The block average is block_average.h's (OpenCV's area resize, which allocates on
+  // every call, rounded the same way). 1 (default): off. Values are taken in [1, kMaxDecimate]; an
+  // image under 16 x 16 coarse pixels is not decimated.
   int decimate = 1;
 };
 constexpr int kMaxDetectorThreads = 64;

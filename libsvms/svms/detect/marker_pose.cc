@@ -330,19 +330,21 @@ std::optional<TipObservation> SubPixelTip(const cv::Mat& img, int bx, int by, do
   return t;
 }
 
+// The largest window FloodBlob has flooded on any thread, in pixels.
+std::atomic<size_t> largest_flood_window{0};
+
 // Floods the connected pixels of at least local_thr from the seed (bx, by) within window w
 // into sc->blob (sc->seen marks them, over the window). False if the blob touches the window's
 // edge (inside the image): then it is not a small blob (e.g. the white stripe). *bounds: the
 // blob's bounding box.
-// The largest window FloodBlob has flooded on any thread, in pixels.
-std::atomic<size_t> largest_flood_window{0};
 
 bool FloodBlob(const cv::Mat& img, const TipWindow& w, int bx, int by, double local_thr,
                PoseScratch* sc, TipWindow* bounds) {
   const int x0 = w.x0, x1 = w.x1, y0 = w.y0, y1 = w.y1;
   std::vector<std::pair<int, int>>&stack = sc->stack, &blob = sc->blob;
   // Every thread's buffers are reserved to the largest window any thread has flooded (blob and
-  // seen at most its pixels, the stack 4 per pixel marked and the seed): which thread measures
+  // seen at most its pixels; the stack the seed and 3 more per pixel marked, which is popped
+  // before its 4 neighbours are pushed; FindTip's memo of the blob too): which thread measures
   // which marker changes from frame to frame (DetectorOptions::threads), and buffers grown only
   // by the markers a thread happened to get would still allocate on a later frame of one scene.
   const size_t area = static_cast<size_t>(x1 - x0 + 1) * static_cast<size_t>(y1 - y0 + 1);
@@ -352,7 +354,7 @@ bool FloodBlob(const cv::Mat& img, const TipWindow& w, int bx, int by, double lo
   largest = std::max(largest, area);
   if (blob.capacity() < largest) blob.reserve(largest);
   if (sc->seen.capacity() < largest) sc->seen.reserve(largest);
-  if (stack.capacity() < 4 * largest + 1) stack.reserve(4 * largest + 1);
+  if (stack.capacity() < 3 * largest + 1) stack.reserve(3 * largest + 1);
   stack.assign(1, {bx, by});
   blob.clear();
   std::vector<uint8_t>& seen = sc->seen;
@@ -504,6 +506,8 @@ std::optional<TipObservation> FindTip(const cv::Mat& img, const Eigen::Vector2d&
     memo->blob_x1 = bounds.x1;
     memo->blob_y0 = bounds.y0;
     memo->blob_y1 = bounds.y1;
+    const size_t largest = largest_flood_window.load(std::memory_order_relaxed);
+    if (memo->blob.capacity() < largest) memo->blob.reserve(largest);  // as FloodBlob's
     memo->blob.assign(sc.blob.begin(), sc.blob.end());
   }
   return answer(BlobTip(img, w, sc, black, local_thr, tip_radius_px));

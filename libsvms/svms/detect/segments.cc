@@ -614,9 +614,13 @@ bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
         const bool complete = LinkChains(sc.edges, &sc, past, [&](int chains) {
           published.store(chains, std::memory_order_release);
         });
-        published.store(static_cast<int>(sc.chain_begin.size()) - 1, std::memory_order_release);
+        const int linked_chains = static_cast<int>(sc.chain_begin.size()) - 1;
+        published.store(linked_chains, std::memory_order_release);
         if (!complete) stopped = true;
         done.returned = true;
+        // While the others fit: the next frame's reservation (only the linker writes it here).
+        for (int c = 0; c < linked_chains; ++c)
+          sc.longest_chain = std::max(sc.longest_chain, chain_begin[c + 1] - chain_begin[c]);
       }
       // This thread's own buffers for the pieces (the chains are the caller's), reserved to the
       // longest chain of the frames before (see SegmentScratch::longest_chain).
@@ -659,8 +663,6 @@ bool FindSegments(const cv::Mat& gray8, const SegmentOptions& o, cv::Mat* gx, cv
     const int chains = static_cast<int>(sc.chain_begin.size()) - 1;
     // The reservation above is what kept the fitters' pointers valid.
     assert(sc.points.data() == points && sc.chain_begin.data() == chain_begin);
-    for (int c = 0; c < chains; ++c)
-      sc.longest_chain = std::max(sc.longest_chain, chain_begin[c + 1] - chain_begin[c]);
     for (int k = 0; k * kChunkChains < chains; ++k)
       out.insert(out.end(), sc.part_segments[static_cast<size_t>(k)].begin(),
                  sc.part_segments[static_cast<size_t>(k)].end());

@@ -25,10 +25,20 @@ WorkerPool::WorkerPool(int threads) {
   const int workers = std::max(threads, 1) - 1;
   spin_ = workers > 0 && UsableCpus() >= workers + 1;
   workers_.reserve(workers);
-  for (int k = 0; k < workers; ++k) workers_.emplace_back([this] { WorkerLoop(); });
+  try {
+    for (int k = 0; k < workers; ++k) workers_.emplace_back([this] { WorkerLoop(); });
+  } catch (...) {
+    // A thread that could not start (the system's thread limit): stop and join the ones that
+    // did, so that the exception reaches the caller instead of std::terminate (a joinable
+    // std::thread destroyed).
+    Stop();
+    throw;
+  }
 }
 
-WorkerPool::~WorkerPool() {
+WorkerPool::~WorkerPool() { Stop(); }
+
+void WorkerPool::Stop() {
   stopping_.store(true);
   {
     std::lock_guard<std::mutex> lock(mutex_);

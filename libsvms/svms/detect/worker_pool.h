@@ -66,6 +66,7 @@ class WorkerPool {
  private:
   using Call = void (*)(const void* task, int i);
   void Dispatch(int n, Call call, const void* task);
+  void Stop();  // stops the workers and joins them
   void Work();
   void WorkerLoop();
 
