@@ -107,6 +107,7 @@ int main(int argc, char** argv) {
   };
   for (int i = 0; i < 6; ++i) process(i);
   std::vector<long> per_frame, unfreed;
+  std::vector<std::string> counted;  // per_frame[i]'s configuration and frame
   // One counted frame: `call(i)` processes frame i into `pose`, `factor(buffer, &columns)`
   // copies its bias factor out (up to 64 columns); both must succeed, the pose valid with the
   // flags `flags`, and the factor not empty. The allocations of both calls go to per_frame, those
@@ -132,6 +133,7 @@ int main(int argc, char** argv) {
     }
     per_frame.push_back(allocations.load());
     unfreed.push_back(allocations.load() - frees.load());
+    counted.push_back(std::string(what) + ", frame " + std::to_string(i));
     return true;
   };
   for (int i = 0; i < 20; ++i) {
@@ -289,9 +291,13 @@ int main(int argc, char** argv) {
     leaked += unfreed[i];
   }
   std::printf(
-      "svms_capi_alloc_test: %ld-%ld heap allocations per frame after warm-up (8- and 16-bit, one "
-      "layout and two, a rig of two cameras), %ld not freed over %zu frames\n",
+      "svms_capi_alloc_test: %ld-%ld heap allocations per frame after warm-up (8- and 16-bit, the "
+      "2 x 2 search, one layout and two, a rig of two cameras), %ld not freed over %zu frames\n",
       lo, hi, leaked, per_frame.size());
+  for (size_t i = 0; i < per_frame.size(); ++i)
+    if (per_frame[i] != 0 || unfreed[i] != 0)
+      std::fprintf(stderr, "%s: %ld heap allocations, %ld not freed\n", counted[i].c_str(),
+                   per_frame[i], unfreed[i]);
   int failed = 0;
   if (leaked != 0) std::fprintf(stderr, "FAIL: %ld allocations not freed\n", leaked), failed = 1;
   if (hi > 0) std::fprintf(stderr, "FAIL: up to %ld heap allocations per frame\n", hi), failed = 1;

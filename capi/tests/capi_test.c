@@ -61,15 +61,15 @@ static void* Worker(void* arg) {
 }
 
 /* One handle shared by two threads (against the header's rule, as a careless program would):
- * the owner processes frames while the intruder calls svms_process_frame and svms_destroy on
- * the same handle. Every intruding call is SVMS_OK or SVMS_ERR_BUSY, never a crash, and the
- * BUSY ones say why in the intruder's own svms_last_error. */
+ * the owner processes frames while the intruder calls svms_process_frame, svms_set_detection and
+ * svms_destroy on the same handle. Every intruding call is SVMS_OK or SVMS_ERR_BUSY, never a crash,
+ * and the BUSY ones say why in the intruder's own svms_last_error. */
 typedef struct {
   svms_estimator* e;
   int done; /* set by the owner when its frames are processed */
   int owner_erred, intruder_erred;
   int owner_ok, owner_frames;
-  int busy_process, busy_destroy, other_status, message_ok;
+  int busy_process, busy_destroy, busy_set, other_status, message_ok;
   char owner_error_after[256];    /* the owner's svms_last_error after both threads erred */
   char intruder_error_after[256]; /* the intruder's */
 } SharedHandle;
@@ -109,6 +109,19 @@ static void* Intruder(void* arg) {
     }
     ++sh->busy_process;
     sh->message_ok += strstr(svms_last_error(), "in use by another thread") != NULL;
+    /* Changing the search during the owner's frame is refused too; between frames it is taken
+     * (the defaults again, so the owner's frames are unchanged either way). */
+    if (sh->busy_set < 3) {
+      const svms_status t = svms_set_detection(sh->e, 1, 1);
+      if (t == SVMS_ERR_BUSY) {
+        ++sh->busy_set;
+        sh->message_ok += strstr(svms_last_error(), "svms_set_detection") != NULL &&
+                          strstr(svms_last_error(), "in use by another thread") != NULL;
+      } else if (t != SVMS_OK) {
+        ++sh->other_status;
+        break;
+      }
+    }
     /* The owner is inside a call (it takes milliseconds; this follows within microseconds):
      * destroying now is refused. Three tries: in the microsecond window in which the owner
      * could finish in between, destroy would succeed and the owner's next frame see a
@@ -145,7 +158,8 @@ static void CheckSharedHandle(void) {
   /* The owner holds the handle for about 12 frames x 10-20 ms: the intruder's destroy, tried
    * in a loop meanwhile, is refused at least once, and each refusal is worded. */
   CHECK(sh.busy_destroy > 0);
-  CHECK(sh.message_ok == sh.busy_process + sh.busy_destroy);
+  CHECK(sh.busy_set > 0);
+  CHECK(sh.message_ok == sh.busy_process + sh.busy_destroy + sh.busy_set);
   /* Each thread's last error is its own: the owner's bad width, the intruder's NULL pixels,
    * though the intruder erred after the owner. */
   CHECK(strstr(sh.owner_error_after, "1023x1024") != NULL);
