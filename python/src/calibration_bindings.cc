@@ -2,14 +2,24 @@
 // two passes as `svms calibrate` (pipelines/calibration_run.cc) on arrays instead of files:
 // detect with the corners fitted in pixels, calibrate, detect again through that lens model
 // (the sides fitted in the undistorted plane), calibrate again. Returns a CalibrationResult.
+// svms.estimate_response: the camera's response curve from the same images' marker sides
+// (response_estimate.h), as `svms calibrate --response estimate` estimates it.
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
+
+#include <algorithm>
+#include <chrono>
+#include <iterator>
+#include <opencv2/imgproc.hpp>
 
 #include "bindings.h"
 #include "detector_bindings.h"
 #include "image_list.h"
 #include "svms/calib/calibrate.h"
 #include "svms/calib/observations.h"
+#include "svms/camera/photometric.h"
+#include "svms/detect/noise_model.h"
+#include "svms/detect/response_estimate.h"
 #include "svms/marker/layout.h"
 
 namespace svms::python {
@@ -23,17 +33,18 @@ Layout BoardFrom(const py::object& board) {
                        py::str(py::type::of(board)).cast<std::string>());
 }
 
-// The board's points seen in every image, detected with `camera` (empty: in pixels). Every ID
-// is decoded, as `svms calibrate` does.
+// The board's points seen in every image, detected with `camera` (empty: in pixels) and each
+// image's noise (Linearize). Every ID is decoded, as `svms calibrate` does.
 std::vector<ViewObservations> Observe(const std::vector<cv::Mat>& images,
                                       const std::vector<std::string>& names, const Layout& board,
-                                      const CameraModel& camera, int threads) {
+                                      const CameraModel& camera, int threads,
+                                      const std::vector<NoiseModel>& noises) {
   std::vector<MarkerModel> models;
   for (const LayoutEntry& e : board.markers) models.push_back(e.marker);
   DetectorOptions options;
   options.known_ids_only = false;
   const Detector detector(options, camera, models);
-  const std::vector<std::vector<Detection>> found = DetectAll(detector, images, threads);
+  const std::vector<std::vector<Detection>> found = DetectAll(detector, images, threads, &noises);
   std::vector<ViewObservations> views;
   for (size_t i = 0; i < images.size(); ++i)
     views.push_back(ObservationsFromDetections(found[i], board, names[i],
@@ -41,58 +52,174 @@ std::vector<ViewObservations> Observe(const std::vector<cv::Mat>& images,
   return views;
 }
 
-CalibrationResult Calibration(const py::object& images, const py::object& board_arg,
-                              const std::string& lensmodel, bool redetect, bool board_warp,
-                              bool edge_bias, int threads,
-                              const std::optional<std::vector<std::string>>& names,
-                              const std::optional<std::string>& response) {
+// *image in linear light through `model` (a converted copy; unchanged where the model is the
+// identity for its depth), and *noise its noise from the stored values where that can be
+// estimated (noise_model.h), as `svms calibrate` reads its files.
+void Linearize(const PhotometricModel& model, cv::Mat* image, NoiseModel* noise) {
+  *noise = NoiseModel();
+  EstimateStoredNoise(*image, model, std::chrono::steady_clock::time_point::max(), noise);
+  if (model.IsIdentity(image->depth() == CV_8U ? 255 : 65535)) return;
+  cv::Mat linear;
+  RaiseIfError(LinearizeImage(*image, model, &linear));
+  *image = linear;
+}
+
+// The response from the sides of the board's markers in `stored` (the arrays as given), as
+// `svms calibrate --response estimate` finds it from its first pass: detected through the
+// default rule's curve (8-bit images sRGB, deeper ones linear; docs/conventions.md), patches
+// across the sides of every marker found (any ID), at most 25,000 in all, evenly over each
+// image's markers, values normalised by the depth's range. patches = 0 where too few sides
+// were usable.
+ResponseEstimate EstimateResponse(const std::vector<cv::Mat>& stored, const Layout& board,
+                                  int threads) {
+  PhotometricModel srgb;
+  srgb.response = Response::Srgb();
+  std::vector<cv::Mat> provisional = stored;
+  std::vector<NoiseModel> noises(stored.size());
+  for (size_t i = 0; i < stored.size(); ++i)
+    Linearize(stored[i].depth() == CV_8U ? srgb : PhotometricModel(), &provisional[i], &noises[i]);
+  std::vector<MarkerModel> models;
+  for (const LayoutEntry& e : board.markers) models.push_back(e.marker);
+  DetectorOptions options;
+  options.known_ids_only = false;
+  const Detector detector(options, CameraModel(), models);
+  const std::vector<std::vector<Detection>> found =
+      DetectAll(detector, provisional, threads, &noises);
+  py::gil_scoped_release release;
+  const size_t per_image = std::max<size_t>(1, 25000 / std::max<size_t>(1, stored.size()));
+  std::vector<EdgePatch> patches;
+  for (size_t i = 0; i < stored.size(); ++i) {
+    // One channel, as `svms calibrate` reads a colour file's stored values.
+    cv::Mat grey;
+    if (stored[i].channels() == 3)
+      cv::cvtColor(stored[i], grey, cv::COLOR_BGR2GRAY);
+    else if (stored[i].channels() == 4)
+      cv::cvtColor(stored[i], grey, cv::COLOR_BGRA2GRAY);
+    else
+      grey = stored[i];
+    std::vector<EdgePatch> mine;
+    CollectEdgePatches(grey, found[i], 0, 0, &mine);
+    KeepEvenly(per_image, &mine);
+    std::move(mine.begin(), mine.end(), std::back_inserter(patches));
+  }
+  return EstimateGammaFromEdges(patches);
+}
+
+// The images' common size, or ValueError naming the first that differs.
+void CheckSameSize(const std::vector<cv::Mat>& mats) {
+  for (size_t i = 0; i < mats.size(); ++i)
+    if (mats[i].size() != mats[0].size())
+      throw py::value_error("images[" + std::to_string(i) + "]: " + std::to_string(mats[i].cols) +
+                            "x" + std::to_string(mats[i].rows) + " pixels; expected " +
+                            std::to_string(mats[0].cols) + "x" + std::to_string(mats[0].rows) +
+                            " like the first image");
+}
+
+ResponseEstimate EstimateResponseOf(const py::object& images, const py::object& board_arg,
+                                    int threads) {
+  const Layout board = BoardFrom(board_arg);
+  std::vector<py::array> keep;
+  const std::vector<cv::Mat> mats = MatsFromList(images, &keep);
+  if (mats.empty()) throw py::value_error("images: expected at least one image, got none");
+  return EstimateResponse(mats, board, std::max(1, threads));
+}
+
+py::object Calibration(const py::object& images, const py::object& board_arg,
+                       const std::string& lensmodel, bool redetect, bool board_warp,
+                       std::optional<bool> edge_bias, int threads,
+                       const std::optional<std::vector<std::string>>& names,
+                       const std::optional<std::string>& response) {
   const Layout board = BoardFrom(board_arg);
   std::vector<py::array> keep;
   std::vector<cv::Mat> mats = MatsFromList(images, &keep);
   if (Status s = CheckCalibrationRequest(lensmodel, static_cast<int>(mats.size())); !s)
     throw py::value_error("lensmodel: " + s.message());
   const std::vector<std::string> image_names = ImageNames(names, mats.size());
-  const std::optional<PhotometricModel> photometric = PhotometricFrom(response);
-  for (size_t i = 0; i < mats.size(); ++i) {
-    if (mats[i].size() != mats[0].size())
-      throw py::value_error("images[" + std::to_string(i) + "]: " + std::to_string(mats[i].cols) +
-                            "x" + std::to_string(mats[i].rows) + " pixels; expected " +
-                            std::to_string(mats[0].cols) + "x" + std::to_string(mats[0].rows) +
-                            " like the first image");
-    if (photometric) {  // a converted copy, in linear light
-      cv::Mat linear;
-      RaiseIfError(LinearizeImage(mats[i], *photometric, &linear));
-      mats[i] = linear;
-    }
+  CheckSameSize(mats);
+  const bool estimating = response && *response == "estimate";
+  std::optional<ResponseEstimate> estimate;
+  std::optional<PhotometricModel> photometric;
+  if (estimating) {
+    estimate = EstimateResponse(mats, board, std::max(1, threads));
+    if (estimate->patches == 0)
+      throw py::value_error(
+          "response: estimate: too few marker sides of 12 px or more; expected images with "
+          "larger markers, or give the response");
+    photometric = PhotometricModel();
+    photometric->response = Response::Gamma(estimate->gamma);
+  } else {
+    photometric = PhotometricFrom(response);
   }
+  std::vector<NoiseModel> noises(mats.size());
+  if (photometric)
+    for (size_t i = 0; i < mats.size(); ++i) Linearize(*photometric, &mats[i], &noises[i]);
   CalibrationOptions co;
   co.lensmodel = lensmodel;
   co.width = mats[0].cols, co.height = mats[0].rows;
   co.board_warp = board_warp;
-  co.edge_bias = edge_bias;
+  // As `svms calibrate --edge-bias auto`: fitted with an estimated curve, whose error shifts
+  // every side alike.
+  co.edge_bias = edge_bias.value_or(estimating);
   co.threads = std::max(1, threads);
   RaiseIfError(co.Check());
   CalibrationResult result;
   Status s;
-  std::vector<ViewObservations> views = Observe(mats, image_names, board, CameraModel(), threads);
+  std::vector<ViewObservations> views =
+      Observe(mats, image_names, board, CameraModel(), threads, noises);
   {
     py::gil_scoped_release release;
     s = Calibrate(views, co, &result);
   }
   if (s && redetect) {
-    views = Observe(mats, image_names, board, result.camera, threads);
+    views = Observe(mats, image_names, board, result.camera, threads, noises);
     py::gil_scoped_release release;
     s = Calibrate(views, co, &result);
   }
   if (!s) throw py::value_error("calibration: " + s.message());
-  return result;
+  py::object out = py::cast(std::move(result));
+  out.attr("response") = estimate ? py::cast(*estimate) : py::none();
+  return out;
 }
 
 }  // namespace
 
 void BindCalibration(py::module_& m) {
+  py::class_<ResponseEstimate>(
+      m, "ResponseEstimate",
+      "A camera's response curve read from the blur of marker sides (response_estimate.h): "
+      "linear light = stored value ** gamma, on the depth's 0..1 scale")
+      .def_readonly("gamma", &ResponseEstimate::gamma)
+      .def_readonly("sigma", &ResponseEstimate::sigma,
+                    "gamma's standard error, from its spread over 8 groups of the markers")
+      .def_readonly("patches", &ResponseEstimate::patches,
+                    "edge patches it rests on (0: too few usable sides, gamma 1)")
+      .def_readonly("asymmetry", &ResponseEstimate::asymmetry,
+                    "the edges' pooled skewness at gamma (near 0 when the curve fits)")
+      .def_readonly("asymmetry_linear", &ResponseEstimate::asymmetry_linear,
+                    "the same, read as linear")
+      .def_readonly("asymmetry_srgb", &ResponseEstimate::asymmetry_srgb, "the same, read as sRGB")
+      .def_property_readonly(
+          "response", [](const ResponseEstimate& e) { return Response::Gamma(e.gamma).Name(); },
+          "the curve as the response= arguments take it ('gamma:G')")
+      .def("__repr__", [](const ResponseEstimate& e) {
+        return "<svms.ResponseEstimate gamma " + std::to_string(e.gamma) + " +- " +
+               std::to_string(e.sigma) + " from " + std::to_string(e.patches) + " patches>";
+      });
+
+  m.def("estimate_response", &EstimateResponseOf, py::arg("images"), py::arg("board"),
+        py::kw_only(), py::arg("threads") = 1,
+        "The camera's response curve from images of a marker board (or any images of SVMS "
+        "markers of 12 px sides or more), as `svms calibrate --response estimate` estimates it: "
+        "edges are symmetric only in linear light, and the gamma that makes the markers' sides "
+        "symmetric is returned with its standard error (a ResponseEstimate; pass its .response "
+        "to the response= arguments). `images`: numpy arrays as the camera stored them, 8 or 16 "
+        "bits, full range. Printed artwork or unblurred edges say nothing: patches 0.");
+
   py::class_<CalibrationResult>(
-      m, "CalibrationResult", "A calibrated camera and how well the board fits (calib/calibrate.h)")
+      m, "CalibrationResult",
+      "A calibrated camera and how well the board fits (calib/calibrate.h); .response: the "
+      "ResponseEstimate when calibrate estimated the curve, else None",
+      py::dynamic_attr())
       .def_readonly("camera", &CalibrationResult::camera,
                     "the Camera, with its intrinsics' covariance factor")
       .def_readonly("views", &CalibrationResult::views, "indices of the images used")
@@ -121,13 +248,16 @@ void BindCalibration(py::module_& m) {
 
   m.def("calibrate", &Calibration, py::arg("images"), py::arg("board"), py::kw_only(),
         py::arg("lensmodel") = "LENSMODEL_OPENCV8", py::arg("redetect") = true,
-        py::arg("board_warp") = false, py::arg("edge_bias") = false, py::arg("threads") = 1,
+        py::arg("board_warp") = false, py::arg("edge_bias") = py::none(), py::arg("threads") = 1,
         py::arg("names") = py::none(), py::arg("response") = py::none(),
         "Calibrates a camera from images of a marker board, as `svms calibrate` does: `images` "
         "a list of numpy arrays of one size (as for Detector.detect, used in place), `board` "
         "its layout (a Layout or the path of svms generate board's JSON), `lensmodel` mrcal's "
         "name, `edge_bias` also fits one shift of every marker side in pixels (what a response "
-        "curve a little off leaves; `svms calibrate --edge-bias`). Returns a CalibrationResult "
+        "curve a little off leaves; `svms calibrate --edge-bias`; None: only with an estimated "
+        "curve), `response` the images' curve (None: linear; 'srgb', 'gamma:G', or 'estimate': "
+        "estimate_response's, from the same images, then in .response). Returns a "
+        "CalibrationResult "
         "(.camera: the Camera, with its intrinsics' "
         "uncertainty). ValueError when it cannot be solved (with why).");
 }

@@ -41,7 +41,8 @@ std::vector<std::string> ImageNames(const std::optional<std::vector<std::string>
 }
 
 std::vector<std::vector<Detection>> DetectAll(const Detector& detector,
-                                              const std::vector<cv::Mat>& images, int threads) {
+                                              const std::vector<cv::Mat>& images, int threads,
+                                              const std::vector<NoiseModel>* noises) {
   std::vector<std::vector<Detection>> found(images.size());
   py::gil_scoped_release release;
   std::atomic<size_t> next{0};
@@ -49,7 +50,9 @@ std::vector<std::vector<Detection>> DetectAll(const Detector& detector,
   auto worker = [&] {
     for (size_t i; (i = next++) < images.size();) {
       try {
-        found[i] = detector.Detect(images[i]);
+        const NoiseModel* noise = noises && (*noises)[i].valid() ? &(*noises)[i] : nullptr;
+        detector.Detect(images[i], nullptr, std::chrono::steady_clock::time_point::max(), &found[i],
+                        noise);
       } catch (...) {
         failed[i] = std::current_exception();
       }

@@ -72,6 +72,50 @@ class CalibrationTest(unittest.TestCase):
         self.assertEqual(r.covariance.shape[0], n + 6 * len(r.views) + 1)
         self.assertEqual(self.result.edge_bias_sigma_px, 0)
 
+    def test_estimated_response(self):
+        """The board through a gamma-2.2 camera with 0.7 px of defocus: the linear renders blurred
+        in linear light, then encoded, as real_cameras_test.sh renders it for the CLI."""
+        import cv2
+        top = 255.0 if self.images[0].dtype == np.uint8 else 65535.0
+        encoded = []
+        for img in self.images:
+            linear = cv2.GaussianBlur(img.astype(np.float64) / top, (0, 0), 0.7)
+            encoded.append(np.round(255 * np.clip(linear, 0, 1) ** (1 / 2.2)).astype(np.uint8))
+        est = svms.estimate_response(encoded, self.board)
+        self.assertGreater(est.patches, 100)
+        self.assertGreater(est.sigma, 0)
+        self.assertLess(abs(est.gamma - 2.2), max(0.15, 4 * est.sigma), est)
+        self.assertEqual(est.response, "gamma:%g" % est.gamma)
+        # The same estimate as svms calibrate's from the same pixels in files (8-bit PNGs that
+        # declare nothing: read as sRGB for the first pass, as here).
+        d = os.path.join(self.tmp.name, "gamma22")
+        os.makedirs(d, exist_ok=True)
+        for f, img in zip(self.files, encoded):
+            cv2.imwrite(os.path.join(d, os.path.basename(f)), img)
+        cli = subprocess.run([self.binary, "calibrate", d, "--board", self.board, "--response",
+                              "estimate", "--out", os.path.join(d, "cam.cameramodel"),
+                              "--threads", "1"], check=True, capture_output=True, text=True)
+        line = [l for l in cli.stderr.splitlines() if "response estimated from" in l]
+        self.assertEqual(len(line), 1, cli.stderr)
+        self.assertIn("from %d edge patches: gamma %.3f +- %.3f" % (est.patches, est.gamma,
+                                                                    est.sigma), line[0])
+        # calibrate(response="estimate") uses that curve, fits the edge bias with it, and
+        # calibrates as well as on the linear images (the focal lengths within 0.3 %, as
+        # real_cameras_test.sh asks of the CLI).
+        r = svms.calibrate(encoded, self.board, response="estimate")
+        self.assertEqual(r.response.gamma, est.gamma)
+        self.assertGreater(r.edge_bias_sigma_px, 0)
+        f, f0 = r.camera.intrinsics[:2], self.result.camera.intrinsics[:2]
+        self.assertLess(np.max(np.abs(f / f0 - 1)), 3e-3)
+        self.assertIsNone(self.result.response)
+        # Linear images read as such: far from 2.2; an image without markers: nothing to read.
+        self.assertLess(abs(svms.estimate_response(self.images, self.board).gamma - 1), 0.5)
+        blank = [np.full_like(encoded[0], 128)]
+        self.assertEqual(svms.estimate_response(blank, self.board).patches, 0)
+        with self.assertRaises(ValueError) as e:
+            svms.calibrate(blank * 3, self.board, response="estimate")
+        self.assertIn("too few marker sides", str(e.exception))
+
     def test_bad_input(self):
         with self.assertRaises(ValueError) as e:
             svms.calibrate(self.images, self.board, lensmodel="LENSMODEL_NOSUCH")

@@ -394,4 +394,14 @@ ResponseEstimate EstimateGammaFromEdges(const std::vector<EdgePatch>& patches) {
   return out;
 }
 
+void KeepEvenly(size_t keep, std::vector<EdgePatch>* patches) {
+  const size_t n = patches->size();
+  if (keep >= n) return;
+  // Patch k * n / keep to slot k: the sources rise faster than the slots, so none is
+  // overwritten before it is read.
+  for (size_t k = 0; k < keep; ++k)
+    if (const size_t from = k * n / keep; from != k) (*patches)[k] = std::move((*patches)[from]);
+  patches->resize(keep);
+}
+
 }  // namespace svms

@@ -59,6 +59,10 @@ void CollectEdgePatches(const cv::Mat& stored, const std::vector<Detection>& det
                         double black_level, double white_level, std::vector<EdgePatch>* out,
                         size_t max_patches = 25000);
 
+// Keeps `keep` of *patches, evenly spaced in their order (an image's patches come marker by
+// marker, side by side: so every marker keeps its share); all of them when there are fewer.
+void KeepEvenly(size_t keep, std::vector<EdgePatch>* patches);
+
 struct ResponseEstimate {
   double gamma = 1;  // linear = stored^gamma
   double sigma = 0;  // its standard error (from the spread of estimates over groups of markers)

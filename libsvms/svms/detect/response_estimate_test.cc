@@ -227,5 +227,27 @@ TEST(EstimateGammaFromEdges, TooFewEdgesGiveNoEstimate) {
   EXPECT_EQ(EstimateGammaFromEdges({}).gamma, 1);
 }
 
+// Every count kept of every count collected: patch k * n / keep in slot k (as svms calibrate
+// keeps an image's share), each patch whole; all of them when there are no more than `keep`.
+TEST(KeepEvenly, KeepsEvenlySpacedPatchesInTheirOrder) {
+  for (size_t n = 0; n <= 40; ++n) {
+    for (size_t keep = 1; keep <= 45; ++keep) {
+      std::vector<EdgePatch> patches(n);
+      for (size_t i = 0; i < n; ++i) {
+        patches[i].side = static_cast<uint32_t>(i);
+        patches[i].code.assign(i + 1, static_cast<uint16_t>(i));
+      }
+      KeepEvenly(keep, &patches);
+      ASSERT_EQ(patches.size(), std::min(n, keep)) << n << " " << keep;
+      for (size_t k = 0; k < patches.size(); ++k) {
+        const size_t from = keep >= n ? k : k * n / keep;
+        ASSERT_EQ(patches[k].side, from) << n << " " << keep << " " << k;
+        ASSERT_EQ(patches[k].code, std::vector<uint16_t>(from + 1, static_cast<uint16_t>(from)))
+            << n << " " << keep << " " << k;
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace svms

@@ -125,11 +125,9 @@ DetectionPass DetectBoards(const std::vector<std::string>& files, const CameraMo
           pass.views[i] = ObservationsFromDetections(found, o.layout, files[i], corner_sigma);
           if (collect_patches) {
             // Evenly over the image's markers when there are more than its share.
-            std::vector<EdgePatch> all;
             CollectEdgePatches(stored, found, photometry.black_level(), photometry.white_level(),
-                               &all);
-            const size_t keep = std::min(all.size(), patches_per_image);
-            for (size_t k = 0; k < keep; ++k) pass.patches[i].push_back(all[k * all.size() / keep]);
+                               &pass.patches[i]);
+            KeepEvenly(patches_per_image, &pass.patches[i]);
           }
         }
       } catch (...) {
