@@ -117,7 +117,9 @@ static void* Intruder(void* arg) {
         ++sh->busy_set;
         sh->message_ok += strstr(svms_last_error(), "svms_set_detection") != NULL &&
                           strstr(svms_last_error(), "in use by another thread") != NULL;
-      } else if (t != SVMS_OK) {
+      } else if (t == SVMS_OK) {
+        continue; /* the owner is between frames: no destroy now (see below) */
+      } else {
         ++sh->other_status;
         break;
       }

@@ -18,7 +18,6 @@
 #include "svms/calib/calibrate.h"
 #include "svms/calib/observations.h"
 #include "svms/camera/photometric.h"
-#include "svms/detect/noise_model.h"
 #include "svms/detect/response_estimate.h"
 #include "svms/marker/layout.h"
 
@@ -33,18 +32,17 @@ Layout BoardFrom(const py::object& board) {
                        py::str(py::type::of(board)).cast<std::string>());
 }
 
-// The board's points seen in every image, detected with `camera` (empty: in pixels) and each
-// image's noise (Linearize). Every ID is decoded, as `svms calibrate` does.
+// The board's points seen in every image, detected with `camera` (empty: in pixels). Every ID
+// is decoded, as `svms calibrate` does.
 std::vector<ViewObservations> Observe(const std::vector<cv::Mat>& images,
                                       const std::vector<std::string>& names, const Layout& board,
-                                      const CameraModel& camera, int threads,
-                                      const std::vector<NoiseModel>& noises) {
+                                      const CameraModel& camera, int threads) {
   std::vector<MarkerModel> models;
   for (const LayoutEntry& e : board.markers) models.push_back(e.marker);
   DetectorOptions options;
   options.known_ids_only = false;
   const Detector detector(options, camera, models);
-  const std::vector<std::vector<Detection>> found = DetectAll(detector, images, threads, &noises);
+  const std::vector<std::vector<Detection>> found = DetectAll(detector, images, threads);
   std::vector<ViewObservations> views;
   for (size_t i = 0; i < images.size(); ++i)
     views.push_back(ObservationsFromDetections(found[i], board, names[i],
@@ -52,13 +50,11 @@ std::vector<ViewObservations> Observe(const std::vector<cv::Mat>& images,
   return views;
 }
 
-// *image in linear light through `model` (a converted copy; unchanged where the model is the
-// identity for its depth), and *noise its noise from the stored values where that can be
-// estimated (noise_model.h), as `svms calibrate` reads its files.
-void Linearize(const PhotometricModel& model, cv::Mat* image, NoiseModel* noise) {
-  *noise = NoiseModel();
-  EstimateStoredNoise(*image, model, std::chrono::steady_clock::time_point::max(), noise);
-  if (model.IsIdentity(image->depth() == CV_8U ? 255 : 65535)) return;
+// *image in linear light through `model`, as `svms calibrate` reads its files: colour as
+// luminance in linear light, 16-bit at full depth (LinearizeImage: an 8-bit grey image whose
+// model is the identity is kept as it is). A raw frame's noise from its stored values needs a
+// black level, which these calls do not take: the detector estimates it on the linear image.
+void Linearize(const PhotometricModel& model, cv::Mat* image) {
   cv::Mat linear;
   RaiseIfError(LinearizeImage(*image, model, &linear));
   *image = linear;
@@ -71,37 +67,31 @@ void Linearize(const PhotometricModel& model, cv::Mat* image, NoiseModel* noise)
 // image's markers, values normalised by the depth's range. patches = 0 where too few sides
 // were usable.
 ResponseEstimate EstimateResponse(const std::vector<cv::Mat>& stored, const Layout& board,
-                                  int threads) {
+                                  int threads, size_t* collected = nullptr) {
   PhotometricModel srgb;
   srgb.response = Response::Srgb();
   std::vector<cv::Mat> provisional = stored;
-  std::vector<NoiseModel> noises(stored.size());
   for (size_t i = 0; i < stored.size(); ++i)
-    Linearize(stored[i].depth() == CV_8U ? srgb : PhotometricModel(), &provisional[i], &noises[i]);
+    Linearize(stored[i].depth() == CV_8U ? srgb : PhotometricModel(), &provisional[i]);
   std::vector<MarkerModel> models;
   for (const LayoutEntry& e : board.markers) models.push_back(e.marker);
   DetectorOptions options;
   options.known_ids_only = false;
   const Detector detector(options, CameraModel(), models);
-  const std::vector<std::vector<Detection>> found =
-      DetectAll(detector, provisional, threads, &noises);
+  const std::vector<std::vector<Detection>> found = DetectAll(detector, provisional, threads);
   py::gil_scoped_release release;
   const size_t per_image = std::max<size_t>(1, 25000 / std::max<size_t>(1, stored.size()));
   std::vector<EdgePatch> patches;
   for (size_t i = 0; i < stored.size(); ++i) {
     // One channel, as `svms calibrate` reads a colour file's stored values.
-    cv::Mat grey;
-    if (stored[i].channels() == 3)
-      cv::cvtColor(stored[i], grey, cv::COLOR_BGR2GRAY);
-    else if (stored[i].channels() == 4)
-      cv::cvtColor(stored[i], grey, cv::COLOR_BGRA2GRAY);
-    else
-      grey = stored[i];
+    cv::Mat grey = stored[i];
+    if (stored[i].channels() == 3) cv::cvtColor(stored[i], grey, cv::COLOR_BGR2GRAY);
     std::vector<EdgePatch> mine;
     CollectEdgePatches(grey, found[i], 0, 0, &mine);
     KeepEvenly(per_image, &mine);
     std::move(mine.begin(), mine.end(), std::back_inserter(patches));
   }
+  if (collected) *collected = patches.size();
   return EstimateGammaFromEdges(patches);
 }
 
@@ -132,6 +122,7 @@ py::object Calibration(const py::object& images, const py::object& board_arg,
   const Layout board = BoardFrom(board_arg);
   std::vector<py::array> keep;
   std::vector<cv::Mat> mats = MatsFromList(images, &keep);
+  if (mats.empty()) throw py::value_error("images: expected at least one image, got none");
   if (Status s = CheckCalibrationRequest(lensmodel, static_cast<int>(mats.size())); !s)
     throw py::value_error("lensmodel: " + s.message());
   const std::vector<std::string> image_names = ImageNames(names, mats.size());
@@ -140,19 +131,19 @@ py::object Calibration(const py::object& images, const py::object& board_arg,
   std::optional<ResponseEstimate> estimate;
   std::optional<PhotometricModel> photometric;
   if (estimating) {
-    estimate = EstimateResponse(mats, board, std::max(1, threads));
+    size_t collected = 0;
+    estimate = EstimateResponse(mats, board, std::max(1, threads), &collected);
     if (estimate->patches == 0)
-      throw py::value_error(
-          "response: estimate: too few marker sides of 12 px or more; expected images with "
-          "larger markers, or give the response");
+      throw py::value_error("response: estimate: " + std::to_string(collected) +
+                            " edge patches, too few with blurred edges (marker sides of 20 px "
+                            "or more); expected larger markers, or give the response");
     photometric = PhotometricModel();
     photometric->response = Response::Gamma(estimate->gamma);
   } else {
     photometric = PhotometricFrom(response);
   }
-  std::vector<NoiseModel> noises(mats.size());
-  if (photometric)
-    for (size_t i = 0; i < mats.size(); ++i) Linearize(*photometric, &mats[i], &noises[i]);
+  if (photometric)  // converted copies, in linear light
+    for (cv::Mat& mat : mats) Linearize(*photometric, &mat);
   CalibrationOptions co;
   co.lensmodel = lensmodel;
   co.width = mats[0].cols, co.height = mats[0].rows;
@@ -164,14 +155,13 @@ py::object Calibration(const py::object& images, const py::object& board_arg,
   RaiseIfError(co.Check());
   CalibrationResult result;
   Status s;
-  std::vector<ViewObservations> views =
-      Observe(mats, image_names, board, CameraModel(), threads, noises);
+  std::vector<ViewObservations> views = Observe(mats, image_names, board, CameraModel(), threads);
   {
     py::gil_scoped_release release;
     s = Calibrate(views, co, &result);
   }
   if (s && redetect) {
-    views = Observe(mats, image_names, board, result.camera, threads, noises);
+    views = Observe(mats, image_names, board, result.camera, threads);
     py::gil_scoped_release release;
     s = Calibrate(views, co, &result);
   }
@@ -199,8 +189,13 @@ void BindCalibration(py::module_& m) {
                     "the same, read as linear")
       .def_readonly("asymmetry_srgb", &ResponseEstimate::asymmetry_srgb, "the same, read as sRGB")
       .def_property_readonly(
-          "response", [](const ResponseEstimate& e) { return Response::Gamma(e.gamma).Name(); },
-          "the curve as the response= arguments take it ('gamma:G')")
+          "response",
+          [](const ResponseEstimate& e) -> std::optional<std::string> {
+            if (e.patches == 0) return std::nullopt;
+            return Response::Gamma(e.gamma).Name();
+          },
+          "the curve as the response= arguments take it ('gamma:G'); None without an estimate "
+          "(patches 0), never a curve the pixels did not give")
       .def("__repr__", [](const ResponseEstimate& e) {
         return "<svms.ResponseEstimate gamma " + std::to_string(e.gamma) + " +- " +
                std::to_string(e.sigma) + " from " + std::to_string(e.patches) + " patches>";
@@ -209,11 +204,13 @@ void BindCalibration(py::module_& m) {
   m.def("estimate_response", &EstimateResponseOf, py::arg("images"), py::arg("board"),
         py::kw_only(), py::arg("threads") = 1,
         "The camera's response curve from images of a marker board (or any images of SVMS "
-        "markers of 12 px sides or more), as `svms calibrate --response estimate` estimates it: "
+        "markers of 20 px sides or more), as `svms calibrate --response estimate` estimates it: "
         "edges are symmetric only in linear light, and the gamma that makes the markers' sides "
         "symmetric is returned with its standard error (a ResponseEstimate; pass its .response "
         "to the response= arguments). `images`: numpy arrays as the camera stored them, 8 or 16 "
-        "bits, full range. Printed artwork or unblurred edges say nothing: patches 0.");
+        "bits, full range (no black level), used in place: not to be changed while it runs. "
+        "Only marker sides of 20 px or more with blurred edges give patches; printed artwork or "
+        "unblurred edges say nothing: patches 0 and .response None.");
 
   py::class_<CalibrationResult>(
       m, "CalibrationResult",

@@ -41,8 +41,7 @@ std::vector<std::string> ImageNames(const std::optional<std::vector<std::string>
 }
 
 std::vector<std::vector<Detection>> DetectAll(const Detector& detector,
-                                              const std::vector<cv::Mat>& images, int threads,
-                                              const std::vector<NoiseModel>* noises) {
+                                              const std::vector<cv::Mat>& images, int threads) {
   std::vector<std::vector<Detection>> found(images.size());
   py::gil_scoped_release release;
   std::atomic<size_t> next{0};
@@ -50,9 +49,7 @@ std::vector<std::vector<Detection>> DetectAll(const Detector& detector,
   auto worker = [&] {
     for (size_t i; (i = next++) < images.size();) {
       try {
-        const NoiseModel* noise = noises && (*noises)[i].valid() ? &(*noises)[i] : nullptr;
-        detector.Detect(images[i], nullptr, std::chrono::steady_clock::time_point::max(), &found[i],
-                        noise);
+        found[i] = detector.Detect(images[i]);
       } catch (...) {
         failed[i] = std::current_exception();
       }

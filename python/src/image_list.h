@@ -24,10 +24,8 @@ std::vector<cv::Mat> MatsFromList(const py::handle& images, std::vector<py::arra
 std::vector<std::string> ImageNames(const std::optional<std::vector<std::string>>& names,
                                     size_t count);
 
-// Every image's detections, the GIL released, on up to `threads` threads; with `noises` (one per
-// image) each image's noise where valid (a raw frame's, from its stored values: noise_model.h).
+// Every image's detections, the GIL released, on up to `threads` threads.
 std::vector<std::vector<Detection>> DetectAll(const Detector& detector,
-                                              const std::vector<cv::Mat>& images, int threads,
-                                              const std::vector<NoiseModel>* noises = nullptr);
+                                              const std::vector<cv::Mat>& images, int threads);
 
 }  // namespace svms::python

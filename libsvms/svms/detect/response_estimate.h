@@ -60,7 +60,8 @@ void CollectEdgePatches(const cv::Mat& stored, const std::vector<Detection>& det
                         size_t max_patches = 25000);
 
 // Keeps `keep` of *patches, evenly spaced in their order (an image's patches come marker by
-// marker, side by side: so every marker keeps its share); all of them when there are fewer.
+// marker, side by side: so the markers keep about equal shares, as long as `keep` is not below
+// their number); all of them when there are no more than `keep`.
 void KeepEvenly(size_t keep, std::vector<EdgePatch>* patches);
 
 struct ResponseEstimate {

@@ -712,9 +712,8 @@ bool MergeCollinear(const SegmentOptions& o, std::vector<Segment>* segs,
   //
   // The sweeps run on one thread, with or without a worker pool: a join changes what the pieces
   // after it find, so threads could only search ahead and search again where a join came into a
-  // piece's window. On the densest photographs of bench speed (25,000 pieces, the merge a third
-  // of steps 1-3) that second search is needed for a fifth of the pieces, and the searches made
-  // ahead for pieces joined away before their turn cost as much as the threads saved.
+  // piece's window; on dense texture, where the merge costs most, the searches made again and
+  // those made for pieces joined away before their turn cost what the threads would save.
   constexpr double kCell = 8;
   std::vector<Segment>& v = *segs;
   const size_t n = v.size();

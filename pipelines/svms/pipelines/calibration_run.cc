@@ -124,10 +124,14 @@ DetectionPass DetectBoards(const std::vector<std::string>& files, const CameraMo
                           noise.valid() ? &noise : nullptr);
           pass.views[i] = ObservationsFromDetections(found, o.layout, files[i], corner_sigma);
           if (collect_patches) {
-            // Evenly over the image's markers when there are more than its share.
+            // Evenly over the image's markers when there are more than its share (moved out
+            // of a vector of its own, so that what is left out is freed now).
+            std::vector<EdgePatch> all;
             CollectEdgePatches(stored, found, photometry.black_level(), photometry.white_level(),
-                               &pass.patches[i]);
-            KeepEvenly(patches_per_image, &pass.patches[i]);
+                               &all);
+            KeepEvenly(patches_per_image, &all);
+            pass.patches[i].assign(std::make_move_iterator(all.begin()),
+                                   std::make_move_iterator(all.end()));
           }
         }
       } catch (...) {
@@ -152,7 +156,8 @@ int EstimateResponse(const DetectionPass& pass, const CalibrateRunOptions& o,
   for (const auto& p : pass.patches) edges.insert(edges.end(), p.begin(), p.end());
   out->response = EstimateGammaFromEdges(edges);
   if (out->response.patches == 0) {
-    std::cerr << kProg << "--response estimate: too few marker sides of 12 px or more ("
+    std::cerr << kProg
+              << "--response estimate: too few marker sides of 20 px or more with blurred edges ("
               << edges.size() << " edge patches); expected images with larger markers, or "
               << "give --response\n";
     return kExitFailed;
