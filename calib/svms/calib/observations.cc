@@ -2,20 +2,13 @@
 
 #include <cmath>
 
+#include "svms/geometry/quad_sides.h"
+
 namespace svms {
 
 std::array<Eigen::Vector2d, 4> QuadEdgeShifts(const std::array<Eigen::Vector2d, 4>& c) {
-  // Outward normal of the side from corner k to k + 1, whichever way the quad winds: the
-  // perpendicular that points away from the quad's centroid.
-  const Eigen::Vector2d centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
-  std::array<Eigen::Vector2d, 4> normal;
-  for (int k = 0; k < 4; ++k) {
-    const Eigen::Vector2d d = c[(k + 1) % 4] - c[k];
-    const double len = d.norm();
-    normal[k] = len > 0 ? Eigen::Vector2d(Eigen::Vector2d(d.y(), -d.x()) / len)
-                        : Eigen::Vector2d(Eigen::Vector2d::Zero());
-    if (normal[k].dot(0.5 * (c[k] + c[(k + 1) % 4]) - centre) < 0) normal[k] = -normal[k];
-  }
+  // Outward normal of the side from corner k to k + 1, whichever way the quad winds.
+  const std::array<Eigen::Vector2d, 4> normal = QuadOutwardNormals(c);
   std::array<Eigen::Vector2d, 4> shift;
   for (int k = 0; k < 4; ++k) {
     // Corner k is where side k - 1 (ending there) meets side k (starting there): the point v

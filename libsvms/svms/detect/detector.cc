@@ -16,6 +16,7 @@
 #include "svms/detect/ring_deconvolution.h"
 #include "svms/detect/ring_equalizer.h"
 #include "svms/detect/worker_pool.h"
+#include "svms/geometry/quad_sides.h"
 
 namespace svms {
 namespace {
@@ -283,12 +284,10 @@ CodeMatch DecodeSmallRing(const cv::Mat& gray, const Eigen::Matrix3d& pixel_from
 // BytheWater) 4b completed 34,500 quads before its skew bound; 4.6 % pass this test, 3.0 % both.
 // It reads 12 samples where SampleBits reads hundreds, so it comes first.
 bool InferredSideMatches(const cv::Mat& gray, const Quad& q) {
-  const Eigen::Vector2d centre = 0.25 * (q.corners[0] + q.corners[1] + q.corners[2] + q.corners[3]);
+  const Eigen::Vector2d centre = QuadCentroid(q.corners);
   const double depth = 0.2 * (q.corners[2] - q.corners[1]).norm();
   auto levels = [&](const Eigen::Vector2d& p, const Eigen::Vector2d& r, double* in, double* out) {
-    const Eigen::Vector2d d = (r - p).normalized();
-    Eigen::Vector2d n(-d.y(), d.x());
-    if (n.dot(0.5 * (p + r) - centre) < 0) n = -n;  // outward
+    const Eigen::Vector2d n = OutwardNormal(p, r, centre);
     *in = *out = 0;
     for (const double t : {0.25, 0.5, 0.75}) {
       const Eigen::Vector2d m = p + t * (r - p);

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "svms/camera/photometric.h"
+#include "svms/geometry/quad_sides.h"
 
 namespace svms {
 
@@ -23,14 +24,12 @@ void CollectEdgePatches(const cv::Mat& stored, const std::vector<Detection>& det
   // Sides number on from the last marker's four, so that side / 4 names a marker.
   uint32_t side = out->empty() ? 0 : (out->back().side / 4 + 1) * 4;
   for (const Detection& d : detections) {
-    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
-    for (const auto& c : d.corners) centre += 0.25 * c;
+    const Eigen::Vector2d centre = QuadCentroid(d.corners);
     for (int k = 0; k < 4; ++k, ++side) {
       const Eigen::Vector2d a = d.corners[k], b = d.corners[(k + 1) % 4];
       const double length = (b - a).norm();
       const Eigen::Vector2d along = (b - a) / length;
-      Eigen::Vector2d outward(-along.y(), along.x());
-      if (outward.dot(0.5 * (a + b) - centre) < 0) outward = -outward;
+      const Eigen::Vector2d outward = OutwardNormal(a, b, centre);
       // The white stripe is a third of the square's side wide; across this side, that is a
       // third of the neighbouring sides as they cross it (the view foreshortens them, not it).
       const Eigen::Vector2d before = d.corners[(k + 3) % 4] - a, after = d.corners[(k + 2) % 4] - b;
