@@ -10,6 +10,10 @@ namespace svms {
 
 namespace {
 
+// How long an idle thread watches for what it waits for (a worker for the next job, the caller
+// for the workers' last parts) before it sleeps, when the pool has a CPU for each thread.
+constexpr auto kWatch = std::chrono::microseconds(500);
+
 // The CPUs this process may run on (its affinity mask; the hardware's count elsewhere).
 int UsableCpus() {
 #if defined(__linux__)
@@ -82,11 +86,25 @@ void WorkerPool::Dispatch(int n, Call call, const void* task) {
   Work();
   // Every part has been handed out. Workers that have not joined yet stay out (they would see
   // the next job's counter with this job's task); the ones inside finish their parts.
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    open_ = false;
+  }
+  // A worker's last part usually ends within a fraction of a millisecond of the caller's. With
+  // a CPU for each thread the caller watches for that instead of sleeping at once: asleep, it
+  // would wait for the kernel to wake it (a futex wake-up; on a virtual machine, an
+  // interrupt to a halted virtual CPU), and the frame waits with it.
+  if (spin_) {
+    const auto spin_end = std::chrono::steady_clock::now() + kWatch;
+    for (int k = 0; inside_.load(std::memory_order_acquire) != 0; ++k) {
+      if (k % 64 == 63 && std::chrono::steady_clock::now() >= spin_end) break;
+      CpuRelax();
+    }
+  }
   std::exception_ptr error;
   {
     std::unique_lock<std::mutex> lock(mutex_);
-    open_ = false;
-    done_.wait(lock, [this] { return inside_ == 0; });
+    done_.wait(lock, [this] { return inside_.load(std::memory_order_acquire) == 0; });
     std::swap(error, error_);
   }
   busy_.store(false);
@@ -109,11 +127,10 @@ void WorkerPool::WorkerLoop() {
     // caller works alone for tenths of a millisecond; a worker asleep on the condition variable
     // takes about as long to wake (a futex wake-up, more on a virtual machine), and a job that
     // is handed out before it arrives is done by the caller alone. So, with a CPU for each
-    // thread (spin_), an idle worker first watches for the next job for kSpin, then sleeps,
+    // thread (spin_), an idle worker first watches for the next job for kWatch, then sleeps,
     // yielding its CPU every 64 checks to any other thread that is ready to run there. It costs
-    // the second core up to kSpin of watching after a frame's last job.
-    constexpr auto kSpin = std::chrono::microseconds(500);
-    const auto spin_end = std::chrono::steady_clock::now() + kSpin;
+    // the second core up to kWatch of watching after a frame's last job.
+    const auto spin_end = std::chrono::steady_clock::now() + kWatch;
     for (int k = 0; spin_ && announced_.load(std::memory_order_acquire) == seen &&
                     !stopping_.load(std::memory_order_relaxed);
          ++k) {
@@ -138,12 +155,14 @@ void WorkerPool::WorkerLoop() {
       }
       prewakes_seen = prewakes_;
       seen = generation_;
-      ++inside_;
+      inside_.fetch_add(1, std::memory_order_relaxed);
     }
     Work();
-    {
+    // The last worker out wakes the caller if it sleeps: under the mutex, so that the caller
+    // cannot miss it between testing inside_ and going to sleep.
+    if (inside_.fetch_sub(1, std::memory_order_acq_rel) == 1) {
       std::lock_guard<std::mutex> lock(mutex_);
-      if (--inside_ == 0) done_.notify_one();
+      done_.notify_one();
     }
   }
 }

@@ -9,7 +9,8 @@
 // keep per thread (the detector's thread_local scratch buffers) is grown once and reused, and
 // a job allocates nothing on the heap. An idle worker watches for the next job for half a
 // millisecond before it sleeps (WorkerLoop), so that the short jobs of one frame, a few tenths
-// of a millisecond apart, find it awake.
+// of a millisecond apart, find it awake; a caller whose parts are done watches as long for the
+// workers' last ones (Dispatch). Both only with a CPU for each thread.
 #pragma once
 
 #include <atomic>
@@ -87,7 +88,9 @@ class WorkerPool {
   std::atomic<uint64_t> announced_{0};
   bool open_ = false;      // workers may still join the current job
   uint64_t prewakes_ = 0;  // counts Prewake calls: a sleeping worker wakes for each
-  int inside_ = 0;         // workers that joined it and have not finished
+  // Workers that joined it and have not finished: changed under mutex_ when a worker joins,
+  // read without it by a caller that watches for the last to finish (Dispatch).
+  std::atomic<int> inside_{0};
   bool stop_ = false;
   std::exception_ptr error_;  // the current job's first exception, under mutex_
   std::vector<std::thread> workers_;

@@ -35,6 +35,28 @@ TEST(WorkerPool, RunsEveryPartOnceOnSeveralThreads) {
   EXPECT_EQ(arrived, 2);
 }
 
+// Run returns only once every part has returned, whether the other thread's part ends while the
+// caller watches for it (within half a millisecond: 0 and 50 us) or after it has gone to sleep
+// (2 ms), and what that part wrote is visible to the caller then. The two parts wait for each
+// other, so each thread runs one; which one sleeps depends on who takes part 1.
+TEST(WorkerPool, RunReturnsAfterTheLastPartWhetherTheCallerWatchesOrSleeps) {
+  WorkerPool pool(2);
+  for (const int us : {0, 50, 2000}) {
+    for (int job = 0; job < 20; ++job) {
+      std::atomic<int> arrived{0};
+      int written[2] = {0, 0};  // plain ints: Run's return is what makes them visible
+      pool.Run(2, [&](int i) {
+        ++arrived;
+        while (arrived < 2) std::this_thread::yield();
+        if (i == 1) std::this_thread::sleep_for(std::chrono::microseconds(us));
+        written[i] = job + 1;
+      });
+      EXPECT_EQ(written[0], job + 1) << us << " us, job " << job;
+      EXPECT_EQ(written[1], job + 1) << us << " us, job " << job;
+    }
+  }
+}
+
 // Prewake is a hint: it never keeps a worker from the next job. Woken ahead of a job, woken for
 // nothing, or left to fall asleep again (2 ms idle, past its half millisecond of watching), the
 // worker runs a part of the next job (its two parts wait for each other, so the job ends only
