@@ -18,6 +18,7 @@
 #include "svms/detect/marker_pose.h"
 #include "svms/geometry/alignment.h"
 #include "svms/geometry/pose_matrix.h"
+#include "svms/geometry/quad_sides.h"
 #include "svms/geometry/so3.h"
 
 namespace svms {
@@ -346,8 +347,7 @@ Status Solver::CollectObservations() {
       const double repeat_px = options_.corner_repeat_px_grey > 0 && d.white > d.black
                                    ? options_.corner_repeat_px_grey / (d.white - d.black)
                                    : 0.0;
-      const Eigen::Vector2d centre =
-          0.25 * (d.corners[0] + d.corners[1] + d.corners[2] + d.corners[3]);
+      const Eigen::Vector2d centre = QuadCentroid(d.corners);
       for (int k = 0; k < 4; ++k) {
         PointObs p;
         p.image = i;

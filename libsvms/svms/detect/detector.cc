@@ -546,7 +546,7 @@ void MergeAndNest(const std::vector<Detection>& accepted, const std::map<int, in
     auto it = outer_of.find(d.id);
     for (const Detection& r : result) {
       if (&r == &d) continue;
-      const Eigen::Vector2d c = 0.25 * (d.corners[0] + d.corners[1] + d.corners[2] + d.corners[3]);
+      const Eigen::Vector2d c = QuadCentroid(d.corners);
       const bool model_says = it != outer_of.end() && it->second == r.id;
       if ((model_says || outer_of.empty()) && r.side_px() > 1.5 * d.side_px() &&
           Inside(c, r.corners)) {
@@ -568,7 +568,7 @@ void AcceptNestedInOuter(const std::map<int, int>& outer_of, std::vector<Detecti
   const size_t before = accepted->size();
   for (const Detection& d : *pending) {
     const int outer = outer_of.at(d.id);
-    const Eigen::Vector2d c = 0.25 * (d.corners[0] + d.corners[1] + d.corners[2] + d.corners[3]);
+    const Eigen::Vector2d c = QuadCentroid(d.corners);
     bool inside = false;
     for (size_t i = 0; i < before && !inside; ++i) {
       const Detection& r = (*accepted)[i];

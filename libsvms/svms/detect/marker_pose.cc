@@ -16,6 +16,7 @@
 #include "svms/detect/ippe.h"
 #include "svms/detect/pose_gauss_newton.h"
 #include "svms/geometry/pose_matrix.h"
+#include "svms/geometry/quad_sides.h"
 
 namespace svms {
 namespace {
@@ -202,22 +203,19 @@ void StartMemo(TipSearchMemo* memo, const cv::Mat& img, double radius, double bl
 }
 
 // How far `p` lies inside the quadrilateral `square` (pixels; corners in order around it,
-// either way round) from its side k (from corner k to k + 1), negative outside it; and from
-// its nearest side.
-double SideDepth(const std::array<Eigen::Vector2d, 4>& square, int k, const Eigen::Vector2d& p) {
-  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
-  for (const Eigen::Vector2d& c : square) centre += 0.25 * c;
-  const Eigen::Vector2d a = square[k], d = square[(k + 1) % 4] - a;
-  Eigen::Vector2d inward(-d.y(), d.x());
-  inward.normalize();
-  if (inward.dot(centre - a) < 0) inward = -inward;
-  return inward.dot(p - a);
+// either way round) from each side k (from corner k to k + 1), negative outside it.
+std::array<double, 4> SideDepths(const std::array<Eigen::Vector2d, 4>& square,
+                                 const Eigen::Vector2d& p) {
+  const std::array<Eigen::Vector2d, 4> outward = QuadOutwardNormals(square);
+  std::array<double, 4> depth;
+  for (int k = 0; k < 4; ++k) depth[k] = -outward[k].dot(p - square[k]);
+  return depth;
 }
 
+// How far `p` lies inside `square` from its nearest side (SideDepths).
 double DepthInSquare(const std::array<Eigen::Vector2d, 4>& square, const Eigen::Vector2d& p) {
-  double depth = std::numeric_limits<double>::infinity();
-  for (int k = 0; k < 4; ++k) depth = std::min(depth, SideDepth(square, k, p));
-  return depth;
+  const std::array<double, 4> depth = SideDepths(square, p);
+  return *std::min_element(depth.begin(), depth.end());
 }
 
 // Whether a seed at `p` may have the stripe's blurred light in its ring from one side only
@@ -226,10 +224,7 @@ double DepthInSquare(const std::array<Eigen::Vector2d, 4>& square, const Eigen::
 // and the blurred corner of the stripe was taken for a top (a review's probe: 2-7 in 3000
 // searches of 10-12 px squares without a top).
 bool SeedClearOfTheStripe(const std::array<Eigen::Vector2d, 4>& square, const Eigen::Vector2d& p) {
-  std::array<double, 4> depth;
-  for (int k = 0; k < 4; ++k) {
-    depth[k] = SideDepth(square, k, p);
-  }
+  std::array<double, 4> depth = SideDepths(square, p);
   std::sort(depth.begin(), depth.end());
   return depth[0] >= kTipRingEdgeMarginPx && depth[1] >= kTipCornerReachPx;
 }

@@ -88,8 +88,9 @@ class WorkerPool {
   std::atomic<uint64_t> announced_{0};
   bool open_ = false;      // workers may still join the current job
   uint64_t prewakes_ = 0;  // counts Prewake calls: a sleeping worker wakes for each
-  // Workers that joined it and have not finished: changed under mutex_ when a worker joins,
-  // read without it by a caller that watches for the last to finish (Dispatch).
+  // Workers inside the current job: incremented under mutex_ while open_, decremented without
+  // it; the worker that brings it to 0 notifies done_ under mutex_ (Dispatch watches it, then
+  // waits on done_).
   std::atomic<int> inside_{0};
   bool stop_ = false;
   std::exception_ptr error_;  // the current job's first exception, under mutex_

@@ -38,7 +38,10 @@ TEST(WorkerPool, RunsEveryPartOnceOnSeveralThreads) {
 // Run returns only once every part has returned, whether the other thread's part ends while the
 // caller watches for it (within half a millisecond: 0 and 50 us) or after it has gone to sleep
 // (2 ms), and what that part wrote is visible to the caller then. The two parts wait for each
-// other, so each thread runs one; which one sleeps depends on who takes part 1.
+// other, so each thread runs one; which one sleeps depends on who takes part 1. The caller
+// watches only where the process has 2 CPUs or more (WorkerPool's spin_); elsewhere this tests
+// the sleeping wait alone. The plain ints' visibility is checked in kind only under a race
+// detector (ThreadSanitizer).
 TEST(WorkerPool, RunReturnsAfterTheLastPartWhetherTheCallerWatchesOrSleeps) {
   WorkerPool pool(2);
   for (const int us : {0, 50, 2000}) {

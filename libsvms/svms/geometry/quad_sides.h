@@ -13,8 +13,8 @@ inline Eigen::Vector2d QuadCentroid(const std::array<Eigen::Vector2d, 4>& corner
 
 // The unit normal of the side from `a` to `b` (pixels) that points away from `centre`, a point
 // inside the quad (its centroid): the side's outward normal whichever way the quad winds, for
-// a convex quad. Zero when a == b. A side whose midpoint is `centre` itself (a degenerate quad)
-// gets the normal to the left of a -> b in image axes, (-d.y, d.x).
+// a convex quad. Zero when a == b. When `centre` lies on the side's line (a degenerate quad) the
+// normal is (-d.y, d.x) / |d|, d = b - a: to the right of a -> b as an image is shown (y down).
 inline Eigen::Vector2d OutwardNormal(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
                                      const Eigen::Vector2d& centre) {
   const Eigen::Vector2d d = b - a;

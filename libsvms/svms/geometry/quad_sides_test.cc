@@ -30,8 +30,7 @@ TEST(QuadSides, NormalsPointOutOfTheQuadEitherWinding) {
         const Eigen::Vector2d a = q[k], b = q[(k + 1) % 4], mid = 0.5 * (a + b);
         EXPECT_NEAR(n[k].norm(), 1, 1e-12);
         EXPECT_NEAR(n[k].dot(b - a), 0, 1e-9);
-        // A step along the normal leaves the rectangle, a step against it stays inside: the
-        // distance from the centre along the normal grows by the step.
+        // The side's midpoint lies half a side out from the centre along its normal.
         EXPECT_NEAR(n[k].dot(mid - centre), k % 2 == (reversed ? 1 : 0) ? 5 : 12, 1e-9)
             << "side " << k << " angle " << angle;
       }
@@ -40,15 +39,23 @@ TEST(QuadSides, NormalsPointOutOfTheQuadEitherWinding) {
 }
 
 TEST(QuadSides, PerspectiveQuadAndDegenerateSide) {
-  // A trapezoid as a tilted square projects to: every side's outward normal points away from
-  // every other corner.
+  // A general convex quad (no two sides parallel, as a tilted square projects): every side's
+  // outward normal points away from the corners not on that side.
   const std::array<Eigen::Vector2d, 4> q = {Eigen::Vector2d(0, 0), Eigen::Vector2d(20, 3),
                                             Eigen::Vector2d(19, 14), Eigen::Vector2d(2, 17)};
   const auto n = QuadOutwardNormals(q);
-  for (int k = 0; k < 4; ++k)
-    for (int j = 0; j < 4; ++j)
-      if (j != k && j != (k + 1) % 4) EXPECT_LT(n[k].dot(q[j] - q[k]), 0) << k << " " << j;
+  for (int k = 0; k < 4; ++k) {
+    for (int j = 0; j < 4; ++j) {
+      if (j == k || j == (k + 1) % 4) continue;
+      EXPECT_LT(n[k].dot(q[j] - q[k]), 0) << k << " " << j;
+    }
+  }
   EXPECT_EQ(OutwardNormal(q[1], q[1], QuadCentroid(q)), Eigen::Vector2d::Zero());
+  // A centre at the side's midpoint (on its line; exact in binary here): the normal to the right
+  // of a -> b with y down, (-d.y, d.x) / |d|, for either direction of the side.
+  const Eigen::Vector2d a(3, 4), b(7, 1), mid(5, 2.5);
+  EXPECT_EQ(OutwardNormal(a, b, mid), Eigen::Vector2d(0.6, 0.8));
+  EXPECT_EQ(OutwardNormal(b, a, mid), Eigen::Vector2d(-0.6, -0.8));
 }
 
 }  // namespace
